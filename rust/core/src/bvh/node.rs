@@ -1,0 +1,148 @@
+use glam::Vec3;
+
+use crate::geometry::Aabb;
+
+/// Deepest tree any builder may produce; traversal stacks are this deep. The builders switch to
+/// object-median splits past `MAX_DEPTH - 32` levels, which then end within 32 more (u32 counts).
+pub const MAX_DEPTH: usize = 96;
+
+/// A binary BVH node in 32 bytes (half a cache line): bounds, and either the index of the first
+/// of two adjacent children (`count == 0`) or a range of triangles in leaf order.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(32))]
+pub struct BvhNode {
+    pub min: [f32; 3],
+    /// Interior: index of the left child (the right child follows it). Leaf: first triangle slot.
+    pub first: u32,
+    pub max: [f32; 3],
+    /// 0 for interior nodes, else the number of triangles in the leaf.
+    pub count: u32,
+}
+
+impl BvhNode {
+    #[inline(always)]
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+    #[inline(always)]
+    pub fn min(&self) -> Vec3 {
+        Vec3::from_array(self.min)
+    }
+    #[inline(always)]
+    pub fn max(&self) -> Vec3 {
+        Vec3::from_array(self.max)
+    }
+    pub fn bounds(&self) -> Aabb {
+        Aabb::new(self.min(), self.max())
+    }
+    pub(crate) fn set_bounds(&mut self, b: &Aabb) {
+        self.min = b.min.to_array();
+        self.max = b.max.to_array();
+    }
+}
+
+/// A binary BVH over a triangle set. Node 0 is the root. Triangles are copied in leaf order so a
+/// leaf's triangles are contiguous in memory; `triangle_ids` maps a slot back to the id in the
+/// `TriangleSet` the BVH was built from.
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    pub nodes: Vec<BvhNode>,
+    pub triangles: Vec<[Vec3; 3]>,
+    pub triangle_ids: Vec<u32>,
+    /// Wall-clock build time in milliseconds.
+    pub build_ms: f64,
+}
+
+impl Bvh {
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Memory of the structure: nodes, leaf-ordered triangles and their ids.
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<BvhNode>()
+            + self.triangles.len() * std::mem::size_of::<[Vec3; 3]>()
+            + self.triangle_ids.len() * 4
+    }
+
+    pub fn leaf_count(&self) -> usize {
+        self.nodes.iter().filter(|n| n.is_leaf()).count()
+    }
+
+    /// Depth of the deepest leaf (the root is depth 0).
+    pub fn depth(&self) -> usize {
+        if self.nodes.is_empty() {
+            return 0;
+        }
+        let mut deepest = 0;
+        let mut stack = vec![(0usize, 0usize)];
+        while let Some((i, d)) = stack.pop() {
+            deepest = deepest.max(d);
+            let n = &self.nodes[i];
+            if !n.is_leaf() {
+                stack.push((n.first as usize, d + 1));
+                stack.push((n.first as usize + 1, d + 1));
+            }
+        }
+        deepest
+    }
+
+    /// SAH cost of the tree with the given unit costs, relative to the root's area.
+    pub fn sah_cost(&self, traversal_cost: f32, intersection_cost: f32) -> f32 {
+        let Some(root) = self.nodes.first() else {
+            return 0.0;
+        };
+        let root_area = root.bounds().half_area().max(f32::MIN_POSITIVE);
+        self.nodes
+            .iter()
+            .map(|n| {
+                let a = n.bounds().half_area() / root_area;
+                if n.is_leaf() {
+                    a * intersection_cost * n.count as f32
+                } else {
+                    a * traversal_cost
+                }
+            })
+            .sum()
+    }
+
+    /// Checks the structural invariants: every triangle slot in exactly one leaf, children inside
+    /// their parents, every triangle inside its leaf's box, depth within `MAX_DEPTH`.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        if self.triangles.is_empty() {
+            return Ok(());
+        }
+        let mut seen = vec![false; self.triangles.len()];
+        let mut stack = vec![(0usize, 0usize)];
+        while let Some((i, depth)) = stack.pop() {
+            if depth > MAX_DEPTH {
+                return Err(format!("node {i} deeper than {MAX_DEPTH}"));
+            }
+            let n = self.nodes.get(i).ok_or(format!("node {i} out of range"))?;
+            let b = n.bounds();
+            if n.is_leaf() {
+                for slot in n.first..n.first + n.count {
+                    let s = slot as usize;
+                    if std::mem::replace(&mut seen[s], true) {
+                        return Err(format!("triangle slot {s} in two leaves"));
+                    }
+                    if !b.contains(&Aabb::of_triangle(&self.triangles[s])) {
+                        return Err(format!("triangle slot {s} outside leaf {i}"));
+                    }
+                }
+            } else {
+                for c in [n.first as usize, n.first as usize + 1] {
+                    let child = self.nodes.get(c).ok_or(format!("child {c} out of range"))?;
+                    if !b.contains(&child.bounds()) {
+                        return Err(format!("child {c} outside parent {i}"));
+                    }
+                    stack.push((c, depth + 1));
+                }
+            }
+        }
+        match seen.iter().position(|s| !s) {
+            Some(s) => Err(format!("triangle slot {s} in no leaf")),
+            None => Ok(()),
+        }
+    }
+}

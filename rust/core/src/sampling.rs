@@ -1,0 +1,110 @@
+//! Seeded, stratified sample patterns. Every pixel's pattern is a pure function of the seed,
+//! the pixel and the light, so renders are reproducible and independent of thread scheduling.
+
+/// A small, fast hash (PCG-style permutation, "hash_pcg" of Jarzynski & Olano 2020).
+#[inline]
+pub fn hash_u32(v: u32) -> u32 {
+    let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
+    (word >> 22) ^ word
+}
+
+#[inline]
+pub fn hash_combine(a: u32, b: u32) -> u32 {
+    hash_u32(a ^ hash_u32(b).wrapping_add(0x9e37_79b9))
+}
+
+/// A uniform float in [0, 1) from a hash.
+#[inline]
+pub fn unit_float(h: u32) -> f32 {
+    (h >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+/// `n` stratified points in [0, 1)^2: the smallest grid of at least `n` cells, cells visited
+/// in a seeded random order, one jittered point per cell.
+pub fn stratified_2d(n: u32, seed: u32, out: &mut Vec<[f32; 2]>) {
+    out.clear();
+    let side = (n as f32).sqrt().ceil().max(1.0) as u32;
+    let cells = side * side;
+    // A seeded bijection on 0..cells visits distinct strata for the first n samples.
+    let offset = hash_u32(seed) % cells;
+    let stride = coprime_stride(cells, hash_u32(seed ^ 0x5bd1_e995));
+    for i in 0..n {
+        let cell = (offset as u64 + i as u64 * stride as u64) % cells as u64;
+        let (cx, cy) = ((cell as u32) % side, (cell as u32) / side);
+        let h = hash_combine(seed, i);
+        let jx = unit_float(h);
+        let jy = unit_float(hash_u32(h));
+        out.push([
+            ((cx as f32 + jx) / side as f32).min(1.0 - f32::EPSILON),
+            ((cy as f32 + jy) / side as f32).min(1.0 - f32::EPSILON),
+        ]);
+    }
+}
+
+fn coprime_stride(n: u32, h: u32) -> u32 {
+    if n <= 1 {
+        return 1;
+    }
+    let mut s = 1 + h % (n - 1);
+    while gcd(s, n) != 1 {
+        s = s % (n - 1) + 1;
+    }
+    s
+}
+
+fn gcd(mut a: u32, mut b: u32) -> u32 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
+/// Maps [0,1)^2 to the unit disk, preserving strata (Shirley & Chiu's concentric map).
+#[inline]
+pub fn concentric_disk(u: [f32; 2]) -> [f32; 2] {
+    let a = 2.0 * u[0] - 1.0;
+    let b = 2.0 * u[1] - 1.0;
+    if a == 0.0 && b == 0.0 {
+        return [0.0, 0.0];
+    }
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, std::f32::consts::FRAC_PI_4 * (b / a))
+    } else {
+        (b, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b))
+    };
+    [r * phi.cos(), r * phi.sin()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strata_are_distinct_and_in_range() {
+        let mut v = Vec::new();
+        for n in [1u32, 4, 9, 16, 7, 64] {
+            stratified_2d(n, 42, &mut v);
+            let side = (n as f32).sqrt().ceil() as u32;
+            let mut cells: Vec<u32> = v
+                .iter()
+                .map(|p| {
+                    assert!(p[0] >= 0.0 && p[0] < 1.0 && p[1] >= 0.0 && p[1] < 1.0);
+                    (p[0] * side as f32) as u32 + side * (p[1] * side as f32) as u32
+                })
+                .collect();
+            cells.sort();
+            cells.dedup();
+            assert_eq!(cells.len(), n as usize);
+        }
+    }
+
+    #[test]
+    fn disk_points_inside() {
+        for i in 0..100 {
+            let u = [unit_float(hash_u32(i)), unit_float(hash_u32(i + 1000))];
+            let d = concentric_disk(u);
+            assert!(d[0] * d[0] + d[1] * d[1] <= 1.0 + 1e-6);
+        }
+    }
+}

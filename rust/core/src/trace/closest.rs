@@ -1,0 +1,86 @@
+use super::{Counters, Hit};
+use crate::bvh::{Bvh, MAX_DEPTH};
+use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
+
+/// The closest hit along the ray in (t_min, t_max], ties broken by the smaller triangle id.
+/// Children are visited near to far; a node whose entry distance exceeds the current hit is
+/// culled when it comes off the stack. Culling uses `>`, not `>=`, so a triangle at exactly the
+/// current distance with a smaller id is still found.
+#[inline]
+pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<Hit> {
+    let nodes = &bvh.nodes;
+    let root = nodes.first()?;
+    let pre = RayBoxPrecomp::new(ray);
+    let wt = WatertightRay::new(ray);
+    let t_min = ray.t_min;
+    let mut best: Option<Hit> = None;
+    let mut t_max = ray.t_max;
+    stats.boxes(1);
+    pre.hit(root.min(), root.max(), t_min, t_max)?;
+    let mut stack = [(0u32, 0f32); MAX_DEPTH];
+    let mut sp = 0usize;
+    let mut node = root;
+    loop {
+        if node.is_leaf() {
+            stats.leaf();
+            stats.triangles(node.count);
+            let first = node.first as usize;
+            for slot in first..first + node.count as usize {
+                if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
+                    let id = bvh.triangle_ids[slot];
+                    if Hit::closer_than(h.t, id, &best) {
+                        t_max = h.t;
+                        best = Some(Hit {
+                            t: h.t,
+                            triangle: id,
+                            b0: h.b0,
+                            b1: h.b1,
+                            b2: h.b2,
+                        });
+                    }
+                }
+            }
+        } else {
+            stats.inner();
+            stats.boxes(2);
+            let l = node.first as usize;
+            let (a, b) = (&nodes[l], &nodes[l + 1]);
+            let da = pre.hit(a.min(), a.max(), t_min, t_max);
+            let db = pre.hit(b.min(), b.max(), t_min, t_max);
+            match (da, db) {
+                (Some(ta), Some(tb)) => {
+                    let (near, far, tfar) = if tb < ta {
+                        (l + 1, l, ta)
+                    } else {
+                        (l, l + 1, tb)
+                    };
+                    stack[sp] = (far as u32, tfar);
+                    sp += 1;
+                    node = &nodes[near];
+                    continue;
+                }
+                (Some(_), None) => {
+                    node = a;
+                    continue;
+                }
+                (None, Some(_)) => {
+                    node = b;
+                    continue;
+                }
+                (None, None) => {}
+            }
+        }
+        // Take the next node that can still hold a closer (or equally close) triangle.
+        loop {
+            if sp == 0 {
+                return best;
+            }
+            sp -= 1;
+            let (i, t_entry) = stack[sp];
+            if t_entry <= t_max {
+                node = &nodes[i as usize];
+                break;
+            }
+        }
+    }
+}

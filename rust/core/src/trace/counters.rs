@@ -1,0 +1,73 @@
+use serde::{Deserialize, Serialize};
+use std::ops::AddAssign;
+
+/// Traversal work counters. Implemented by [`TraversalStats`] (counts) and [`NoStats`] (nothing;
+/// every call compiles away).
+pub trait Counters {
+    /// Entering an interior node (N_B).
+    fn inner(&mut self);
+    /// Entering a leaf (N_L).
+    fn leaf(&mut self);
+    /// Ray/triangle tests (N_T).
+    fn triangles(&mut self, n: u32);
+    /// Ray/box tests (N_box).
+    fn boxes(&mut self, n: u32);
+}
+
+/// No counting.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoStats;
+
+impl Counters for NoStats {
+    #[inline(always)]
+    fn inner(&mut self) {}
+    #[inline(always)]
+    fn leaf(&mut self) {}
+    #[inline(always)]
+    fn triangles(&mut self, _: u32) {}
+    #[inline(always)]
+    fn boxes(&mut self, _: u32) {}
+}
+
+/// Exact work counts of one or many rays.
+///
+/// - `inner` (N_B): interior nodes entered (a node is entered when its box test passed and it was
+///   not culled by a closer hit when taken from the stack);
+/// - `leaves` (N_L): leaves entered, same rule;
+/// - `triangles` (N_T): ray/triangle tests;
+/// - `boxes` (N_box): ray/box tests, including the root's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TraversalStats {
+    pub inner: u64,
+    pub leaves: u64,
+    pub triangles: u64,
+    pub boxes: u64,
+}
+
+impl Counters for TraversalStats {
+    #[inline(always)]
+    fn inner(&mut self) {
+        self.inner += 1;
+    }
+    #[inline(always)]
+    fn leaf(&mut self) {
+        self.leaves += 1;
+    }
+    #[inline(always)]
+    fn triangles(&mut self, n: u32) {
+        self.triangles += n as u64;
+    }
+    #[inline(always)]
+    fn boxes(&mut self, n: u32) {
+        self.boxes += n as u64;
+    }
+}
+
+impl AddAssign for TraversalStats {
+    fn add_assign(&mut self, o: Self) {
+        self.inner += o.inner;
+        self.leaves += o.leaves;
+        self.triangles += o.triangles;
+        self.boxes += o.boxes;
+    }
+}

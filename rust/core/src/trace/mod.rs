@@ -1,0 +1,35 @@
+//! Ray queries: closest hit and any hit on the binary BVH, and the brute-force reference they
+//! are tested against. Work counters are a generic parameter: with [`NoStats`] every counting
+//! call is an empty inline function, so the timed path pays nothing for them.
+
+mod any_hit;
+mod brute;
+mod closest;
+mod counters;
+
+pub use any_hit::{occluded, AnyHitOrder};
+pub use brute::{brute_closest_hit, brute_occluded};
+pub use closest::closest_hit;
+pub use counters::{Counters, NoStats, TraversalStats};
+
+/// A closest hit: the ray parameter, the triangle id (in the `TriangleSet` the BVH was built
+/// from) and the barycentric weights of its vertices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub triangle: u32,
+    pub b0: f32,
+    pub b1: f32,
+    pub b2: f32,
+}
+
+impl Hit {
+    /// Orders hits by distance, ties by triangle id, so every method returns the same hit.
+    #[inline(always)]
+    pub fn closer_than(t: f32, id: u32, best: &Option<Hit>) -> bool {
+        match best {
+            None => true,
+            Some(b) => t < b.t || (t == b.t && id < b.triangle),
+        }
+    }
+}

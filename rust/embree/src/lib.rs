@@ -1,0 +1,1 @@
+//! Embree oracle.
