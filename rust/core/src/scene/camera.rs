@@ -251,7 +251,8 @@ mod tests {
         cam.shift_y = 0.25;
         let vp = cam.view_plane(&Resolution::new(200, 100));
         assert!((vp.x_min - 0.0).abs() < 1e-12 && (vp.x_max - 0.72).abs() < 1e-12);
-        assert!((vp.y_min - (-0.09 + 0.18)).abs() < 1e-12);
+        // Shift is in units of the fitted (horizontal, 0.72 wide) dimension: 0.25 * 0.72 = 0.18.
+        assert!((vp.y_min - (-0.18 + 0.18)).abs() < 1e-12, "{}", vp.y_min);
     }
 
     #[test]
