@@ -71,7 +71,10 @@ pub fn concentric_disk(u: [f32; 2]) -> [f32; 2] {
     let (r, phi) = if a.abs() > b.abs() {
         (a, std::f32::consts::FRAC_PI_4 * (b / a))
     } else {
-        (b, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b))
+        (
+            b,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b),
+        )
     };
     [r * phi.cos(), r * phi.sin()]
 }

@@ -55,7 +55,10 @@ impl BuildSettings {
             ("build.intersection_cost", self.intersection_cost),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(crate::Error::invalid(f, format!("must be positive, got {v}")));
+                return Err(crate::Error::invalid(
+                    f,
+                    format!("must be positive, got {v}"),
+                ));
             }
         }
         Ok(())
@@ -113,10 +116,7 @@ pub fn build_binned_sah(triangles: &[[Vec3; 3]], settings: &BuildSettings) -> Bv
         })
         .collect();
     let mut bvh = build_from_refs(&mut refs, settings);
-    bvh.triangles = refs
-        .par_iter()
-        .map(|r| triangles[r.id as usize])
-        .collect();
+    bvh.triangles = refs.par_iter().map(|r| triangles[r.id as usize]).collect();
     bvh.triangle_ids = refs.iter().map(|r| r.id).collect();
     bvh.build_ms = start.elapsed().as_secs_f64() * 1e3;
     bvh
@@ -447,7 +447,10 @@ mod tests {
         let s = BuildSettings::default();
         let bvh = build_binned_sah(&tris, &s);
         bvh.validate().unwrap();
-        assert!(bvh.nodes.iter().all(|n| n.count as usize <= s.max_leaf_size));
+        assert!(bvh
+            .nodes
+            .iter()
+            .all(|n| n.count as usize <= s.max_leaf_size));
     }
 
     #[test]
@@ -456,7 +459,11 @@ mod tests {
         let tris: Vec<_> = (0..2000)
             .map(|k| {
                 let x = 1e30f32 * 0.9f32.powi(k);
-                [Vec3::new(x, 0.0, 0.0), Vec3::new(x, 1.0, 0.0), Vec3::new(x, 0.0, 1.0)]
+                [
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x, 1.0, 0.0),
+                    Vec3::new(x, 0.0, 1.0),
+                ]
             })
             .collect();
         let bvh = build_binned_sah(&tris, &BuildSettings::default());

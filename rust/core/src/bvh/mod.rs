@@ -39,11 +39,7 @@ impl std::str::FromStr for BuildMethod {
 }
 
 /// Builds a BVH over `triangles` with the chosen method.
-pub fn build(
-    method: BuildMethod,
-    triangles: &[[glam::Vec3; 3]],
-    settings: &BuildSettings,
-) -> Bvh {
+pub fn build(method: BuildMethod, triangles: &[[glam::Vec3; 3]], settings: &BuildSettings) -> Bvh {
     match method {
         BuildMethod::Sah => build_binned_sah(triangles, settings),
     }

@@ -97,12 +97,24 @@ mod tests {
     fn ray_on_the_slab_plane_is_not_culled() {
         let (lo, hi) = unit();
         // Origin exactly on the y = 0 face, direction with y = 0: 0 * inf = NaN.
-        let ray = Ray::new(Vec3::new(-1.0, 0.0, 0.5), Vec3::new(1.0, 0.0, 0.0), 0.0, 10.0);
+        let ray = Ray::new(
+            Vec3::new(-1.0, 0.0, 0.5),
+            Vec3::new(1.0, 0.0, 0.0),
+            0.0,
+            10.0,
+        );
         assert!(RayBoxPrecomp::new(&ray).hit(lo, hi, 0.0, 10.0).is_some());
         // A flat box (zero thickness in y) is hit by a ray crossing it.
         let flat_hi = Vec3::new(1.0, 0.0, 1.0);
-        let down = Ray::new(Vec3::new(0.5, 1.0, 0.5), Vec3::new(0.0, -1.0, -0.0), 0.0, 10.0);
-        assert!(RayBoxPrecomp::new(&down).hit(lo, flat_hi, 0.0, 10.0).is_some());
+        let down = Ray::new(
+            Vec3::new(0.5, 1.0, 0.5),
+            Vec3::new(0.0, -1.0, -0.0),
+            0.0,
+            10.0,
+        );
+        assert!(RayBoxPrecomp::new(&down)
+            .hit(lo, flat_hi, 0.0, 10.0)
+            .is_some());
     }
 
     #[test]

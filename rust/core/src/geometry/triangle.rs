@@ -140,7 +140,12 @@ mod tests {
     #[test]
     fn hits_front_and_back() {
         for dz in [-1.0f32, 1.0] {
-            let ray = Ray::new(Vec3::new(0.25, 0.25, -dz), Vec3::new(0.0, 0.0, dz), 0.0, 10.0);
+            let ray = Ray::new(
+                Vec3::new(0.25, 0.25, -dz),
+                Vec3::new(0.0, 0.0, dz),
+                0.0,
+                10.0,
+            );
             let h = intersect_triangle(&WatertightRay::new(&ray), &tri(), 0.0, 10.0).unwrap();
             assert_eq!(h.t, 1.0);
             assert!((h.b0 - 0.5).abs() < 1e-6 && (h.b1 - 0.25).abs() < 1e-6);

@@ -1,0 +1,17 @@
+//! The passes of one frame: primary rays (closest hit, the visible set, primary heat maps), then
+//! per light the shadow rays (any hit) that give the shadow mask and shadow heat maps, and the
+//! statistics of both. [`Renderer`] keeps what carries over between frames.
+
+mod camera_rays;
+mod lights;
+mod primary;
+mod renderer;
+mod settings;
+mod shadow;
+
+pub use camera_rays::PrimaryRays;
+pub use lights::{LightSample, LightSampler};
+pub use primary::{PrimaryPass, SurfacePoint};
+pub use renderer::{FrameResult, HeatMaps, Renderer};
+pub use settings::{RenderSettings, StatsMode};
+pub use shadow::{ShadowPass, ShadowRayOutcome};

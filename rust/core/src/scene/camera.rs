@@ -56,7 +56,10 @@ impl Resolution {
             ("resolution.pixel_aspect_y", self.pixel_aspect_y),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(Error::invalid(field, format!("must be a positive number, got {v}")));
+                return Err(Error::invalid(
+                    field,
+                    format!("must be a positive number, got {v}"),
+                ));
             }
         }
         Ok(())
@@ -126,7 +129,10 @@ impl Camera {
             ("camera.sensor_height", self.sensor_height_mm),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(Error::invalid(field, format!("must be a positive number, got {v}")));
+                return Err(Error::invalid(
+                    field,
+                    format!("must be a positive number, got {v}"),
+                ));
             }
         }
         for (field, v) in [
@@ -137,7 +143,9 @@ impl Camera {
                 return Err(Error::invalid(field, format!("must be finite, got {v}")));
             }
         }
-        if !(self.clip_start.is_finite() && self.clip_start >= 0.0 && self.clip_end > self.clip_start)
+        if !(self.clip_start.is_finite()
+            && self.clip_start >= 0.0
+            && self.clip_end > self.clip_start)
         {
             return Err(Error::invalid(
                 "camera.clip_start/clip_end",
@@ -203,12 +211,7 @@ impl Camera {
         let x = m.x_axis.truncate().normalize();
         let y = m.y_axis.truncate().normalize();
         let z = m.z_axis.truncate().normalize();
-        DMat4::from_cols(
-            x.extend(0.0),
-            y.extend(0.0),
-            z.extend(0.0),
-            m.w_axis,
-        )
+        DMat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), m.w_axis)
     }
 }
 

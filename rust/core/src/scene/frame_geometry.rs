@@ -145,9 +145,21 @@ fn scene_render_space(scene: &Scene) -> RenderSpace {
         }
         for corner in 0..8 {
             let c = DVec3::new(
-                if corner & 1 == 0 { local.min.x } else { local.max.x } as f64,
-                if corner & 2 == 0 { local.min.y } else { local.max.y } as f64,
-                if corner & 4 == 0 { local.min.z } else { local.max.z } as f64,
+                if corner & 1 == 0 {
+                    local.min.x
+                } else {
+                    local.max.x
+                } as f64,
+                if corner & 2 == 0 {
+                    local.min.y
+                } else {
+                    local.max.y
+                } as f64,
+                if corner & 4 == 0 {
+                    local.min.z
+                } else {
+                    local.max.z
+                } as f64,
             );
             let w = object.world_from_object.transform_point3(c);
             min = min.min(w);
@@ -182,7 +194,9 @@ fn collect(
             set.refs.reserve(mesh.triangles.len());
             for (primitive, tri) in mesh.triangles.iter().enumerate() {
                 let v = tri.map(|i| positions[i as usize]);
-                if (v[1] - v[0]).cross(v[2] - v[0]) == Vec3::ZERO {
+                if is_degenerate(tri.map(|i| mesh.positions[i as usize]))
+                    || (v[1] - v[0]).cross(v[2] - v[0]) == Vec3::ZERO
+                {
                     set.degenerate += 1;
                     continue;
                 }
@@ -205,13 +219,26 @@ fn collect(
     out
 }
 
+/// Zero area in object space, decided in f64 where the differences and products of f32 vertices
+/// of similar magnitude are exact, so collinear vertices give exactly zero and the rounding of the
+/// object-to-render transform cannot turn them into a sliver. (A triangle that collapses only
+/// after the transform is caught separately, in render space.)
+fn is_degenerate(v: [Vec3; 3]) -> bool {
+    let e1 = v[1].as_dvec3() - v[0].as_dvec3();
+    let e2 = v[2].as_dvec3() - v[0].as_dvec3();
+    e1.cross(e2) == DVec3::ZERO
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn render_space_scale_is_a_power_of_two_and_fits() {
-        let s = RenderSpace::fit(DVec3::new(1e6, 1e6, 1e6), DVec3::new(1e6 + 10.0, 1e6 + 4.0, 1e6));
+        let s = RenderSpace::fit(
+            DVec3::new(1e6, 1e6, 1e6),
+            DVec3::new(1e6 + 10.0, 1e6 + 4.0, 1e6),
+        );
         assert_eq!(s.scale.log2().fract(), 0.0);
         let p = s.point(DVec3::new(1e6 + 10.0, 1e6, 1e6));
         assert!(p.x > 0.5 && p.x <= 1.0, "{p}");

@@ -14,7 +14,7 @@ mod object;
 mod scene;
 
 pub use animation::{Animation, StaticAnimation};
-pub use camera::{Camera, Resolution, SensorFit};
+pub use camera::{Camera, Resolution, SensorFit, ViewPlane};
 pub use frame_geometry::{FrameGeometry, RenderSpace, TriangleRef, TriangleSet};
 pub use light::{AreaShape, Light, LightKind};
 pub use mesh::Mesh;

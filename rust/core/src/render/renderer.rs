@@ -1,0 +1,270 @@
+//! One frame end to end, and what carries over between frames: the geometry and BVHs of a frame
+//! whose geometry did not change are reused, and the visible set is kept for the next frame.
+
+use std::sync::Arc;
+
+use super::primary::heat_planes;
+use super::shadow::samples_for;
+use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
+use crate::bvh::{build, Bvh};
+use crate::output::ImagePlane;
+use crate::scene::{FrameGeometry, Mesh, Scene, TriangleRef};
+use crate::stats::StatsRow;
+use crate::trace::TraversalStats;
+use crate::Result;
+
+/// Heat maps of traversal work per pixel: N_B, N_L, N_T for primary rays and for all shadow
+/// rays of a pixel (summed over lights and samples).
+#[derive(Clone, Debug)]
+pub struct HeatMaps {
+    pub primary: [ImagePlane; 3],
+    pub shadow: [ImagePlane; 3],
+}
+
+/// Everything one frame produces.
+#[derive(Clone, Debug)]
+pub struct FrameResult {
+    pub frame: i32,
+    pub width: u32,
+    pub height: u32,
+    /// One mask per shadow-casting light, named after the light.
+    pub masks: Vec<ImagePlane>,
+    /// The mean of the masks (1 where no light casts shadows).
+    pub combined: ImagePlane,
+    /// `None` in [`StatsMode::TimingOnly`].
+    pub heat: Option<HeatMaps>,
+    /// Camera-set triangles seen by a primary ray, sorted: V(t), which OSAH builds consume.
+    pub visible: Vec<TriangleRef>,
+    /// Closest-hit triangle id per pixel (u32::MAX where the ray missed).
+    pub primary_ids: Vec<u32>,
+    pub stats: Vec<StatsRow>,
+}
+
+/// What identifies a frame's geometry: mesh identities, transforms and visibility flags.
+#[derive(Clone, PartialEq)]
+struct GeometryKey {
+    objects: Vec<(usize, [u64; 16], bool, bool)>,
+}
+
+struct Cached {
+    key: GeometryKey,
+    /// Keeps the meshes alive so their addresses in the key cannot be reused.
+    _meshes: Vec<Arc<Mesh>>,
+    build: (crate::bvh::BuildMethod, crate::bvh::BuildSettings),
+    geometry: Arc<FrameGeometry>,
+    camera_bvh: Arc<Bvh>,
+    shadow_bvh: Option<Arc<Bvh>>,
+}
+
+/// Renders frames, keeping state across them.
+#[derive(Default)]
+pub struct Renderer {
+    cache: Option<Cached>,
+    /// How many times a BVH was built.
+    pub builds: u64,
+    /// The visible set of the last rendered frame.
+    pub previous_visible: Vec<TriangleRef>,
+}
+
+fn key_of(scene: &Scene) -> GeometryKey {
+    GeometryKey {
+        objects: scene
+            .objects
+            .iter()
+            .map(|o| {
+                (
+                    Arc::as_ptr(&scene.meshes[o.mesh]) as usize,
+                    o.world_from_object.to_cols_array().map(f64::to_bits),
+                    o.visible_to_camera,
+                    o.casts_shadow,
+                )
+            })
+            .collect(),
+    }
+}
+
+impl Renderer {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Renders one frame. `scene_name` labels the statistics rows.
+    pub fn render(
+        &mut self,
+        scene_name: &str,
+        scene: &Scene,
+        settings: &RenderSettings,
+    ) -> Result<FrameResult> {
+        settings.validate()?;
+        scene.validate()?;
+        let rebuilt = self.prepare(scene, settings)?;
+        let cached = self.cache.as_ref().expect("prepared above");
+        let geometry = &cached.geometry;
+        let camera_bvh = &cached.camera_bvh;
+        let shadow_bvh = cached.shadow_bvh.as_ref().unwrap_or(camera_bvh);
+        let method = settings.method_name();
+        let row = |pass: &str, light: &str, bvh: &Bvh| StatsRow {
+            scene: scene_name.to_string(),
+            frame: scene.frame,
+            method: method.clone(),
+            pass: pass.to_string(),
+            light: light.to_string(),
+            rebuilt: rebuilt.is_some(),
+            build_ms: rebuilt.map_or(0.0, |_| bvh.build_ms),
+            bvh_nodes: bvh.nodes.len() as u64,
+            bvh_bytes: bvh.bytes() as u64,
+            triangles: bvh.triangles.len() as u64,
+            ..StatsRow::default()
+        };
+
+        let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
+        let counted = settings.stats != StatsMode::TimingOnly;
+        let timed = settings.stats != StatsMode::Counts;
+        let primary = if counted {
+            PrimaryPass::counted(&rays, camera_bvh, &geometry.camera)
+        } else {
+            PrimaryPass::timed(&rays, camera_bvh, &geometry.camera)
+        };
+        let mut stats = Vec::new();
+        let mut primary_row = row("primary", "", camera_bvh);
+        primary_row.rays = primary.ray_count();
+        primary_row.occluded_fraction = primary.surfaces.iter().filter(|s| s.is_some()).count()
+            as f64
+            / primary_row.rays.max(1) as f64;
+        primary_row.set_work(&primary.totals);
+        if counted && timed {
+            let t = PrimaryPass::timed(&rays, camera_bvh, &geometry.camera);
+            debug_assert_eq!(t.surfaces, primary.surfaces);
+            primary_row.set_timing(t.trace_ms, true);
+        } else {
+            primary_row.set_timing(primary.trace_ms, !counted);
+        }
+        stats.push(primary_row);
+
+        let (w, h) = (primary.width, primary.height);
+        let mut masks = Vec::new();
+        let mut shadow_work =
+            vec![TraversalStats::default(); if counted { primary.surfaces.len() } else { 0 }];
+        for (index, light) in scene.lights.iter().enumerate() {
+            if !light.casts_shadow {
+                continue;
+            }
+            let sampler = LightSampler::new(light, &geometry.space);
+            let spp = samples_for(&sampler, settings.spp);
+            let args = (index as u32, spp, settings.seed, settings.shadow_order);
+            let pass = if counted {
+                ShadowPass::counted(
+                    &primary, shadow_bvh, &sampler, args.0, args.1, args.2, args.3,
+                )
+            } else {
+                ShadowPass::timed(
+                    &primary, shadow_bvh, &sampler, args.0, args.1, args.2, args.3,
+                )
+            };
+            let mut r = row("shadow", &light.name, shadow_bvh);
+            r.rays = pass.outcome.rays;
+            r.occluded_fraction = pass.outcome.occluded as f64 / r.rays.max(1) as f64;
+            r.back_facing = pass.outcome.back_facing;
+            r.unreached = pass.outcome.unreached;
+            r.set_work(&pass.totals);
+            if counted && timed {
+                let t = ShadowPass::timed(
+                    &primary, shadow_bvh, &sampler, args.0, args.1, args.2, args.3,
+                );
+                debug_assert_eq!(t.mask, pass.mask);
+                r.set_timing(t.trace_ms, true);
+            } else {
+                r.set_timing(pass.trace_ms, !counted);
+            }
+            for (acc, wk) in shadow_work.iter_mut().zip(&pass.work) {
+                *acc += *wk;
+            }
+            stats.push(r);
+            masks.push(pass.mask);
+        }
+
+        let mut combined = ImagePlane::new("combined", w, h);
+        if masks.is_empty() {
+            combined.data.fill(1.0);
+        } else {
+            let k = 1.0 / masks.len() as f32;
+            for m in &masks {
+                for (c, v) in combined.data.iter_mut().zip(&m.data) {
+                    *c += v * k;
+                }
+            }
+        }
+
+        let heat = counted.then(|| HeatMaps {
+            primary: primary.heat_maps("primary"),
+            shadow: heat_planes("shadow", w, h, &shadow_work),
+        });
+        let primary_ids: Vec<u32> = primary
+            .surfaces
+            .iter()
+            .map(|s| s.map_or(u32::MAX, |s| s.triangle))
+            .collect();
+        let mut seen = vec![false; geometry.camera.len()];
+        for &id in primary_ids.iter().filter(|&&id| id != u32::MAX) {
+            seen[id as usize] = true;
+        }
+        let mut visible: Vec<TriangleRef> = seen
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| **s)
+            .map(|(i, _)| geometry.camera.refs[i])
+            .collect();
+        visible.sort_unstable();
+        self.previous_visible = visible.clone();
+        Ok(FrameResult {
+            frame: scene.frame,
+            width: w,
+            height: h,
+            masks,
+            combined,
+            heat,
+            visible,
+            primary_ids,
+            stats,
+        })
+    }
+
+    /// Builds geometry and BVHs unless the cached ones still hold. Returns Some(()) if it built.
+    fn prepare(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<Option<()>> {
+        let key = key_of(scene);
+        let build_key = (settings.build, settings.build_settings);
+        if let Some(c) = &self.cache {
+            if c.key == key && c.build == build_key {
+                return Ok(None);
+            }
+        }
+        let geometry = FrameGeometry::from_scene(scene)?;
+        let camera_bvh = build(
+            settings.build,
+            &geometry.camera.vertices,
+            &settings.build_settings,
+        );
+        let shadow_bvh = geometry
+            .shadow
+            .as_ref()
+            .map(|s| Arc::new(build(settings.build, &s.vertices, &settings.build_settings)));
+        self.builds += 1;
+        self.cache = Some(Cached {
+            key,
+            _meshes: scene.meshes.clone(),
+            build: build_key,
+            geometry: Arc::new(geometry),
+            camera_bvh: Arc::new(camera_bvh),
+            shadow_bvh,
+        });
+        Ok(Some(()))
+    }
+
+    /// The geometry and BVHs of the last frame (for tests and tools that trace their own rays).
+    pub fn current(&self) -> Option<(&FrameGeometry, &Bvh, &Bvh)> {
+        self.cache.as_ref().map(|c| {
+            let shadow = c.shadow_bvh.as_deref().unwrap_or(&c.camera_bvh);
+            (&*c.geometry, &*c.camera_bvh, shadow)
+        })
+    }
+}

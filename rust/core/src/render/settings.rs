@@ -1,0 +1,69 @@
+use serde::{Deserialize, Serialize};
+
+use crate::bvh::{BuildMethod, BuildSettings};
+use crate::trace::AnyHitOrder;
+use crate::{Error, Result};
+
+/// What the passes measure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum StatsMode {
+    /// Exact work counters and heat maps (the counted traversal).
+    #[default]
+    Counts,
+    /// Counters and heat maps, then each pass again with counters compiled out, for Mrays/s.
+    CountsAndTiming,
+    /// Only the uncounted traversal: images and timings, no heat maps.
+    TimingOnly,
+}
+
+/// Settings of one frame's render.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderSettings {
+    /// Shadow samples per pixel for soft lights (point/spot with radius, sun with angle, area).
+    /// Hard lights always take one ray: it is exact for them.
+    pub spp: u32,
+    /// Seed of the light-sample patterns.
+    pub seed: u32,
+    pub build: BuildMethod,
+    pub build_settings: BuildSettings,
+    /// Child order of the occlusion traversal.
+    pub shadow_order: AnyHitOrder,
+    pub stats: StatsMode,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            spp: 4,
+            seed: 0,
+            build: BuildMethod::Sah,
+            build_settings: BuildSettings::default(),
+            shadow_order: AnyHitOrder::NearFirst,
+            stats: StatsMode::Counts,
+        }
+    }
+}
+
+/// Upper bound on shadow samples per pixel; more gives no visible gain and risks runaway work.
+pub const MAX_SPP: u32 = 4096;
+
+impl RenderSettings {
+    pub fn validate(&self) -> Result<()> {
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return Err(Error::invalid(
+                "spp",
+                format!("must be in 1..={MAX_SPP}, got {}", self.spp),
+            ));
+        }
+        self.build_settings.validate()
+    }
+
+    /// The method's name as it appears in statistics: builder and traversal order.
+    pub fn method_name(&self) -> String {
+        let order = match self.shadow_order {
+            AnyHitOrder::Stored => "stored",
+            AnyHitOrder::NearFirst => "near",
+        };
+        format!("{}/bin2/{}", self.build.name(), order)
+    }
+}
