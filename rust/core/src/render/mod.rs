@@ -14,4 +14,4 @@ pub use lights::{LightSample, LightSampler};
 pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer};
 pub use settings::{RenderSettings, StatsMode};
-pub use shadow::{ShadowPass, ShadowRayOutcome};
+pub use shadow::{samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome};

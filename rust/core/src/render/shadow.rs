@@ -176,6 +176,57 @@ pub fn shadow_ray(surface: &SurfacePoint, sample: LightSample) -> Option<Ray> {
     })
 }
 
+/// How a pixel's shadow samples for one light are drawn: the same for every traversal, so
+/// every method sees the same rays.
+#[derive(Clone, Copy, Debug)]
+pub struct SamplePlan {
+    pub light_index: u32,
+    pub samples: u32,
+    pub seed: u32,
+}
+
+impl SamplePlan {
+    /// Calls `f` with each sample's shadow ray (`None` for a sample behind the surface's own
+    /// plane). Returns false, without calling `f`, when the light cannot reach the point.
+    #[inline]
+    pub fn for_each_ray(
+        &self,
+        surface: &SurfacePoint,
+        pixel: usize,
+        light: &LightSampler,
+        scratch: &mut Vec<[f32; 2]>,
+        mut f: impl FnMut(Option<Ray>),
+    ) -> bool {
+        if !light.reaches(surface.position) {
+            return false;
+        }
+        if self.samples == 1 {
+            scratch.clear();
+            scratch.push([0.5, 0.5]);
+        } else {
+            let seed = hash_combine(hash_combine(self.seed, self.light_index), pixel as u32);
+            stratified_2d(self.samples, seed, scratch);
+        }
+        for &u in scratch.iter() {
+            f(shadow_ray(surface, light.sample(surface.position, u)));
+        }
+        true
+    }
+}
+
+/// Every shadow ray of one light for a primary pass, in pixel order (for benchmarks and
+/// oracles that must trace exactly the rays the shadow pass traces).
+pub fn shadow_rays(primary: &PrimaryPass, light: &LightSampler, plan: SamplePlan) -> Vec<Ray> {
+    let mut rays = Vec::new();
+    let mut scratch = Vec::new();
+    for (pixel, s) in primary.surfaces.iter().enumerate() {
+        if let Some(s) = s {
+            plan.for_each_ray(s, pixel, light, &mut scratch, |r| rays.extend(r));
+        }
+    }
+    rays
+}
+
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn shade_pixel<C: Counters>(
@@ -194,32 +245,25 @@ fn shade_pixel<C: Counters>(
     let Some(s) = surface else {
         return (1.0, outcome);
     };
-    if !light.reaches(s.position) {
-        outcome.unreached = n as u64;
-        return (0.0, outcome);
-    }
-    if n == 1 {
-        scratch.clear();
-        scratch.push([0.5, 0.5]);
-    } else {
-        stratified_2d(
-            n,
-            hash_combine(hash_combine(seed, light_index), pixel as u32),
-            scratch,
-        );
-    }
+    let plan = SamplePlan {
+        light_index,
+        samples: n,
+        seed,
+    };
     let mut lit = 0u32;
-    for &u in scratch.iter() {
-        let Some(ray) = shadow_ray(s, light.sample(s.position, u)) else {
-            outcome.back_facing += 1;
-            continue;
-        };
-        outcome.rays += 1;
-        if occluded(bvh, &ray, order, stats) {
-            outcome.occluded += 1;
-        } else {
-            lit += 1;
+    let reached = plan.for_each_ray(s, pixel, light, scratch, |ray| match ray {
+        None => outcome.back_facing += 1,
+        Some(ray) => {
+            outcome.rays += 1;
+            if occluded(bvh, &ray, order, stats) {
+                outcome.occluded += 1;
+            } else {
+                lit += 1;
+            }
         }
+    });
+    if !reached {
+        outcome.unreached = n as u64;
     }
     (lit as f32 / n as f32, outcome)
 }

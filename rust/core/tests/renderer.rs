@@ -1,0 +1,172 @@
+//! The frame pipeline: answers do not depend on the method or on counting, statistics equal the
+//! sums of the heat maps, unchanged geometry is not rebuilt, the visible set is what the camera saw.
+
+mod common;
+
+use antumbra_core::bvh::BuildSettings;
+use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
+use antumbra_core::scene::LightKind;
+use antumbra_core::trace::AnyHitOrder;
+use glam::{DMat4, DVec3};
+
+fn soft_scene() -> antumbra_core::scene::Scene {
+    let mut s = common::boxes_scene(96);
+    s.lights[0].kind = LightKind::Sun { angle: 0.1 };
+    s.lights[1].kind = LightKind::Point { radius: 0.5 };
+    s
+}
+
+#[test]
+fn masks_do_not_depend_on_order_leaf_size_or_counting() {
+    let scene = soft_scene();
+    let base = Renderer::new()
+        .render("t", &scene, &RenderSettings::default())
+        .unwrap();
+    for (order, leaf, stats) in [
+        (AnyHitOrder::Stored, 1, StatsMode::Counts),
+        (AnyHitOrder::NearFirst, 16, StatsMode::TimingOnly),
+        (AnyHitOrder::Stored, 4, StatsMode::CountsAndTiming),
+    ] {
+        let settings = RenderSettings {
+            shadow_order: order,
+            build_settings: BuildSettings {
+                max_leaf_size: leaf,
+                ..BuildSettings::default()
+            },
+            stats,
+            ..RenderSettings::default()
+        };
+        let r = Renderer::new().render("t", &scene, &settings).unwrap();
+        assert_eq!(r.masks, base.masks);
+        assert_eq!(r.primary_ids, base.primary_ids);
+        assert_eq!(r.visible, base.visible);
+    }
+}
+
+#[test]
+fn statistics_are_the_sums_of_the_heat_maps() {
+    let r = Renderer::new()
+        .render("t", &soft_scene(), &RenderSettings::default())
+        .unwrap();
+    let heat = r.heat.as_ref().unwrap();
+    let sum = |p: &antumbra_core::output::ImagePlane| p.data.iter().map(|v| *v as f64).sum::<f64>();
+    let primary = &r.stats[0];
+    assert_eq!(primary.pass, "primary");
+    assert_eq!(primary.rays, (r.width * r.height) as u64);
+    assert_eq!(
+        sum(&heat.primary[0]),
+        primary.nb_per_ray * primary.rays as f64
+    );
+    assert_eq!(
+        sum(&heat.primary[2]),
+        primary.nt_per_ray * primary.rays as f64
+    );
+    let shadow_rows: Vec<_> = r.stats.iter().filter(|s| s.pass == "shadow").collect();
+    assert_eq!(shadow_rows.len(), 2);
+    let nb: f64 = shadow_rows
+        .iter()
+        .map(|s| (s.nb_per_ray * s.rays as f64).round())
+        .sum();
+    let nl: f64 = shadow_rows
+        .iter()
+        .map(|s| (s.nl_per_ray * s.rays as f64).round())
+        .sum();
+    assert_eq!(sum(&heat.shadow[0]), nb);
+    assert_eq!(sum(&heat.shadow[1]), nl);
+    // Soft lights take spp samples per pixel.
+    assert!(shadow_rows
+        .iter()
+        .all(|s| s.rays > (r.width * r.height) as u64));
+}
+
+#[test]
+fn soft_shadows_have_penumbrae_and_hard_ones_do_not() {
+    let soft = Renderer::new()
+        .render(
+            "t",
+            &soft_scene(),
+            &RenderSettings {
+                spp: 16,
+                ..RenderSettings::default()
+            },
+        )
+        .unwrap();
+    let hard = Renderer::new()
+        .render("t", &common::boxes_scene(96), &RenderSettings::default())
+        .unwrap();
+    let fractional = |m: &[f32]| m.iter().filter(|v| **v > 0.0 && **v < 1.0).count();
+    assert_eq!(fractional(&hard.masks[0].data), 0);
+    assert!(fractional(&soft.masks[0].data) > 20);
+    assert!(fractional(&soft.masks[1].data) > 20);
+}
+
+#[test]
+fn unchanged_geometry_is_not_rebuilt() {
+    let scene = common::boxes_scene(32);
+    let mut renderer = Renderer::new();
+    let settings = RenderSettings::default();
+    let mut f = scene.clone();
+    for frame in 1..=3 {
+        f.frame = frame;
+        // The camera moves; geometry does not.
+        f.camera.world_from_camera =
+            DMat4::from_translation(DVec3::new(0.1 * frame as f64, 0.0, 0.0))
+                * scene.camera.world_from_camera;
+        let r = renderer.render("t", &f, &settings).unwrap();
+        assert_eq!(r.stats[0].rebuilt, frame == 1);
+    }
+    assert_eq!(renderer.builds, 1);
+    f.objects[1].world_from_object =
+        DMat4::from_translation(DVec3::X) * f.objects[1].world_from_object;
+    let r = renderer.render("t", &f, &settings).unwrap();
+    assert!(r.stats[0].rebuilt);
+    assert_eq!(renderer.builds, 2);
+}
+
+#[test]
+fn visible_set_is_what_the_camera_saw() {
+    let scene = common::boxes_scene(64);
+    let mut renderer = Renderer::new();
+    let r = renderer
+        .render("t", &scene, &RenderSettings::default())
+        .unwrap();
+    let (geometry, _, _) = renderer.current().unwrap();
+    let mut expected: Vec<_> = r
+        .primary_ids
+        .iter()
+        .filter(|id| **id != u32::MAX)
+        .map(|id| geometry.camera.refs[*id as usize])
+        .collect();
+    expected.sort();
+    expected.dedup();
+    assert_eq!(r.visible, expected);
+    assert!(!r.visible.is_empty() && r.visible.len() < geometry.camera.len());
+    assert_eq!(renderer.previous_visible, r.visible);
+}
+
+#[test]
+fn objects_without_shadows_are_seen_but_cast_none() {
+    let scene = common::boxes_scene(96);
+    let with = Renderer::new()
+        .render("t", &scene, &RenderSettings::default())
+        .unwrap();
+    let mut no_shadow = scene.clone();
+    for o in no_shadow.objects.iter_mut().skip(1) {
+        o.casts_shadow = false;
+    }
+    let without = Renderer::new()
+        .render("t", &no_shadow, &RenderSettings::default())
+        .unwrap();
+    assert_eq!(with.primary_ids, without.primary_ids);
+    let dark = |r: &antumbra_core::render::FrameResult| {
+        r.masks[0].data.iter().filter(|v| **v == 0.0).count()
+    };
+    assert!(dark(&without) < dark(&with));
+    // A light with shadows off gets no mask and no rays.
+    let mut off = scene;
+    off.lights[1].casts_shadow = false;
+    let r = Renderer::new()
+        .render("t", &off, &RenderSettings::default())
+        .unwrap();
+    assert_eq!(r.masks.len(), 1);
+}
