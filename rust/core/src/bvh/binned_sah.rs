@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -38,10 +38,10 @@ impl Default for BuildSettings {
 
 impl BuildSettings {
     pub fn validate(&self) -> crate::Result<()> {
-        if !(2..=256).contains(&self.bins) {
+        if !(2..=MAX_BINS).contains(&self.bins) {
             return Err(crate::Error::invalid(
                 "build.bins",
-                format!("must be in 2..=256, got {}", self.bins),
+                format!("must be in 2..={MAX_BINS}, got {}", self.bins),
             ));
         }
         if !(1..=64).contains(&self.max_leaf_size) {
@@ -65,33 +65,73 @@ impl BuildSettings {
     }
 }
 
-/// A triangle's box and its id; what the builder partitions.
+/// A triangle's box, with its id in the fourth lane of `lo` (as bits), so a reference is two
+/// 16-byte vectors that min/max in one instruction each.
 #[derive(Clone, Copy, Debug)]
 struct PrimRef {
-    min: Vec3,
-    id: u32,
-    max: Vec3,
+    lo: Vec4,
+    hi: Vec4,
 }
 
 impl PrimRef {
     #[inline]
-    fn centroid(&self) -> Vec3 {
-        (self.min + self.max) * 0.5
+    fn id(&self) -> u32 {
+        self.lo.w.to_bits()
+    }
+    /// Twice the centroid (the factor cancels in binning and saves a multiply).
+    #[inline]
+    fn centroid2(&self) -> Vec4 {
+        self.lo + self.hi
+    }
+}
+
+/// A box in the builder's 4-lane form; the fourth lane carries nothing meaningful.
+#[derive(Clone, Copy, Debug)]
+struct Box4 {
+    lo: Vec4,
+    hi: Vec4,
+}
+
+impl Box4 {
+    const EMPTY: Box4 = Box4 {
+        lo: Vec4::splat(f32::INFINITY),
+        hi: Vec4::splat(f32::NEG_INFINITY),
+    };
+    #[inline(always)]
+    fn grow(&mut self, lo: Vec4, hi: Vec4) {
+        self.lo = self.lo.min(lo);
+        self.hi = self.hi.max(hi);
+    }
+    #[inline(always)]
+    fn grow_box(&mut self, b: &Box4) {
+        self.grow(b.lo, b.hi);
+    }
+    #[inline(always)]
+    fn half_area(&self) -> f32 {
+        let e = (self.hi - self.lo).truncate();
+        if e.x < 0.0 {
+            return 0.0;
+        }
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+    fn to_aabb(self) -> Aabb {
+        Aabb::new(self.lo.truncate(), self.hi.truncate())
     }
 }
 
 #[derive(Clone, Copy)]
 struct Bin {
-    bounds: Aabb,
-    centroids: Aabb,
+    bounds: Box4,
     count: u32,
 }
 
 const EMPTY_BIN: Bin = Bin {
-    bounds: Aabb::EMPTY,
-    centroids: Aabb::EMPTY,
+    bounds: Box4::EMPTY,
     count: 0,
 };
+
+/// Upper bound of `BuildSettings::bins`; bins live in fixed arrays of this size.
+pub const MAX_BINS: usize = 256;
 
 /// Subtrees smaller than this are built on the current thread.
 const PARALLEL_SUBTREE: usize = 4096;
@@ -109,15 +149,17 @@ pub fn build_binned_sah(triangles: &[[Vec3; 3]], settings: &BuildSettings) -> Bv
         .map(|(i, t)| {
             let b = Aabb::of_triangle(t);
             PrimRef {
-                min: b.min,
-                id: i as u32,
-                max: b.max,
+                lo: b.min.extend(f32::from_bits(i as u32)),
+                hi: b.max.extend(0.0),
             }
         })
         .collect();
     let mut bvh = build_from_refs(&mut refs, settings);
-    bvh.triangles = refs.par_iter().map(|r| triangles[r.id as usize]).collect();
-    bvh.triangle_ids = refs.iter().map(|r| r.id).collect();
+    bvh.triangles = refs
+        .par_iter()
+        .map(|r| triangles[r.id() as usize])
+        .collect();
+    bvh.triangle_ids = refs.iter().map(|r| r.id()).collect();
     bvh.build_ms = start.elapsed().as_secs_f64() * 1e3;
     bvh
 }
@@ -131,258 +173,351 @@ fn build_from_refs(refs: &mut [PrimRef], settings: &BuildSettings) -> Bvh {
     // A subtree over k references uses at most 2k - 2 nodes below its root.
     let mut nodes = vec![BvhNode::default(); 2 * n - 1];
     let (root, below) = nodes.split_at_mut(1);
-    let ctx = Context { settings };
-    ctx.build(refs, 0, &mut root[0], below, 1, bounds, centroids, 0);
+    let ctx = Context {
+        settings,
+        bins: settings.bins.clamp(2, MAX_BINS),
+    };
+    let task = Task {
+        first: 0,
+        below_start: 1,
+        bounds,
+        centroids,
+        depth: 0,
+    };
+    ctx.build(refs, &mut root[0], below, task, &mut Scratch::new());
     Bvh {
         nodes: compact(&nodes),
         ..Bvh::default()
     }
 }
 
-fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
-    let fold = |(mut b, mut c): (Aabb, Aabb), r: &PrimRef| {
-        b.grow(&Aabb::new(r.min, r.max));
-        c.grow_point(r.centroid());
+/// Bounds and (doubled) centroid bounds of some references.
+fn bounds_of(refs: &[PrimRef]) -> (Box4, Box4) {
+    let fold = |(mut b, mut c): (Box4, Box4), r: &PrimRef| {
+        b.grow(r.lo, r.hi);
+        let c2 = r.centroid2();
+        c.grow(c2, c2);
         (b, c)
+    };
+    let merge = |a: (Box4, Box4), b: (Box4, Box4)| {
+        let (mut x, mut y) = a;
+        x.grow_box(&b.0);
+        y.grow_box(&b.1);
+        (x, y)
     };
     if refs.len() > PARALLEL_BINNING {
         refs.par_chunks(16384)
-            .map(|chunk| chunk.iter().fold((Aabb::EMPTY, Aabb::EMPTY), fold))
-            .reduce(
-                || (Aabb::EMPTY, Aabb::EMPTY),
-                |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
-            )
+            .map(|chunk| chunk.iter().fold((Box4::EMPTY, Box4::EMPTY), fold))
+            .reduce(|| (Box4::EMPTY, Box4::EMPTY), merge)
     } else {
-        refs.iter().fold((Aabb::EMPTY, Aabb::EMPTY), fold)
+        refs.iter().fold((Box4::EMPTY, Box4::EMPTY), fold)
     }
 }
 
 struct Context<'a> {
     settings: &'a BuildSettings,
+    bins: usize,
 }
 
-/// The chosen split: references with bin index < `bin` on `axis` go left.
+/// Where a subtree goes: its first reference slot, where its descendants' nodes start, its
+/// bounds and centroid bounds, and its depth.
+#[derive(Clone, Copy)]
+struct Task {
+    first: usize,
+    below_start: usize,
+    bounds: Box4,
+    centroids: Box4,
+    depth: usize,
+}
+
+/// Per-thread working memory, reused down the recursion so small nodes allocate nothing.
+struct Scratch {
+    bins: Vec<Bin>,
+    right_cost: Vec<f32>,
+}
+
+impl Scratch {
+    fn new() -> Self {
+        Scratch {
+            bins: vec![EMPTY_BIN; 3 * MAX_BINS],
+            right_cost: vec![0.0; MAX_BINS],
+        }
+    }
+}
+
+/// The chosen split: references whose bin on `axis` is below `bin` go left.
 struct Split {
     axis: usize,
     bin: usize,
+    /// Bins per axis used for this node.
+    nb: usize,
     cost: f32,
-    left: (Aabb, Aabb),
-    right: (Aabb, Aabb),
+    left: Box4,
+    right: Box4,
+}
+
+/// Maps doubled centroids to bin indices on all three axes at once.
+#[derive(Clone, Copy)]
+struct Binner {
+    lo: Vec4,
+    scale: Vec4,
+    last: Vec4,
+}
+
+impl Binner {
+    fn new(centroids: &Box4, bins: usize) -> Self {
+        let extent = centroids.hi - centroids.lo;
+        let scale = Vec4::select(
+            extent.cmpgt(Vec4::ZERO),
+            Vec4::splat(bins as f32 * (1.0 - 1e-6)) / extent,
+            Vec4::ZERO,
+        );
+        Binner {
+            lo: centroids.lo,
+            scale,
+            last: Vec4::splat((bins - 1) as f32),
+        }
+    }
+    /// Bin indices on x, y, z (lane 3 is meaningless).
+    #[inline(always)]
+    fn bins(&self, c2: Vec4) -> [u32; 4] {
+        let f = ((c2 - self.lo) * self.scale).max(Vec4::ZERO).min(self.last);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::*;
+            // SAFETY: SSE2 is part of the x86_64 baseline. Lanes are in [0, bins - 1] (NaN in
+            // the unused lane converts to i32::MIN, which is never read).
+            unsafe {
+                let v: __m128 = f.into();
+                std::mem::transmute::<__m128i, [u32; 4]>(_mm_cvttps_epi32(v))
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            f.as_uvec4().to_array()
+        }
+    }
 }
 
 impl Context<'_> {
-    #[allow(clippy::too_many_arguments)]
     fn build(
         &self,
         refs: &mut [PrimRef],
-        first: usize,
         node: &mut BvhNode,
         below: &mut [BvhNode],
-        below_start: usize,
-        bounds: Aabb,
-        centroids: Aabb,
-        depth: usize,
+        task: Task,
+        scratch: &mut Scratch,
     ) {
-        node.set_bounds(&bounds);
+        node.set_bounds(&task.bounds.to_aabb());
         let n = refs.len();
         let s = self.settings;
-        let leaf_cost = s.intersection_cost * n as f32;
-        let split = if n <= 1 {
-            None
-        } else if depth >= MEDIAN_DEPTH {
+        let split = if n <= 1 || task.depth >= MEDIAN_DEPTH {
             None
         } else {
-            self.find_split(refs, &bounds, &centroids)
+            self.find_split(refs, &task, scratch)
         };
-        let make_leaf = match &split {
-            _ if n <= 1 => true,
-            Some(sp) => n <= s.max_leaf_size && sp.cost >= leaf_cost,
-            None => n <= s.max_leaf_size,
-        };
+        let leaf_cost = s.intersection_cost * n as f32;
+        let make_leaf = n <= 1
+            || match &split {
+                Some(sp) => n <= s.max_leaf_size && sp.cost >= leaf_cost,
+                None => n <= s.max_leaf_size,
+            };
         if make_leaf {
-            node.first = first as u32;
+            node.first = task.first as u32;
             node.count = n as u32;
             return;
         }
-        let (mid, left, right) = match split {
-            Some(sp) => {
-                let mid = partition(refs, sp.axis, sp.bin, &centroids, self.settings.bins);
-                if mid == 0 || mid == n {
-                    median_split(refs)
-                } else {
-                    (mid, sp.left, sp.right)
-                }
-            }
-            None => median_split(refs),
-        };
+        let parts = split.and_then(|sp| {
+            let binner = Binner::new(&task.centroids, sp.nb);
+            let (mid, lc, rc) = partition(refs, sp.axis, sp.bin as u32, &binner);
+            (mid > 0 && mid < n).then_some((mid, (sp.left, lc), (sp.right, rc)))
+        });
+        let (mid, left, right) = parts.unwrap_or_else(|| median_split(refs));
+
         let (pair, rest) = below.split_at_mut(2);
         let (left_node, right_node) = pair.split_at_mut(1);
         let left_size = 2 * mid - 2;
         let (left_below, right_below) = rest.split_at_mut(left_size);
-        node.first = below_start as u32;
+        node.first = task.below_start as u32;
         node.count = 0;
         let (left_refs, right_refs) = refs.split_at_mut(mid);
-        let mut build_left = || {
-            self.build(
-                left_refs,
-                first,
-                &mut left_node[0],
-                left_below,
-                below_start + 2,
-                left.0,
-                left.1,
-                depth + 1,
-            )
+        let left_task = Task {
+            first: task.first,
+            below_start: task.below_start + 2,
+            bounds: left.0,
+            centroids: left.1,
+            depth: task.depth + 1,
         };
-        let mut build_right = || {
-            self.build(
-                right_refs,
-                first + mid,
-                &mut right_node[0],
-                right_below,
-                below_start + 2 + left_size,
-                right.0,
-                right.1,
-                depth + 1,
-            )
+        let right_task = Task {
+            first: task.first + mid,
+            below_start: task.below_start + 2 + left_size,
+            bounds: right.0,
+            centroids: right.1,
+            depth: task.depth + 1,
         };
         if n > PARALLEL_SUBTREE {
-            rayon::join(build_left, build_right);
+            rayon::join(
+                || self.build(left_refs, &mut left_node[0], left_below, left_task, scratch),
+                || {
+                    let mut own = Scratch::new();
+                    self.build(
+                        right_refs,
+                        &mut right_node[0],
+                        right_below,
+                        right_task,
+                        &mut own,
+                    )
+                },
+            );
         } else {
-            build_left();
-            build_right();
+            self.build(left_refs, &mut left_node[0], left_below, left_task, scratch);
+            self.build(
+                right_refs,
+                &mut right_node[0],
+                right_below,
+                right_task,
+                scratch,
+            );
         }
     }
 
-    fn find_split(&self, refs: &[PrimRef], bounds: &Aabb, centroids: &Aabb) -> Option<Split> {
-        let nb = self.settings.bins;
-        let extent = centroids.extent();
+    fn find_split(&self, refs: &[PrimRef], task: &Task, scratch: &mut Scratch) -> Option<Split> {
+        // Small nodes need few bins: with n references at most n bins are occupied.
+        let nb = self.bins.min(refs.len() + 2);
+        let extent = (task.centroids.hi - task.centroids.lo).truncate();
         if extent.max_element() <= 0.0 {
             return None;
         }
-        let bins = if refs.len() > PARALLEL_BINNING {
-            refs.par_chunks(16384)
-                .map(|c| bin_refs(c, centroids, nb))
-                .reduce(|| vec![EMPTY_BIN; 3 * nb], merge_bins)
+        let binner = Binner::new(&task.centroids, nb);
+        let Scratch { bins, right_cost } = scratch;
+        let bins = &mut bins[..3 * nb];
+        if refs.len() > PARALLEL_BINNING {
+            let merged = refs
+                .par_chunks(16384)
+                .map(|c| {
+                    let mut local = vec![EMPTY_BIN; 3 * nb];
+                    bin_refs(c, &binner, nb, &mut local);
+                    local
+                })
+                .reduce(|| vec![EMPTY_BIN; 3 * nb], merge_bins);
+            bins.copy_from_slice(&merged);
         } else {
-            bin_refs(refs, centroids, nb)
-        };
-        let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
+            bins.fill(EMPTY_BIN);
+            bin_refs(refs, &binner, nb, bins);
+        }
+        let parent_area = task.bounds.half_area().max(f32::MIN_POSITIVE);
         let s = self.settings;
-        let mut best: Option<Split> = None;
-        let mut right_acc = vec![(Aabb::EMPTY, Aabb::EMPTY, 0u32); nb];
+        let mut best: Option<(usize, usize, f32)> = None;
         for axis in 0..3 {
             if extent[axis] <= 0.0 {
                 continue;
             }
             let axis_bins = &bins[axis * nb..(axis + 1) * nb];
-            // Sweep from the right: right_acc[i] holds bins i..nb.
-            let mut acc = (Aabb::EMPTY, Aabb::EMPTY, 0u32);
+            // Sweep from the right: right_cost[i] = area x count of bins i..nb. An empty bin
+            // changes nothing, so its value is copied rather than recomputed.
+            let mut acc = Box4::EMPTY;
+            let mut count = 0u32;
+            let mut cost = f32::NAN;
             for i in (1..nb).rev() {
-                acc.0.grow(&axis_bins[i].bounds);
-                acc.1.grow(&axis_bins[i].centroids);
-                acc.2 += axis_bins[i].count;
-                right_acc[i] = acc;
+                if axis_bins[i].count > 0 {
+                    acc.grow_box(&axis_bins[i].bounds);
+                    count += axis_bins[i].count;
+                    cost = acc.half_area() * count as f32;
+                }
+                right_cost[i] = cost;
             }
-            let mut left = (Aabb::EMPTY, Aabb::EMPTY, 0u32);
+            let mut acc = Box4::EMPTY;
+            let mut count = 0u32;
             for i in 1..nb {
                 let b = &axis_bins[i - 1];
-                left.0.grow(&b.bounds);
-                left.1.grow(&b.centroids);
-                left.2 += b.count;
-                let right = &right_acc[i];
-                if left.2 == 0 || right.2 == 0 {
+                // A boundary after an empty bin repeats the previous partition: skip it.
+                if b.count == 0 {
                     continue;
                 }
+                acc.grow_box(&b.bounds);
+                count += b.count;
+                // An empty right side has NaN cost and is never chosen.
                 let cost = s.traversal_cost
-                    + s.intersection_cost
-                        * (left.0.half_area() * left.2 as f32
-                            + right.0.half_area() * right.2 as f32)
+                    + s.intersection_cost * (acc.half_area() * count as f32 + right_cost[i])
                         / parent_area;
-                if best.as_ref().is_none_or(|b| cost < b.cost) {
-                    best = Some(Split {
-                        axis,
-                        bin: i,
-                        cost,
-                        left: (left.0, left.1),
-                        right: (right.0, right.1),
-                    });
+                if best.is_none_or(|b| cost < b.2) {
+                    best = Some((axis, i, cost));
                 }
             }
         }
-        best
+        let (axis, bin, cost) = best?;
+        let axis_bins = &bins[axis * nb..(axis + 1) * nb];
+        let mut left = Box4::EMPTY;
+        let mut right = Box4::EMPTY;
+        for (i, b) in axis_bins.iter().enumerate() {
+            if i < bin {
+                left.grow_box(&b.bounds);
+            } else {
+                right.grow_box(&b.bounds);
+            }
+        }
+        Some(Split {
+            axis,
+            bin,
+            nb,
+            cost,
+            left,
+            right,
+        })
     }
 }
 
-#[inline]
-fn bin_index(c: f32, lo: f32, scale: f32, nb: usize) -> usize {
-    (((c - lo) * scale) as usize).min(nb - 1)
-}
-
-#[inline]
-fn bin_scale(centroids: &Aabb, axis: usize, nb: usize) -> f32 {
-    let e = centroids.extent()[axis];
-    if e > 0.0 {
-        nb as f32 * (1.0 - 1e-6) / e
-    } else {
-        0.0
-    }
-}
-
-fn bin_refs(refs: &[PrimRef], centroids: &Aabb, nb: usize) -> Vec<Bin> {
-    let mut bins = vec![EMPTY_BIN; 3 * nb];
-    let scale = [0, 1, 2].map(|a| bin_scale(centroids, a, nb));
+fn bin_refs(refs: &[PrimRef], binner: &Binner, nb: usize, bins: &mut [Bin]) {
     for r in refs {
-        let c = r.centroid();
-        let b = Aabb::new(r.min, r.max);
-        for axis in 0..3 {
-            let i = axis * nb + bin_index(c[axis], centroids.min[axis], scale[axis], nb);
-            let bin = &mut bins[i];
-            bin.bounds.grow(&b);
-            bin.centroids.grow_point(c);
+        let b = binner.bins(r.centroid2());
+        for (axis, &index) in b[..3].iter().enumerate() {
+            let bin = &mut bins[axis * nb + index as usize];
+            bin.bounds.grow(r.lo, r.hi);
             bin.count += 1;
         }
     }
-    bins
 }
 
 fn merge_bins(mut a: Vec<Bin>, b: Vec<Bin>) -> Vec<Bin> {
     for (x, y) in a.iter_mut().zip(&b) {
-        x.bounds.grow(&y.bounds);
-        x.centroids.grow(&y.centroids);
+        x.bounds.grow_box(&y.bounds);
         x.count += y.count;
     }
     a
 }
 
-/// Moves references with bin index < `bin` to the front; returns how many there are.
-fn partition(refs: &mut [PrimRef], axis: usize, bin: usize, centroids: &Aabb, nb: usize) -> usize {
-    let scale = bin_scale(centroids, axis, nb);
-    let lo = centroids.min[axis];
-    let goes_left = |r: &PrimRef| bin_index(r.centroid()[axis], lo, scale, nb) < bin;
+/// Moves references whose bin on `axis` is below `bin` to the front. Returns how many there
+/// are and the (doubled) centroid bounds of each side.
+fn partition(refs: &mut [PrimRef], axis: usize, bin: u32, binner: &Binner) -> (usize, Box4, Box4) {
+    let goes_left = |r: &PrimRef| binner.bins(r.centroid2())[axis] < bin;
+    let mut lc = Box4::EMPTY;
+    let mut rc = Box4::EMPTY;
     let mut i = 0;
     let mut j = refs.len();
     while i < j {
+        let c = refs[i].centroid2();
         if goes_left(&refs[i]) {
+            lc.grow(c, c);
             i += 1;
         } else {
+            rc.grow(c, c);
             j -= 1;
             refs.swap(i, j);
         }
     }
-    i
+    (i, lc, rc)
 }
 
 /// Splits at the middle reference along the widest centroid axis (used when the SAH finds no
 /// split, e.g. all centroids coincide, and past `MEDIAN_DEPTH`).
-fn median_split(refs: &mut [PrimRef]) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
+fn median_split(refs: &mut [PrimRef]) -> (usize, (Box4, Box4), (Box4, Box4)) {
     let mid = refs.len() / 2;
     let (_, c) = bounds_of(refs);
-    let axis = c.extent().max_position();
+    let axis = (c.hi - c.lo).truncate().max_position();
     refs.select_nth_unstable_by(mid, |a, b| {
-        a.centroid()[axis]
-            .total_cmp(&b.centroid()[axis])
-            .then(a.id.cmp(&b.id))
+        a.centroid2()[axis]
+            .total_cmp(&b.centroid2()[axis])
+            .then(a.id().cmp(&b.id()))
     });
     let left = bounds_of(&refs[..mid]);
     let right = bounds_of(&refs[mid..]);

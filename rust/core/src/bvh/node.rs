@@ -32,6 +32,15 @@ impl BvhNode {
     pub fn max(&self) -> Vec3 {
         Vec3::from_array(self.max)
     }
+    /// The node as eight floats `[min.x, min.y, min.z, first, max.x, max.y, max.z, count]`,
+    /// the layout [`crate::geometry::RayBoxPrecomp::hit_packed`] reads with two vector loads.
+    #[inline(always)]
+    pub fn packed(&self) -> &[f32; 8] {
+        // SAFETY: `BvhNode` is `repr(C)` with eight 4-byte fields and no padding, and every bit
+        // pattern is a valid f32 (the two u32 lanes are never used as numbers).
+        unsafe { &*(self as *const BvhNode as *const [f32; 8]) }
+    }
+
     pub fn bounds(&self) -> Aabb {
         Aabb::new(self.min(), self.max())
     }
@@ -40,6 +49,8 @@ impl BvhNode {
         self.max = b.max.to_array();
     }
 }
+
+const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 
 /// A binary BVH over a triangle set. Node 0 is the root. Triangles are copied in leaf order so a
 /// leaf's triangles are contiguous in memory; `triangle_ids` maps a slot back to the id in the

@@ -75,9 +75,10 @@ pub fn intersect_triangle(
     t_max: f32,
 ) -> Option<TriangleHit> {
     let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
-    let a = v[0] - ray.origin;
-    let b = v[1] - ray.origin;
-    let c = v[2] - ray.origin;
+    // Arrays, not Vec3: indexing a Vec3 by a runtime axis compiles to a branchy match.
+    let a = (v[0] - ray.origin).to_array();
+    let b = (v[1] - ray.origin).to_array();
+    let c = (v[2] - ray.origin).to_array();
     let ax = a[kx] - ray.sx * a[kz];
     let ay = a[ky] - ray.sy * a[kz];
     let bx = b[kx] - ray.sx * b[kz];

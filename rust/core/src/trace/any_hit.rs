@@ -26,7 +26,7 @@ pub fn occluded<C: Counters>(bvh: &Bvh, ray: &Ray, order: AnyHitOrder, stats: &m
     let wt = WatertightRay::new(ray);
     let (t_min, t_max) = (ray.t_min, ray.t_max);
     stats.boxes(1);
-    if pre.hit(root.min(), root.max(), t_min, t_max).is_none() {
+    if pre.hit_packed(root.packed(), t_min, t_max).is_none() {
         return false;
     }
     let mut stack = [0u32; MAX_DEPTH];
@@ -47,8 +47,8 @@ pub fn occluded<C: Counters>(bvh: &Bvh, ray: &Ray, order: AnyHitOrder, stats: &m
             stats.boxes(2);
             let l = node.first as usize;
             let (a, b) = (&nodes[l], &nodes[l + 1]);
-            let da = pre.hit(a.min(), a.max(), t_min, t_max);
-            let db = pre.hit(b.min(), b.max(), t_min, t_max);
+            let da = pre.hit_packed(a.packed(), t_min, t_max);
+            let db = pre.hit_packed(b.packed(), t_min, t_max);
             match (da, db) {
                 (Some(ta), Some(tb)) => {
                     let b_first = order == AnyHitOrder::NearFirst && tb < ta;

@@ -16,7 +16,7 @@ pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<H
     let mut best: Option<Hit> = None;
     let mut t_max = ray.t_max;
     stats.boxes(1);
-    pre.hit(root.min(), root.max(), t_min, t_max)?;
+    pre.hit_packed(root.packed(), t_min, t_max)?;
     let mut stack = [(0u32, 0f32); MAX_DEPTH];
     let mut sp = 0usize;
     let mut node = root;
@@ -45,8 +45,8 @@ pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<H
             stats.boxes(2);
             let l = node.first as usize;
             let (a, b) = (&nodes[l], &nodes[l + 1]);
-            let da = pre.hit(a.min(), a.max(), t_min, t_max);
-            let db = pre.hit(b.min(), b.max(), t_min, t_max);
+            let da = pre.hit_packed(a.packed(), t_min, t_max);
+            let db = pre.hit_packed(b.packed(), t_min, t_max);
             match (da, db) {
                 (Some(ta), Some(tb)) => {
                     let (near, far, tfar) = if tb < ta {
