@@ -1,5 +1,23 @@
 //! Image output: float planes written as 32-bit float EXR (for numbers) and as PNG (masks in
-//! grey, heat maps through a perceptual colour map with their scale).
+//! grey, heat maps through a perceptual colour map with their scale). Every file is written
+//! atomically, so a reader never sees a half-written image under its final name.
+
+mod atomic;
+mod colormap;
+mod colormap_tables;
+mod exr;
+mod font;
+mod heatmap;
+mod legend;
+mod png;
+#[cfg(test)]
+mod test_dir;
+
+pub use self::colormap::ColorMap;
+pub use self::exr::{read_exr, write_exr};
+pub use self::heatmap::{write_heatmap_png, HeatLegend, HeatScale};
+pub use self::legend::heat_legend_height;
+pub use self::png::write_mask_png;
 
 /// A single-channel float image, rows top to bottom.
 #[derive(Clone, Debug, PartialEq)]
@@ -22,6 +40,30 @@ impl ImagePlane {
 
     pub fn get(&self, x: u32, y: u32) -> f32 {
         self.data[y as usize * self.width as usize + x as usize]
+    }
+
+    /// Checks that the plane has pixels and that `data` holds exactly width × height of them.
+    pub fn check_size(&self) -> crate::Result<()> {
+        let field = || format!("image plane '{}'", self.name);
+        if self.width == 0 || self.height == 0 {
+            return Err(crate::Error::invalid(
+                field(),
+                format!("empty image ({}x{})", self.width, self.height),
+            ));
+        }
+        let expected = self.width as usize * self.height as usize;
+        if self.data.len() != expected {
+            return Err(crate::Error::invalid(
+                field(),
+                format!(
+                    "{}x{} needs {expected} values, has {}",
+                    self.width,
+                    self.height,
+                    self.data.len()
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// Smallest and largest finite value (0, 0 for an empty image).
