@@ -1,1 +1,39 @@
-fn main() {}
+//! `antumbra`: render shadow passes and traversal-work heat maps of animated scenes, and
+//! benchmark the structures that trace them.
+
+mod commands;
+mod frames;
+mod scene_source;
+mod write;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "antumbra", version, about = "Shadow passes and BVH work heat maps of animated scenes")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render the default animated scene for a few frames: images, heat maps, statistics.
+    Demo(commands::demo::DemoArgs),
+    /// Render frames of a built-in scene or an OBJ/glTF file.
+    Render(commands::render::RenderArgs),
+    /// Build time and Mrays/s per scene (primary and shadow rays, 1 thread and all threads).
+    Bench(commands::bench::BenchArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Demo(a) => commands::demo::run(a),
+        Command::Render(a) => commands::render::run(a),
+        Command::Bench(a) => commands::bench::run(a),
+    };
+    if let Err(e) = result {
+        eprintln!("antumbra: error: {e:#}");
+        std::process::exit(1);
+    }
+}

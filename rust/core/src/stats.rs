@@ -23,11 +23,11 @@
 //! | back_facing | shadow samples behind the surface's own plane (shadowed, no ray) |
 //! | unreached | shadow samples of points outside a spot cone or behind an area light |
 
-use std::io::Write;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::output::write_bytes_atomic;
 use crate::trace::TraversalStats;
 use crate::{Error, Result};
 
@@ -143,40 +143,13 @@ pub fn to_csv(rows: &[StatsRow]) -> String {
     out
 }
 
-/// Writes `bytes` to `path` through a temporary file and a rename, so a crash never leaves a
-/// half-written file under the final name.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty());
-    if let Some(dir) = dir {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    }
-    let name = path
-        .file_name()
-        .ok_or_else(|| Error::io(path, "not a file path"))?;
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let write = || -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    };
-    write().map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
-    })
-}
-
 pub fn write_csv(path: &Path, rows: &[StatsRow]) -> Result<()> {
-    write_atomic(path, to_csv(rows).as_bytes())
+    write_bytes_atomic(path, to_csv(rows).as_bytes())
 }
 
 pub fn write_json(path: &Path, rows: &[StatsRow]) -> Result<()> {
     let text = serde_json::to_string_pretty(rows).map_err(|e| Error::io(path, e))?;
-    write_atomic(path, text.as_bytes())
+    write_bytes_atomic(path, text.as_bytes())
 }
 
 #[cfg(test)]

@@ -1,1 +1,67 @@
-//! Built-in scenes and file import.
+//! Where scenes come from: deterministic built-in animated scenes sized by a triangle budget, and
+//! OBJ/glTF import as static scenes.
+//!
+//! Every built-in scene follows Blender's conventions (Z up, cameras look down local -Z, lights
+//! emit along local -Z), keeps meshes that do not change between frames as the same `Arc`, and
+//! only rebuilds moving or deforming parts per frame. See `scenes/README.md` for what each
+//! scene exercises.
+
+mod bedroom;
+mod builder;
+mod city;
+mod colonnade;
+mod forest;
+mod hairball;
+mod import;
+mod params;
+mod primitives;
+mod rng;
+mod rotate;
+mod shapes;
+mod stage;
+
+use antumbra_core::scene::Animation;
+use antumbra_core::{Error, Result};
+
+pub use import::load_file;
+pub use params::SceneParams;
+pub use rotate::{rotate_scene, Rotated, ROTATED_SUFFIX};
+
+/// The names [`builtin`] accepts (each also with the [`ROTATED_SUFFIX`], "-rot45").
+pub const BUILTIN_SCENES: &[&str] = &["bedroom", "colonnade", "city", "forest", "hairball"];
+
+/// A built-in animated scene by name. A name ending in "-rot45" (e.g. "city-rot45") is the
+/// variant rotated by 45 degrees about the vertical axis, as is `params.rotated`.
+pub fn builtin(name: &str, params: &SceneParams) -> Result<Box<dyn Animation>> {
+    let (base, rotated) = match name.strip_suffix(ROTATED_SUFFIX) {
+        Some(base) => (base, true),
+        None => (name, params.rotated),
+    };
+    let anim: Box<dyn Animation> = match base {
+        "bedroom" => Box::new(bedroom::Bedroom::new(params.validated()?)),
+        "colonnade" => Box::new(colonnade::Colonnade::new(params.validated()?)),
+        "city" => Box::new(city::City::new(params.validated()?)),
+        "forest" => Box::new(forest::Forest::new(params.validated()?)),
+        "hairball" => Box::new(hairball::Hairball::new(params.validated()?)),
+        _ => {
+            return Err(Error::invalid(
+                "scene",
+                format!(
+                    "unknown scene '{name}' (known: {}, each also with the suffix '{ROTATED_SUFFIX}')",
+                    BUILTIN_SCENES.join(", ")
+                ),
+            ))
+        }
+    };
+    Ok(if rotated {
+        Box::new(Rotated::new(anim))
+    } else {
+        anim
+    })
+}
+
+/// The actual triangle count of an animation: that of its first frame (every built-in scene
+/// keeps the same count in all frames).
+pub fn triangle_count(anim: &dyn Animation) -> usize {
+    anim.frame(*anim.frame_range().start()).triangle_count()
+}

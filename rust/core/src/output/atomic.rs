@@ -124,3 +124,11 @@ mod tests {
         assert!(dir.file_names().is_empty());
     }
 }
+
+/// Writes `bytes` to `path` atomically, creating the parent folder if needed.
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    }
+    write_atomic(path, |w| w.write_all(bytes).map_err(|e| Error::io(path, e)))
+}

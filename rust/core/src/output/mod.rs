@@ -13,6 +13,7 @@ mod png;
 #[cfg(test)]
 mod test_dir;
 
+pub use self::atomic::write_bytes_atomic;
 pub use self::colormap::ColorMap;
 pub use self::exr::{read_exr, write_exr};
 pub use self::heatmap::{write_heatmap_png, HeatLegend, HeatScale};
