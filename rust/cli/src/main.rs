@@ -9,7 +9,11 @@ mod write;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "antumbra", version, about = "Shadow passes and BVH work heat maps of animated scenes")]
+#[command(
+    name = "antumbra",
+    version,
+    about = "Shadow passes and BVH work heat maps of animated scenes"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -37,22 +37,23 @@ pub fn builtin(name: &str, params: &SceneParams) -> Result<Box<dyn Animation>> {
         Some(base) => (base, true),
         None => (name, params.rotated),
     };
-    let anim: Box<dyn Animation> = match base {
-        "bedroom" => Box::new(bedroom::Bedroom::new(params.validated()?)),
-        "colonnade" => Box::new(colonnade::Colonnade::new(params.validated()?)),
-        "city" => Box::new(city::City::new(params.validated()?)),
-        "forest" => Box::new(forest::Forest::new(params.validated()?)),
-        "hairball" => Box::new(hairball::Hairball::new(params.validated()?)),
+    let make: fn(SceneParams) -> Box<dyn Animation> = match base {
+        "bedroom" => |p| Box::new(bedroom::Bedroom::new(p)),
+        "colonnade" => |p| Box::new(colonnade::Colonnade::new(p)),
+        "city" => |p| Box::new(city::City::new(p)),
+        "forest" => |p| Box::new(forest::Forest::new(p)),
+        "hairball" => |p| Box::new(hairball::Hairball::new(p)),
         _ => {
+            let known = BUILTIN_SCENES.join(", ");
             return Err(Error::invalid(
                 "scene",
                 format!(
-                    "unknown scene '{name}' (known: {}, each also with the suffix '{ROTATED_SUFFIX}')",
-                    BUILTIN_SCENES.join(", ")
+                    "unknown scene '{name}' (known: {known}; each also with '{ROTATED_SUFFIX}')"
                 ),
-            ))
+            ));
         }
     };
+    let anim = make(params.validated()?);
     Ok(if rotated {
         Box::new(Rotated::new(anim))
     } else {

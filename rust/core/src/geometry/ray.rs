@@ -44,6 +44,14 @@ pub struct RayBoxPrecomp {
     pub inv_dir: Vec3,
     /// Per axis: true if the direction component has its sign bit set.
     pub neg: BVec3,
+    /// How far past a hit distance a box's entry distance may lie and still hold a triangle
+    /// hit at that distance. A box's entry and a triangle's hit distance are rounded by
+    /// different computations, so a triangle on a box's face can be hit at a `t` a few ulps
+    /// below the box's computed entry. Traversals extend `t_max` by this margin in box tests
+    /// (never in triangle tests) so that exact ties are found as brute force finds them. The
+    /// bound is 2^-16 of the coordinates' magnitude (render space spans about [-1, 1]) over the
+    /// direction's length: hundreds of ulps, far above the tens the two computations can differ.
+    pub t_margin: f32,
     #[cfg(target_arch = "x86_64")]
     simd: sse::Precomp,
 }
@@ -60,10 +68,12 @@ impl RayBoxPrecomp {
             d.y.is_sign_negative(),
             d.z.is_sign_negative(),
         );
+        let magnitude = 2.0 + ray.origin.abs().max_element();
         RayBoxPrecomp {
             origin: ray.origin,
             inv_dir,
             neg,
+            t_margin: magnitude * (1.0 / 65536.0) / d.length(),
             #[cfg(target_arch = "x86_64")]
             simd: sse::Precomp::new(ray.origin, inv_dir, neg),
         }

@@ -79,6 +79,14 @@ fn sync_dir(dir: &Path) {
     let _ = dir;
 }
 
+/// Writes `bytes` to `path` atomically, creating the parent folder if needed.
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    }
+    write_atomic(path, |w| w.write_all(bytes).map_err(|e| Error::io(path, e)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -123,12 +131,4 @@ mod tests {
         assert!(matches!(err, Error::Io { .. }), "{err}");
         assert!(dir.file_names().is_empty());
     }
-}
-
-/// Writes `bytes` to `path` atomically, creating the parent folder if needed.
-pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    }
-    write_atomic(path, |w| w.write_all(bytes).map_err(|e| Error::io(path, e)))
 }

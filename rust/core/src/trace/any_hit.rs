@@ -24,7 +24,9 @@ pub fn occluded<C: Counters>(bvh: &Bvh, ray: &Ray, order: AnyHitOrder, stats: &m
     };
     let pre = RayBoxPrecomp::new(ray);
     let wt = WatertightRay::new(ray);
-    let (t_min, t_max) = (ray.t_min, ray.t_max);
+    let t_min = ray.t_min;
+    // Box tests reach a margin past the segment's end; triangle tests do not (see t_margin).
+    let t_max = ray.t_max + pre.t_margin;
     stats.boxes(1);
     if pre.hit_packed(root.packed(), t_min, t_max).is_none() {
         return false;
@@ -38,7 +40,7 @@ pub fn occluded<C: Counters>(bvh: &Bvh, ray: &Ray, order: AnyHitOrder, stats: &m
             let first = node.first as usize;
             for slot in first..first + node.count as usize {
                 stats.triangles(1);
-                if intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max).is_some() {
+                if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
                     return true;
                 }
             }

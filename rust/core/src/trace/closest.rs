@@ -4,8 +4,9 @@ use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 
 /// The closest hit along the ray in (t_min, t_max], ties broken by the smaller triangle id.
 /// Children are visited near to far; a node whose entry distance exceeds the current hit is
-/// culled when it comes off the stack. Culling uses `>`, not `>=`, so a triangle at exactly the
-/// current distance with a smaller id is still found.
+/// culled when it comes off the stack. Box tests and culling reach a margin past the current hit
+/// (see `RayBoxPrecomp::t_margin`), so a triangle at exactly the current distance with a smaller
+/// id is still found.
 #[inline]
 pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<Hit> {
     let nodes = &bvh.nodes;
@@ -16,7 +17,7 @@ pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<H
     let mut best: Option<Hit> = None;
     let mut t_max = ray.t_max;
     stats.boxes(1);
-    pre.hit_packed(root.packed(), t_min, t_max)?;
+    pre.hit_packed(root.packed(), t_min, t_max + pre.t_margin)?;
     let mut stack = [(0u32, 0f32); MAX_DEPTH];
     let mut sp = 0usize;
     let mut node = root;
@@ -45,8 +46,9 @@ pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<H
             stats.boxes(2);
             let l = node.first as usize;
             let (a, b) = (&nodes[l], &nodes[l + 1]);
-            let da = pre.hit_packed(a.packed(), t_min, t_max);
-            let db = pre.hit_packed(b.packed(), t_min, t_max);
+            let box_max = t_max + pre.t_margin;
+            let da = pre.hit_packed(a.packed(), t_min, box_max);
+            let db = pre.hit_packed(b.packed(), t_min, box_max);
             match (da, db) {
                 (Some(ta), Some(tb)) => {
                     let (near, far, tfar) = if tb < ta {
@@ -77,7 +79,7 @@ pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<H
             }
             sp -= 1;
             let (i, t_entry) = stack[sp];
-            if t_entry <= t_max {
+            if t_entry <= t_max + pre.t_margin {
                 node = &nodes[i as usize];
                 break;
             }

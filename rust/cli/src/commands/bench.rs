@@ -1,0 +1,316 @@
+//! `antumbra bench`: build time and Mrays/s per scene, on exactly the rays a frame traces,
+//! optionally beside Embree on the same triangles and rays.
+
+use std::time::Instant;
+
+use antumbra_core::bvh::{build_binned_sah, BuildSettings, Bvh};
+use antumbra_core::geometry::Ray;
+use antumbra_core::render::{
+    samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
+};
+use antumbra_core::scene::FrameGeometry;
+use antumbra_core::trace::{closest_hit, occluded, AnyHitOrder, NoStats};
+use anyhow::{bail, Result};
+use clap::Args;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::frames::parse_size;
+use crate::scene_source::open_scene;
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Scenes to measure (default: every built-in scene).
+    #[arg(long, num_args = 1..)]
+    pub scene: Vec<String>,
+    /// Triangle budget of built-in scenes.
+    #[arg(long, default_value_t = 350_000)]
+    pub triangles: usize,
+    /// Image size WxH of the camera rays.
+    #[arg(long, default_value = "512x512")]
+    pub size: String,
+    /// Shadow samples per pixel for soft lights.
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Timing repetitions; the best is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: u32,
+    /// Compare with another tracer on the same triangles and rays ("embree").
+    #[arg(long)]
+    pub compare: Option<String>,
+    /// Print the table as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Default, Serialize)]
+pub struct BenchRow {
+    pub scene: String,
+    pub triangles: usize,
+    pub threads: usize,
+    pub build_ms: f64,
+    pub bvh_bytes: usize,
+    pub primary_rays: usize,
+    pub primary_mrays: f64,
+    pub shadow_rays: usize,
+    pub shadow_occluded: f64,
+    pub shadow_mrays: f64,
+    pub embree_build_ms: Option<f64>,
+    pub embree_primary_mrays: Option<f64>,
+    pub embree_shadow_mrays: Option<f64>,
+    /// Shadow rays on which Embree and antumbra give the same occlusion answer.
+    pub embree_agreement: Option<f64>,
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    if let Some(c) = &args.compare {
+        if c != "embree" {
+            bail!("--compare: unknown tracer '{c}' (known: embree)");
+        }
+        if !cfg!(feature = "embree") {
+            bail!("--compare embree: this antumbra was built without the 'embree' feature (cargo build --features embree)");
+        }
+    }
+    let (w, h) = parse_size(&args.size)?;
+    let scenes: Vec<String> = if args.scene.is_empty() {
+        antumbra_scenes::BUILTIN_SCENES
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        args.scene.clone()
+    };
+    let all = rayon::current_num_threads();
+    let mut rows = Vec::new();
+    for name in &scenes {
+        let anim = open_scene(name, args.triangles, 1)?;
+        let first = *anim.frame_range().start();
+        let mut scene = anim.frame(first);
+        scene.resolution = antumbra_core::scene::Resolution::new(w, h);
+        let geometry = FrameGeometry::from_scene(&scene)?;
+        let tris = &geometry.camera.vertices;
+        let settings = BuildSettings::default();
+        let bvh = build_binned_sah(tris, &settings);
+        let primary_gen = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
+        let primary: Vec<Ray> = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| primary_gen.ray(x, y))
+            .collect();
+        let pass = PrimaryPass::timed(&primary_gen, &bvh, &geometry.camera);
+        let shadow_bvh_owned;
+        let shadow_bvh: &Bvh = match &geometry.shadow {
+            Some(s) => {
+                shadow_bvh_owned = build_binned_sah(&s.vertices, &settings);
+                &shadow_bvh_owned
+            }
+            None => &bvh,
+        };
+        let mut shadow = Vec::new();
+        for (i, light) in scene
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.casts_shadow)
+        {
+            let sampler = LightSampler::new(light, &geometry.space);
+            let plan = SamplePlan {
+                light_index: i as u32,
+                samples: samples_for(&sampler, args.spp),
+                seed: 0,
+            };
+            shadow.extend(shadow_rays(&pass, &sampler, plan));
+        }
+        let answers: Vec<bool> = shadow
+            .par_iter()
+            .map(|r| occluded(shadow_bvh, r, AnyHitOrder::NearFirst, &mut NoStats))
+            .collect();
+        for threads in [1, all] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()?;
+            let mut row = BenchRow {
+                scene: anim.name().to_string(),
+                triangles: tris.len(),
+                threads,
+                bvh_bytes: bvh.bytes(),
+                primary_rays: primary.len(),
+                shadow_rays: shadow.len(),
+                shadow_occluded: answers.iter().filter(|a| **a).count() as f64
+                    / shadow.len().max(1) as f64,
+                ..BenchRow::default()
+            };
+            pool.install(|| {
+                row.build_ms = best_of(args.repeat, || {
+                    build_binned_sah(tris, &settings);
+                });
+                row.primary_mrays = mrays(
+                    primary.len(),
+                    best_of(args.repeat, || {
+                        primary.par_iter().with_min_len(256).for_each(|r| {
+                            std::hint::black_box(closest_hit(&bvh, r, &mut NoStats));
+                        })
+                    }),
+                );
+                row.shadow_mrays = mrays(
+                    shadow.len(),
+                    best_of(args.repeat, || {
+                        shadow.par_iter().with_min_len(256).for_each(|r| {
+                            std::hint::black_box(occluded(
+                                shadow_bvh,
+                                r,
+                                AnyHitOrder::NearFirst,
+                                &mut NoStats,
+                            ));
+                        })
+                    }),
+                );
+            });
+            if args.compare.is_some() {
+                compare_embree(
+                    &mut row,
+                    tris,
+                    &primary,
+                    &shadow,
+                    &answers,
+                    threads,
+                    args.repeat,
+                )?;
+            }
+            rows.push(row);
+        }
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        print_table(&rows);
+    }
+    Ok(())
+}
+
+fn best_of(repeat: u32, mut f: impl FnMut()) -> f64 {
+    (0..repeat.max(1))
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64() * 1e3
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn mrays(n: usize, ms: f64) -> f64 {
+    n as f64 / (ms * 1e3)
+}
+
+#[cfg(feature = "embree")]
+fn compare_embree(
+    row: &mut BenchRow,
+    tris: &[[glam::Vec3; 3]],
+    primary: &[Ray],
+    shadow: &[Ray],
+    answers: &[bool],
+    threads: usize,
+    repeat: u32,
+) -> Result<()> {
+    use antumbra_embree::{EmbreeQuality, EmbreeScene};
+    let mut build_ms = f64::INFINITY;
+    let mut scene = None;
+    for _ in 0..repeat.max(1) {
+        let s = EmbreeScene::new(tris, EmbreeQuality::Medium, Some(threads))
+            .map_err(|e| anyhow::anyhow!("embree: {e}"))?;
+        build_ms = build_ms.min(s.build_ms());
+        scene = Some(s);
+    }
+    let scene = scene.expect("built at least once");
+    // Embree's TBB workers spin for a moment after a commit; let them settle before timing.
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    pool.install(|| {
+        row.embree_primary_mrays = Some(mrays(
+            primary.len(),
+            best_of(repeat, || {
+                primary.par_iter().with_min_len(256).for_each(|r| {
+                    std::hint::black_box(scene.intersect(r));
+                })
+            }),
+        ));
+        row.embree_shadow_mrays = Some(mrays(
+            shadow.len(),
+            best_of(repeat, || {
+                shadow.par_iter().with_min_len(256).for_each(|r| {
+                    std::hint::black_box(scene.occluded(r));
+                })
+            }),
+        ));
+    });
+    let agree = shadow
+        .par_iter()
+        .zip(answers)
+        .filter(|(r, a)| scene.occluded(r) == **a)
+        .count();
+    row.embree_build_ms = Some(build_ms);
+    row.embree_agreement = Some(agree as f64 / shadow.len().max(1) as f64);
+    Ok(())
+}
+
+#[cfg(not(feature = "embree"))]
+fn compare_embree(
+    _: &mut BenchRow,
+    _: &[[glam::Vec3; 3]],
+    _: &[Ray],
+    _: &[Ray],
+    _: &[bool],
+    _: usize,
+    _: u32,
+) -> Result<()> {
+    bail!("built without the 'embree' feature")
+}
+
+fn print_table(rows: &[BenchRow]) {
+    let embree = rows.iter().any(|r| r.embree_build_ms.is_some());
+    print!(
+        "{:<16} {:>9} {:>3} {:>9} {:>9} {:>8} {:>8} {:>7}",
+        "scene", "tris", "thr", "build ms", "MB", "prim Mr/s", "shad Mr/s", "occl"
+    );
+    if embree {
+        print!(
+            " | {:>9} {:>8} {:>9} {:>9} {:>9} {:>8}",
+            "E build", "build x", "E prim", "E shad", "shad x", "agree"
+        );
+    }
+    println!();
+    for r in rows {
+        print!(
+            "{:<16} {:>9} {:>3} {:>9.1} {:>9.1} {:>8.2} {:>8.2} {:>6.1}%",
+            r.scene,
+            r.triangles,
+            r.threads,
+            r.build_ms,
+            r.bvh_bytes as f64 / 1e6,
+            r.primary_mrays,
+            r.shadow_mrays,
+            r.shadow_occluded * 100.0
+        );
+        if let (Some(b), Some(p), Some(s), Some(a)) = (
+            r.embree_build_ms,
+            r.embree_primary_mrays,
+            r.embree_shadow_mrays,
+            r.embree_agreement,
+        ) {
+            print!(
+                " | {:>9.1} {:>8.2} {:>9.2} {:>9.2} {:>9.2} {:>7.3}%",
+                b,
+                r.build_ms / b,
+                p,
+                s,
+                r.shadow_mrays / s,
+                a * 100.0
+            );
+        }
+        println!();
+    }
+    if embree {
+        println!("build x = antumbra build / Embree MEDIUM build; shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays)");
+    }
+}

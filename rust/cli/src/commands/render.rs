@@ -1,0 +1,172 @@
+//! `antumbra render`: frames of a scene to images, heat maps and statistics.
+
+use std::path::{Path, PathBuf};
+
+use antumbra_core::bvh::{BuildMethod, BuildSettings};
+use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
+use antumbra_core::scene::Animation;
+use antumbra_core::stats::{write_csv, write_json, StatsRow};
+use antumbra_core::trace::AnyHitOrder;
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::frames::{parse_frames, parse_size};
+use crate::scene_source::open_scene;
+use crate::write::write_frame;
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum OrderArg {
+    /// Left child first, as built.
+    Stored,
+    /// Nearer child first.
+    Near,
+}
+
+/// Settings shared by `render` and `demo`.
+#[derive(Args, Clone, Debug)]
+pub struct MethodArgs {
+    /// Shadow samples per pixel for soft lights (hard lights take one ray).
+    #[arg(long, default_value_t = 4)]
+    pub spp: u32,
+    /// Seed of the light-sample patterns.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// BVH builder.
+    #[arg(long, default_value = "sah")]
+    pub build: BuildMethod,
+    /// Child order of shadow-ray traversal.
+    #[arg(long, value_enum, default_value = "near")]
+    pub order: OrderArg,
+    /// Largest leaf of the BVH.
+    #[arg(long, default_value_t = BuildSettings::default().max_leaf_size)]
+    pub leaf_size: usize,
+    /// SAH bins per axis.
+    #[arg(long, default_value_t = BuildSettings::default().bins)]
+    pub bins: usize,
+    /// Also time every pass with counters compiled out (Mrays/s without counting overhead).
+    #[arg(long)]
+    pub timing: bool,
+}
+
+impl MethodArgs {
+    pub fn settings(&self) -> RenderSettings {
+        RenderSettings {
+            spp: self.spp,
+            seed: self.seed,
+            build: self.build,
+            build_settings: BuildSettings {
+                max_leaf_size: self.leaf_size,
+                bins: self.bins,
+                ..BuildSettings::default()
+            },
+            shadow_order: match self.order {
+                OrderArg::Stored => AnyHitOrder::Stored,
+                OrderArg::Near => AnyHitOrder::NearFirst,
+            },
+            stats: if self.timing {
+                StatsMode::CountsAndTiming
+            } else {
+                StatsMode::Counts
+            },
+        }
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// A built-in scene (bedroom, colonnade, city, forest, hairball; "-rot45" for the rotated
+    /// variant) or an OBJ/glTF file.
+    #[arg(long)]
+    pub scene: String,
+    /// Frames to render, "A-B" or "N" (default: the scene's whole range).
+    #[arg(long)]
+    pub frames: Option<String>,
+    /// Image size WxH (default: the scene's resolution).
+    #[arg(long)]
+    pub size: Option<String>,
+    /// Triangle budget of a built-in scene.
+    #[arg(long, default_value_t = 100_000)]
+    pub triangles: usize,
+    #[command(flatten)]
+    pub method: MethodArgs,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub fn run(args: RenderArgs) -> Result<()> {
+    let frames = args.frames.as_deref().map(parse_frames).transpose()?;
+    let size = args.size.as_deref().map(parse_size).transpose()?;
+    let frame_count = frames.as_ref().map_or(24, |r| *r.end());
+    let scene = open_scene(&args.scene, args.triangles, frame_count.max(1))?;
+    let frames = frames.unwrap_or_else(|| scene.frame_range());
+    let rows = render_frames(
+        scene.as_ref(),
+        frames,
+        size,
+        &args.method.settings(),
+        &args.out,
+    )?;
+    println!(
+        "wrote {} frames, {} statistics rows to {}",
+        rows.iter()
+            .map(|r| r.frame)
+            .collect::<std::collections::BTreeSet<_>>()
+            .len(),
+        rows.len(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Renders `frames`, writing images per frame and the statistics of all frames into `out`.
+pub fn render_frames(
+    scene: &dyn Animation,
+    frames: std::ops::RangeInclusive<i32>,
+    size: Option<(u32, u32)>,
+    settings: &RenderSettings,
+    out: &Path,
+) -> Result<Vec<StatsRow>> {
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let bar = ProgressBar::new(frames.clone().count() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {msg}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(scene.name().to_string());
+    let mut renderer = Renderer::new();
+    let mut rows = Vec::new();
+    for frame in frames {
+        let mut s = scene.frame(frame);
+        if let Some((w, h)) = size {
+            s.resolution.x = w;
+            s.resolution.y = h;
+            s.resolution.percentage = 100;
+        }
+        let result = renderer
+            .render(scene.name(), &s, settings)
+            .with_context(|| format!("frame {frame}"))?;
+        let scales = write_frame(out, &result).with_context(|| format!("writing frame {frame}"))?;
+        if bar.is_hidden() {
+            for r in &result.stats {
+                println!(
+                    "frame {} {:7} {:12} rays {:>9}  occluded {:5.1}%  N_B {:6.2} N_L {:5.2} N_T {:6.2} per ray",
+                    r.frame, r.pass, r.light, r.rays, r.occluded_fraction * 100.0, r.nb_per_ray, r.nl_per_ray, r.nt_per_ray
+                );
+            }
+            for s in scales {
+                println!("frame {frame} heat map {s}");
+            }
+        }
+        bar.set_message(format!("frame {frame}"));
+        bar.inc(1);
+        rows.extend(result.stats);
+        // Tables are rewritten after every frame so an interrupted run keeps what it finished.
+        write_csv(&out.join("stats.csv"), &rows)?;
+        write_json(&out.join("stats.json"), &rows)?;
+    }
+    bar.finish();
+    Ok(rows)
+}

@@ -1,0 +1,114 @@
+//! Every built-in scene (and its rotated variant) at small size: the BVH's closest hits and
+//! occlusion answers equal brute force for thousands of rays — camera rays, the frame's own shadow
+//! rays, random rays, rays from inside closed meshes, grazing and axis-parallel rays.
+
+use antumbra_core::bvh::{build_binned_sah, BuildSettings};
+use antumbra_core::geometry::Ray;
+use antumbra_core::render::{
+    samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
+};
+use antumbra_core::sampling::{hash_u32, unit_float};
+use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::trace::{
+    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats,
+};
+use antumbra_scenes::{builtin, SceneParams, BUILTIN_SCENES};
+use glam::Vec3;
+use rayon::prelude::*;
+
+fn r(seed: u32) -> f32 {
+    unit_float(hash_u32(seed))
+}
+
+/// Random rays inside the scene's bounds, a share of them axis-parallel (with -0.0) or grazing.
+fn random_rays(lo: Vec3, hi: Vec3, n: u32) -> Vec<Ray> {
+    (0..n)
+        .map(|i| {
+            let o = lo + (hi - lo) * Vec3::new(r(6 * i), r(6 * i + 1), r(6 * i + 2));
+            let mut d = Vec3::new(r(6 * i + 3), r(6 * i + 4), r(6 * i + 5)) * 2.0 - 1.0;
+            match i % 6 {
+                0 => d = Vec3::new(0.0, -0.0, d.z.signum()),
+                1 => d = Vec3::new(d.x, 0.0, -0.0),
+                2 => d = Vec3::new(d.x, d.y, 1e-6),
+                _ => {}
+            }
+            Ray::new(o, d, 0.0, if i % 4 == 0 { 0.3 } else { f32::INFINITY })
+        })
+        .collect()
+}
+
+#[test]
+fn every_builtin_scene_matches_brute_force() {
+    for name in BUILTIN_SCENES {
+        for rotated in [false, true] {
+            let params = SceneParams {
+                triangles: 10_000,
+                frames: 2,
+                rotated,
+            };
+            let anim = builtin(name, &params).unwrap();
+            let mut scene = anim.frame(*anim.frame_range().start() + 1);
+            scene.resolution = Resolution::new(48, 32);
+            let g = FrameGeometry::from_scene(&scene).unwrap();
+            let tris = &g.camera.vertices;
+            let bvh = build_binned_sah(tris, &BuildSettings::default());
+            bvh.validate().unwrap();
+
+            let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
+            let mut rays: Vec<Ray> = (0..32)
+                .flat_map(|y| (0..48).map(move |x| (x, y)))
+                .map(|(x, y)| camera.ray(x, y))
+                .collect();
+            let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+            for (i, l) in scene.lights.iter().enumerate() {
+                let s = LightSampler::new(l, &g.space);
+                let plan = SamplePlan {
+                    light_index: i as u32,
+                    samples: samples_for(&s, 2),
+                    seed: 1,
+                };
+                rays.extend(shadow_rays(&pass, &s, plan));
+            }
+            let b = g.camera.bounds();
+            rays.extend(random_rays(b.min, b.max, 2000));
+            // From inside the scene's objects: origins at triangle centroids pushed inwards.
+            rays.extend((0..500u32).map(|i| {
+                let t = &tris[(hash_u32(i) as usize) % tris.len()];
+                let c = (t[0] + t[1] + t[2]) / 3.0;
+                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+                Ray::new(
+                    c - n * 1e-3,
+                    -n + Vec3::new(r(i), r(i + 9), r(i + 99)) * 0.5,
+                    0.0,
+                    f32::INFINITY,
+                )
+            }));
+            assert!(rays.len() > 3000, "{name}: {} rays", rays.len());
+            let mismatches: Vec<usize> = rays
+                .par_iter()
+                .enumerate()
+                .filter(|(_, ray)| {
+                    let h = closest_hit(&bvh, ray, &mut NoStats).map(|h| (h.triangle, h.t));
+                    let b = brute_closest_hit(tris, ray).map(|h| (h.triangle, h.t));
+                    let occ = brute_occluded(tris, ray);
+                    h != b
+                        || occluded(&bvh, ray, AnyHitOrder::NearFirst, &mut NoStats) != occ
+                        || occluded(&bvh, ray, AnyHitOrder::Stored, &mut NoStats) != occ
+                })
+                .map(|(i, _)| i)
+                .collect();
+            if let Some(&first) = mismatches.first() {
+                let ray = &rays[first];
+                panic!(
+                    "{name} rotated={rotated}: {} of {} rays differ; first {ray:?}: bvh {:?} brute {:?}, occluded bvh {} brute {}",
+                    mismatches.len(),
+                    rays.len(),
+                    closest_hit(&bvh, ray, &mut NoStats),
+                    brute_closest_hit(tris, ray),
+                    occluded(&bvh, ray, AnyHitOrder::NearFirst, &mut NoStats),
+                    brute_occluded(tris, ray),
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,119 @@
+//! The `antumbra` binary as a user runs it: render writes images, heat maps and statistics;
+//! bad arguments give clear errors and a non-zero exit code.
+
+use std::path::Path;
+use std::process::Command;
+
+fn antumbra() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_antumbra"))
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("antumbra-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn render_writes_images_heat_maps_and_statistics() {
+    let out = temp_dir("render");
+    let status = antumbra()
+        .args([
+            "render", "--scene", "city", "--frames", "1-2", "--size", "64x40",
+        ])
+        .args(["--triangles", "10000", "--spp", "2", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    for frame in [1, 2] {
+        let exr = out.join(format!("frame_{frame:04}.exr"));
+        let planes = antumbra_core::output::read_exr(&exr).unwrap();
+        let names: Vec<&str> = planes.iter().map(|p| p.name.as_str()).collect();
+        for expected in [
+            "combined",
+            "primary.N_B",
+            "primary.N_L",
+            "primary.N_T",
+            "shadow.N_B",
+            "shadow.N_T",
+        ] {
+            assert!(
+                names.contains(&expected),
+                "{expected} missing from {names:?}"
+            );
+        }
+        assert!(names
+            .iter()
+            .any(|n| n.starts_with("shadow.") && !n.contains("N_")));
+        assert!(planes.iter().all(|p| p.width == 64 && p.height == 40));
+        assert!(Path::new(&out.join(format!("frame_{frame:04}_combined.png"))).exists());
+        assert!(Path::new(&out.join(format!("frame_{frame:04}_heat_primary.N_B.png"))).exists());
+    }
+    let csv = std::fs::read_to_string(out.join("stats.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert!(lines
+        .next()
+        .unwrap()
+        .starts_with("scene,frame,method,pass,light"));
+    let rows: Vec<&str> = lines.collect();
+    assert!(rows
+        .iter()
+        .any(|r| r.contains(",1,") && r.contains("primary")));
+    assert!(rows
+        .iter()
+        .any(|r| r.contains(",2,") && r.contains("shadow")));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(json.as_array().unwrap().len(), rows.len());
+    std::fs::remove_dir_all(out).unwrap();
+}
+
+#[test]
+fn bad_arguments_fail_with_a_clear_message() {
+    let out = temp_dir("bad");
+    for (args, needle) in [
+        (
+            vec!["render", "--scene", "nowhere", "--out"],
+            "unknown scene 'nowhere'",
+        ),
+        (
+            vec!["render", "--scene", "city", "--frames", "9-3", "--out"],
+            "--frames",
+        ),
+        (
+            vec!["render", "--scene", "city", "--size", "0x5", "--out"],
+            "--size",
+        ),
+        (
+            vec![
+                "render",
+                "--scene",
+                "city",
+                "--spp",
+                "0",
+                "--frames",
+                "1",
+                "--size",
+                "8x8",
+                "--triangles",
+                "10000",
+                "--out",
+            ],
+            "spp",
+        ),
+        (
+            vec!["render", "--scene", "/does/not/exist.obj", "--out"],
+            "exist.obj",
+        ),
+    ] {
+        let o = antumbra().args(&args).arg(&out).output().unwrap();
+        assert!(!o.status.success(), "{args:?} succeeded");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}

@@ -1,0 +1,153 @@
+//! Errors of the protocol layer. Every message names the mesh, object, frame or field at fault so
+//! the daemon can send it to Blender as is (see [`ProtocolError::to_reply`]).
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::messages::Reply;
+
+/// The machine-readable class of an error reply. The human-readable `message` beside it names
+/// what was wrong; the code tells a client what to do about it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ErrorCode {
+    /// The bytes of a frame were not a valid message (bad MessagePack, unknown message type,
+    /// missing field, trailing bytes).
+    BadFrame,
+    /// The client's protocol version is not the daemon's.
+    VersionMismatch,
+    /// A frame's length prefix exceeds `Limits::max_frame_bytes`.
+    TooLarge,
+    /// A well-formed message with values that make no sense (NaN, index out of range, wrong hash,
+    /// bad byte length, setting out of range).
+    InvalidInput,
+    /// A frame refers to a mesh hash the daemon does not hold: upload it and resend the frame.
+    UnknownMesh,
+    /// A count or size above one of the [`crate::Limits`].
+    LimitExceeded,
+    /// The daemon is doing something else that this request would conflict with.
+    Busy,
+    /// The render was cancelled by a `Cancel` request.
+    Cancelled,
+    /// A bug or resource failure in the daemon.
+    Internal,
+}
+
+/// Errors of the framing layer: reading or decoding one length-prefixed message.
+#[derive(Debug, Error)]
+pub enum FrameError {
+    /// The stream ended cleanly at a message boundary.
+    #[error("connection closed")]
+    Closed,
+    /// The stream ended inside a frame.
+    #[error("truncated frame: expected {expected} bytes, got {got}")]
+    Truncated { expected: u64, got: u64 },
+    /// The length prefix exceeds the limit; refused before anything was allocated. The stream
+    /// cannot be resynchronised after this.
+    #[error("frame of {len} bytes exceeds the limit of {max} bytes (max_frame_bytes)")]
+    TooLarge { len: u64, max: u64 },
+    /// The frame's body is not a valid message. The next frame can still be read.
+    #[error("undecodable message: {0}")]
+    Decode(String),
+    /// A message could not be encoded (or is too large to frame).
+    #[error("cannot encode message: {0}")]
+    Encode(String),
+    #[error("i/o error: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+impl FrameError {
+    pub fn code(&self) -> ErrorCode {
+        match self {
+            FrameError::TooLarge { .. } => ErrorCode::TooLarge,
+            FrameError::Closed
+            | FrameError::Truncated { .. }
+            | FrameError::Decode(_)
+            | FrameError::Encode(_) => ErrorCode::BadFrame,
+            FrameError::Io(_) => ErrorCode::Internal,
+        }
+    }
+
+    /// Whether the byte stream is still aligned on frame boundaries after this error, so the
+    /// session can go on: only a body that failed to decode leaves the framing intact.
+    pub fn session_usable(&self) -> bool {
+        matches!(self, FrameError::Decode(_))
+    }
+
+    /// The error reply to send for this error (when the connection can still carry one).
+    pub fn to_reply(&self) -> Reply {
+        Reply::Error {
+            code: self.code(),
+            message: self.to_string(),
+            session_usable: self.session_usable(),
+        }
+    }
+}
+
+/// Errors in the content of a well-framed message.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ProtocolError {
+    #[error("protocol version mismatch: the client speaks version {client}, this daemon speaks version {server}")]
+    VersionMismatch { client: u32, server: u32 },
+    /// A field with a value outside its valid range; `field` names the mesh/object/frame too.
+    #[error("{field}: {message}")]
+    Invalid { field: String, message: String },
+    #[error("mesh '{mesh}': declared hash {declared:#018x} but its positions and triangles hash to {actual:#018x}")]
+    HashMismatch {
+        mesh: String,
+        declared: u64,
+        actual: u64,
+    },
+    #[error("frame {frame}: object '{object}' refers to mesh {hash:#018x}, which the daemon does not hold (upload it first)")]
+    UnknownMesh {
+        frame: i32,
+        object: String,
+        hash: u64,
+    },
+    #[error("{what}: {value} exceeds the limit of {limit} ({limit_name})")]
+    LimitExceeded {
+        what: String,
+        value: u64,
+        limit: u64,
+        limit_name: &'static str,
+    },
+    /// A core validation error found in one frame's data.
+    #[error("frame {frame}: {error}")]
+    InFrame {
+        frame: i32,
+        error: antumbra_core::Error,
+    },
+    /// A core validation error outside a frame (mesh uploads, settings).
+    #[error(transparent)]
+    Core(#[from] antumbra_core::Error),
+}
+
+impl ProtocolError {
+    pub(crate) fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
+        ProtocolError::Invalid {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn code(&self) -> ErrorCode {
+        match self {
+            ProtocolError::VersionMismatch { .. } => ErrorCode::VersionMismatch,
+            ProtocolError::UnknownMesh { .. } => ErrorCode::UnknownMesh,
+            ProtocolError::LimitExceeded { .. } => ErrorCode::LimitExceeded,
+            ProtocolError::Invalid { .. }
+            | ProtocolError::HashMismatch { .. }
+            | ProtocolError::InFrame { .. }
+            | ProtocolError::Core(_) => ErrorCode::InvalidInput,
+        }
+    }
+
+    /// The error reply for this error. Only a version mismatch ends the session: every other
+    /// content error rejects one request and leaves the session as it was.
+    pub fn to_reply(&self) -> Reply {
+        Reply::Error {
+            code: self.code(),
+            message: self.to_string(),
+            session_usable: !matches!(self, ProtocolError::VersionMismatch { .. }),
+        }
+    }
+}

@@ -1,0 +1,31 @@
+//! The wire protocol between the Blender add-on (through the Python client) and the antumbra
+//! daemon: versioned messages ([`Request`], [`Reply`]), length-prefixed MessagePack framing
+//! ([`frame`]), limits ([`Limits`], [`check_limits`]), conversions to and from antumbra-core's
+//! scene and results ([`convert`]), and session recordings ([`recording`]).
+//!
+//! The normative description, with byte layouts and an example session, is `docs/protocol.md`.
+
+pub mod bytes;
+pub mod convert;
+pub mod error;
+pub mod frame;
+#[doc(hidden)]
+pub mod fuzzing;
+pub mod limits;
+pub mod messages;
+pub mod recording;
+
+pub use convert::{
+    frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,
+    planes_from_reply, render_settings, scene_from_frame, scene_to_messages, stats_from_reply,
+    upload_from_mesh, visible_from_reply, MeshStore,
+};
+pub use error::{ErrorCode, FrameError, ProtocolError};
+pub use frame::{
+    decode_body, encode_body, encode_message, read_frame, read_message, write_message, FrameDecoder,
+};
+pub use limits::{check_limits, Limits};
+pub use messages::*;
+pub use recording::{
+    replay_scenes, RecordedAnimation, RecordingError, RecordingReader, RecordingWriter, Replay,
+};

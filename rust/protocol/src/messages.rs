@@ -1,0 +1,402 @@
+//! The messages: [`Request`]s from the client (the Blender add-on) and [`Reply`]s from the daemon.
+//!
+//! Wire conventions (see `docs/protocol.md`):
+//! - Enums are *externally tagged*: a message is a one-entry map `{"UploadMesh": {..fields..}}`,
+//!   and a variant without fields is just its name as a string (`"Stats"`). Chosen over an
+//!   internal `"type"` field because serde decodes internally tagged enums through an
+//!   intermediate buffer, which would copy every bulk array once more.
+//! - Structs are maps keyed by field name (`rmp_serde::to_vec_named`): field order does not
+//!   matter and unknown fields are ignored, so a newer peer can add fields.
+//! - Variant names are PascalCase, field names snake_case.
+//! - Bulk arrays are MessagePack `bin` ([`ByteBuf`]), little-endian, never lists of numbers.
+//! - Matrices are 16 f64 in column-major order (Blender's `matrix_world` transposed: element
+//!   `4*col + row`).
+
+use serde::{Deserialize, Serialize};
+use serde_bytes::ByteBuf;
+
+use crate::error::ErrorCode;
+use crate::limits::Limits;
+
+/// The protocol version this crate speaks; `Hello` must carry it.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+/// A message from the client to the daemon.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Request {
+    /// First message of a session. Reply: `Welcome`, or `Error { code: VersionMismatch }`.
+    Hello { version: u32, client: String },
+    /// Which of these mesh hashes does the daemon lack? Reply: `Missing`.
+    MissingMeshes { hashes: Vec<u64> },
+    /// Reply: `MeshStored`.
+    UploadMesh(UploadMesh),
+    /// The whole scene state of one frame. Reply: `FrameAccepted`.
+    FrameUpdate(FrameUpdate),
+    /// The camera of every frame of the animation, sent up front (for visibility prediction).
+    /// Reply: `Ack`.
+    CameraPath { frames: Vec<(i32, CameraState)> },
+    /// Render a frame that was sent with `FrameUpdate`. Replies: zero or more `Progress`, then
+    /// `FrameResult` (or `Error`).
+    Render(RenderRequest),
+    /// Cancel a running render. Reply: `Ack`; the render itself ends with
+    /// `Error { code: Cancelled }` (or its result, if it finished first).
+    Cancel { request_id: u64 },
+    /// Daemon statistics. Reply: `DaemonStats`.
+    Stats,
+    /// End this session (the daemon keeps its mesh cache). Reply: `Ack`, then the daemon closes
+    /// the connection.
+    Close,
+    /// Stop the daemon. Reply: `Ack`.
+    Shutdown,
+}
+
+/// A message from the daemon to the client.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Reply {
+    Welcome {
+        version: u32,
+        server: String,
+        limits: Limits,
+    },
+    Missing {
+        hashes: Vec<u64>,
+    },
+    MeshStored {
+        hash: u64,
+        triangles: u32,
+    },
+    FrameAccepted {
+        frame: i32,
+        /// Hashes the frame refers to that the daemon does not hold; upload them before `Render`.
+        meshes_missing: Vec<u64>,
+    },
+    Ack,
+    Progress {
+        request_id: u64,
+        stage: String,
+        done: u32,
+        total: u32,
+    },
+    FrameResult(FrameResultReply),
+    DaemonStats(DaemonStats),
+    Error {
+        code: ErrorCode,
+        message: String,
+        /// False when the daemon will close the connection after this reply.
+        session_usable: bool,
+    },
+}
+
+/// One mesh in object space. `hash` must equal [`antumbra_core::scene::Mesh::content_hash`] of
+/// the positions and triangles (the name is not hashed).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UploadMesh {
+    pub hash: u64,
+    pub name: String,
+    /// f32 little-endian x, y, z per vertex: 12 bytes a vertex.
+    pub positions: ByteBuf,
+    /// u32 little-endian vertex indices, 3 per triangle: 12 bytes a triangle.
+    pub triangles: ByteBuf,
+}
+
+/// The scene state of one frame; meshes are referred to by hash.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameUpdate {
+    pub frame: i32,
+    pub objects: Vec<ObjectState>,
+    pub camera: CameraState,
+    pub lights: Vec<LightState>,
+    pub resolution: ResolutionState,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ObjectState {
+    pub name: String,
+    pub mesh_hash: u64,
+    /// Column-major object-to-world matrix (Blender's `matrix_world`).
+    pub world_from_object: [f64; 16],
+    pub visible_to_camera: bool,
+    pub casts_shadow: bool,
+}
+
+/// Mirrors [`antumbra_core::scene::Camera`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraState {
+    /// Column-major camera-to-world matrix; the camera looks down its local -Z with +Y up.
+    pub world_from_camera: [f64; 16],
+    pub lens_mm: f64,
+    pub sensor_width_mm: f64,
+    pub sensor_height_mm: f64,
+    pub sensor_fit: SensorFitState,
+    pub shift_x: f64,
+    pub shift_y: f64,
+    pub clip_start: f64,
+    pub clip_end: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum SensorFitState {
+    #[default]
+    Auto,
+    Horizontal,
+    Vertical,
+}
+
+/// Mirrors [`antumbra_core::scene::Light`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LightState {
+    pub name: String,
+    /// Column-major light-to-world matrix; lights emit along their local -Z.
+    pub world_from_light: [f64; 16],
+    pub kind: LightKindState,
+    pub casts_shadow: bool,
+}
+
+/// Mirrors [`antumbra_core::scene::LightKind`]; tagged by a `"type"` field
+/// (`{"type": "Sun", "angle": 0.01}`): small, so the buffering of internal tags costs nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type")]
+pub enum LightKindState {
+    Point {
+        radius: f64,
+    },
+    Sun {
+        angle: f64,
+    },
+    Spot {
+        radius: f64,
+        spot_size: f64,
+        spot_blend: f64,
+    },
+    Area {
+        shape: AreaShapeState,
+        size_x: f64,
+        size_y: f64,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum AreaShapeState {
+    Square,
+    Rectangle,
+    Disk,
+    Ellipse,
+}
+
+/// Mirrors [`antumbra_core::scene::Resolution`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResolutionState {
+    pub x: u32,
+    pub y: u32,
+    pub percentage: u32,
+    pub pixel_aspect_x: f64,
+    pub pixel_aspect_y: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderRequest {
+    pub frame: i32,
+    #[serde(default)]
+    pub settings: RenderSettingsState,
+    #[serde(default)]
+    pub passes: Passes,
+    /// Chosen by the client; echoed in `Progress` and `FrameResult`, named by `Cancel`.
+    pub request_id: u64,
+}
+
+/// Which outputs a `FrameResult` carries. Omitted fields take the defaults (all images, no
+/// visible set).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Passes {
+    /// One shadow mask per shadow-casting light (`shadow.<light>`).
+    pub masks: bool,
+    /// The mean of the masks (`combined`).
+    pub combined: bool,
+    /// Traversal work per pixel: `primary.N_B`, `primary.N_L`, `primary.N_T`, `shadow.N_B`, ...
+    pub heat_maps: bool,
+    /// The triangles a camera ray hit, as (object, primitive) pairs.
+    pub visible_set: bool,
+}
+
+impl Default for Passes {
+    fn default() -> Self {
+        Passes {
+            masks: true,
+            combined: true,
+            heat_maps: true,
+            visible_set: false,
+        }
+    }
+}
+
+/// Mirrors [`antumbra_core::render::RenderSettings`]; omitted fields take the core defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct RenderSettingsState {
+    pub spp: u32,
+    pub seed: u32,
+    pub build: BuildMethodState,
+    pub build_settings: BuildSettingsState,
+    pub shadow_order: ShadowOrderState,
+    pub stats: StatsModeState,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum BuildMethodState {
+    #[default]
+    Sah,
+}
+
+/// Mirrors [`antumbra_core::bvh::BuildSettings`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BuildSettingsState {
+    pub bins: u32,
+    pub max_leaf_size: u32,
+    pub traversal_cost: f32,
+    pub intersection_cost: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum ShadowOrderState {
+    Stored,
+    #[default]
+    NearFirst,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum StatsModeState {
+    #[default]
+    Counts,
+    CountsAndTiming,
+    TimingOnly,
+}
+
+/// The outputs of one rendered frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameResultReply {
+    pub request_id: u64,
+    pub frame: i32,
+    pub width: u32,
+    pub height: u32,
+    /// In this order: masks (light order), `combined`, primary heat maps, shadow heat maps;
+    /// each only if its pass was requested.
+    pub images: Vec<Image>,
+    pub stats: Vec<StatsRowState>,
+    /// The visible set when requested: u32 LE pairs (object index, triangle index), sorted.
+    pub visible: Option<ByteBuf>,
+}
+
+/// One single-channel float image, rows top to bottom.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Image {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// width × height f32 little-endian, row-major from the top-left pixel.
+    pub data: ByteBuf,
+}
+
+/// Mirrors [`antumbra_core::stats::StatsRow`] (the columns are documented there).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct StatsRowState {
+    pub scene: String,
+    pub frame: i32,
+    pub method: String,
+    pub pass: String,
+    pub light: String,
+    pub rebuilt: bool,
+    pub build_ms: f64,
+    pub bvh_nodes: u64,
+    pub bvh_bytes: u64,
+    pub triangles: u64,
+    pub rays: u64,
+    pub trace_ms: f64,
+    pub mrays_per_s: f64,
+    pub timed_without_counters: bool,
+    pub occluded_fraction: f64,
+    pub nb_per_ray: f64,
+    pub nl_per_ray: f64,
+    pub nt_per_ray: f64,
+    pub nbox_per_ray: f64,
+    pub back_facing: u64,
+    pub unreached: u64,
+}
+
+/// What the daemon has done since it started.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DaemonStats {
+    /// Sessions connected now.
+    pub sessions: u32,
+    /// Sessions since start.
+    pub sessions_total: u64,
+    pub meshes_cached: u64,
+    /// Bytes held by cached meshes (positions and triangles).
+    pub bytes_cached: u64,
+    pub renders_done: u64,
+    pub renders_cancelled: u64,
+    pub renders_failed: u64,
+    pub uptime_s: f64,
+}
+
+impl Request {
+    /// The message's type name as it appears on the wire, for logs and error messages.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Request::Hello { .. } => "Hello",
+            Request::MissingMeshes { .. } => "MissingMeshes",
+            Request::UploadMesh(_) => "UploadMesh",
+            Request::FrameUpdate(_) => "FrameUpdate",
+            Request::CameraPath { .. } => "CameraPath",
+            Request::Render(_) => "Render",
+            Request::Cancel { .. } => "Cancel",
+            Request::Stats => "Stats",
+            Request::Close => "Close",
+            Request::Shutdown => "Shutdown",
+        }
+    }
+}
+
+impl Reply {
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Reply::Welcome { .. } => "Welcome",
+            Reply::Missing { .. } => "Missing",
+            Reply::MeshStored { .. } => "MeshStored",
+            Reply::FrameAccepted { .. } => "FrameAccepted",
+            Reply::Ack => "Ack",
+            Reply::Progress { .. } => "Progress",
+            Reply::FrameResult(_) => "FrameResult",
+            Reply::DaemonStats(_) => "DaemonStats",
+            Reply::Error { .. } => "Error",
+        }
+    }
+}
+
+/// Checks the first message of a session: it must be `Hello` with this crate's
+/// [`PROTOCOL_VERSION`]. A mismatch is an error whose reply ends the session.
+pub fn check_hello(request: &Request) -> Result<(), crate::ProtocolError> {
+    match request {
+        Request::Hello { version, .. } if *version == PROTOCOL_VERSION => Ok(()),
+        Request::Hello { version, .. } => Err(crate::ProtocolError::VersionMismatch {
+            client: *version,
+            server: PROTOCOL_VERSION,
+        }),
+        other => Err(crate::ProtocolError::invalid(
+            "session",
+            format!("the first message must be Hello, got {}", other.kind()),
+        )),
+    }
+}
+
+/// The reply to a `Hello` that passed [`check_hello`].
+pub fn welcome(server: impl Into<String>, limits: &Limits) -> Reply {
+    Reply::Welcome {
+        version: PROTOCOL_VERSION,
+        server: server.into(),
+        limits: limits.clone(),
+    }
+}

@@ -1,0 +1,352 @@
+//! Recordings (`.antrec`): a session's requests saved to a file so a scene sent from Blender can
+//! be rendered again without Blender (`antumbra render --scene FILE.antrec`).
+//!
+//! Format: the 8 bytes `ANTREC1\n`, then framed [`Request`]s exactly as on the socket (4-byte LE
+//! length + MessagePack body), until the end of the file. Replaying applies `UploadMesh` and
+//! `FrameUpdate` in order; every other request is skipped.
+
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read, Write};
+use std::ops::RangeInclusive;
+use std::path::Path;
+use std::sync::Arc;
+
+use antumbra_core::scene::{Animation, Mesh, Scene};
+use thiserror::Error;
+
+use crate::convert::{mesh_from_upload, scene_from_frame, scene_to_messages};
+use crate::error::{FrameError, ProtocolError};
+use crate::frame::{read_message, write_message};
+use crate::limits::{Limits, MAX_FRAME_BYTES_CEILING};
+use crate::messages::Request;
+
+pub const RECORDING_MAGIC: &[u8; 8] = b"ANTREC1\n";
+
+#[derive(Debug, Error)]
+pub enum RecordingError {
+    #[error("{path}: {source}")]
+    File {
+        path: String,
+        source: Box<RecordingError>,
+    },
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    #[error("not an antumbra recording: it does not start with \"ANTREC1\\n\"")]
+    BadMagic,
+    #[error("message {index}: {source}")]
+    Frame { index: usize, source: FrameError },
+    #[error("message {index} ({kind}): {source}")]
+    Protocol {
+        index: usize,
+        kind: &'static str,
+        source: ProtocolError,
+    },
+    #[error("the recording holds no FrameUpdate")]
+    NoFrames,
+}
+
+impl RecordingError {
+    fn in_file(self, path: &Path) -> Self {
+        RecordingError::File {
+            path: path.display().to_string(),
+            source: Box::new(self),
+        }
+    }
+}
+
+/// Appends requests to a recording.
+pub struct RecordingWriter<W: Write> {
+    w: W,
+    /// Meshes already in the recording, so [`append_scene`](Self::append_scene) uploads each
+    /// content once.
+    uploaded: HashSet<u64>,
+    written: usize,
+}
+
+impl RecordingWriter<BufWriter<File>> {
+    pub fn create(path: impl AsRef<Path>) -> Result<Self, RecordingError> {
+        let path = path.as_ref();
+        let file = File::create(path).map_err(|e| RecordingError::from(e).in_file(path))?;
+        RecordingWriter::new(BufWriter::new(file)).map_err(|e| e.in_file(path))
+    }
+}
+
+impl<W: Write> RecordingWriter<W> {
+    /// Starts a recording by writing the magic header.
+    pub fn new(mut w: W) -> Result<Self, RecordingError> {
+        w.write_all(RECORDING_MAGIC)?;
+        Ok(RecordingWriter {
+            w,
+            uploaded: HashSet::new(),
+            written: 0,
+        })
+    }
+
+    pub fn append(&mut self, request: &Request) -> Result<(), FrameError> {
+        if let Request::UploadMesh(u) = request {
+            self.uploaded.insert(u.hash);
+        }
+        write_message(&mut self.w, request)?;
+        self.written += 1;
+        Ok(())
+    }
+
+    /// Requests appended so far.
+    pub fn written(&self) -> usize {
+        self.written
+    }
+
+    /// Appends a scene as a daemon would receive it: uploads of meshes not yet in the recording,
+    /// then its `FrameUpdate`.
+    pub fn append_scene(&mut self, scene: &Scene) -> Result<(), RecordingError> {
+        let (uploads, update) =
+            scene_to_messages(scene).map_err(|source| RecordingError::Protocol {
+                index: self.written,
+                kind: "FrameUpdate",
+                source,
+            })?;
+        for request in uploads.iter().chain([&update]) {
+            if let Request::UploadMesh(u) = request {
+                if self.uploaded.contains(&u.hash) {
+                    continue;
+                }
+            }
+            let index = self.written;
+            self.append(request)
+                .map_err(|source| RecordingError::Frame { index, source })?;
+        }
+        Ok(())
+    }
+
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        self.w.flush()
+    }
+
+    /// Flushes and returns the writer.
+    pub fn finish(mut self) -> std::io::Result<W> {
+        self.w.flush()?;
+        Ok(self.w)
+    }
+}
+
+/// Reads the requests of a recording in order.
+pub struct RecordingReader<R: Read> {
+    r: R,
+    limits: Limits,
+    index: usize,
+    done: bool,
+}
+
+impl RecordingReader<BufReader<File>> {
+    pub fn open(path: impl AsRef<Path>) -> Result<Self, RecordingError> {
+        let path = path.as_ref();
+        let file = File::open(path).map_err(|e| RecordingError::from(e).in_file(path))?;
+        RecordingReader::new(BufReader::new(file)).map_err(|e| e.in_file(path))
+    }
+}
+
+impl<R: Read> RecordingReader<R> {
+    /// Checks the magic header. Frames may be as large as a 4-byte prefix allows (a recording is
+    /// a local file, not a peer), but are still read only as far as bytes exist.
+    pub fn new(r: R) -> Result<Self, RecordingError> {
+        let limits = Limits {
+            max_frame_bytes: MAX_FRAME_BYTES_CEILING,
+            ..Limits::default()
+        };
+        RecordingReader::with_limits(r, limits)
+    }
+
+    pub fn with_limits(mut r: R, limits: Limits) -> Result<Self, RecordingError> {
+        let mut magic = [0u8; 8];
+        match r.read_exact(&mut magic) {
+            Ok(()) if &magic == RECORDING_MAGIC => {}
+            Ok(()) => return Err(RecordingError::BadMagic),
+            Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+                return Err(RecordingError::BadMagic)
+            }
+            Err(e) => return Err(e.into()),
+        }
+        Ok(RecordingReader {
+            r,
+            limits,
+            index: 0,
+            done: false,
+        })
+    }
+
+    /// The next request, `None` at the end of the recording.
+    pub fn next_request(&mut self) -> Result<Option<Request>, RecordingError> {
+        if self.done {
+            return Ok(None);
+        }
+        match read_message(&mut self.r, &self.limits) {
+            Ok(request) => {
+                self.index += 1;
+                Ok(Some(request))
+            }
+            Err(FrameError::Closed) => {
+                self.done = true;
+                Ok(None)
+            }
+            Err(source) => {
+                // A bad frame may have left the reader mid-stream; nothing after it is trusted.
+                self.done = true;
+                Err(RecordingError::Frame {
+                    index: self.index,
+                    source,
+                })
+            }
+        }
+    }
+
+    /// The limits the reader was made with (mesh uploads are checked against them on replay).
+    pub fn limits(&self) -> &Limits {
+        &self.limits
+    }
+}
+
+impl<R: Read> Iterator for RecordingReader<R> {
+    type Item = Result<Request, RecordingError>;
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_request().transpose()
+    }
+}
+
+/// Replays requests: keeps the uploaded meshes and turns each `FrameUpdate` into a [`Scene`].
+/// Meshes with the same hash are the same `Arc` in every scene, so a renderer reuses its BVHs
+/// for frames whose geometry did not change.
+#[derive(Default)]
+pub struct Replay {
+    pub meshes: HashMap<u64, Arc<Mesh>>,
+    pub limits: Limits,
+}
+
+impl Replay {
+    pub fn new(limits: Limits) -> Self {
+        Replay {
+            meshes: HashMap::new(),
+            limits,
+        }
+    }
+
+    /// Applies one request; returns the scene of a `FrameUpdate`.
+    pub fn apply(&mut self, request: &Request) -> Result<Option<Scene>, ProtocolError> {
+        match request {
+            Request::UploadMesh(upload) => {
+                if !self.meshes.contains_key(&upload.hash) {
+                    let mesh = mesh_from_upload(upload, &self.limits)?;
+                    self.meshes.insert(upload.hash, Arc::new(mesh));
+                }
+                Ok(None)
+            }
+            Request::FrameUpdate(update) => scene_from_frame(update, &self.meshes).map(Some),
+            _ => Ok(None),
+        }
+    }
+}
+
+fn replay_reader<R: Read>(mut reader: RecordingReader<R>) -> Result<Vec<Scene>, RecordingError> {
+    let mut replay = Replay::new(reader.limits().clone());
+    let mut scenes = Vec::new();
+    while let Some(request) = reader.next_request()? {
+        // The reader counted this request already.
+        let index = reader.index - 1;
+        match replay.apply(&request) {
+            Ok(Some(scene)) => scenes.push(scene),
+            Ok(None) => {}
+            Err(source) => {
+                return Err(RecordingError::Protocol {
+                    index,
+                    kind: request.kind(),
+                    source,
+                })
+            }
+        }
+    }
+    Ok(scenes)
+}
+
+/// The scene of every `FrameUpdate` in a recording, in file order.
+pub fn replay_scenes(path: impl AsRef<Path>) -> Result<Vec<Scene>, RecordingError> {
+    let path = path.as_ref();
+    replay_reader(RecordingReader::open(path)?).map_err(|e| e.in_file(path))
+}
+
+/// Replays a recording from any reader (the magic header first).
+pub fn replay_scenes_from<R: Read>(r: R) -> Result<Vec<Scene>, RecordingError> {
+    replay_reader(RecordingReader::new(r)?)
+}
+
+/// A recording as an [`Animation`]: named after the file stem, spanning the recorded frames.
+pub struct RecordedAnimation {
+    name: String,
+    frames: BTreeMap<i32, Scene>,
+}
+
+impl RecordedAnimation {
+    pub fn open(path: impl AsRef<Path>) -> Result<Self, RecordingError> {
+        let path = path.as_ref();
+        let name = path
+            .file_stem()
+            .map_or_else(|| "recording".into(), |s| s.to_string_lossy().into_owned());
+        RecordedAnimation::from_scenes(name, replay_scenes(path)?).map_err(|e| e.in_file(path))
+    }
+
+    /// A later scene of the same frame number replaces an earlier one (a client resent it).
+    pub fn from_scenes(
+        name: impl Into<String>,
+        scenes: Vec<Scene>,
+    ) -> Result<Self, RecordingError> {
+        if scenes.is_empty() {
+            return Err(RecordingError::NoFrames);
+        }
+        Ok(RecordedAnimation {
+            name: name.into(),
+            frames: scenes.into_iter().map(|s| (s.frame, s)).collect(),
+        })
+    }
+
+    /// The frame numbers that were recorded (the range may have gaps).
+    pub fn recorded_frames(&self) -> impl Iterator<Item = i32> + '_ {
+        self.frames.keys().copied()
+    }
+}
+
+impl Animation for RecordedAnimation {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn frame_range(&self) -> RangeInclusive<i32> {
+        let first = self.frames.keys().next().copied().unwrap_or(0);
+        let last = self.frames.keys().next_back().copied().unwrap_or(first);
+        first..=last
+    }
+
+    /// The recorded scene of `frame`; in a gap, the last recorded frame before it is held (as
+    /// Blender holds an unkeyed value), and before the first frame the first is used.
+    fn frame(&self, frame: i32) -> Scene {
+        let held = self
+            .frames
+            .range(..=frame)
+            .next_back()
+            .or_else(|| self.frames.iter().next())
+            .map(|(_, s)| s.clone());
+        // from_scenes refuses an empty recording, so `held` is always Some.
+        let mut scene = held.unwrap_or_else(|| Scene {
+            frame,
+            meshes: Vec::new(),
+            objects: Vec::new(),
+            camera: antumbra_core::scene::Camera::look_at(
+                glam::DVec3::Z,
+                glam::DVec3::ZERO,
+                glam::DVec3::Y,
+            ),
+            lights: Vec::new(),
+            resolution: antumbra_core::scene::Resolution::new(1, 1),
+        });
+        scene.frame = frame;
+        scene
+    }
+}

@@ -1,0 +1,154 @@
+//! Recordings: write a session, read it back, replay it as scenes and as an Animation.
+
+mod common;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use antumbra_core::scene::Animation;
+use antumbra_protocol::recording::{replay_scenes_from, RECORDING_MAGIC};
+use antumbra_protocol::*;
+
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let dir =
+            std::env::temp_dir().join(format!("antumbra-protocol-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+#[test]
+fn write_read_replay_round_trip() {
+    let dir = TempDir::new("roundtrip");
+    let path = dir.0.join("tiny shot.antrec");
+    let scenes: Vec<_> = (0..5).map(common::tiny_scene).collect();
+
+    let mut w = RecordingWriter::create(&path).unwrap();
+    w.append(&Request::Hello {
+        version: PROTOCOL_VERSION,
+        client: "test".into(),
+    })
+    .unwrap();
+    for s in &scenes {
+        w.append_scene(s).unwrap();
+        w.append(&Request::Render(RenderRequest {
+            frame: s.frame,
+            settings: Default::default(),
+            passes: Default::default(),
+            request_id: s.frame as u64,
+        }))
+        .unwrap();
+    }
+    w.append(&Request::Close).unwrap();
+    // Hello + 2 uploads (once for the whole animation) + 5 x (frame + render) + Close.
+    assert_eq!(w.written(), 1 + 2 + 10 + 1);
+    w.finish().unwrap();
+
+    let bytes = std::fs::read(&path).unwrap();
+    assert!(bytes.starts_with(RECORDING_MAGIC));
+
+    let kinds: Vec<&str> = RecordingReader::open(&path)
+        .unwrap()
+        .map(|r| r.unwrap().kind())
+        .collect();
+    assert_eq!(kinds.len(), 14);
+    assert_eq!(
+        kinds[..4],
+        ["Hello", "UploadMesh", "UploadMesh", "FrameUpdate"]
+    );
+    assert_eq!(kinds[13], "Close");
+
+    let replayed = replay_scenes(&path).unwrap();
+    assert_eq!(replayed.len(), 5);
+    for (a, b) in scenes.iter().zip(&replayed) {
+        common::assert_same_scene(a, b);
+    }
+    // Unchanged meshes are the same Arc in every frame, so a renderer reuses its BVHs.
+    assert!(Arc::ptr_eq(&replayed[0].meshes[0], &replayed[4].meshes[0]));
+
+    let anim = RecordedAnimation::open(&path).unwrap();
+    assert_eq!(anim.name(), "tiny shot");
+    assert_eq!(anim.frame_range(), 0..=4);
+    for f in 0..5 {
+        common::assert_same_scene(&anim.frame(f), &scenes[f as usize]);
+    }
+}
+
+#[test]
+fn gaps_hold_the_previous_frame() {
+    let scenes: Vec<_> = [2, 5, 9].into_iter().map(common::tiny_scene).collect();
+    let mut w = RecordingWriter::new(Vec::new()).unwrap();
+    for s in &scenes {
+        w.append_scene(s).unwrap();
+    }
+    let bytes = w.finish().unwrap();
+    let anim =
+        RecordedAnimation::from_scenes("gaps", replay_scenes_from(&bytes[..]).unwrap()).unwrap();
+    assert_eq!(anim.frame_range(), 2..=9);
+    assert_eq!(anim.recorded_frames().collect::<Vec<_>>(), [2, 5, 9]);
+    let held = anim.frame(7);
+    assert_eq!(held.frame, 7);
+    assert_eq!(held.objects, anim.frame(5).objects);
+    assert_eq!(anim.frame(0).objects, anim.frame(2).objects);
+    assert_eq!(anim.frame(100).objects, anim.frame(9).objects);
+}
+
+#[test]
+fn bad_recordings_say_what_is_wrong() {
+    let dir = TempDir::new("bad");
+
+    let not_one = dir.0.join("x.antrec");
+    std::fs::write(&not_one, b"PNG....").unwrap();
+    let e = replay_scenes(&not_one).err().unwrap().to_string();
+    assert!(e.contains("x.antrec") && e.contains("ANTREC1"), "{e}");
+
+    let missing = dir.0.join("missing.antrec");
+    let e = replay_scenes(&missing).err().unwrap().to_string();
+    assert!(e.contains("missing.antrec"), "{e}");
+
+    // Truncated in the middle of the second message.
+    let mut w = RecordingWriter::new(Vec::new()).unwrap();
+    w.append_scene(&common::tiny_scene(0)).unwrap();
+    let bytes = w.finish().unwrap();
+    let first = 8 + 4 + u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize;
+    let cut = dir.0.join("cut.antrec");
+    std::fs::write(&cut, &bytes[..first + 10]).unwrap();
+    let e = replay_scenes(&cut).err().unwrap().to_string();
+    assert!(
+        e.contains("cut.antrec") && e.contains("message 1") && e.contains("truncated"),
+        "{e}"
+    );
+
+    // A corrupted upload is reported with its index and kind, naming the mesh.
+    let mut w = RecordingWriter::new(Vec::new()).unwrap();
+    let (mut uploads, frame) = scene_to_messages(&common::tiny_scene(0)).unwrap();
+    if let Request::UploadMesh(u) = &mut uploads[1] {
+        u.hash ^= 1;
+    }
+    for r in uploads.iter().chain([&frame]) {
+        w.append(r).unwrap();
+    }
+    let e = replay_scenes_from(&w.finish().unwrap()[..])
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("message 1 (UploadMesh)") && e.contains("mesh 'cube'"),
+        "{e}"
+    );
+
+    // No frames at all.
+    let w = RecordingWriter::new(Vec::new()).unwrap();
+    let scenes = replay_scenes_from(&w.finish().unwrap()[..]).unwrap();
+    assert!(RecordedAnimation::from_scenes("empty", scenes).is_err());
+}

@@ -1,0 +1,496 @@
+//! Every message type survives encode → frame → decode unchanged.
+
+use antumbra_protocol::*;
+use proptest::collection::vec;
+use proptest::prelude::*;
+use serde_bytes::ByteBuf;
+
+fn f64s() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        -1e9f64..1e9,
+        Just(0.0),
+        Just(-0.0),
+        Just(f64::MAX),
+        Just(f64::MIN_POSITIVE),
+        Just(1e-300),
+    ]
+}
+
+fn f32s() -> impl Strategy<Value = f32> {
+    prop_oneof![-1e9f32..1e9, Just(-0.0f32), Just(f32::MAX)]
+}
+
+fn matrix() -> impl Strategy<Value = [f64; 16]> {
+    prop::array::uniform16(f64s())
+}
+
+fn bytes() -> impl Strategy<Value = ByteBuf> {
+    vec(any::<u8>(), 0..64).prop_map(ByteBuf::from)
+}
+
+fn name() -> impl Strategy<Value = String> {
+    // Any unicode, including quotes and newlines, as Blender names can be.
+    ".{0,12}"
+}
+
+fn camera() -> impl Strategy<Value = CameraState> {
+    (
+        matrix(),
+        (f64s(), f64s(), f64s()),
+        prop_oneof![
+            Just(SensorFitState::Auto),
+            Just(SensorFitState::Horizontal),
+            Just(SensorFitState::Vertical)
+        ],
+        (f64s(), f64s(), f64s(), f64s()),
+    )
+        .prop_map(|(m, (lens, sw, sh), fit, (sx, sy, cs, ce))| CameraState {
+            world_from_camera: m,
+            lens_mm: lens,
+            sensor_width_mm: sw,
+            sensor_height_mm: sh,
+            sensor_fit: fit,
+            shift_x: sx,
+            shift_y: sy,
+            clip_start: cs,
+            clip_end: ce,
+        })
+}
+
+fn light_kind() -> impl Strategy<Value = LightKindState> {
+    let shape = prop_oneof![
+        Just(AreaShapeState::Square),
+        Just(AreaShapeState::Rectangle),
+        Just(AreaShapeState::Disk),
+        Just(AreaShapeState::Ellipse)
+    ];
+    prop_oneof![
+        f64s().prop_map(|radius| LightKindState::Point { radius }),
+        f64s().prop_map(|angle| LightKindState::Sun { angle }),
+        (f64s(), f64s(), f64s()).prop_map(|(radius, spot_size, spot_blend)| {
+            LightKindState::Spot {
+                radius,
+                spot_size,
+                spot_blend,
+            }
+        }),
+        (shape, f64s(), f64s()).prop_map(|(shape, size_x, size_y)| LightKindState::Area {
+            shape,
+            size_x,
+            size_y
+        }),
+    ]
+}
+
+fn light() -> impl Strategy<Value = LightState> {
+    (name(), matrix(), light_kind(), any::<bool>()).prop_map(|(name, m, kind, casts_shadow)| {
+        LightState {
+            name,
+            world_from_light: m,
+            kind,
+            casts_shadow,
+        }
+    })
+}
+
+fn object() -> impl Strategy<Value = ObjectState> {
+    (name(), any::<u64>(), matrix(), any::<bool>(), any::<bool>()).prop_map(
+        |(name, mesh_hash, m, visible_to_camera, casts_shadow)| ObjectState {
+            name,
+            mesh_hash,
+            world_from_object: m,
+            visible_to_camera,
+            casts_shadow,
+        },
+    )
+}
+
+fn resolution() -> impl Strategy<Value = ResolutionState> {
+    (any::<u32>(), any::<u32>(), any::<u32>(), f64s(), f64s()).prop_map(|(x, y, p, ax, ay)| {
+        ResolutionState {
+            x,
+            y,
+            percentage: p,
+            pixel_aspect_x: ax,
+            pixel_aspect_y: ay,
+        }
+    })
+}
+
+fn settings() -> impl Strategy<Value = RenderSettingsState> {
+    (
+        any::<u32>(),
+        any::<u32>(),
+        (any::<u32>(), any::<u32>(), f32s(), f32s()),
+        prop_oneof![
+            Just(ShadowOrderState::Stored),
+            Just(ShadowOrderState::NearFirst)
+        ],
+        prop_oneof![
+            Just(StatsModeState::Counts),
+            Just(StatsModeState::CountsAndTiming),
+            Just(StatsModeState::TimingOnly)
+        ],
+    )
+        .prop_map(
+            |(spp, seed, (b, l, tc, ic), order, stats)| RenderSettingsState {
+                spp,
+                seed,
+                build: BuildMethodState::Sah,
+                build_settings: BuildSettingsState {
+                    bins: b,
+                    max_leaf_size: l,
+                    traversal_cost: tc,
+                    intersection_cost: ic,
+                },
+                shadow_order: order,
+                stats,
+            },
+        )
+}
+
+fn limits() -> impl Strategy<Value = Limits> {
+    (
+        (any::<u64>(), any::<u64>(), any::<u64>(), any::<u64>()),
+        (any::<u64>(), any::<u32>(), any::<u32>()),
+    )
+        .prop_map(|((fb, tri, meshes, objects), (px, spp, lights))| Limits {
+            max_frame_bytes: fb,
+            max_triangles_per_mesh: tri,
+            max_meshes: meshes,
+            max_objects: objects,
+            max_image_pixels: px,
+            max_spp: spp,
+            max_lights: lights,
+        })
+}
+
+fn stats_row() -> impl Strategy<Value = StatsRowState> {
+    (
+        (name(), any::<i32>(), name(), name(), name(), any::<bool>()),
+        (
+            f64s(),
+            any::<u64>(),
+            any::<u64>(),
+            any::<u64>(),
+            any::<u64>(),
+        ),
+        (f64s(), f64s(), any::<bool>(), f64s()),
+        (f64s(), f64s(), f64s(), f64s(), any::<u64>(), any::<u64>()),
+    )
+        .prop_map(
+            |(
+                (scene, frame, method, pass, light, rebuilt),
+                (build_ms, bvh_nodes, bvh_bytes, triangles, rays),
+                (trace_ms, mrays_per_s, timed_without_counters, occluded_fraction),
+                (nb, nl, nt, nbox, back_facing, unreached),
+            )| StatsRowState {
+                scene,
+                frame,
+                method,
+                pass,
+                light,
+                rebuilt,
+                build_ms,
+                bvh_nodes,
+                bvh_bytes,
+                triangles,
+                rays,
+                trace_ms,
+                mrays_per_s,
+                timed_without_counters,
+                occluded_fraction,
+                nb_per_ray: nb,
+                nl_per_ray: nl,
+                nt_per_ray: nt,
+                nbox_per_ray: nbox,
+                back_facing,
+                unreached,
+            },
+        )
+}
+
+fn request() -> impl Strategy<Value = Request> {
+    prop_oneof![
+        (any::<u32>(), name()).prop_map(|(version, client)| Request::Hello { version, client }),
+        vec(any::<u64>(), 0..8).prop_map(|hashes| Request::MissingMeshes { hashes }),
+        (any::<u64>(), name(), bytes(), bytes()).prop_map(|(hash, name, positions, triangles)| {
+            Request::UploadMesh(UploadMesh {
+                hash,
+                name,
+                positions,
+                triangles,
+            })
+        }),
+        (
+            any::<i32>(),
+            vec(object(), 0..4),
+            camera(),
+            vec(light(), 0..4),
+            resolution()
+        )
+            .prop_map(|(frame, objects, camera, lights, resolution)| {
+                Request::FrameUpdate(FrameUpdate {
+                    frame,
+                    objects,
+                    camera,
+                    lights,
+                    resolution,
+                })
+            }),
+        vec((any::<i32>(), camera()), 0..4).prop_map(|frames| Request::CameraPath { frames }),
+        (
+            any::<i32>(),
+            settings(),
+            prop::array::uniform4(any::<bool>()),
+            any::<u64>()
+        )
+            .prop_map(
+                |(frame, settings, p, request_id)| Request::Render(RenderRequest {
+                    frame,
+                    settings,
+                    passes: Passes {
+                        masks: p[0],
+                        combined: p[1],
+                        heat_maps: p[2],
+                        visible_set: p[3],
+                    },
+                    request_id,
+                })
+            ),
+        any::<u64>().prop_map(|request_id| Request::Cancel { request_id }),
+        Just(Request::Stats),
+        Just(Request::Close),
+        Just(Request::Shutdown),
+    ]
+}
+
+fn error_code() -> impl Strategy<Value = ErrorCode> {
+    prop_oneof![
+        Just(ErrorCode::BadFrame),
+        Just(ErrorCode::VersionMismatch),
+        Just(ErrorCode::TooLarge),
+        Just(ErrorCode::InvalidInput),
+        Just(ErrorCode::UnknownMesh),
+        Just(ErrorCode::LimitExceeded),
+        Just(ErrorCode::Busy),
+        Just(ErrorCode::Cancelled),
+        Just(ErrorCode::Internal),
+    ]
+}
+
+fn image() -> impl Strategy<Value = Image> {
+    (name(), any::<u32>(), any::<u32>(), bytes()).prop_map(|(name, width, height, data)| Image {
+        name,
+        width,
+        height,
+        data,
+    })
+}
+
+fn reply() -> impl Strategy<Value = Reply> {
+    prop_oneof![
+        (any::<u32>(), name(), limits()).prop_map(|(version, server, limits)| Reply::Welcome {
+            version,
+            server,
+            limits
+        }),
+        vec(any::<u64>(), 0..8).prop_map(|hashes| Reply::Missing { hashes }),
+        (any::<u64>(), any::<u32>())
+            .prop_map(|(hash, triangles)| Reply::MeshStored { hash, triangles }),
+        (any::<i32>(), vec(any::<u64>(), 0..8)).prop_map(|(frame, meshes_missing)| {
+            Reply::FrameAccepted {
+                frame,
+                meshes_missing,
+            }
+        }),
+        Just(Reply::Ack),
+        (any::<u64>(), name(), any::<u32>(), any::<u32>()).prop_map(
+            |(request_id, stage, done, total)| Reply::Progress {
+                request_id,
+                stage,
+                done,
+                total
+            }
+        ),
+        (
+            (any::<u64>(), any::<i32>(), any::<u32>(), any::<u32>()),
+            vec(image(), 0..3),
+            vec(stats_row(), 0..3),
+            proptest::option::of(bytes()),
+        )
+            .prop_map(
+                |((request_id, frame, width, height), images, stats, visible)| {
+                    Reply::FrameResult(FrameResultReply {
+                        request_id,
+                        frame,
+                        width,
+                        height,
+                        images,
+                        stats,
+                        visible,
+                    })
+                }
+            ),
+        (
+            (any::<u32>(), any::<u64>(), any::<u64>(), any::<u64>()),
+            (any::<u64>(), any::<u64>(), any::<u64>(), f64s()),
+        )
+            .prop_map(|((s, st, mc, bc), (rd, rc, rf, up))| {
+                Reply::DaemonStats(DaemonStats {
+                    sessions: s,
+                    sessions_total: st,
+                    meshes_cached: mc,
+                    bytes_cached: bc,
+                    renders_done: rd,
+                    renders_cancelled: rc,
+                    renders_failed: rf,
+                    uptime_s: up,
+                })
+            }),
+        (error_code(), name(), any::<bool>()).prop_map(|(code, message, session_usable)| {
+            Reply::Error {
+                code,
+                message,
+                session_usable,
+            }
+        }),
+    ]
+}
+
+fn round_trip<T>(msg: &T) -> T
+where
+    T: serde::Serialize + serde::de::DeserializeOwned,
+{
+    let framed = encode_message(msg).unwrap();
+    let limits = Limits::default();
+    // Blocking reader and incremental decoder give the same message.
+    let a: T = read_message(&mut &framed[..], &limits).unwrap();
+    let mut d = FrameDecoder::new(&limits);
+    d.push(&framed);
+    let b: T = d.next_message().unwrap().unwrap();
+    assert!(d.next_message::<T>().unwrap().is_none());
+    assert_eq!(
+        encode_message(&a).unwrap(),
+        encode_message(&b).unwrap(),
+        "decoders disagree"
+    );
+    a
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    #[test]
+    fn every_request_round_trips(req in request()) {
+        prop_assert_eq!(round_trip(&req), req);
+    }
+
+    #[test]
+    fn every_reply_round_trips(reply in reply()) {
+        prop_assert_eq!(round_trip(&reply), reply);
+    }
+
+    /// A stream of several messages comes back in order, however the bytes are split.
+    #[test]
+    fn streams_split_anywhere(reqs in vec(request(), 1..5), cuts in vec(any::<prop::sample::Index>(), 0..6)) {
+        let mut stream = Vec::new();
+        for r in &reqs {
+            write_message(&mut stream, r).unwrap();
+        }
+        let mut cuts: Vec<usize> = cuts.iter().map(|c| c.index(stream.len() + 1)).collect();
+        cuts.push(0);
+        cuts.push(stream.len());
+        cuts.sort_unstable();
+        let mut d = FrameDecoder::new(&Limits::default());
+        let mut out = Vec::new();
+        for w in cuts.windows(2) {
+            d.push(&stream[w[0]..w[1]]);
+            while let Some(r) = d.next_message::<Request>().unwrap() {
+                out.push(r);
+            }
+        }
+        prop_assert!(matches!(d.finish(), FrameError::Closed));
+        prop_assert_eq!(out, reqs);
+    }
+}
+
+#[test]
+fn wire_shape_is_named_maps_externally_tagged() {
+    // What a Python client (msgpack) sees: {"Hello": {"version": 1, "client": "blender"}}.
+    let body = encode_body(&Request::Hello {
+        version: 1,
+        client: "blender".into(),
+    })
+    .unwrap();
+    let mut expected = vec![0x81, 0xa5];
+    expected.extend_from_slice(b"Hello");
+    expected.extend_from_slice(&[0x82, 0xa7]);
+    expected.extend_from_slice(b"version");
+    expected.push(0x01);
+    expected.push(0xa6);
+    expected.extend_from_slice(b"client");
+    expected.push(0xa7);
+    expected.extend_from_slice(b"blender");
+    assert_eq!(body, expected);
+    // Unit variants are bare strings.
+    assert_eq!(encode_body(&Request::Stats).unwrap(), b"\xa5Stats");
+    // Bulk data is bin (0xc4 = bin8), not an array of numbers.
+    let body = encode_body(&Image {
+        name: "c".into(),
+        width: 1,
+        height: 1,
+        data: ByteBuf::from(1.0f32.to_le_bytes().to_vec()),
+    })
+    .unwrap();
+    let tail = [&[0xa4][..], b"data", &[0xc4, 4], &1.0f32.to_le_bytes()].concat();
+    assert!(body.ends_with(&tail), "{body:x?}");
+}
+
+#[test]
+fn field_order_unknown_fields_and_defaults() {
+    // A hand-written Render body: fields in another order, an unknown field, no settings or
+    // passes (defaults), and an integer where a float is expected elsewhere.
+    let mut body = vec![0x81, 0xa6];
+    body.extend_from_slice(b"Render");
+    body.push(0x83);
+    body.push(0xaa);
+    body.extend_from_slice(b"request_id");
+    body.push(0x07);
+    body.push(0xa6);
+    body.extend_from_slice(b"future");
+    body.push(0xc3);
+    body.push(0xa5);
+    body.extend_from_slice(b"frame");
+    body.push(0x05);
+    let r: Request = decode_body(&body).unwrap();
+    assert_eq!(
+        r,
+        Request::Render(RenderRequest {
+            frame: 5,
+            settings: RenderSettingsState::default(),
+            passes: Passes::default(),
+            request_id: 7,
+        })
+    );
+    assert_eq!(RenderSettingsState::default().spp, 4);
+}
+
+#[test]
+fn nan_and_infinity_survive_bit_exact() {
+    let mut m = [1.0; 16];
+    m[3] = f64::NAN;
+    m[7] = f64::NEG_INFINITY;
+    let obj = ObjectState {
+        name: "o".into(),
+        mesh_hash: 1,
+        world_from_object: m,
+        visible_to_camera: true,
+        casts_shadow: false,
+    };
+    let back = round_trip(&obj);
+    assert_eq!(
+        back.world_from_object.map(f64::to_bits),
+        m.map(f64::to_bits)
+    );
+}
