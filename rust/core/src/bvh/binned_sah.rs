@@ -9,7 +9,7 @@ use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::node::{Bvh, BvhNode, MAX_DEPTH};
+use super::node::{Bvh, BvhNode, NodeArray, MAX_DEPTH};
 use crate::geometry::Aabb;
 
 /// Settings of the binned SAH builder.
@@ -186,7 +186,7 @@ fn build_from_refs(refs: &mut [PrimRef], settings: &BuildSettings) -> Bvh {
     };
     ctx.build(refs, &mut root[0], below, task, &mut Scratch::new());
     Bvh {
-        nodes: compact(&nodes),
+        nodes: NodeArray::from_nodes(&compact(&nodes)),
         ..Bvh::default()
     }
 }
@@ -524,10 +524,12 @@ fn median_split(refs: &mut [PrimRef]) -> (usize, (Box4, Box4), (Box4, Box4)) {
     (mid, left, right)
 }
 
-/// Renumbers the reachable nodes depth-first, keeping each sibling pair adjacent.
+/// Renumbers the reachable nodes depth-first, keeping each sibling pair adjacent and at an even
+/// index (after the root and one pad node), as [`NodeArray`] needs.
 fn compact(nodes: &[BvhNode]) -> Vec<BvhNode> {
-    let mut out = Vec::with_capacity(nodes.len());
+    let mut out = Vec::with_capacity(nodes.len() + 1);
     out.push(nodes[0]);
+    out.push(BvhNode::default());
     let mut stack = vec![0usize];
     while let Some(i) = stack.pop() {
         if out[i].is_leaf() {

@@ -6,7 +6,7 @@ mod binned_sah;
 mod node;
 
 pub use binned_sah::{build_binned_sah, BuildSettings};
-pub use node::{Bvh, BvhNode, MAX_DEPTH};
+pub use node::{Bvh, BvhNode, NodeArray, MAX_DEPTH};
 
 use serde::{Deserialize, Serialize};
 

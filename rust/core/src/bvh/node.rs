@@ -52,12 +52,52 @@ impl BvhNode {
 
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 
-/// A binary BVH over a triangle set. Node 0 is the root. Triangles are copied in leaf order so a
+/// Two sibling nodes in one 64-byte cache line.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(64))]
+struct NodePair([BvhNode; 2]);
+
+/// The node array of a BVH, allocated so that every sibling pair (indices 2k, 2k+1) shares one
+/// cache line: a traversal step reads both children with one line fill. Index 0 is the root,
+/// index 1 an unused pad node (never referenced), children pairs start at index 2.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NodeArray {
+    pairs: Vec<NodePair>,
+    len: usize,
+}
+
+impl NodeArray {
+    /// Takes nodes laid out as described above (sibling pairs at even indices).
+    pub fn from_nodes(nodes: &[BvhNode]) -> Self {
+        let pairs = nodes
+            .chunks(2)
+            .map(|c| NodePair([c[0], c.get(1).copied().unwrap_or_default()]))
+            .collect();
+        NodeArray {
+            pairs,
+            len: nodes.len(),
+        }
+    }
+}
+
+impl std::ops::Deref for NodeArray {
+    type Target = [BvhNode];
+    fn deref(&self) -> &[BvhNode] {
+        // SAFETY: `NodePair` is `repr(C)` holding exactly two `BvhNode`s with no padding
+        // (2 x 32 bytes = its 64-byte alignment), so the pairs are `2 * pairs.len()` contiguous
+        // nodes, and `len <= 2 * pairs.len()`.
+        unsafe { std::slice::from_raw_parts(self.pairs.as_ptr() as *const BvhNode, self.len) }
+    }
+}
+
+const _: () = assert!(std::mem::size_of::<NodePair>() == 64);
+
+/// A binary BVH over a triangle set. Node 0 is the root (see [`NodeArray`] for the layout). Triangles are copied in leaf order so a
 /// leaf's triangles are contiguous in memory; `triangle_ids` maps a slot back to the id in the
 /// `TriangleSet` the BVH was built from.
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
-    pub nodes: Vec<BvhNode>,
+    pub nodes: NodeArray,
     pub triangles: Vec<[Vec3; 3]>,
     pub triangle_ids: Vec<u32>,
     /// Wall-clock build time in milliseconds.
