@@ -5,19 +5,13 @@
 
 use std::path::Path;
 
-use antumbra_core::scene::{
-    Camera, Light, LightKind, Mesh, Object, Resolution, Scene,
-};
+use antumbra_core::scene::{Camera, Light, LightKind, Mesh, Object, Resolution, Scene};
 use antumbra_protocol::*;
 use glam::{DMat4, DVec3, Vec3};
 use std::sync::Arc;
 
 fn scene() -> Scene {
-    let tri = Mesh::new(
-        "tri",
-        vec![Vec3::ZERO, Vec3::X, Vec3::Y],
-        vec![[0, 1, 2]],
-    );
+    let tri = Mesh::new("tri", vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
     Scene {
         frame: 1,
         meshes: vec![Arc::new(tri)],

@@ -79,6 +79,7 @@ impl FrameError {
             code: self.code(),
             message: self.to_string(),
             session_usable: self.session_usable(),
+            request_id: None,
         }
     }
 }
@@ -148,6 +149,7 @@ impl ProtocolError {
             code: self.code(),
             message: self.to_string(),
             session_usable: !matches!(self, ProtocolError::VersionMismatch { .. }),
+            request_id: None,
         }
     }
 }

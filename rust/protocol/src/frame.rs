@@ -40,6 +40,21 @@ pub fn encode_message<T: Serialize + ?Sized>(message: &T) -> Result<Vec<u8>, Fra
     Ok(out)
 }
 
+/// Encodes `message` as one frame, refusing a body above `limits.max_frame_bytes` with
+/// `TooLarge`: for a daemon's replies, which its clients read with the limits of `Welcome`.
+pub fn encode_message_within<T: Serialize + ?Sized>(
+    message: &T,
+    limits: &Limits,
+) -> Result<Vec<u8>, FrameError> {
+    let framed = encode_message(message)?;
+    let len = (framed.len() - LENGTH_PREFIX_BYTES) as u64;
+    let max = limits.frame_limit();
+    if len > max {
+        return Err(FrameError::TooLarge { len, max });
+    }
+    Ok(framed)
+}
+
 /// Encodes `message` as a bare body (no length prefix).
 pub fn encode_body<T: Serialize + ?Sized>(message: &T) -> Result<Vec<u8>, FrameError> {
     rmp_serde::to_vec_named(message).map_err(|e| FrameError::Encode(e.to_string()))

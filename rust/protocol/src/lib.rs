@@ -22,7 +22,8 @@ pub use convert::{
 };
 pub use error::{ErrorCode, FrameError, ProtocolError};
 pub use frame::{
-    decode_body, encode_body, encode_message, read_frame, read_message, write_message, FrameDecoder,
+    decode_body, encode_body, encode_message, encode_message_within, read_frame, read_message,
+    write_message, FrameDecoder,
 };
 pub use limits::{check_limits, Limits};
 pub use messages::*;

@@ -84,6 +84,10 @@ pub enum Reply {
         message: String,
         /// False when the daemon will close the connection after this reply.
         session_usable: bool,
+        /// The `request_id` of the `Render` this error ends (`Cancelled`, or a failed render);
+        /// nil for errors of other requests.
+        #[serde(default)]
+        request_id: Option<u64>,
     },
 }
 

@@ -117,6 +117,24 @@ fn huge_length_prefix_is_refused_before_reading_the_body() {
 }
 
 #[test]
+fn replies_above_the_limit_are_refused_when_encoding() {
+    let limits = Limits {
+        max_frame_bytes: 64,
+        ..Limits::default()
+    };
+    let small = Reply::Ack;
+    assert_eq!(
+        encode_message_within(&small, &limits).unwrap(),
+        encode_message(&small).unwrap()
+    );
+    let big = Reply::Missing {
+        hashes: vec![u64::MAX; 16],
+    };
+    let err = encode_message_within(&big, &limits).unwrap_err();
+    assert!(matches!(err, FrameError::TooLarge { max: 64, .. }), "{err}");
+}
+
+#[test]
 fn a_large_announced_body_is_read_only_as_far_as_it_arrives() {
     // 900 MiB announced (within the limit), then the stream ends after 100 bytes: Truncated,
     // quickly, without reserving 900 MiB first.

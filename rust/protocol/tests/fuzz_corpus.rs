@@ -70,8 +70,8 @@ fn mutate(rng: &mut Rng, seeds: &[Vec<u8>]) -> Vec<u8> {
             _ if len >= 4 => {
                 // Rewrite a length prefix-sized word with a boundary value.
                 let at = at.min(len - 4);
-                let v: u32 = [0, 1, 0x7fff_ffff, u32::MAX, (len as u32).wrapping_sub(3)]
-                    [rng.below(5)];
+                let v: u32 =
+                    [0, 1, 0x7fff_ffff, u32::MAX, (len as u32).wrapping_sub(3)][rng.below(5)];
                 data[at..at + 4].copy_from_slice(&v.to_le_bytes());
             }
             _ => {}

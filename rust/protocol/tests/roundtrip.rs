@@ -348,13 +348,20 @@ fn reply() -> impl Strategy<Value = Reply> {
                     uptime_s: up,
                 })
             }),
-        (error_code(), name(), any::<bool>()).prop_map(|(code, message, session_usable)| {
-            Reply::Error {
-                code,
-                message,
-                session_usable,
-            }
-        }),
+        (
+            error_code(),
+            name(),
+            any::<bool>(),
+            proptest::option::of(any::<u64>())
+        )
+            .prop_map(|(code, message, session_usable, request_id)| {
+                Reply::Error {
+                    code,
+                    message,
+                    session_usable,
+                    request_id,
+                }
+            }),
     ]
 }
 
@@ -474,6 +481,34 @@ fn field_order_unknown_fields_and_defaults() {
         })
     );
     assert_eq!(RenderSettingsState::default().spp, 4);
+
+    // Partial nested defaults, and integers where floats are expected (as Python may send).
+    let body = b"\x81\xa6Render\x84\xa5frame\x01\xaarequest_id\x02\xa8settings\x81\xa3spp\x10\xa6passes\x81\xabvisible_set\xc3";
+    let Request::Render(r) = decode_body::<Request>(body).unwrap() else {
+        panic!()
+    };
+    assert_eq!(r.settings.spp, 16);
+    assert_eq!(r.settings.build_settings, BuildSettingsState::default());
+    assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);
+    let kind: LightKindState = decode_body(b"\x82\xa4type\xa3Sun\xa5angle\x00").unwrap();
+    assert_eq!(kind, LightKindState::Sun { angle: 0.0 });
+    let res: ResolutionState = decode_body(
+        b"\x85\xa1x\x02\xa1y\x03\xaapercentage\x64\xaepixel_aspect_x\x01\xaepixel_aspect_y\xca\x3f\x80\x00\x00",
+    )
+    .unwrap();
+    assert_eq!((res.pixel_aspect_x, res.pixel_aspect_y), (1.0, 1.0));
+    // An Error without request_id (an older peer) reads as None.
+    let e: Reply =
+        decode_body(b"\x81\xa5Error\x83\xa4code\xa4Busy\xa7message\xa0\xaesession_usable\xc3")
+            .unwrap();
+    assert!(matches!(
+        e,
+        Reply::Error {
+            request_id: None,
+            code: ErrorCode::Busy,
+            ..
+        }
+    ));
 }
 
 #[test]

@@ -13,5 +13,5 @@ pub use camera_rays::PrimaryRays;
 pub use lights::{LightSample, LightSampler};
 pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer};
-pub use settings::{RenderSettings, StatsMode};
+pub use settings::{RenderSettings, StatsMode, MAX_SPP};
 pub use shadow::{samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome};

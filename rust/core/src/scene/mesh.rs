@@ -48,8 +48,9 @@ impl Mesh {
         Ok(())
     }
 
-    /// A content hash (FNV-1a over names, positions and indices) so that unchanged meshes can be
-    /// recognised across frames without comparing them element by element.
+    /// A content hash (FNV-1a over the vertex and triangle counts and the little-endian bytes of
+    /// positions and indices; the name is not hashed) so that unchanged meshes can be recognised
+    /// across frames without comparing them element by element.
     pub fn content_hash(&self) -> u64 {
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
         let mut eat = |bytes: &[u8]| {
