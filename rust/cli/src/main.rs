@@ -27,6 +27,9 @@ enum Command {
     Render(commands::render::RenderArgs),
     /// Build time and Mrays/s per scene (primary and shadow rays, 1 thread and all threads).
     Bench(commands::bench::BenchArgs),
+    /// Run the daemon Blender talks to: a Unix socket (and optional loopback TCP), a spool
+    /// folder for batch jobs.
+    Serve(commands::serve::ServeArgs),
 }
 
 fn main() {
@@ -35,6 +38,7 @@ fn main() {
         Command::Demo(a) => commands::demo::run(a),
         Command::Render(a) => commands::render::run(a),
         Command::Bench(a) => commands::bench::run(a),
+        Command::Serve(a) => commands::serve::run(a),
     };
     if let Err(e) = result {
         eprintln!("antumbra: error: {e:#}");

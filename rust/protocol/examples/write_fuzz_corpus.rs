@@ -36,6 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hello = Request::Hello {
         version: PROTOCOL_VERSION,
         client: "blender 4.2".into(),
+        token: None,
     };
     let (uploads, frame) = scene_to_messages(&scene())?;
     let render = Request::Render(RenderRequest {

@@ -25,7 +25,14 @@ pub const PROTOCOL_VERSION: u32 = 1;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Request {
     /// First message of a session. Reply: `Welcome`, or `Error { code: VersionMismatch }`.
-    Hello { version: u32, client: String },
+    Hello {
+        version: u32,
+        client: String,
+        /// The shared secret a daemon listening on TCP requires (its `--token-file`); omitted
+        /// (nil) on a Unix socket, where the socket's file mode is the access control.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        token: Option<String>,
+    },
     /// Which of these mesh hashes does the daemon lack? Reply: `Missing`.
     MissingMeshes { hashes: Vec<u64> },
     /// Reply: `MeshStored`.
@@ -344,6 +351,9 @@ pub struct DaemonStats {
     pub renders_cancelled: u64,
     pub renders_failed: u64,
     pub uptime_s: f64,
+    /// Meshes dropped from the cache since start to stay within the memory budget (only meshes
+    /// that no connected session uses are dropped).
+    pub meshes_evicted: u64,
 }
 
 impl Request {

@@ -9,6 +9,7 @@ fn hello() -> Request {
     Request::Hello {
         version: PROTOCOL_VERSION,
         client: "test".into(),
+        token: None,
     }
 }
 
@@ -230,6 +231,7 @@ fn hello_checks() {
     let err = check_hello(&Request::Hello {
         version: 2,
         client: "future".into(),
+        token: None,
     })
     .unwrap_err();
     assert_eq!(err.code(), ErrorCode::VersionMismatch);

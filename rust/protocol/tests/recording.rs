@@ -37,6 +37,7 @@ fn write_read_replay_round_trip() {
     w.append(&Request::Hello {
         version: PROTOCOL_VERSION,
         client: "test".into(),
+        token: None,
     })
     .unwrap();
     for s in &scenes {

@@ -212,7 +212,11 @@ fn stats_row() -> impl Strategy<Value = StatsRowState> {
 
 fn request() -> impl Strategy<Value = Request> {
     prop_oneof![
-        (any::<u32>(), name()).prop_map(|(version, client)| Request::Hello { version, client }),
+        (any::<u32>(), name()).prop_map(|(version, client)| Request::Hello {
+            version,
+            client,
+            token: None,
+        }),
         vec(any::<u64>(), 0..8).prop_map(|hashes| Request::MissingMeshes { hashes }),
         (any::<u64>(), name(), bytes(), bytes()).prop_map(|(hash, name, positions, triangles)| {
             Request::UploadMesh(UploadMesh {
@@ -346,6 +350,7 @@ fn reply() -> impl Strategy<Value = Reply> {
                     renders_cancelled: rc,
                     renders_failed: rf,
                     uptime_s: up,
+                    ..DaemonStats::default()
                 })
             }),
         (
@@ -428,6 +433,7 @@ fn wire_shape_is_named_maps_externally_tagged() {
     let body = encode_body(&Request::Hello {
         version: 1,
         client: "blender".into(),
+        token: None,
     })
     .unwrap();
     let mut expected = vec![0x81, 0xa5];

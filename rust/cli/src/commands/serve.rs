@@ -1,0 +1,89 @@
+//! `antumbra serve`: the long-lived daemon Blender talks to (see `docs/daemon.md`).
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use antumbra_daemon::listen::{parse_tcp_addr, read_token_file};
+use antumbra_daemon::{default_socket_path, init_logging, Daemon, DaemonConfig, LogFormat};
+use anyhow::{bail, Result};
+use clap::{Args, ValueEnum};
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum LogFormatArg {
+    Text,
+    Json,
+}
+
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// Unix socket to listen on [default: $XDG_RUNTIME_DIR/antumbra/daemon.sock, or
+    /// /tmp/antumbra-$UID/daemon.sock].
+    #[arg(long)]
+    pub socket: Option<PathBuf>,
+    /// Also listen on TCP at this loopback address (127.0.0.1:PORT, [::1]:PORT, localhost:PORT;
+    /// port 0 picks a free one). Needs --token-file.
+    #[arg(long, requires = "token_file")]
+    pub tcp: Option<String>,
+    /// File holding the secret TCP clients must send in Hello (surrounding whitespace trimmed).
+    #[arg(long, requires = "tcp")]
+    pub token_file: Option<PathBuf>,
+    /// Spool folder for batch jobs (DIR/jobs/<id>/ in, DIR/results/<id>/ out).
+    #[arg(long)]
+    pub spool: Option<PathBuf>,
+    /// Record every session's requests to DIR/session-<time>-<pid>-<n>.antrec (replay them with
+    /// `antumbra render --scene FILE.antrec`).
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+    /// Renders that run at once (over all sessions and the spool); more wait in a queue.
+    #[arg(long, default_value_t = 2)]
+    pub max_renders: usize,
+    /// Memory budget of the shared mesh cache in MiB (meshes no session uses are evicted).
+    #[arg(long, default_value_t = 4096)]
+    pub memory_budget_mb: u64,
+    /// Log format on stderr (level from RUST_LOG, default info).
+    #[arg(long, value_enum, default_value = "text")]
+    pub log_format: LogFormatArg,
+    /// Seconds a stopping daemon waits for sessions to finish their current request.
+    #[arg(long, default_value_t = 10.0)]
+    pub shutdown_grace_s: f64,
+    /// Seconds between rescans of the spool folder (file-system events wake it earlier).
+    #[arg(long, default_value_t = 2.0)]
+    pub spool_rescan_s: f64,
+}
+
+pub fn run(args: ServeArgs) -> Result<()> {
+    init_logging(match args.log_format {
+        LogFormatArg::Text => LogFormat::Text,
+        LogFormatArg::Json => LogFormat::Json,
+    });
+    for (name, v) in [
+        ("--shutdown-grace-s", args.shutdown_grace_s),
+        ("--spool-rescan-s", args.spool_rescan_s),
+    ] {
+        if !(v.is_finite() && v > 0.0 && v < 1e6) {
+            bail!("{name}: must be a positive number of seconds, got {v}");
+        }
+    }
+    let mut config = DaemonConfig::new(args.socket.unwrap_or_else(default_socket_path));
+    if let Some(tcp) = &args.tcp {
+        config.tcp = Some(parse_tcp_addr(tcp)?);
+    }
+    if let Some(path) = &args.token_file {
+        config.token = Some(read_token_file(path)?);
+    }
+    config.spool = args.spool;
+    config.record = args.record;
+    config.max_renders = args.max_renders;
+    config.memory_budget = args.memory_budget_mb.saturating_mul(1 << 20);
+    config.shutdown_grace = Duration::from_secs_f64(args.shutdown_grace_s);
+    config.spool_rescan = Duration::from_secs_f64(args.spool_rescan_s);
+    let daemon = Daemon::bind(config)?;
+    daemon.stop_on_signals()?;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{}", daemon.ready_line())?;
+    out.flush()?;
+    drop(out);
+    daemon.run()?;
+    Ok(())
+}

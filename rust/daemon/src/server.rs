@@ -1,0 +1,393 @@
+//! The accept loop, the state shared by all sessions, and the orderly stop.
+
+use std::collections::HashMap;
+use std::net::{Shutdown, SocketAddr, TcpListener};
+use std::os::fd::AsRawFd;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use antumbra_protocol::DaemonStats;
+
+use crate::cache::MeshCache;
+use crate::config::DaemonConfig;
+use crate::error::DaemonError;
+use crate::listen::{bind_tcp, bind_unix, BoundUnix, Conn};
+use crate::slots::RenderSlots;
+use crate::{lock, session, spool};
+
+/// Connections served at once; more are refused with `Busy`.
+const MAX_SESSIONS: u64 = 256;
+
+#[derive(Default)]
+pub(crate) struct Counters {
+    pub sessions_live: AtomicU64,
+    pub sessions_total: AtomicU64,
+    pub renders_done: AtomicU64,
+    pub renders_cancelled: AtomicU64,
+    pub renders_failed: AtomicU64,
+}
+
+pub(crate) fn bump(c: &AtomicU64) {
+    c.fetch_add(1, Ordering::Relaxed);
+}
+
+/// What every session, the spool and the accept loop share.
+pub(crate) struct Shared {
+    pub config: DaemonConfig,
+    pub cache: MeshCache,
+    pub slots: RenderSlots,
+    pub counters: Counters,
+    /// Set by `Shutdown`, a signal or [`DaemonHandle::stop`]; everything winds down once set.
+    pub stop: Arc<AtomicBool>,
+    pub started: Instant,
+    /// A clone of each live session's connection, to wake its reader when the daemon stops.
+    sessions: Mutex<HashMap<u64, Conn>>,
+}
+
+impl Shared {
+    pub fn stopping(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    pub fn request_stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    pub fn daemon_stats(&self) -> DaemonStats {
+        let c = &self.counters;
+        let cache = self.cache.stats();
+        let get = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        DaemonStats {
+            sessions: get(&c.sessions_live) as u32,
+            sessions_total: get(&c.sessions_total),
+            meshes_cached: cache.meshes,
+            bytes_cached: cache.bytes,
+            renders_done: get(&c.renders_done),
+            renders_cancelled: get(&c.renders_cancelled),
+            renders_failed: get(&c.renders_failed),
+            uptime_s: self.started.elapsed().as_secs_f64(),
+            meshes_evicted: cache.evicted,
+        }
+    }
+}
+
+/// A daemon whose sockets are bound; [`run`](Daemon::run) serves until it is stopped.
+pub struct Daemon {
+    shared: Arc<Shared>,
+    unix: BoundUnix,
+    tcp: Option<(TcpListener, SocketAddr)>,
+    /// Held for the daemon's life: one daemon per spool folder.
+    spool_lock: Option<spool::SpoolLock>,
+}
+
+/// Stops a running daemon and reads its statistics from another thread.
+#[derive(Clone)]
+pub struct DaemonHandle {
+    shared: Arc<Shared>,
+}
+
+impl DaemonHandle {
+    /// Asks the daemon to stop: it stops accepting, lets sessions finish their current request
+    /// (up to the configured grace period) and returns from [`Daemon::run`].
+    pub fn stop(&self) {
+        self.shared.request_stop();
+    }
+
+    pub fn stats(&self) -> DaemonStats {
+        self.shared.daemon_stats()
+    }
+}
+
+impl Daemon {
+    /// Binds the sockets (see [`crate::listen::bind_unix`]) and prepares the spool folder; any
+    /// problem is reported here, before the daemon says it is listening.
+    pub fn bind(config: DaemonConfig) -> Result<Daemon, DaemonError> {
+        let has_token = matches!(config.token.as_deref(), Some(t) if !t.is_empty());
+        if config.tcp.is_some() && !has_token {
+            return Err(DaemonError::MissingToken);
+        }
+        if config.max_renders == 0 {
+            return Err(DaemonError::Config(
+                "--max-renders must be at least 1".into(),
+            ));
+        }
+        if let Some(dir) = &config.record {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| DaemonError::path(dir, format!("cannot create: {e}")))?;
+        }
+        let spool_lock = config.spool.as_deref().map(spool::prepare).transpose()?;
+        // TCP first: an address error then leaves no socket file behind.
+        let tcp = match config.tcp {
+            Some(addr) => {
+                let l = bind_tcp(addr)?;
+                let local = l
+                    .local_addr()
+                    .map_err(|e| DaemonError::io("tcp socket", e))?;
+                Some((l, local))
+            }
+            None => None,
+        };
+        let unix = bind_unix(&config.socket)?;
+        let shared = Arc::new(Shared {
+            cache: MeshCache::new(config.memory_budget),
+            slots: RenderSlots::new(config.max_renders),
+            counters: Counters::default(),
+            stop: Arc::new(AtomicBool::new(false)),
+            started: Instant::now(),
+            sessions: Mutex::new(HashMap::new()),
+            config,
+        });
+        Ok(Daemon {
+            shared,
+            unix,
+            tcp,
+            spool_lock,
+        })
+    }
+
+    pub fn socket_path(&self) -> &Path {
+        &self.unix.path
+    }
+
+    /// The TCP address actually bound (with the port the system chose for port 0).
+    pub fn tcp_addr(&self) -> Option<SocketAddr> {
+        self.tcp.as_ref().map(|(_, a)| *a)
+    }
+
+    /// What the daemon listens on: `unix:PATH` and, with TCP, `tcp:ADDR`.
+    pub fn endpoints(&self) -> Vec<String> {
+        let mut v = vec![format!("unix:{}", self.unix.path.display())];
+        if let Some(a) = self.tcp_addr() {
+            v.push(format!("tcp:{a}"));
+        }
+        v
+    }
+
+    /// The line `antumbra serve` prints on stdout when it is ready.
+    pub fn ready_line(&self) -> String {
+        format!("antumbra: listening on {}", self.endpoints().join(" "))
+    }
+
+    pub fn handle(&self) -> DaemonHandle {
+        DaemonHandle {
+            shared: self.shared.clone(),
+        }
+    }
+
+    /// SIGTERM and SIGINT stop the daemon as `Shutdown` does; a second one exits at once.
+    pub fn stop_on_signals(&self) -> Result<(), DaemonError> {
+        use signal_hook::consts::{SIGINT, SIGTERM};
+        for sig in [SIGTERM, SIGINT] {
+            signal_hook::flag::register_conditional_shutdown(sig, 1, self.shared.stop.clone())
+                .map_err(|e| DaemonError::io("installing signal handlers", e))?;
+            signal_hook::flag::register(sig, self.shared.stop.clone())
+                .map_err(|e| DaemonError::io("installing signal handlers", e))?;
+        }
+        Ok(())
+    }
+
+    /// Serves until stopped, then lets sessions finish their current request (within the grace
+    /// period), removes the socket file and returns.
+    pub fn run(self) -> Result<(), DaemonError> {
+        let shared = self.shared.clone();
+        tracing::info!(
+            endpoints = %self.endpoints().join(" "),
+            max_renders = shared.config.max_renders,
+            memory_budget_mb = shared.config.memory_budget >> 20,
+            spool = shared.config.spool.as_ref().map(|p| p.display().to_string()),
+            record = shared.config.record.as_ref().map(|p| p.display().to_string()),
+            "daemon started"
+        );
+        let spool_thread = shared.config.spool.clone().map(|dir| {
+            let shared = shared.clone();
+            std::thread::Builder::new()
+                .name("spool".into())
+                .spawn(move || spool::run(shared, dir))
+                .expect("spawning the spool thread")
+        });
+        let mut sessions: Vec<JoinHandle<()>> = Vec::new();
+        let mut next_id = 1u64;
+        let result = self.accept_loop(&mut sessions, &mut next_id);
+        tracing::info!(
+            live_sessions = shared.counters.sessions_live.load(Ordering::Relaxed),
+            "stopping: no new connections"
+        );
+        shared.request_stop();
+        self.unix.remove_file();
+        let Daemon {
+            unix,
+            tcp,
+            spool_lock,
+            ..
+        } = self;
+        drop(unix);
+        drop(tcp);
+        // Wake every session's reader: each finishes the request it is on and ends.
+        for conn in lock(&shared.sessions).values() {
+            let _ = conn.shutdown(Shutdown::Read);
+        }
+        let deadline = Instant::now() + shared.config.shutdown_grace;
+        let mut threads: Vec<JoinHandle<()>> = sessions;
+        threads.extend(spool_thread);
+        while Instant::now() < deadline && threads.iter().any(|t| !t.is_finished()) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let (done, left): (Vec<_>, Vec<_>) = threads.into_iter().partition(|t| t.is_finished());
+        for t in done {
+            let _ = t.join();
+        }
+        if !left.is_empty() {
+            tracing::warn!(
+                threads = left.len(),
+                grace_s = shared.config.shutdown_grace.as_secs_f64(),
+                "sessions still busy after the grace period; leaving them"
+            );
+        }
+        drop(spool_lock);
+        tracing::info!(stats = ?shared.daemon_stats(), "daemon stopped");
+        result
+    }
+
+    fn accept_loop(
+        &self,
+        sessions: &mut Vec<JoinHandle<()>>,
+        next_id: &mut u64,
+    ) -> Result<(), DaemonError> {
+        let shared = &self.shared;
+        let mut fds = vec![libc::pollfd {
+            fd: self.unix.listener.as_raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        }];
+        if let Some((l, _)) = &self.tcp {
+            fds.push(libc::pollfd {
+                fd: l.as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            });
+        }
+        while !shared.stopping() {
+            for p in fds.iter_mut() {
+                p.revents = 0;
+            }
+            // SAFETY: `fds` is a valid array of pollfd for its whole length, and the listeners
+            // whose descriptors it holds outlive the call.
+            let n = unsafe { libc::poll(fds.as_mut_ptr(), fds.len() as libc::nfds_t, 100) };
+            if n < 0 {
+                let e = std::io::Error::last_os_error();
+                if e.kind() == std::io::ErrorKind::Interrupted {
+                    continue;
+                }
+                return Err(DaemonError::io("poll", e));
+            }
+            sessions.retain(|t| !t.is_finished());
+            if n == 0 {
+                continue;
+            }
+            loop {
+                match self.unix.listener.accept() {
+                    Ok((s, _)) => self.spawn_session(Conn::Unix(s), sessions, next_id),
+                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+                    Err(e) => {
+                        tracing::warn!(error = %e, "accept failed on the unix socket");
+                        break;
+                    }
+                }
+            }
+            if let Some((l, _)) = &self.tcp {
+                loop {
+                    match l.accept() {
+                        Ok((s, _)) => {
+                            let _ = s.set_nodelay(true);
+                            self.spawn_session(Conn::Tcp(s), sessions, next_id)
+                        }
+                        Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+                        Err(e) => {
+                            tracing::warn!(error = %e, "accept failed on the tcp socket");
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn spawn_session(&self, conn: Conn, sessions: &mut Vec<JoinHandle<()>>, next_id: &mut u64) {
+        let shared = self.shared.clone();
+        let id = *next_id;
+        *next_id += 1;
+        let setup = conn
+            .set_nonblocking(false)
+            .and_then(|()| conn.set_write_timeout(Some(shared.config.write_timeout)))
+            .and_then(|()| conn.try_clone());
+        let waker = match setup {
+            Ok(w) => w,
+            Err(e) => {
+                tracing::warn!(error = %e, "cannot set up a connection; dropping it");
+                return;
+            }
+        };
+        if shared.counters.sessions_live.load(Ordering::Relaxed) >= MAX_SESSIONS {
+            tracing::warn!(max = MAX_SESSIONS, peer = %conn.peer(), "too many sessions; refusing");
+            let reply = antumbra_protocol::Reply::Error {
+                code: antumbra_protocol::ErrorCode::Busy,
+                message: format!("the daemon already serves {MAX_SESSIONS} sessions"),
+                session_usable: false,
+                request_id: None,
+            };
+            if let Ok(bytes) = antumbra_protocol::encode_message(&reply) {
+                let mut conn = conn;
+                let _ = std::io::Write::write_all(&mut conn, &bytes);
+            }
+            return;
+        }
+        lock(&shared.sessions).insert(id, waker);
+        bump(&shared.counters.sessions_live);
+        bump(&shared.counters.sessions_total);
+        let spawned = std::thread::Builder::new()
+            .name(format!("session-{id}"))
+            .spawn({
+                let shared = shared.clone();
+                move || {
+                    // session::run catches panics per request; this is the last line of defence
+                    // so that the bookkeeping below always runs.
+                    let run = std::panic::AssertUnwindSafe(|| session::run(&shared, conn, id));
+                    if std::panic::catch_unwind(run).is_err() {
+                        tracing::error!(session = id, "session thread panicked");
+                    }
+                    lock(&shared.sessions).remove(&id);
+                    shared
+                        .counters
+                        .sessions_live
+                        .fetch_sub(1, Ordering::Relaxed);
+                    // Meshes this session held may now be evictable.
+                    shared.cache.trim();
+                }
+            });
+        match spawned {
+            Ok(t) => sessions.push(t),
+            Err(e) => {
+                tracing::error!(error = %e, "cannot start a session thread");
+                lock(&shared.sessions).remove(&id);
+                shared
+                    .counters
+                    .sessions_live
+                    .fetch_sub(1, Ordering::Relaxed);
+            }
+        }
+    }
+}
+
+/// Where `--record` puts a session's recording.
+pub(crate) fn recording_path(dir: &Path, session: u64) -> PathBuf {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    // The pid keeps two daemons recording into one folder from overwriting each other.
+    let pid = std::process::id();
+    dir.join(format!("session-{secs}-{pid}-{session}.antrec"))
+}

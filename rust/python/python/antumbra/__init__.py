@@ -1,0 +1,58 @@
+"""antumbra: shadow passes and BVH traversal heat maps of animated scenes, from Python.
+
+Two sessions with the same methods:
+
+- :class:`Client`: a session with the antumbra daemon (``antumbra serve``) over its Unix socket;
+  :meth:`Client.connect` to a running daemon, :meth:`Client.spawn` to start one;
+- :class:`LocalSession`: renders in this process with the daemon's code path (tests, notebooks).
+
+A frame: ``upload_mesh`` each mesh the session lacks, ``frame_update`` the scene state (objects,
+camera, lights, resolution, with Blender's field names), then ``render`` it into a
+:class:`Result` of float32 numpy images. See ``docs/python.md``.
+"""
+
+from . import errors
+from ._native import __version__
+from .client import (
+    DEFAULT_PASSES,
+    PROTOCOL_VERSION,
+    Client,
+    LocalSession,
+    ProgressCallback,
+    Result,
+    default_socket_path,
+    mesh_hash,
+)
+from .errors import (
+    AntumbraError,
+    ConnectionLost,
+    DaemonError,
+    DaemonTimeout,
+    DaemonUnavailable,
+    InvalidInput,
+    ProtocolMismatch,
+    RequestError,
+    SessionBusy,
+)
+
+__all__ = [
+    "DEFAULT_PASSES",
+    "PROTOCOL_VERSION",
+    "AntumbraError",
+    "Client",
+    "ConnectionLost",
+    "DaemonError",
+    "DaemonTimeout",
+    "DaemonUnavailable",
+    "InvalidInput",
+    "LocalSession",
+    "ProgressCallback",
+    "ProtocolMismatch",
+    "RequestError",
+    "Result",
+    "SessionBusy",
+    "__version__",
+    "default_socket_path",
+    "errors",
+    "mesh_hash",
+]

@@ -1,0 +1,111 @@
+"""Type stubs of ``antumbra._native``, the Rust half of the package (``rust/python/src``).
+
+Use the Python wrappers (``antumbra.Client``, ``antumbra.LocalSession``) rather than these
+classes: they add the socket-path rules, the daemon process, and the ``Result`` type. ``render``
+here returns the raw dict the wrappers turn into ``antumbra.Result``.
+"""
+
+from collections.abc import Callable, Iterable, Mapping
+from os import PathLike
+from typing import Any, TypedDict, final
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+PROTOCOL_VERSION: int
+
+Matrix = Any  # 4x4, indexed [row][column]: mathutils.Matrix, numpy (4, 4), nested sequences
+Progress = Callable[[str, int, int], bool | None]
+
+class RawResult(TypedDict):
+    frame: int
+    width: int
+    height: int
+    request_id: int
+    images: list[tuple[str, npt.NDArray[np.float32]]]
+    stats: list[dict[str, Any]]
+    visible: npt.NDArray[np.uint32] | None
+
+def mesh_hash(positions: npt.NDArray[np.float32], triangles: npt.NDArray[np.integer]) -> int:
+    """The protocol's content hash of a mesh: positions float32 (n, 3), triangles integer
+    (m, 3). Values are not checked."""
+
+class _SessionMethods:
+    @property
+    def limits(self) -> dict[str, int]:
+        """max_frame_bytes, max_triangles_per_mesh, max_meshes, max_objects,
+        max_image_pixels, max_spp, max_lights."""
+    @property
+    def closed(self) -> bool: ...
+    @property
+    def active_request(self) -> int | None: ...
+    def missing_meshes(self, hashes: Iterable[int]) -> list[int]: ...
+    def upload_mesh(
+        self,
+        name: str,
+        positions: npt.NDArray[np.float32],
+        triangles: npt.NDArray[np.integer],
+    ) -> int: ...
+    def frame_update(
+        self,
+        frame: int,
+        objects: Iterable[Mapping[str, Any]],
+        camera: Mapping[str, Any],
+        lights: Iterable[Mapping[str, Any]],
+        resolution: Mapping[str, Any] | tuple[int, int],
+    ) -> list[int]: ...
+    def camera_path(
+        self,
+        frames: Iterable[tuple[int, Mapping[str, Any]]] | Mapping[int, Mapping[str, Any]],
+    ) -> None: ...
+    def render(
+        self,
+        frame: int,
+        spp: int,
+        seed: int,
+        build: str,
+        order: str,
+        leaf_size: int,
+        bins: int,
+        traversal_cost: float,
+        intersection_cost: float,
+        timing: bool | str,
+        passes: Iterable[str],
+        progress: Progress | None = None,
+        timeout: float | None = None,
+    ) -> RawResult: ...
+    def cancel(self, request_id: int | None = None) -> bool: ...
+    def stats(self) -> dict[str, Any]:
+        """sessions, sessions_total, meshes_cached, bytes_cached, renders_done,
+        renders_cancelled, renders_failed, uptime_s, meshes_evicted."""
+    def start_recording(self, path: str | PathLike[str]) -> None: ...
+    def stop_recording(self) -> tuple[int, int]: ...
+    def close(self) -> None: ...
+    def shutdown(self) -> None: ...
+
+@final
+class Connection(_SessionMethods):
+    """A session with the daemon over its Unix socket; connects and says Hello."""
+
+    def __init__(
+        self,
+        socket_path: str,
+        timeout: float | None = 10.0,
+        client_name: str = "antumbra-python",
+        token: str | None = None,
+    ) -> None: ...
+    @property
+    def socket_path(self) -> str: ...
+    @property
+    def server(self) -> str: ...
+    @property
+    def protocol_version(self) -> int: ...
+    @property
+    def timeout(self) -> float | None: ...
+
+@final
+class LocalSession(_SessionMethods):
+    """Renders in this process with the daemon's code path."""
+
+    def __init__(self, client_name: str = "antumbra-python") -> None: ...

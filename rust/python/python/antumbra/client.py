@@ -1,0 +1,546 @@
+"""The sessions: :class:`Client` talks to ``antumbra serve`` over its Unix socket,
+:class:`LocalSession` renders in this process with the daemon's code path. Both have the same
+methods and return the same :class:`Result`.
+
+The protocol itself lives in the native module (``antumbra._native``, Rust): this module only
+manages the daemon process, the socket path and the shape of the results.
+"""
+
+from __future__ import annotations
+
+import collections
+import os
+import shutil
+import subprocess
+import tempfile
+import threading
+import time
+import weakref
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Self
+
+import numpy as np
+
+from . import _native
+from ._native import Connection as _Connection
+from ._native import LocalSession as _LocalSession
+from .errors import AntumbraError, DaemonTimeout, DaemonUnavailable
+
+__all__ = [
+    "DEFAULT_PASSES",
+    "PROTOCOL_VERSION",
+    "Client",
+    "LocalSession",
+    "ProgressCallback",
+    "Result",
+    "default_socket_path",
+    "mesh_hash",
+]
+
+PROTOCOL_VERSION: int = _native.PROTOCOL_VERSION
+
+#: The passes ``render`` returns unless told otherwise.
+DEFAULT_PASSES: tuple[str, ...] = ("masks", "combined", "heat_maps", "visible")
+
+#: ``progress(stage, done, total)``; return False to cancel the render.
+ProgressCallback = Callable[[str, int, int], "bool | None"]
+
+#: The line ``antumbra serve`` prints on stdout once it accepts connections.
+READY_PREFIX = "antumbra: listening on "
+
+
+def default_socket_path() -> str:
+    """The daemon's default socket: ``$XDG_RUNTIME_DIR/antumbra/daemon.sock``, or
+    ``/tmp/antumbra-$UID/daemon.sock`` when ``XDG_RUNTIME_DIR`` is unset or empty (the rule
+    ``antumbra serve`` follows)."""
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    if runtime:
+        return os.path.join(runtime, "antumbra", "daemon.sock")
+    return f"/tmp/antumbra-{os.getuid()}/daemon.sock"
+
+
+def mesh_hash(positions: np.ndarray, triangles: np.ndarray) -> int:
+    """The protocol's content hash of a mesh (64-bit FNV-1a over the vertex count, the float32
+    positions, the triangle count and the uint32 indices; computed in Rust).
+
+    ``positions``: float32 array of shape (n, 3); ``triangles``: integer array of shape (m, 3).
+    """
+    return _native.mesh_hash(positions, triangles)
+
+
+@dataclass(frozen=True, eq=False)
+class Result:
+    """One rendered frame.
+
+    Attributes:
+        frame, width, height: the frame number and the image size in pixels.
+        request_id: the render's request id.
+        planes: every image in the daemon's order, as (name, array) pairs: the masks
+            ``shadow.<light>`` (light order), ``combined``, ``primary.N_B|N_L|N_T``,
+            ``shadow.N_B|N_L|N_T``; each a float32 array of shape (height, width), rows top to
+            bottom.
+        images: the planes by name (if a light is called ``N_B``, ``N_L`` or ``N_T``, its mask
+            shares a name with a heat map: ``images`` keeps the heat map, ``masks`` the mask).
+        masks: the shadow mask of each shadow-casting light, by light name (1 lit, 0 shadowed).
+        stats: one dict per pass (the primary pass, then each shadow-casting light) with the
+            columns of ``antumbra_core::stats::StatsRow``.
+        visible: the visible set, a uint32 array of shape (k, 2) of (object index, triangle
+            index) rows, sorted; None unless the ``visible`` pass was asked for.
+    """
+
+    frame: int
+    width: int
+    height: int
+    request_id: int
+    planes: list[tuple[str, np.ndarray]]
+    stats: list[dict[str, Any]]
+    visible: np.ndarray | None
+    images: dict[str, np.ndarray] = field(default_factory=dict)
+    masks: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @classmethod
+    def _from_native(cls, raw: dict[str, Any], passes: Sequence[str]) -> Result:
+        planes = list(raw["images"])
+        stats = list(raw["stats"])
+        masks: dict[str, np.ndarray] = {}
+        if "masks" in passes:
+            lights = [row["light"] for row in stats if row["pass"] == "shadow"]
+            masks = {light: array for light, (_, array) in zip(lights, planes, strict=False)}
+        return cls(
+            frame=raw["frame"],
+            width=raw["width"],
+            height=raw["height"],
+            request_id=raw["request_id"],
+            planes=planes,
+            stats=stats,
+            visible=raw["visible"],
+            images=dict(planes),
+            masks=masks,
+        )
+
+    @property
+    def combined(self) -> np.ndarray | None:
+        """The mean of the masks (None unless the ``combined`` pass was asked for)."""
+        return self.images.get("combined")
+
+    def __repr__(self) -> str:
+        names = ", ".join(name for name, _ in self.planes)
+        return (
+            f"<antumbra.Result frame={self.frame} {self.width}x{self.height} "
+            f"images=[{names}] stats={len(self.stats)} rows>"
+        )
+
+
+class _Session:
+    """The methods both sessions share; ``self._native`` is a ``_native.Connection`` or a
+    ``_native.LocalSession``."""
+
+    _native: _Connection | _LocalSession
+
+    # -- meshes ---------------------------------------------------------------------------
+
+    def missing_meshes(self, hashes: Iterable[int]) -> list[int]:
+        """Which of these mesh hashes the session lacks (upload those)."""
+        return self._native.missing_meshes(hashes)
+
+    def upload_mesh(self, name: str, positions: np.ndarray, triangles: np.ndarray) -> int:
+        """Checks, hashes and uploads one mesh in object space; returns its content hash.
+
+        ``positions``: float32 array of shape (n, 3); ``triangles``: integer array (uint32 or
+        int) of shape (m, 3) of vertex indices. A NaN or infinite position, or an index out of
+        range, raises :class:`InvalidInput` naming the mesh. The GIL is released while the
+        arrays are hashed and sent.
+        """
+        return self._native.upload_mesh(name, positions, triangles)
+
+    # -- frames ---------------------------------------------------------------------------
+
+    def frame_update(
+        self,
+        frame: int,
+        objects: Iterable[Mapping[str, Any]],
+        camera: Mapping[str, Any],
+        lights: Iterable[Mapping[str, Any]] = (),
+        resolution: Mapping[str, Any] | tuple[int, int] = (1920, 1080),
+    ) -> list[int]:
+        """Sends the whole scene state of one frame, with Blender's field names; returns the
+        hashes of the meshes it uses that the session lacks (upload them before rendering).
+
+        ``objects``: dicts ``name``, ``mesh_hash``, ``matrix_world`` (4x4, indexed
+        [row][column] as Blender's ``Matrix`` and numpy), ``visible_camera`` (True),
+        ``visible_shadow`` (True; ``cast_shadow`` is accepted as its alias).
+
+        ``camera``: ``matrix_world``, ``lens`` (50), ``sensor_width`` (36),
+        ``sensor_height`` (24), ``sensor_fit`` ('AUTO' | 'HORIZONTAL' | 'VERTICAL'),
+        ``shift_x``, ``shift_y`` (0), ``clip_start`` (0.1), ``clip_end`` (1000).
+
+        ``lights``: ``name``, ``matrix_world``, ``type`` ('POINT' | 'SUN' | 'SPOT' | 'AREA'),
+        ``shadow_soft_size`` (0.25; point and spot radius), ``angle`` (sun, radians, 0.00918),
+        ``spot_size`` (pi/4), ``spot_blend`` (0.15), ``shape`` ('SQUARE' | 'RECTANGLE' |
+        'DISK' | 'ELLIPSE'), ``size`` (0.25), ``size_y`` (0.25), ``use_shadow`` (True).
+
+        ``resolution``: ``x``, ``y``, ``percentage`` (100), ``pixel_aspect_x``,
+        ``pixel_aspect_y`` (1), or an (x, y) pair; ``resolution_x``, ``resolution_y`` and
+        ``resolution_percentage`` are accepted too.
+
+        A field of the wrong type, a missing or unknown field raises :class:`InvalidInput`
+        naming it.
+        """
+        return self._native.frame_update(frame, objects, camera, lights, resolution)
+
+    def camera_path(
+        self, frames: Iterable[tuple[int, Mapping[str, Any]]] | Mapping[int, Mapping[str, Any]]
+    ) -> None:
+        """Sends the camera of every frame of the animation up front: (frame, camera dict)
+        pairs, or a dict from frame to camera dict."""
+        self._native.camera_path(frames)
+
+    # -- rendering ------------------------------------------------------------------------
+
+    def render(
+        self,
+        frame: int,
+        spp: int = 4,
+        seed: int = 0,
+        build: str = "sah",
+        order: str = "near",
+        leaf_size: int = 8,
+        bins: int = 16,
+        timing: bool | str = False,
+        passes: Iterable[str] = DEFAULT_PASSES,
+        progress: ProgressCallback | None = None,
+        *,
+        traversal_cost: float = 1.0,
+        intersection_cost: float = 1.0,
+        timeout: float | None = None,
+    ) -> Result:
+        """Renders a frame sent with :meth:`frame_update`.
+
+        Args:
+            spp: shadow samples per pixel for soft lights (1 to 4096).
+            seed: seed of the light-sample patterns.
+            build: the BVH builder ('sah').
+            order: child order of shadow rays ('near' or 'stored').
+            leaf_size: most triangles per BVH leaf (1 to 64); bins: SAH bins (2 to 256).
+            timing: False (exact work counters and heat maps), True (counters, then each pass
+                again without counters for Mrays/s) or 'only' (timings, no heat maps).
+            passes: any of 'masks', 'combined', 'heat_maps', 'visible'.
+            progress: ``progress(stage, done, total)``, called for each progress report (with
+                the GIL); returning False cancels the render (it then raises a
+                :class:`RequestError` with code 'Cancelled'), raising cancels it and the
+                exception propagates. Ctrl-C cancels too.
+            timeout: seconds to wait between two replies of the daemon (None: no limit).
+        """
+        passes = tuple(passes) if not isinstance(passes, str) else (passes,)
+        raw = self._native.render(
+            frame,
+            spp,
+            seed,
+            build,
+            order,
+            leaf_size,
+            bins,
+            traversal_cost,
+            intersection_cost,
+            timing,
+            passes,
+            progress,
+            timeout,
+        )
+        return Result._from_native(dict(raw), passes)
+
+    def cancel(self, request_id: int | None = None) -> bool:
+        """Cancels the render in progress on this session (call it from another thread);
+        returns whether a cancel was sent. ``request_id`` None cancels whichever render runs.
+        """
+        return self._native.cancel(request_id)
+
+    @property
+    def active_request(self) -> int | None:
+        """The request id of the render in progress, or None."""
+        return self._native.active_request
+
+    def stats(self) -> dict[str, Any]:
+        """The daemon's statistics: sessions, sessions_total, meshes_cached, bytes_cached,
+        renders_done, renders_cancelled, renders_failed, uptime_s, meshes_evicted."""
+        return self._native.stats()
+
+    @property
+    def limits(self) -> dict[str, int]:
+        """The limits the session applies (the daemon's, from its Welcome)."""
+        return self._native.limits
+
+    # -- recordings -----------------------------------------------------------------------
+
+    def start_recording(self, path: str | os.PathLike[str]) -> None:
+        """Writes the meshes and frames sent from now on to a recording (``.antrec``) that
+        ``antumbra render --scene FILE.antrec`` replays. While recording, meshes the file lacks
+        are reported as missing by :meth:`frame_update` and :meth:`missing_meshes`, so the
+        usual upload loop puts them in the file."""
+        self._native.start_recording(os.fspath(path))
+
+    def stop_recording(self) -> tuple[int, int]:
+        """Closes the recording; returns (frames written, frames left out because a mesh they
+        use was never uploaded)."""
+        return self._native.stop_recording()
+
+    # -- lifetime -------------------------------------------------------------------------
+
+    @property
+    def closed(self) -> bool:
+        return self._native.closed
+
+    def close(self) -> None:
+        self._native.close()
+
+    def shutdown(self) -> None:
+        self._native.shutdown()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class LocalSession(_Session):
+    """Renders in this process, with the daemon's code path: meshes go through the daemon's
+    upload checks, frames through its scene conversion, results through its reply conversion,
+    so a LocalSession and a daemon give the same images bit for bit. For tests and notebooks;
+    there is no socket and no daemon.
+
+    ``client_name`` fills the ``scene`` column of the statistics, as the daemon does with the
+    client's name.
+    """
+
+    _native: _LocalSession
+
+    def __init__(self, client_name: str = "antumbra-python") -> None:
+        self._native = _LocalSession(client_name)
+
+    def __repr__(self) -> str:
+        return f"<antumbra.LocalSession{' closed' if self.closed else ''}>"
+
+
+class _DaemonProcess:
+    """A daemon started by :meth:`Client.spawn`: its process, its output (drained by threads
+    so the daemon never blocks on a full pipe) and its private socket directory."""
+
+    def __init__(self, command: list[str], env: Mapping[str, str] | None, tmpdir: str | None):
+        self.command = command
+        self.tmpdir = tmpdir
+        self.stdout: collections.deque[str] = collections.deque(maxlen=200)
+        self.stderr: collections.deque[str] = collections.deque(maxlen=200)
+        self.ready = threading.Event()
+        self.listening: str | None = None
+        try:
+            self.process = subprocess.Popen(
+                command,
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                env=None if env is None else dict(env),
+                text=True,
+                errors="replace",
+                # Ctrl-C in a terminal goes to the client, which cancels its render; the
+                # daemon is stopped by close().
+                start_new_session=True,
+            )
+        except OSError as e:
+            self._remove_tmpdir()
+            raise DaemonUnavailable(
+                f"cannot start the antumbra daemon `{' '.join(command)}`: {e} (install "
+                f"antumbra, or pass binary='/path/to/antumbra')"
+            ) from e
+        threading.Thread(target=self._read_stdout, daemon=True).start()
+        threading.Thread(target=self._read_stderr, daemon=True).start()
+
+    def _read_stdout(self) -> None:
+        assert self.process.stdout is not None
+        for line in self.process.stdout:
+            line = line.rstrip("\n")
+            self.stdout.append(line)
+            if not self.ready.is_set() and line.startswith(READY_PREFIX):
+                for endpoint in line[len(READY_PREFIX) :].split(" tcp:")[:1]:
+                    if endpoint.startswith("unix:"):
+                        self.listening = endpoint[len("unix:") :]
+                self.ready.set()
+        self.ready.set()  # end of output: the process is gone
+
+    def _read_stderr(self) -> None:
+        assert self.process.stderr is not None
+        for line in self.process.stderr:
+            self.stderr.append(line.rstrip("\n"))
+
+    def output(self) -> str:
+        """The last lines the daemon wrote on stderr and stdout."""
+        return "\n".join([*self.stderr, *self.stdout])
+
+    def wait_ready(self, timeout: float) -> str:
+        """Waits for the ready line; returns the socket path it names."""
+        deadline = time.monotonic() + timeout
+        while not self.ready.wait(0.05):
+            if time.monotonic() > deadline:
+                self.stop(grace=0)
+                raise DaemonTimeout(
+                    f"`{' '.join(self.command)}` did not print '{READY_PREFIX}unix:PATH' "
+                    f"within {timeout} s; its output:\n{self.output()}"
+                )
+        if self.listening is None:
+            try:
+                code = self.process.wait(timeout=2)
+            except subprocess.TimeoutExpired:
+                code = None
+            time.sleep(0.05)  # let the stderr thread catch up
+            self.stop(grace=0)
+            raise DaemonUnavailable(
+                f"`{' '.join(self.command)}` exited (status {code}) before it listened; "
+                f"its output:\n{self.output()}"
+            )
+        return self.listening
+
+    def stop(self, grace: float = 5.0) -> None:
+        """Waits up to ``grace`` seconds for the process to exit, then terminates it."""
+        _stop_process(self.process, grace)
+        self._remove_tmpdir()
+
+    def _remove_tmpdir(self) -> None:
+        if self.tmpdir is not None:
+            shutil.rmtree(self.tmpdir, ignore_errors=True)
+            self.tmpdir = None
+
+
+def _stop_process(process: subprocess.Popen[str], grace: float = 5.0) -> None:
+    if process.poll() is not None:
+        return
+    try:
+        process.wait(timeout=grace)
+        return
+    except subprocess.TimeoutExpired:
+        pass
+    process.terminate()
+    try:
+        process.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
+class Client(_Session):
+    """A session with the antumbra daemon over its Unix socket. Create one with
+    :meth:`connect` (a running daemon) or :meth:`spawn` (start a daemon for this client)."""
+
+    _native: _Connection
+
+    def __init__(self, native: _Connection, daemon: _DaemonProcess | None = None) -> None:
+        self._native = native
+        self._daemon = daemon
+        self._finalizer = (
+            weakref.finalize(self, _stop_process, daemon.process, 0) if daemon else None
+        )
+
+    @classmethod
+    def connect(
+        cls,
+        socket_path: str | os.PathLike[str] | None = None,
+        timeout: float | None = 10.0,
+        client_name: str = "antumbra-python",
+        token: str | None = None,
+    ) -> Client:
+        """Connects to a running daemon (``socket_path`` None: :func:`default_socket_path`)
+        and says Hello. ``timeout``: seconds to wait for each reply (None: no limit; renders
+        wait without limit unless ``render(timeout=...)``).
+
+        Raises :class:`DaemonUnavailable` when no daemon listens there, and
+        :class:`ProtocolMismatch` when it speaks another protocol version.
+        """
+        path = default_socket_path() if socket_path is None else os.fspath(socket_path)
+        return cls(_Connection(path, timeout, client_name, token))
+
+    @classmethod
+    def spawn(
+        cls,
+        binary: str | os.PathLike[str] = "antumbra",
+        socket_path: str | os.PathLike[str] | None = None,
+        args: Sequence[str] = (),
+        timeout: float = 10.0,
+        client_name: str = "antumbra-python",
+        env: Mapping[str, str] | None = None,
+    ) -> Client:
+        """Starts ``BINARY serve --socket PATH ARGS...``, waits for it to print
+        ``antumbra: listening on unix:PATH``, and connects. The client owns the daemon:
+        :meth:`close` stops it (Shutdown, then SIGTERM if it lingers).
+
+        ``socket_path`` None puts the socket in a new private directory under /tmp (so the
+        spawned daemon never meets one already running at the default path). ``timeout``
+        bounds the wait for the daemon to start and for each reply. ``env`` None runs the
+        daemon in this environment with ``NO_COLOR=1``; its output is kept for
+        :meth:`daemon_output`.
+        """
+        tmpdir = None
+        if socket_path is None:
+            tmpdir = tempfile.mkdtemp(prefix="antumbra-", dir="/tmp")
+            socket_path = os.path.join(tmpdir, "daemon.sock")
+        command = [os.fspath(binary), "serve", "--socket", os.fspath(socket_path), *args]
+        if env is None:
+            # Its log goes to a pipe (daemon_output()): plain text, no colour codes.
+            env = {**os.environ, "NO_COLOR": "1"}
+        daemon = _DaemonProcess(command, env, tmpdir)
+        try:
+            path = daemon.wait_ready(timeout)
+            native = _Connection(path, timeout, client_name, None)
+        except BaseException:
+            daemon.stop(grace=0)
+            raise
+        return cls(native, daemon)
+
+    @property
+    def socket_path(self) -> str:
+        return self._native.socket_path
+
+    @property
+    def server(self) -> str:
+        """The daemon's name and version."""
+        return self._native.server
+
+    @property
+    def protocol_version(self) -> int:
+        return self._native.protocol_version
+
+    @property
+    def process(self) -> subprocess.Popen[str] | None:
+        """The daemon process this client started (:meth:`spawn`), else None."""
+        return self._daemon.process if self._daemon else None
+
+    def daemon_output(self) -> str:
+        """The last lines a spawned daemon wrote (stderr, then stdout); '' if not spawned."""
+        return self._daemon.output() if self._daemon else ""
+
+    def close(self) -> None:
+        """Ends the session (the daemon keeps its mesh cache). A spawned daemon is stopped."""
+        if self._daemon is None:
+            self._native.close()
+            return
+        try:
+            if not self._native.closed:
+                # Shutdown closes the socket too, even when it fails (a broken session).
+                self._native.shutdown()
+        except AntumbraError:
+            pass
+        finally:
+            self._daemon.stop()
+            if self._finalizer is not None:
+                self._finalizer.detach()
+
+    def shutdown(self) -> None:
+        """Stops the daemon (whoever started it) and closes this client."""
+        try:
+            self._native.shutdown()
+        finally:
+            if self._daemon is not None:
+                self._daemon.stop()
+
+    def __repr__(self) -> str:
+        state = " closed" if self.closed else ""
+        return f"<antumbra.Client {self.socket_path} server={self.server!r}{state}>"

@@ -1,0 +1,187 @@
+//! numpy arrays in, numpy arrays out: mesh arrays become an [`antumbra_core::scene::Mesh`]
+//! (checked and hashed without the GIL), result planes become float32 arrays without a copy.
+
+use antumbra_core::output::ImagePlane;
+use antumbra_core::scene::{Mesh, TriangleRef};
+use glam::Vec3;
+use numpy::ndarray::{Array2, ArrayView2};
+use numpy::{
+    Element, IntoPyArray, PyArray2, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+
+use crate::error::{ClientError, ClientResult};
+
+/// A short description of a Python value for error messages: `float64 array of shape (8, 3)`,
+/// `list`, ...
+pub fn describe(obj: &Bound<'_, PyAny>) -> String {
+    if let Ok(a) = obj.cast::<PyUntypedArray>() {
+        let dtype = a
+            .dtype()
+            .str()
+            .map(|s| s.to_string())
+            .unwrap_or_else(|_| "?".into());
+        let shape: Vec<String> = a.shape().iter().map(|d| d.to_string()).collect();
+        let shape = if shape.len() == 1 {
+            format!("({},)", shape[0])
+        } else {
+            format!("({})", shape.join(", "))
+        };
+        return format!("{dtype} array of shape {shape}");
+    }
+    obj.get_type()
+        .name()
+        .map(|n| n.to_string())
+        .unwrap_or_else(|_| "object".into())
+}
+
+/// Checks that `obj` is a 2-D numpy array with 3 columns; returns its row count.
+fn check_n_by_3(
+    obj: &Bound<'_, PyAny>,
+    field: &str,
+    expected: &str,
+    rows: &str,
+) -> ClientResult<usize> {
+    let bad = || {
+        ClientError::invalid(format!(
+            "{field}: expected {expected} with shape ({rows}, 3), got {}",
+            describe(obj)
+        ))
+    };
+    let a = obj.cast::<PyUntypedArray>().map_err(|_| bad())?;
+    match a.shape() {
+        [n, 3] => Ok(*n),
+        _ => Err(bad()),
+    }
+}
+
+/// Rows of an (n, 3) array as a contiguous slice when it is one, else copied out.
+fn with_rows<T, R: Send>(
+    py: Python<'_>,
+    array: &Bound<'_, PyArray2<T>>,
+    f: impl Fn(&[T]) -> R + Send + Sync,
+) -> ClientResult<R>
+where
+    T: Element + Copy + Sync,
+{
+    let ro = array
+        .try_readonly()
+        .map_err(|e| ClientError::invalid(format!("array is being written elsewhere: {e}")))?;
+    // as_slice also accepts Fortran order, whose memory is not in row order.
+    if array.is_c_contiguous() {
+        if let Ok(slice) = ro.as_slice() {
+            return Ok(py.detach(|| f(slice)));
+        }
+    }
+    let view: ArrayView2<'_, T> = ro.as_array();
+    let owned: Vec<T> = view.iter().copied().collect();
+    Ok(py.detach(|| f(&owned)))
+}
+
+/// Object-space positions: a float32 array of shape (n, 3).
+pub fn positions_from(
+    py: Python<'_>,
+    obj: &Bound<'_, PyAny>,
+    mesh: &str,
+) -> ClientResult<Vec<Vec3>> {
+    let field = format!("mesh '{mesh}'.positions");
+    check_n_by_3(obj, &field, "a float32 numpy array", "n")?;
+    let array = obj.cast::<PyArray2<f32>>().map_err(|_| {
+        ClientError::invalid(format!(
+            "{field}: expected a float32 numpy array with shape (n, 3), got {} \
+             (convert with .astype(numpy.float32))",
+            describe(obj)
+        ))
+    })?;
+    with_rows(py, array, |s| {
+        s.chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect()
+    })
+}
+
+/// Triangles: an integer array of shape (m, 3) whose values fit u32.
+pub fn triangles_from(
+    py: Python<'_>,
+    obj: &Bound<'_, PyAny>,
+    mesh: &str,
+) -> ClientResult<Vec<[u32; 3]>> {
+    let field = format!("mesh '{mesh}'.triangles");
+    check_n_by_3(obj, &field, "an integer numpy array", "m")?;
+    macro_rules! try_types {
+        ($($t:ty),*) => {
+            $(
+                if let Ok(a) = obj.cast::<PyArray2<$t>>() {
+                    return with_rows(py, a, |s| convert_indices(s, &field))?;
+                }
+            )*
+        };
+    }
+    try_types!(u32, i32, i64, u64, u16, i16, u8, i8);
+    Err(ClientError::invalid(format!(
+        "{field}: expected an integer numpy array (uint32 or int) with shape (m, 3), got {}",
+        describe(obj)
+    )))
+}
+
+fn convert_indices<T>(values: &[T], field: &str) -> ClientResult<Vec<[u32; 3]>>
+where
+    T: Copy + TryInto<u32> + std::fmt::Display,
+{
+    let mut out = Vec::with_capacity(values.len() / 3);
+    for (t, c) in values.chunks_exact(3).enumerate() {
+        let mut tri = [0u32; 3];
+        for (k, &v) in c.iter().enumerate() {
+            tri[k] = v.try_into().map_err(|_| {
+                ClientError::invalid(format!(
+                    "{field}: triangle {t} has index {v}, which is not a vertex index \
+                     (0 to 4294967295)"
+                ))
+            })?;
+        }
+        out.push(tri);
+    }
+    Ok(out)
+}
+
+/// A mesh from numpy arrays, checked if `validate` (finite positions, indices in range) and
+/// hashed; the work on the arrays runs without the GIL. Returns the mesh and its content hash.
+pub fn mesh_from_arrays(
+    py: Python<'_>,
+    name: &str,
+    positions: &Bound<'_, PyAny>,
+    triangles: &Bound<'_, PyAny>,
+    validate: bool,
+) -> ClientResult<(Mesh, u64)> {
+    let positions = positions_from(py, positions, name)?;
+    let triangles = triangles_from(py, triangles, name)?;
+    let mesh = Mesh::new(name, positions, triangles);
+    py.detach(|| {
+        if validate {
+            mesh.validate()
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+        }
+        let hash = mesh.content_hash();
+        Ok((mesh, hash))
+    })
+}
+
+/// An image plane as a float32 array of shape (height, width), rows top to bottom; the plane's
+/// buffer becomes the array's (no copy).
+pub fn plane_to_array<'py>(
+    py: Python<'py>,
+    plane: ImagePlane,
+) -> ClientResult<Bound<'py, PyArray2<f32>>> {
+    let shape = (plane.height as usize, plane.width as usize);
+    let a = Array2::from_shape_vec(shape, plane.data)
+        .map_err(|e| ClientError::Mismatch(format!("image '{}': {e}", plane.name)))?;
+    Ok(a.into_pyarray(py))
+}
+
+/// The visible set as a uint32 array of shape (k, 2): (object index, triangle index) rows.
+pub fn visible_to_array<'py>(py: Python<'py>, refs: &[TriangleRef]) -> Bound<'py, PyArray2<u32>> {
+    let flat: Vec<u32> = refs.iter().flat_map(|r| [r.object, r.primitive]).collect();
+    Array2::from_shape_vec((refs.len(), 2), flat)
+        .expect("two values per reference")
+        .into_pyarray(py)
+}

@@ -1,0 +1,54 @@
+//! `antumbra._native`: the Rust half of the `antumbra` Python package.
+//!
+//! - [`mesh_hash`]: the protocol's mesh content hash of numpy arrays;
+//! - [`connection::Connection`]: a session with the daemon over its Unix socket;
+//! - [`local::LocalSession`]: the same methods, rendering in this process.
+//!
+//! The protocol lives in `antumbra-protocol` only: this module builds its messages from Python
+//! values and never encodes MessagePack itself. The Python package (`python/antumbra`) wraps
+//! these classes (`antumbra.Client`, `antumbra.LocalSession`) and defines the exceptions.
+
+mod arrays;
+mod connection;
+mod error;
+mod local;
+mod recording;
+mod result;
+mod scene;
+
+use pyo3::prelude::*;
+use pyo3::types::PyString;
+
+use crate::arrays::{describe, mesh_from_arrays};
+use crate::error::{ClientError, ClientResult, IntoPyResult};
+
+/// A mesh name: a str.
+pub(crate) fn mesh_name(v: &Bound<'_, PyAny>) -> ClientResult<String> {
+    v.cast::<PyString>().map(|s| s.to_string()).map_err(|_| {
+        ClientError::invalid(format!("mesh name: expected a str, got {}", describe(v)))
+    })
+}
+
+/// The content hash the protocol uses for a mesh (`antumbra_core::scene::Mesh::content_hash`):
+/// positions a float32 array of shape (n, 3), triangles an integer array of shape (m, 3). The
+/// values are not checked (NaN hashes like any other bits); `upload_mesh` checks them.
+#[pyfunction]
+fn mesh_hash(
+    py: Python<'_>,
+    positions: &Bound<'_, PyAny>,
+    triangles: &Bound<'_, PyAny>,
+) -> PyResult<u64> {
+    mesh_from_arrays(py, "mesh", positions, triangles, false)
+        .map(|(_, hash)| hash)
+        .py_result(py)
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(mesh_hash, m)?)?;
+    m.add_class::<connection::Connection>()?;
+    m.add_class::<local::LocalSession>()?;
+    m.add("PROTOCOL_VERSION", antumbra_protocol::PROTOCOL_VERSION)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

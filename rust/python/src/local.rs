@@ -1,0 +1,409 @@
+//! The in-process session: the same methods as the socket session, rendering with
+//! antumbra-core in this process. It goes through the protocol's conversions exactly as the
+//! daemon does (uploads through `mesh_from_upload`, frames through `scene_from_frame`, results
+//! through `frame_result_reply`), so both sessions give the same images.
+
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
+use std::time::Instant;
+
+use antumbra_core::render::Renderer;
+use antumbra_core::scene::Mesh;
+use antumbra_protocol::{
+    check_limits, frame_result_reply, mesh_from_upload, missing_meshes, render_settings,
+    scene_from_frame, upload_from_mesh, CameraState, DaemonStats, ErrorCode, FrameUpdate, Limits,
+    ProtocolError, Request,
+};
+
+/// The progress stages, as the daemon reports them: ("render", 0, 2), then ("encode", 1, 2).
+const STAGES: u32 = 2;
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict};
+
+use crate::arrays::mesh_from_arrays;
+use crate::error::{ClientError, ClientResult, IntoPyResult};
+use crate::recording::Recorder;
+use crate::result::{daemon_stats, frame_result_to_py, limits as limits_dict};
+use crate::scene;
+
+struct LocalState {
+    meshes: HashMap<u64, Arc<Mesh>>,
+    frames: HashMap<i32, FrameUpdate>,
+    cameras: BTreeMap<i32, CameraState>,
+    renderer: Renderer,
+    stats: DaemonStats,
+    recorder: Option<Recorder>,
+    closed: bool,
+}
+
+/// Renders in this process with the daemon's code path (`antumbra._native.LocalSession`); use
+/// `antumbra.LocalSession`.
+#[pyclass(frozen, module = "antumbra._native")]
+pub struct LocalSession {
+    /// The `scene` column of the statistics (the daemon uses the client's name).
+    label: String,
+    limits: Limits,
+    started: Instant,
+    state: Mutex<LocalState>,
+    next_id: AtomicU64,
+}
+
+fn request_error(code: ErrorCode, message: String, request_id: u64) -> ClientError {
+    ClientError::Request {
+        code,
+        message,
+        session_usable: true,
+        request_id: Some(request_id),
+        daemon: false,
+    }
+}
+
+/// A protocol error that ends a render, as the daemon reports it.
+fn render_error(e: &ProtocolError, request_id: u64) -> ClientError {
+    request_error(e.code(), e.to_string(), request_id)
+}
+
+impl LocalSession {
+    fn lock(&self) -> ClientResult<MutexGuard<'_, LocalState>> {
+        let guard = match self.state.try_lock() {
+            Ok(g) => g,
+            Err(TryLockError::WouldBlock) => {
+                return Err(ClientError::Busy(
+                    "another thread is using this session (a render in progress?)".into(),
+                ))
+            }
+            Err(TryLockError::Poisoned(p)) => p.into_inner(),
+        };
+        if guard.closed {
+            return Err(ClientError::Lost("the session is closed".into()));
+        }
+        Ok(guard)
+    }
+}
+
+#[pymethods]
+impl LocalSession {
+    #[new]
+    #[pyo3(signature = (client_name = "antumbra-python".to_string()))]
+    fn new(client_name: String) -> Self {
+        LocalSession {
+            label: client_name,
+            limits: Limits::default(),
+            started: Instant::now(),
+            state: Mutex::new(LocalState {
+                meshes: HashMap::new(),
+                frames: HashMap::new(),
+                cameras: BTreeMap::new(),
+                renderer: Renderer::new(),
+                stats: DaemonStats {
+                    sessions: 1,
+                    sessions_total: 1,
+                    ..DaemonStats::default()
+                },
+                recorder: None,
+                closed: false,
+            }),
+            next_id: AtomicU64::new(1),
+        }
+    }
+
+    /// The limits the in-process session applies (the daemon's defaults).
+    #[getter]
+    fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        limits_dict(py, &self.limits)
+    }
+
+    #[getter]
+    fn closed(&self) -> bool {
+        match self.state.try_lock() {
+            Ok(g) => g.closed,
+            Err(_) => false,
+        }
+    }
+
+    /// Always None: in-process renders cannot be cancelled.
+    #[getter]
+    fn active_request(&self) -> Option<u64> {
+        None
+    }
+
+    fn missing_meshes(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>) -> PyResult<Vec<u64>> {
+        (|| {
+            let hashes = scene::hashes(hashes)?;
+            check_limits(
+                &Request::MissingMeshes {
+                    hashes: hashes.clone(),
+                },
+                &self.limits,
+            )
+            .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let state = self.lock()?;
+            let mut seen = HashSet::new();
+            let mut out = Vec::new();
+            for h in hashes {
+                let in_file = !matches!(&state.recorder, Some(r) if !r.has_mesh(h));
+                if (!state.meshes.contains_key(&h) || !in_file) && seen.insert(h) {
+                    out.push(h);
+                }
+            }
+            Ok(out)
+        })()
+        .py_result(py)
+    }
+
+    fn upload_mesh(
+        &self,
+        py: Python<'_>,
+        name: &Bound<'_, PyAny>,
+        positions: &Bound<'_, PyAny>,
+        triangles: &Bound<'_, PyAny>,
+    ) -> PyResult<u64> {
+        (|| {
+            let name = crate::mesh_name(name)?;
+            let (mesh, hash) = mesh_from_arrays(py, &name, positions, triangles, true)?;
+            let request = Request::UploadMesh(py.detach(|| upload_from_mesh(&mesh)));
+            drop(mesh);
+            check_limits(&request, &self.limits)
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let Request::UploadMesh(upload) = &request else {
+                unreachable!()
+            };
+            let mut state = self.lock()?;
+            if !state.meshes.contains_key(&hash) {
+                // As the daemon stores an upload.
+                let mesh = py
+                    .detach(|| mesh_from_upload(upload, &self.limits))
+                    .map_err(|e| ClientError::local(&e))?;
+                state.stats.meshes_cached += 1;
+                state.stats.bytes_cached +=
+                    (upload.positions.len() + upload.triangles.len()) as u64;
+                state.meshes.insert(hash, Arc::new(mesh));
+            }
+            if let Some(rec) = state.recorder.as_mut() {
+                rec.mesh(upload)?;
+            }
+            Ok(hash)
+        })()
+        .py_result(py)
+    }
+
+    fn frame_update(
+        &self,
+        py: Python<'_>,
+        frame: &Bound<'_, PyAny>,
+        objects: &Bound<'_, PyAny>,
+        camera: &Bound<'_, PyAny>,
+        lights: &Bound<'_, PyAny>,
+        resolution: &Bound<'_, PyAny>,
+    ) -> PyResult<Vec<u64>> {
+        (|| {
+            let update = scene::frame_update(frame, objects, camera, lights, resolution)?;
+            scene::check_frame(&update, &self.limits)?;
+            let mut state = self.lock()?;
+            let mut missing = missing_meshes(&update, &state.meshes);
+            if let Some(rec) = state.recorder.as_mut() {
+                let mut seen: HashSet<u64> = missing.iter().copied().collect();
+                missing.extend(rec.missing(&update).into_iter().filter(|h| seen.insert(*h)));
+                rec.frame(&update)?;
+            }
+            state.cameras.insert(update.frame, update.camera.clone());
+            state.frames.insert(update.frame, update);
+            Ok(missing)
+        })()
+        .py_result(py)
+    }
+
+    fn camera_path(&self, py: Python<'_>, frames: &Bound<'_, PyAny>) -> PyResult<()> {
+        (|| {
+            let frames = scene::camera_path(frames)?;
+            let mut state = self.lock()?;
+            if let Some(rec) = state.recorder.as_mut() {
+                rec.camera_path(&Request::CameraPath {
+                    frames: frames.clone(),
+                })?;
+            }
+            state.cameras.extend(frames);
+            Ok(())
+        })()
+        .py_result(py)
+    }
+
+    /// Renders a frame sent with frame_update. `progress` is called as the daemon reports:
+    /// ("render", 0, 2) before rendering, ("encode", 1, 2) after; returning False from the
+    /// first call cancels.
+    #[pyo3(signature = (frame, spp, seed, build, order, leaf_size, bins, traversal_cost,
+        intersection_cost, timing, passes, progress = None, timeout = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn render<'py>(
+        &self,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+        spp: &Bound<'py, PyAny>,
+        seed: &Bound<'py, PyAny>,
+        build: &str,
+        order: &str,
+        leaf_size: &Bound<'py, PyAny>,
+        bins: &Bound<'py, PyAny>,
+        traversal_cost: f64,
+        intersection_cost: f64,
+        timing: &Bound<'py, PyAny>,
+        passes: &Bound<'py, PyAny>,
+        progress: Option<Bound<'py, PyAny>>,
+        timeout: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let _ = timeout;
+        (|| {
+            let frame = scene::frame_number(frame, "frame")?;
+            let settings_state = scene::render_settings_state(
+                spp,
+                seed,
+                build,
+                order,
+                leaf_size,
+                bins,
+                traversal_cost,
+                intersection_cost,
+                timing,
+            )?;
+            let passes = scene::passes(passes)?;
+            if let Some(p) = &progress {
+                if !p.is_callable() {
+                    return Err(ClientError::invalid(
+                        "progress: expected a callable progress(stage, done, total) or None",
+                    ));
+                }
+            }
+            let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
+            let mut state = self.lock()?;
+            let state = &mut *state;
+            let update = state.frames.get(&frame).ok_or_else(|| {
+                request_error(
+                    ErrorCode::InvalidInput,
+                    format!(
+                        "Render frame {frame} (request {request_id}): no FrameUpdate for frame \
+                         {frame} in this session"
+                    ),
+                    request_id,
+                )
+            })?;
+            let settings =
+                render_settings(&settings_state).map_err(|e| render_error(&e, request_id))?;
+            let scene = scene_from_frame(update, &state.meshes).map_err(|e| {
+                state.stats.renders_failed += 1;
+                render_error(&e, request_id)
+            })?;
+            let stop = |v: Bound<'py, PyAny>| -> bool {
+                v.is_instance_of::<PyBool>() && !v.is_truthy().unwrap_or(true)
+            };
+            if let Some(cb) = &progress {
+                if stop(cb.call1(("render", 0u32, STAGES))?) {
+                    state.stats.renders_cancelled += 1;
+                    return Err(request_error(
+                        ErrorCode::Cancelled,
+                        format!(
+                            "Render frame {frame} (request {request_id}): cancelled by the client"
+                        ),
+                        request_id,
+                    ));
+                }
+            }
+            let renderer = &mut state.renderer;
+            let label = self.label.as_str();
+            let reply = py
+                .detach(|| renderer.render(label, &scene, &settings))
+                .map_err(|error| {
+                    state.stats.renders_failed += 1;
+                    render_error(&ProtocolError::InFrame { frame, error }, request_id)
+                })?;
+            if let Some(cb) = &progress {
+                cb.call1(("encode", 1u32, STAGES))?;
+            }
+            let reply = py.detach(|| frame_result_reply(&reply, request_id, &passes));
+            state.stats.renders_done += 1;
+            frame_result_to_py(py, reply)
+        })()
+        .py_result(py)
+    }
+
+    /// In-process renders cannot be cancelled mid-way; always False.
+    #[pyo3(signature = (request_id = None))]
+    fn cancel(&self, request_id: Option<u64>) -> bool {
+        let _ = request_id;
+        false
+    }
+
+    /// Statistics in the daemon's form.
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        (|| {
+            let state = self.lock()?;
+            let mut s = state.stats.clone();
+            s.uptime_s = self.started.elapsed().as_secs_f64();
+            Ok(daemon_stats(py, &s)?)
+        })()
+        .py_result(py)
+    }
+
+    fn start_recording(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        (|| {
+            let mut state = self.lock()?;
+            if state.recorder.is_some() {
+                return Err(ClientError::invalid(
+                    "start_recording: a recording is already running; stop_recording() first",
+                ));
+            }
+            state.recorder = Some(Recorder::create(&path.to_string_lossy())?);
+            Ok(())
+        })()
+        .py_result(py)
+    }
+
+    fn stop_recording(&self, py: Python<'_>) -> PyResult<(usize, usize)> {
+        (|| {
+            let mut state = self.lock()?;
+            match state.recorder.take() {
+                Some(r) => r.finish(),
+                None => Err(ClientError::invalid(
+                    "stop_recording: no recording is running",
+                )),
+            }
+        })()
+        .py_result(py)
+    }
+
+    /// Frees the meshes and the renderer's state; closing twice is allowed.
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        (|| {
+            let mut state = match self.state.try_lock() {
+                Ok(g) => g,
+                Err(TryLockError::Poisoned(p)) => p.into_inner(),
+                Err(TryLockError::WouldBlock) => {
+                    return Err(ClientError::Busy(
+                        "another thread is using this session".into(),
+                    ))
+                }
+            };
+            if let Some(r) = state.recorder.take() {
+                r.finish()?;
+            }
+            state.closed = true;
+            state.meshes.clear();
+            state.frames.clear();
+            state.renderer = Renderer::new();
+            Ok(())
+        })()
+        .py_result(py)
+    }
+
+    /// Same as close() (there is no daemon to stop).
+    fn shutdown(&self, py: Python<'_>) -> PyResult<()> {
+        self.close(py)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<antumbra._native.LocalSession{}>",
+            if self.closed() { " closed" } else { "" }
+        )
+    }
+}

@@ -1,0 +1,98 @@
+//! Session recordings (`.antrec`) written by the client: the uploads and frames a session sends,
+//! in an order that replays (a frame is written once every mesh it uses is in the file).
+
+use std::collections::HashSet;
+use std::fs::File;
+use std::io::BufWriter;
+
+use antumbra_protocol::{FrameUpdate, RecordingWriter, Request, UploadMesh};
+
+use crate::error::{ClientError, ClientResult};
+
+pub struct Recorder {
+    path: String,
+    writer: RecordingWriter<BufWriter<File>>,
+    /// Meshes already in the file.
+    meshes: HashSet<u64>,
+    /// Frames waiting for meshes that are not in the file yet, in the order they were sent.
+    pending: Vec<FrameUpdate>,
+    frames: usize,
+}
+
+impl Recorder {
+    pub fn create(path: &str) -> ClientResult<Self> {
+        let writer = RecordingWriter::create(path)
+            .map_err(|e| ClientError::invalid(format!("start_recording: {e}")))?;
+        Ok(Recorder {
+            path: path.to_string(),
+            writer,
+            meshes: HashSet::new(),
+            pending: Vec::new(),
+            frames: 0,
+        })
+    }
+
+    pub fn has_mesh(&self, hash: u64) -> bool {
+        self.meshes.contains(&hash)
+    }
+
+    fn append(&mut self, request: &Request) -> ClientResult<()> {
+        self.writer
+            .append(request)
+            .map_err(|e| ClientError::invalid(format!("recording {}: {e}", self.path)))
+    }
+
+    pub fn mesh(&mut self, upload: &UploadMesh) -> ClientResult<()> {
+        if self.meshes.insert(upload.hash) {
+            self.append(&Request::UploadMesh(upload.clone()))?;
+            self.flush_ready()?;
+        }
+        Ok(())
+    }
+
+    /// Records a frame now if the file holds its meshes, else once they have been uploaded.
+    pub fn frame(&mut self, update: &FrameUpdate) -> ClientResult<()> {
+        // A frame sent again replaces its earlier pending version.
+        self.pending.retain(|p| p.frame != update.frame);
+        self.pending.push(update.clone());
+        self.flush_ready()
+    }
+
+    pub fn camera_path(&mut self, request: &Request) -> ClientResult<()> {
+        self.append(request)
+    }
+
+    /// Meshes a frame uses that the file lacks (distinct, in order of first use).
+    pub fn missing(&self, update: &FrameUpdate) -> Vec<u64> {
+        let mut seen = HashSet::new();
+        update
+            .objects
+            .iter()
+            .map(|o| o.mesh_hash)
+            .filter(|h| seen.insert(*h) && !self.meshes.contains(h))
+            .collect()
+    }
+
+    fn flush_ready(&mut self) -> ClientResult<()> {
+        let mut i = 0;
+        while i < self.pending.len() {
+            if self.missing(&self.pending[i]).is_empty() {
+                let update = self.pending.remove(i);
+                self.append(&Request::FrameUpdate(update))?;
+                self.frames += 1;
+            } else {
+                i += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Closes the file; returns (frames written, frames dropped because meshes never came).
+    pub fn finish(self) -> ClientResult<(usize, usize)> {
+        let path = self.path;
+        self.writer
+            .finish()
+            .map_err(|e| ClientError::invalid(format!("recording {path}: {e}")))?;
+        Ok((self.frames, self.pending.len()))
+    }
+}

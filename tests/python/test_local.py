@@ -1,0 +1,494 @@
+"""The in-process session (antumbra.LocalSession): rendering, results, and the errors of bad
+input. No daemon is needed."""
+
+from __future__ import annotations
+
+import math
+import struct
+
+import numpy as np
+import pytest
+
+import antumbra
+from conftest import (
+    HEIGHT,
+    RESOLUTION,
+    WIDTH,
+    box,
+    camera,
+    lights,
+    objects,
+    send_frame,
+    translation,
+    upload_scene,
+)
+
+STATS_COLUMNS = {
+    "scene",
+    "frame",
+    "method",
+    "pass",
+    "light",
+    "rebuilt",
+    "build_ms",
+    "bvh_nodes",
+    "bvh_bytes",
+    "triangles",
+    "rays",
+    "trace_ms",
+    "mrays_per_s",
+    "timed_without_counters",
+    "occluded_fraction",
+    "nb_per_ray",
+    "nl_per_ray",
+    "nt_per_ray",
+    "nbox_per_ray",
+    "back_facing",
+    "unreached",
+}
+
+
+@pytest.fixture
+def session():
+    with antumbra.LocalSession() as s:
+        yield s
+
+
+@pytest.fixture
+def scene(session):
+    hashes = upload_scene(session)
+    assert send_frame(session, hashes, 1) == []
+    return session, hashes
+
+
+# ---------------------------------------------------------------------------------------------
+# Meshes and hashes
+
+
+def fnv_reference(positions: np.ndarray, triangles: np.ndarray) -> int:
+    """docs/protocol.md's Python reference of the mesh hash."""
+    p = positions.astype("<f4").tobytes()
+    t = triangles.astype("<u4").tobytes()
+    h = 0xCBF29CE484222325
+    for part in (struct.pack("<Q", len(p) // 12), p, struct.pack("<Q", len(t) // 12), t):
+        for b in part:
+            h = ((h ^ b) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
+    return h
+
+
+def test_mesh_hash_matches_the_protocol():
+    tri_p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
+    tri_t = np.array([[0, 1, 2]], dtype=np.uint32)
+    assert antumbra.mesh_hash(tri_p, tri_t) == 0xF4736234256A95F4
+    p, t = box()
+    assert antumbra.mesh_hash(p, t) == fnv_reference(p, t)
+    # Any integer dtype and memory layout gives the same hash.
+    assert antumbra.mesh_hash(p, t.astype(np.int64)) == antumbra.mesh_hash(p, t)
+    assert antumbra.mesh_hash(np.asfortranarray(p), t[::1]) == antumbra.mesh_hash(p, t)
+    strided = np.zeros((8, 6), dtype=np.float32)
+    strided[:, ::2] = p
+    assert antumbra.mesh_hash(strided[:, ::2], t) == antumbra.mesh_hash(p, t)
+
+
+def test_upload_and_missing(session):
+    p, t = box()
+    h = antumbra.mesh_hash(p, t)
+    assert session.missing_meshes([h, 7]) == [h, 7]
+    assert session.upload_mesh("Cube", p, t) == h
+    assert session.missing_meshes([h, 7, 7]) == [7]
+    stats = session.stats()
+    assert stats["meshes_cached"] == 1
+    assert stats["bytes_cached"] == p.nbytes + 12 * len(t)
+    # The same content again is the same mesh.
+    assert session.upload_mesh("Cube.001", p.copy(), t.copy()) == h
+    assert session.stats()["meshes_cached"] == 1
+
+
+def test_frame_update_reports_missing_meshes(session):
+    hashes = {"Ground": 11, "Box": 22, "Tall": 11}
+    missing = session.frame_update(1, objects(hashes), camera(), lights(), RESOLUTION)
+    assert missing == [11, 22]  # distinct, in order of first use
+
+
+# ---------------------------------------------------------------------------------------------
+# Rendering
+
+
+def test_render_shapes_values_and_stats(scene):
+    session, _ = scene
+    r = session.render(1, spp=8)
+    assert (r.frame, r.width, r.height) == (1, WIDTH, HEIGHT)
+    names = [n for n, _ in r.planes]
+    assert names == [
+        "shadow.Sun",
+        "shadow.Lamp",
+        "combined",
+        "primary.N_B",
+        "primary.N_L",
+        "primary.N_T",
+        "shadow.N_B",
+        "shadow.N_L",
+        "shadow.N_T",
+    ]
+    for name, image in r.planes:
+        assert image.dtype == np.float32, name
+        assert image.shape == (HEIGHT, WIDTH), name
+        assert np.isfinite(image).all(), name
+    assert set(r.masks) == {"Sun", "Lamp"}
+    for light, mask in r.masks.items():
+        assert mask.min() >= 0.0 and mask.max() <= 1.0, light
+        assert (mask < 0.5).sum() > 20, f"{light}: no shadow"
+        assert (mask == 1.0).sum() > WIDTH * HEIGHT // 2, f"{light}: mostly shadowed"
+    np.testing.assert_allclose(
+        r.combined, (r.masks["Sun"] + r.masks["Lamp"]) / 2, rtol=0, atol=1e-6
+    )
+    assert r.images["primary.N_B"].max() > 0
+    # Stats: the primary pass, then one row per shadow-casting light.
+    assert [(s["pass"], s["light"]) for s in r.stats] == [
+        ("primary", ""),
+        ("shadow", "Sun"),
+        ("shadow", "Lamp"),
+    ]
+    for row in r.stats:
+        assert set(row) == STATS_COLUMNS
+        assert row["frame"] == 1 and row["scene"] == "antumbra-python"
+        assert row["rays"] > 0
+    assert r.stats[0]["rays"] == WIDTH * HEIGHT
+    assert 0 < r.stats[1]["occluded_fraction"] < 1
+    # The visible set: sorted (object, triangle) pairs of the four objects.
+    assert r.visible.dtype == np.uint32 and r.visible.shape[1] == 2
+    assert len(r.visible) > 0
+    assert set(np.unique(r.visible[:, 0])) <= {0, 1, 2, 3}
+    keys = r.visible[:, 0].astype(np.int64) << 32 | r.visible[:, 1]
+    assert (np.diff(keys) > 0).all()
+
+
+def test_passes_and_settings(scene):
+    session, _ = scene
+    r = session.render(1, passes=["combined"])
+    assert [n for n, _ in r.planes] == ["combined"]
+    assert r.visible is None and r.masks == {}
+    r = session.render(1, passes=("masks", "visible"), timing="only", order="stored")
+    assert [n for n, _ in r.planes] == ["shadow.Sun", "shadow.Lamp"]
+    assert r.stats[0]["method"] == "sah/bin2/stored"
+    assert r.stats[0]["timed_without_counters"]
+    r = session.render(1, passes=["heat_maps"], leaf_size=2, bins=8)
+    assert r.planes[0][0] == "primary.N_B"
+
+
+def test_render_is_deterministic_and_reuses_bvhs(scene):
+    session, _ = scene
+    a = session.render(1, spp=4, seed=3)
+    b = session.render(1, spp=4, seed=3)
+    assert all(np.array_equal(x, y) for (_, x), (_, y) in zip(a.planes, b.planes, strict=True))
+    assert [s["rebuilt"] for s in b.stats] == [False] * 3
+    c = session.render(1, spp=4, seed=4)
+    assert not np.array_equal(a.masks["Lamp"], c.masks["Lamp"])  # another sample pattern
+
+
+def test_matrices_are_row_major_like_blender(session):
+    """An object placed by a translation in the last column renders exactly like its mesh
+    translated in object space: the client turns Blender's row-major matrices column-major."""
+    p, t = box()
+    moved = (p + np.array([2.0, -1.0, 0.0], dtype=np.float32)).astype(np.float32)
+    h = session.upload_mesh("Box", p, t)
+    hm = session.upload_mesh("BoxMoved", moved, t)
+    ground = session.upload_mesh("Ground", *box(8.0))
+
+    def render(mesh_hash, matrix):
+        objs = [
+            {
+                "name": "Ground",
+                "mesh_hash": ground,
+                "matrix_world": translation(0, 0, -8.0),
+            },
+            {"name": "Box", "mesh_hash": mesh_hash, "matrix_world": matrix},
+        ]
+        session.frame_update(1, objs, camera(), lights(), RESOLUTION)
+        return session.render(1, passes=["masks", "combined"])
+
+    a = render(h, translation(2.0, -1.0, 0.0))
+    b = render(hm, np.eye(4))
+    # Nested lists and any object with rows (as mathutils.Matrix) work too.
+    c = render(h, translation(2.0, -1.0, 0.0).tolist())
+
+    class Rows:
+        def __init__(self, m):
+            self.m = m
+
+        def __len__(self):
+            return 4
+
+        def __getitem__(self, i):
+            return tuple(self.m[i])
+
+    d = render(h, Rows(translation(2.0, -1.0, 0.0)))
+    for other in (b, c, d):
+        for (_, x), (_, y) in zip(a.planes, other.planes, strict=True):
+            assert np.array_equal(x, y)
+    e = render(h, np.eye(4))
+    assert not np.array_equal(a.combined, e.combined)
+
+
+def test_progress_callback(scene):
+    session, _ = scene
+    calls = []
+    session.render(1, progress=lambda *a: calls.append(a))
+    assert calls == [("render", 0, 2), ("encode", 1, 2)]
+    with pytest.raises(antumbra.RequestError) as e:
+        session.render(1, progress=lambda *a: False)
+    assert e.value.code == "Cancelled"
+
+    class Stop(Exception):
+        pass
+
+    def boom(*_):
+        raise Stop("stop")
+
+    with pytest.raises(Stop):
+        session.render(1, progress=boom)
+    assert session.render(1).frame == 1  # still usable
+    assert session.stats()["renders_cancelled"] == 1
+
+
+def test_animation_and_camera_path(session):
+    hashes = upload_scene(session)
+    session.camera_path([(f, camera(f)) for f in (1, 2, 3)])
+    session.camera_path({4: camera(4)})
+    results = []
+    for frame in (1, 2, 3):
+        assert send_frame(session, hashes, frame) == []
+        results.append(session.render(frame))
+    assert [r.frame for r in results] == [1, 2, 3]
+    assert not np.array_equal(results[0].combined, results[2].combined)
+    # Earlier frames stay renderable.
+    again = session.render(1)
+    assert np.array_equal(again.combined, results[0].combined)
+
+
+def test_area_and_spot_lights(scene):
+    session, hashes = scene
+    extra = [
+        {
+            "name": "Area",
+            "type": "AREA",
+            "shape": "RECTANGLE",
+            "size": 1.0,
+            "size_y": 0.5,
+            "matrix_world": translation(0.0, 0.0, 5.0),
+        },
+        {
+            "name": "Spot",
+            "type": "SPOT",
+            "spot_size": math.radians(60),
+            "spot_blend": 0.2,
+            "shadow_soft_size": 0.0,
+            "matrix_world": translation(1.0, 1.0, 6.0),
+        },
+        {"name": "NoShadow", "type": "POINT", "matrix_world": np.eye(4), "use_shadow": False},
+    ]
+    session.frame_update(2, objects(hashes, 2), camera(2), lights() + extra, RESOLUTION)
+    r = session.render(2, spp=4)
+    assert list(r.masks) == ["Sun", "Lamp", "Area", "Spot"]
+
+
+def test_recording(scene, tmp_path):
+    session, hashes = scene
+    path = tmp_path / "session.antrec"
+    session.start_recording(path)
+    # Meshes the file lacks are reported missing, so the usual loop uploads them.
+    assert sorted(send_frame(session, hashes, 2)) == sorted(set(hashes.values()))
+    upload_scene(session)
+    assert send_frame(session, hashes, 3) == []
+    assert session.stop_recording() == (2, 0)
+    data = path.read_bytes()
+    assert data.startswith(b"ANTREC1\n")
+    with pytest.raises(antumbra.InvalidInput, match="no recording"):
+        session.stop_recording()
+
+
+# ---------------------------------------------------------------------------------------------
+# Bad input: clear errors that name what is wrong
+
+
+def test_nan_vertex_names_the_mesh(session):
+    p, t = box()
+    p[5, 1] = np.nan
+    with pytest.raises(antumbra.InvalidInput, match=r"mesh 'Rock\.001'.*NaN.*index 5"):
+        session.upload_mesh("Rock.001", p, t)
+    p[5, 1] = np.inf
+    with pytest.raises(ValueError, match="Rock"):  # InvalidInput is a ValueError too
+        session.upload_mesh("Rock", p, t)
+
+
+def test_index_out_of_range_names_the_mesh(session):
+    p, t = box()
+    t[3, 2] = 8
+    with pytest.raises(
+        antumbra.InvalidInput, match=r"mesh 'Suzanne': triangle 3 refers to vertex 8.*8 vertices"
+    ):
+        session.upload_mesh("Suzanne", p, t)
+    t = t.astype(np.int32)
+    t[3, 2] = -1
+    with pytest.raises(antumbra.InvalidInput, match=r"mesh 'Suzanne'.triangles: triangle 3.*-1"):
+        session.upload_mesh("Suzanne", p, t)
+
+
+@pytest.mark.parametrize(
+    ("positions", "triangles", "pattern"),
+    [
+        (np.zeros((4, 3)), None, r"'M'.positions: .*float32.*float64 array of shape \(4, 3\)"),
+        (np.zeros((4, 2), np.float32), None, r"'M'.positions: .*shape \(n, 3\).*\(4, 2\)"),
+        (np.zeros(12, np.float32), None, r"'M'.positions: .*\(12,\)"),
+        ([[0.0, 0.0, 0.0]], None, r"'M'.positions: .*got list"),
+        (np.zeros((4, 3), np.int32), None, r"'M'.positions: .*float32.*int32"),
+        (None, np.zeros((2, 3), np.float32), r"'M'.triangles: .*integer.*float32"),
+        (None, np.zeros((2, 4), np.uint32), r"'M'.triangles: .*\(m, 3\).*\(2, 4\)"),
+        (None, np.zeros((2, 3), bool), r"'M'.triangles: .*integer.*bool"),
+        (None, "012", r"'M'.triangles: .*got str"),
+    ],
+)
+def test_wrong_array_shapes_and_dtypes(session, positions, triangles, pattern):
+    p, t = box()
+    p = p if positions is None else positions
+    t = t if triangles is None else triangles
+    with pytest.raises(antumbra.InvalidInput, match=pattern):
+        session.upload_mesh("M", p, t)
+    with pytest.raises(TypeError):  # InvalidInput is a TypeError too
+        session.upload_mesh("M", p, t)
+
+
+def test_mesh_name_must_be_a_string(session):
+    with pytest.raises(antumbra.InvalidInput, match="mesh name: expected a str, got int"):
+        session.upload_mesh(3, *box())
+
+
+def test_unknown_mesh_hash_names_the_object(scene):
+    session, hashes = scene
+    objs = [*objects(hashes), {"name": "Ghost", "mesh_hash": 12345, "matrix_world": np.eye(4)}]
+    assert session.frame_update(5, objs, camera(), lights(), RESOLUTION) == [12345]
+    with pytest.raises(antumbra.RequestError) as e:
+        session.render(5)
+    assert e.value.code == "UnknownMesh"
+    assert "object 'Ghost'" in str(e.value) and "frame 5" in str(e.value)
+    assert e.value.session_usable
+    assert not isinstance(e.value, antumbra.DaemonError)
+    assert session.render(1).frame == 1  # the session goes on
+
+
+def test_render_of_a_frame_never_sent(scene):
+    session, _ = scene
+    with pytest.raises(antumbra.RequestError, match="no FrameUpdate for frame 9") as e:
+        session.render(9)
+    assert e.value.code == "InvalidInput"
+
+
+def frame_with(session, hashes, *, obj=None, cam=None, light=None, resolution=RESOLUTION):
+    objs = objects(hashes)
+    if obj is not None:
+        objs[1] = {**objs[1], **obj}
+    c = camera() if cam is None else {**camera(), **cam}
+    ls = lights() if light is None else [{**lights()[0], **light}]
+    return session.frame_update(1, objs, c, ls, resolution)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "pattern"),
+    [
+        ({"obj": {"matrix_world": np.eye(3)}}, r"objects\[1\] 'Box.A'.matrix_world: .*4x4"),
+        ({"obj": {"matrix_world": "eye"}}, r"objects\[1\] 'Box.A'.matrix_world: .*got str"),
+        (
+            {"obj": {"matrix_world": np.full((4, 4), np.nan)}},
+            r"objects\[1\] 'Box.A'.matrix_world\[0\]\[0\]: must be finite",
+        ),
+        ({"obj": {"mesh_hash": -1}}, r"objects\[1\] 'Box.A'.mesh_hash: -1 is out of range"),
+        ({"obj": {"mesh_hash": 1.5}}, r"objects\[1\] 'Box.A'.mesh_hash: expected an integer"),
+        ({"obj": {"name": 7}}, r"objects\[1\].name: expected a str, got int"),
+        ({"obj": {"visible_camera": 1}}, r"'Box.A'.visible_camera: expected True or False"),
+        ({"obj": {"colour": 1}}, r"'Box.A': unknown field 'colour'"),
+        ({"cam": {"lens": "50"}}, r"camera.lens: expected a number, got str"),
+        ({"cam": {"lens": -1.0}}, r"frame 1: camera.lens: must be a positive number"),
+        ({"cam": {"sensor_fit": "DIAGONAL"}}, r"camera.sensor_fit: expected one of 'AUTO'"),
+        ({"cam": {"clip_end": 0.01}}, r"frame 1: camera.clip_start/clip_end"),
+        ({"light": {"type": "LASER"}}, r"lights\[0\] 'Sun'.type: expected one of 'POINT'"),
+        ({"light": {"angle": 4.0}}, r"frame 1: light 'Sun'.angle: must be at most pi"),
+        ({"light": {"use_shadow": "yes"}}, r"'Sun'.use_shadow: expected True or False"),
+        ({"resolution": {"x": 0, "y": 10}}, r"frame 1: resolution: must be positive"),
+        ({"resolution": {"x": 10}}, r"resolution.y: missing"),
+        ({"resolution": {"x": 10, "y": 10, "scale": 2}}, r"resolution: unknown field 'scale'"),
+        ({"resolution": (10, 10, 10)}, r"resolution: expected a dict or an \(x, y\) pair"),
+        (
+            {"resolution": {"x": 100000, "y": 100000}},
+            r"exceeds the limit of 67108864 \(max_image_pixels\)",
+        ),
+    ],
+)
+def test_bad_scene_fields_are_named(scene, kwargs, pattern):
+    session, hashes = scene
+    with pytest.raises(antumbra.InvalidInput, match=pattern):
+        frame_with(session, hashes, **kwargs)
+
+
+def test_bad_containers(scene):
+    session, hashes = scene
+    with pytest.raises(antumbra.InvalidInput, match=r"objects: expected a list, got dict"):
+        session.frame_update(1, {"a": 1}, camera(), [], RESOLUTION)
+    with pytest.raises(antumbra.InvalidInput, match=r"objects\[0\]: expected a dict, got int"):
+        session.frame_update(1, [1], camera(), [], RESOLUTION)
+    with pytest.raises(antumbra.InvalidInput, match=r"objects\[0\]: unknown field 'nme'"):
+        session.frame_update(1, [{"nme": "x"}], camera(), [], RESOLUTION)
+    with pytest.raises(antumbra.InvalidInput, match=r"objects\[0\] 'x'.mesh_hash: missing"):
+        session.frame_update(1, [{"name": "x"}], camera(), [], RESOLUTION)
+    with pytest.raises(antumbra.InvalidInput, match=r"camera.matrix_world: missing"):
+        session.frame_update(1, [], {}, [], RESOLUTION)
+    with pytest.raises(antumbra.InvalidInput, match=r"frame: expected an integer, got float"):
+        session.frame_update(1.0, [], camera(), [], RESOLUTION)
+    with pytest.raises(antumbra.InvalidInput, match=r"frames\[0\]: expected a \(frame, camera"):
+        session.camera_path([1, 2])
+    with pytest.raises(antumbra.InvalidInput, match=r"hashes\[1\]: expected an integer"):
+        session.missing_meshes([1, "2"])
+    with pytest.raises(antumbra.InvalidInput, match=r"visible_shadow.*cast_shadow.*not both"):
+        frame_with(session, hashes, obj={"visible_shadow": True, "cast_shadow": False})
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "pattern"),
+    [
+        ({"spp": 0}, r"spp: must be in 1..=4096, got 0"),
+        ({"spp": 5000}, r"spp"),
+        ({"spp": 2.5}, r"spp: expected an integer, got float"),
+        ({"spp": True}, r"spp: expected an integer, got bool"),
+        ({"bins": 1}, r"bins"),
+        ({"leaf_size": 0}, r"leaf_size|max_leaf_size"),
+        ({"order": "far"}, r"order: expected one of 'near', 'stored', got 'far'"),
+        ({"build": "lbvh"}, r"build: expected one of 'sah'"),
+        ({"timing": "always"}, r"timing: expected one of"),
+        ({"timing": 1}, r"timing: expected True, False or 'only'"),
+        ({"passes": ["masks", "shadows"]}, r"passes: unknown pass 'shadows'"),
+        ({"progress": 3}, r"progress: expected a callable"),
+        ({"frame": "1"}, r"frame: expected an integer, got str"),
+    ],
+)
+def test_bad_render_settings_are_named(scene, kwargs, pattern):
+    session, _ = scene
+    kwargs = {"frame": 1, **kwargs}
+    with pytest.raises(antumbra.InvalidInput, match=pattern):
+        session.render(**kwargs)
+
+
+def test_closed_session(session):
+    session.close()
+    assert session.closed
+    with pytest.raises(antumbra.ConnectionLost, match="closed"):
+        session.missing_meshes([1])
+    session.close()  # twice is fine
+
+
+def test_blender_resolution_names_and_pairs(scene):
+    session, hashes = scene
+    blender = {"resolution_x": 40, "resolution_y": 30, "resolution_percentage": 50}
+    session.frame_update(1, objects(hashes), camera(), lights(), blender)
+    assert session.render(1).combined.shape == (15, 20)
+    session.frame_update(1, objects(hashes), camera(), lights(), (40, 30))
+    r = session.render(1)
+    assert (r.width, r.height) == (40, 30)
