@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Sets up and runs every test: formatting, lints, and the whole workspace's tests with the
-# Embree oracle enabled.
+# Sets up and runs every test: formatting and lints (Rust and Python), the whole workspace's
+# tests with the Embree oracle enabled (core, scenes, protocol, daemon over real sockets, CLI),
+# then the Python client's tests against the real daemon binary.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -10,4 +11,14 @@ cargo fmt --all -- --check
 echo "== cargo clippy"
 cargo clippy --workspace --all-targets --all-features -- -D warnings
 echo "== cargo test"
+mkdir -p target
 cargo test --workspace --all-features 2>&1 | tee target/test.log
+
+echo "== python client: build, lint, test"
+rm -rf target/wheels
+.venv/bin/maturin build --release -q -m rust/python/Cargo.toml -o target/wheels
+.venv/bin/pip install -q --disable-pip-version-check --no-deps --force-reinstall target/wheels/antumbra-*.whl
+.venv/bin/ruff format --check --config rust/python/pyproject.toml rust/python/python tests/python
+.venv/bin/ruff check --config rust/python/pyproject.toml rust/python/python tests/python
+# The daemon the Python tests talk to: the debug binary `cargo test` just built.
+ANTUMBRA_BIN="$PWD/target/debug/antumbra" .venv/bin/pytest tests/python -q
