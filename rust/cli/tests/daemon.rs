@@ -191,7 +191,7 @@ fn render_in_process(label: &str, scenes: &[Scene]) -> Vec<FrameResult> {
 
 /// The planes of a result as `antumbra render` writes them to the EXR.
 fn planes(result: &FrameResult) -> Vec<antumbra_core::output::ImagePlane> {
-    antumbra_daemon::output::planes(result)
+    antumbra_core::output::planes(result)
 }
 
 fn same_bits(a: &[f32], b: &[f32]) -> bool {

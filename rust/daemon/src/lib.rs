@@ -20,7 +20,6 @@ pub mod config;
 pub mod error;
 pub mod listen;
 pub mod logging;
-pub mod output;
 mod server;
 mod session;
 pub mod slots;

@@ -36,9 +36,9 @@ use notify::Watcher;
 use serde::{Deserialize, Serialize};
 
 use crate::error::DaemonError;
-use crate::output::{frame_stem, write_frame_files, Outputs};
 use crate::server::{bump, Shared};
 use crate::slots::Acquired;
+use antumbra_core::output::{frame_stem, write_frame_files, Outputs};
 
 pub const JOB_FILE: &str = "job.json";
 pub const SCENE_FILE: &str = "scene.antrec";

@@ -70,7 +70,7 @@ fn job_is_rendered_into_complete_frame_folders() {
             f.files
         );
         let planes = read_exr(&dir.join(format!("{}.exr", f.dir))).unwrap();
-        let want_planes = antumbra_daemon::output::planes(want);
+        let want_planes = antumbra_core::output::planes(want);
         assert_eq!(planes.len(), want_planes.len());
         for w in &want_planes {
             let g = planes
@@ -102,7 +102,7 @@ fn restart_skips_finished_frames_and_cleans_temporaries() {
     let scenes: Vec<Scene> = (1..=3).map(|f| tiny_scene(f, 24, 16)).collect();
     let spec = JobSpec {
         frames: Some(vec![3, 1, 2, 1]),
-        outputs: antumbra_daemon::output::Outputs {
+        outputs: antumbra_core::output::Outputs {
             png: false,
             ..Default::default()
         },

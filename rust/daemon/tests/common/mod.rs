@@ -230,7 +230,7 @@ pub fn assert_same_result(reply: &FrameResultReply, expected: &FrameResult) {
         (expected.width, expected.height)
     );
     let got = planes_from_reply(reply).unwrap();
-    let want = antumbra_daemon::output::planes(expected);
+    let want = antumbra_core::output::planes(expected);
     assert_eq!(
         got.len(),
         want.len(),

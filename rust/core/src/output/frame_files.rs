@@ -3,11 +3,11 @@
 
 use std::path::Path;
 
-use antumbra_core::output::{
-    write_exr, write_heatmap_png, write_mask_png, ColorMap, HeatScale, ImagePlane,
+use super::{
+    write_exr, write_heatmap_png, write_mask_png, ColorMap, HeatLegend, HeatScale, ImagePlane,
 };
-use antumbra_core::render::FrameResult;
-use antumbra_core::stats::write_json;
+use crate::render::FrameResult;
+use crate::stats::write_json;
 use serde::{Deserialize, Serialize};
 
 /// Which files a frame gets. Every field defaults to true.
@@ -67,14 +67,23 @@ pub fn planes(result: &FrameResult) -> Vec<ImagePlane> {
     planes
 }
 
-/// Writes the files of one frame into `dir` (which exists); returns their names.
+/// What [`write_frame_files`] wrote: file names (relative to the folder) and the colour scale of
+/// every heat map.
+#[derive(Clone, Debug, Default)]
+pub struct FrameFiles {
+    pub files: Vec<String>,
+    pub legends: Vec<HeatLegend>,
+}
+
+/// Writes the files of one frame into `dir` (which exists), each atomically.
 pub fn write_frame_files(
     dir: &Path,
     result: &FrameResult,
     outputs: &Outputs,
-) -> antumbra_core::Result<Vec<String>> {
+) -> crate::Result<FrameFiles> {
     let stem = frame_stem(result.frame);
     let mut files = Vec::new();
+    let mut legends = Vec::new();
     if outputs.exr {
         let name = format!("{stem}.exr");
         let planes = planes(result);
@@ -93,12 +102,12 @@ pub fn write_frame_files(
         write_mask_png(&png("combined"), &result.combined)?;
         if let Some(h) = &result.heat {
             for p in h.primary.iter().chain(h.shadow.iter()) {
-                write_heatmap_png(
+                legends.push(write_heatmap_png(
                     &png(&format!("heat_{}", p.name)),
                     p,
                     ColorMap::Turbo,
                     HeatScale::Auto,
-                )?;
+                )?);
             }
         }
     }
@@ -106,5 +115,5 @@ pub fn write_frame_files(
         write_json(&dir.join("stats.json"), &result.stats)?;
         files.push("stats.json".into());
     }
-    Ok(files)
+    Ok(FrameFiles { files, legends })
 }
