@@ -238,7 +238,8 @@ impl Renderer {
                 return Ok(None);
             }
         }
-        let geometry = FrameGeometry::from_scene(scene)?;
+        // `render` validated the scene already.
+        let geometry = FrameGeometry::from_validated_scene(scene);
         let camera_bvh = build(
             settings.build,
             &geometry.camera.vertices,

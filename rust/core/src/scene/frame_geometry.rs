@@ -108,6 +108,12 @@ impl FrameGeometry {
     /// Validates the scene and transforms every visible mesh into render space.
     pub fn from_scene(scene: &Scene) -> Result<Self> {
         scene.validate()?;
+        Ok(Self::from_validated_scene(scene))
+    }
+
+    /// As [`FrameGeometry::from_scene`] for a scene the caller has just validated (the renderer
+    /// validates every frame, also those whose geometry it reuses, so it does not pay twice).
+    pub(crate) fn from_validated_scene(scene: &Scene) -> Self {
         let space = scene_render_space(scene);
         let same = scene
             .objects
@@ -119,11 +125,11 @@ impl FrameGeometry {
         } else {
             Some(collect(scene, &space, |o| o.casts_shadow))
         };
-        Ok(FrameGeometry {
+        FrameGeometry {
             space,
             camera,
             shadow,
-        })
+        }
     }
 
     pub fn shadow_set(&self) -> &TriangleSet {
