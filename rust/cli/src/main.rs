@@ -25,6 +25,8 @@ enum Command {
     Demo(commands::demo::DemoArgs),
     /// Render frames of a built-in scene or an OBJ/glTF file.
     Render(commands::render::RenderArgs),
+    /// Write frames of a built-in scene or file as a recording (.antrec), the daemon's input.
+    Record(commands::record::RecordArgs),
     /// Build time and Mrays/s per scene (primary and shadow rays, 1 thread and all threads).
     Bench(commands::bench::BenchArgs),
     /// Run the daemon Blender talks to: a Unix socket (and optional loopback TCP), a spool
@@ -37,6 +39,7 @@ fn main() {
     let result = match cli.command {
         Command::Demo(a) => commands::demo::run(a),
         Command::Render(a) => commands::render::run(a),
+        Command::Record(a) => commands::record::run(a),
         Command::Bench(a) => commands::bench::run(a),
         Command::Serve(a) => commands::serve::run(a),
     };

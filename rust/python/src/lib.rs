@@ -13,6 +13,7 @@ mod connection;
 mod error;
 mod local;
 mod recording;
+mod replay;
 mod result;
 mod scene;
 
@@ -43,9 +44,16 @@ fn mesh_hash(
         .py_result(py)
 }
 
+/// The meshes and frames of a recording (`.antrec`) as numpy arrays and `frame_update` dicts.
+#[pyfunction]
+fn read_recording<'py>(py: Python<'py>, path: &str) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    replay::read_recording(py, path).py_result(py)
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mesh_hash, m)?)?;
+    m.add_function(wrap_pyfunction!(read_recording, m)?)?;
     m.add_class::<connection::Connection>()?;
     m.add_class::<local::LocalSession>()?;
     m.add("PROTOCOL_VERSION", antumbra_protocol::PROTOCOL_VERSION)?;

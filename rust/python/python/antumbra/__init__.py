@@ -22,6 +22,7 @@ from .client import (
     Result,
     default_socket_path,
     mesh_hash,
+    read_recording,
 )
 from .errors import (
     AntumbraError,
@@ -55,4 +56,5 @@ __all__ = [
     "default_socket_path",
     "errors",
     "mesh_hash",
+    "read_recording",
 ]

@@ -31,6 +31,9 @@ def mesh_hash(positions: npt.NDArray[np.float32], triangles: npt.NDArray[np.inte
     """The protocol's content hash of a mesh: positions float32 (n, 3), triangles integer
     (m, 3). Values are not checked."""
 
+def read_recording(path: str) -> dict[str, Any]:
+    """Meshes (numpy) and frames (`frame_update` dicts) of an `.antrec` recording."""
+
 class _SessionMethods:
     @property
     def limits(self) -> dict[str, int]:

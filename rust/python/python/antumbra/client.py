@@ -36,6 +36,7 @@ __all__ = [
     "Result",
     "default_socket_path",
     "mesh_hash",
+    "read_recording",
 ]
 
 PROTOCOL_VERSION: int = _native.PROTOCOL_VERSION
@@ -67,6 +68,19 @@ def mesh_hash(positions: np.ndarray, triangles: np.ndarray) -> int:
     ``positions``: float32 array of shape (n, 3); ``triangles``: integer array of shape (m, 3).
     """
     return _native.mesh_hash(positions, triangles)
+
+
+def read_recording(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The meshes and frames of a recording (``.antrec``, from ``start_recording``,
+    ``antumbra serve --record`` or ``antumbra record``).
+
+    Returns ``{"meshes": {hash: {"name", "positions", "triangles"}}, "frames": [dict, ...]}``:
+    positions float32 (n, 3) and triangles uint32 (m, 3) numpy arrays, checked as the daemon
+    checks an upload; each frame a dict with ``frame``, ``objects``, ``camera``, ``lights`` and
+    ``resolution`` in the form ``frame_update`` takes (Blender's field names, row-major 4x4
+    matrices as nested lists).
+    """
+    return _native.read_recording(os.fspath(path))
 
 
 @dataclass(frozen=True, eq=False)

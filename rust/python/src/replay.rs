@@ -1,0 +1,161 @@
+//! Reading a recording (`.antrec`) back into Python values: its meshes as numpy arrays and its
+//! frames as the same dicts `frame_update` takes (Blender's field names). The Blender add-on
+//! uses it to turn a recorded or built-in animation into a `.blend`.
+
+use antumbra_protocol::{
+    mesh_from_upload, AreaShapeState, CameraState, FrameUpdate, LightKindState, LightState,
+    ObjectState, RecordingReader, Request, ResolutionState, SensorFitState,
+};
+use numpy::ndarray::Array2;
+use numpy::IntoPyArray;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::error::{ClientError, ClientResult};
+
+/// A column-major protocol matrix as Blender's row-major nested lists.
+fn rows(m: &[f64; 16]) -> [[f64; 4]; 4] {
+    std::array::from_fn(|r| std::array::from_fn(|c| m[4 * c + r]))
+}
+
+fn object_dict<'py>(py: Python<'py>, o: &ObjectState) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("name", &o.name)?;
+    d.set_item("mesh_hash", o.mesh_hash)?;
+    d.set_item("matrix_world", rows(&o.world_from_object))?;
+    d.set_item("visible_camera", o.visible_to_camera)?;
+    d.set_item("visible_shadow", o.casts_shadow)?;
+    Ok(d)
+}
+
+fn camera_dict<'py>(py: Python<'py>, c: &CameraState) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("matrix_world", rows(&c.world_from_camera))?;
+    d.set_item("lens", c.lens_mm)?;
+    d.set_item("sensor_width", c.sensor_width_mm)?;
+    d.set_item("sensor_height", c.sensor_height_mm)?;
+    let fit = match c.sensor_fit {
+        SensorFitState::Auto => "AUTO",
+        SensorFitState::Horizontal => "HORIZONTAL",
+        SensorFitState::Vertical => "VERTICAL",
+    };
+    d.set_item("sensor_fit", fit)?;
+    d.set_item("shift_x", c.shift_x)?;
+    d.set_item("shift_y", c.shift_y)?;
+    d.set_item("clip_start", c.clip_start)?;
+    d.set_item("clip_end", c.clip_end)?;
+    Ok(d)
+}
+
+fn light_dict<'py>(py: Python<'py>, l: &LightState) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("name", &l.name)?;
+    d.set_item("matrix_world", rows(&l.world_from_light))?;
+    d.set_item("use_shadow", l.casts_shadow)?;
+    match l.kind {
+        LightKindState::Point { radius } => {
+            d.set_item("type", "POINT")?;
+            d.set_item("shadow_soft_size", radius)?;
+        }
+        LightKindState::Sun { angle } => {
+            d.set_item("type", "SUN")?;
+            d.set_item("angle", angle)?;
+        }
+        LightKindState::Spot {
+            radius,
+            spot_size,
+            spot_blend,
+        } => {
+            d.set_item("type", "SPOT")?;
+            d.set_item("shadow_soft_size", radius)?;
+            d.set_item("spot_size", spot_size)?;
+            d.set_item("spot_blend", spot_blend)?;
+        }
+        LightKindState::Area {
+            shape,
+            size_x,
+            size_y,
+        } => {
+            d.set_item("type", "AREA")?;
+            let shape = match shape {
+                AreaShapeState::Square => "SQUARE",
+                AreaShapeState::Rectangle => "RECTANGLE",
+                AreaShapeState::Disk => "DISK",
+                AreaShapeState::Ellipse => "ELLIPSE",
+            };
+            d.set_item("shape", shape)?;
+            d.set_item("size", size_x)?;
+            d.set_item("size_y", size_y)?;
+        }
+    }
+    Ok(d)
+}
+
+fn resolution_dict<'py>(py: Python<'py>, r: &ResolutionState) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("x", r.x)?;
+    d.set_item("y", r.y)?;
+    d.set_item("percentage", r.percentage)?;
+    d.set_item("pixel_aspect_x", r.pixel_aspect_x)?;
+    d.set_item("pixel_aspect_y", r.pixel_aspect_y)?;
+    Ok(d)
+}
+
+fn frame_dict<'py>(py: Python<'py>, f: &FrameUpdate) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("frame", f.frame)?;
+    let objects = PyList::empty(py);
+    for o in &f.objects {
+        objects.append(object_dict(py, o)?)?;
+    }
+    d.set_item("objects", objects)?;
+    d.set_item("camera", camera_dict(py, &f.camera)?)?;
+    let lights = PyList::empty(py);
+    for l in &f.lights {
+        lights.append(light_dict(py, l)?)?;
+    }
+    d.set_item("lights", lights)?;
+    d.set_item("resolution", resolution_dict(py, &f.resolution)?)?;
+    Ok(d)
+}
+
+/// `{"meshes": {hash: {"name", "positions": float32 (n, 3), "triangles": uint32 (m, 3)}},
+/// "frames": [frame dict, ...]}` in the file's order. Meshes are checked (hash, finite
+/// positions, indices in range) as the daemon checks an upload.
+pub fn read_recording<'py>(py: Python<'py>, path: &str) -> ClientResult<Bound<'py, PyDict>> {
+    let fail = |e: &dyn std::fmt::Display| ClientError::invalid(format!("recording {path}: {e}"));
+    let mut reader = RecordingReader::open(path).map_err(|e| fail(&e))?;
+    let limits = reader.limits().clone();
+    let meshes = PyDict::new(py);
+    let frames = PyList::empty(py);
+    while let Some(request) = py
+        .detach(|| reader.next_request())
+        .map_err(|e| fail(&e))?
+    {
+        match request {
+            Request::UploadMesh(upload) => {
+                let mesh = py
+                    .detach(|| mesh_from_upload(&upload, &limits))
+                    .map_err(|e| fail(&e))?;
+                let flat_p: Vec<f32> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
+                let flat_t: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+                let entry = PyDict::new(py);
+                entry.set_item("name", &mesh.name)?;
+                let p = Array2::from_shape_vec((mesh.positions.len(), 3), flat_p)
+                    .expect("three floats per position");
+                let t = Array2::from_shape_vec((mesh.triangles.len(), 3), flat_t)
+                    .expect("three indices per triangle");
+                entry.set_item("positions", p.into_pyarray(py))?;
+                entry.set_item("triangles", t.into_pyarray(py))?;
+                meshes.set_item(upload.hash, entry)?;
+            }
+            Request::FrameUpdate(update) => frames.append(frame_dict(py, &update)?)?,
+            // Hello, renders and the rest carry no scene state.
+            _ => {}
+        }
+    }
+    let out = PyDict::new(py);
+    out.set_item("meshes", meshes)?;
+    out.set_item("frames", frames)?;
+    Ok(out)
+}
