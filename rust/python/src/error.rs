@@ -102,15 +102,27 @@ impl ClientError {
     }
 }
 
+/// The package this module was imported into (`antumbra`, or the alias the Blender add-on
+/// loads it under), recorded when the module initialises; its `errors` module has the classes.
+static PACKAGE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+
+pub fn set_package(module_name: &str) {
+    let package = module_name
+        .rsplit_once('.')
+        .map_or("antumbra", |(package, _)| package);
+    let _ = PACKAGE.set(package.to_string());
+}
+
 fn raise(
     py: Python<'_>,
     class: &str,
     message: &str,
     extra: Option<(String, bool, Option<u64>)>,
 ) -> PyResult<PyErr> {
-    let module = py.import("antumbra.errors").map_err(|e| {
+    let package = PACKAGE.get().map_or("antumbra", String::as_str);
+    let module = py.import(format!("{package}.errors")).map_err(|e| {
         PyRuntimeError::new_err(format!(
-            "antumbra._native cannot import antumbra.errors ({e}); original error: {message}"
+            "antumbra._native cannot import {package}.errors ({e}); original error: {message}"
         ))
     })?;
     let cls = module.getattr(class)?;

@@ -11,6 +11,7 @@
 mod arrays;
 mod connection;
 mod error;
+mod files;
 mod local;
 mod recording;
 mod replay;
@@ -50,10 +51,53 @@ fn read_recording<'py>(py: Python<'py>, path: &str) -> PyResult<Bound<'py, pyo3:
     replay::read_recording(py, path).py_result(py)
 }
 
+/// Writes a frame's planes (the daemon's order) as `antumbra render` writes them.
+#[pyfunction]
+#[pyo3(signature = (dir, frame, width, height, planes, exr = true, png = true))]
+#[allow(clippy::too_many_arguments)]
+fn save_frame(
+    py: Python<'_>,
+    dir: &str,
+    frame: i32,
+    width: u32,
+    height: u32,
+    planes: &Bound<'_, PyAny>,
+    exr: bool,
+    png: bool,
+) -> PyResult<Vec<String>> {
+    let outputs = antumbra_core::output::Outputs {
+        exr,
+        png,
+        stats: false,
+    };
+    files::save_frame(py, dir, frame, width, height, planes, outputs).py_result(py)
+}
+
+/// Every channel of an EXR file as float32 arrays.
+#[pyfunction]
+fn read_exr<'py>(py: Python<'py>, path: &str) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    files::load_exr(py, path).py_result(py)
+}
+
+/// A heat map through the turbo colour map, as the PNGs show it: (uint8 (h, w, 3), max).
+#[pyfunction]
+#[pyo3(signature = (array, max = None))]
+fn colorize_heat<'py>(
+    py: Python<'py>,
+    array: &Bound<'py, PyAny>,
+    max: Option<f32>,
+) -> PyResult<(Bound<'py, numpy::PyArray3<u8>>, f32)> {
+    files::colorize_heat(py, array, max).py_result(py)
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    error::set_package(&m.name()?.to_string());
     m.add_function(wrap_pyfunction!(mesh_hash, m)?)?;
     m.add_function(wrap_pyfunction!(read_recording, m)?)?;
+    m.add_function(wrap_pyfunction!(save_frame, m)?)?;
+    m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(colorize_heat, m)?)?;
     m.add_class::<connection::Connection>()?;
     m.add_class::<local::LocalSession>()?;
     m.add("PROTOCOL_VERSION", antumbra_protocol::PROTOCOL_VERSION)?;

@@ -128,10 +128,7 @@ pub fn read_recording<'py>(py: Python<'py>, path: &str) -> ClientResult<Bound<'p
     let limits = reader.limits().clone();
     let meshes = PyDict::new(py);
     let frames = PyList::empty(py);
-    while let Some(request) = py
-        .detach(|| reader.next_request())
-        .map_err(|e| fail(&e))?
-    {
+    while let Some(request) = py.detach(|| reader.next_request()).map_err(|e| fail(&e))? {
         match request {
             Request::UploadMesh(upload) => {
                 let mesh = py

@@ -71,9 +71,7 @@ pub fn write_heatmap_png(
     })?;
     let mut rgb = vec![0u8; w as usize * total_h as usize * 3];
     let (image_part, legend_part) = rgb.split_at_mut(plane.data.len() * 3);
-    for (px, &v) in image_part.chunks_exact_mut(3).zip(&plane.data) {
-        px.copy_from_slice(&map.map(normalize(v, min, max)));
-    }
+    colorize_into(image_part, plane, map, min, max);
     draw_legend(legend_part, w, map, min, max, &plane.name);
     encode_png(path, w, total_h, &rgb, ExtendedColorType::Rgb8)?;
     Ok(HeatLegend {
@@ -81,6 +79,33 @@ pub fn write_heatmap_png(
         max,
         label: plane.name.clone(),
     })
+}
+
+/// `plane` through the colour map as 8-bit sRGB, rows as in the plane, without a legend: what a
+/// heat-map PNG shows, for viewers that draw their own scale (the Blender add-on).
+pub fn heatmap_rgb(
+    plane: &ImagePlane,
+    map: ColorMap,
+    scale: HeatScale,
+) -> Result<(Vec<u8>, HeatLegend)> {
+    plane.check_size()?;
+    let (min, max) = scale.range(plane)?;
+    let mut rgb = vec![0u8; plane.data.len() * 3];
+    colorize_into(&mut rgb, plane, map, min, max);
+    Ok((
+        rgb,
+        HeatLegend {
+            min,
+            max,
+            label: plane.name.clone(),
+        },
+    ))
+}
+
+fn colorize_into(rgb: &mut [u8], plane: &ImagePlane, map: ColorMap, min: f32, max: f32) {
+    for (px, &v) in rgb.chunks_exact_mut(3).zip(&plane.data) {
+        px.copy_from_slice(&map.map(normalize(v, min, max)));
+    }
 }
 
 /// `v` as a fraction of `min ..= max` (unclamped; the colour map clamps). An empty range maps

@@ -18,7 +18,7 @@ pub use self::atomic::write_bytes_atomic;
 pub use self::colormap::ColorMap;
 pub use self::exr::{read_exr, write_exr};
 pub use self::frame_files::{frame_stem, planes, write_frame_files, FrameFiles, Outputs};
-pub use self::heatmap::{write_heatmap_png, HeatLegend, HeatScale};
+pub use self::heatmap::{heatmap_rgb, write_heatmap_png, HeatLegend, HeatScale};
 pub use self::legend::heat_legend_height;
 pub use self::png::write_mask_png;
 

@@ -20,8 +20,10 @@ from .client import (
     LocalSession,
     ProgressCallback,
     Result,
+    colorize_heat,
     default_socket_path,
     mesh_hash,
+    read_exr,
     read_recording,
 )
 from .errors import (
@@ -53,8 +55,10 @@ __all__ = [
     "Result",
     "SessionBusy",
     "__version__",
+    "colorize_heat",
     "default_socket_path",
     "errors",
     "mesh_hash",
+    "read_exr",
     "read_recording",
 ]

@@ -34,6 +34,25 @@ def mesh_hash(positions: npt.NDArray[np.float32], triangles: npt.NDArray[np.inte
 def read_recording(path: str) -> dict[str, Any]:
     """Meshes (numpy) and frames (`frame_update` dicts) of an `.antrec` recording."""
 
+def save_frame(
+    dir: str,
+    frame: int,
+    width: int,
+    height: int,
+    planes: list[tuple[str, npt.NDArray[np.float32]]],
+    exr: bool = True,
+    png: bool = True,
+) -> list[str]:
+    """Writes a frame's planes (daemon order) as `antumbra render` does; returns file names."""
+
+def read_exr(path: str) -> dict[str, npt.NDArray[np.float32]]:
+    """Every channel of an EXR as float32 (h, w) arrays."""
+
+def colorize_heat(
+    array: npt.NDArray[np.float32], max: float | None = None
+) -> tuple[npt.NDArray[np.uint8], float]:
+    """A heat map through the turbo colour map (sRGB uint8 (h, w, 3)) and the max it used."""
+
 class _SessionMethods:
     @property
     def limits(self) -> dict[str, int]:

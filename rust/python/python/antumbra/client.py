@@ -36,6 +36,8 @@ __all__ = [
     "Result",
     "default_socket_path",
     "mesh_hash",
+    "colorize_heat",
+    "read_exr",
     "read_recording",
 ]
 
@@ -81,6 +83,19 @@ def read_recording(path: str | os.PathLike[str]) -> dict[str, Any]:
     matrices as nested lists).
     """
     return _native.read_recording(os.fspath(path))
+
+
+def colorize_heat(array: np.ndarray, max: float | None = None) -> tuple[np.ndarray, float]:
+    """A heat map (float32 (h, w)) through the turbo colour map as the PNGs draw it: 0 is the
+    first colour, ``max`` (default: the image's largest value) the last. Returns the sRGB uint8
+    array of shape (h, w, 3) and the max used."""
+    return _native.colorize_heat(array, max)
+
+
+def read_exr(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """Every channel of an EXR file (such as ``frame_NNNN.exr`` from ``antumbra render`` or
+    :meth:`Result.save`) as float32 arrays of shape (height, width), rows top to bottom."""
+    return _native.read_exr(os.fspath(path))
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,6 +152,17 @@ class Result:
     def combined(self) -> np.ndarray | None:
         """The mean of the masks (None unless the ``combined`` pass was asked for)."""
         return self.images.get("combined")
+
+    def save(
+        self, directory: str | os.PathLike[str], *, exr: bool = True, png: bool = True
+    ) -> list[str]:
+        """Writes the frame's files into ``directory`` as ``antumbra render`` does (same Rust
+        writer, so the same bytes for the same images): ``frame_NNNN.exr`` with every plane,
+        mask PNGs and turbo heat-map PNGs with their scale. Needs the ``masks`` and
+        ``combined`` passes. Returns the file names written."""
+        return _native.save_frame(
+            os.fspath(directory), self.frame, self.width, self.height, self.planes, exr, png
+        )
 
     def __repr__(self) -> str:
         names = ", ".join(name for name, _ in self.planes)

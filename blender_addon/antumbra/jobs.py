@@ -1,0 +1,249 @@
+"""A render of one frame or a frame range, as steps that never block Blender: each frame is
+exported on the main thread (Blender's data is not thread-safe), sent and rendered on a worker
+thread (the client releases the GIL while it waits), and collected on the main thread (images,
+files, statistics). The modal operators call :meth:`RenderJob.step` from a timer; batches and
+``execute`` call :meth:`RenderJob.run`.
+
+A lost daemon is reconnected (or restarted) and the frame sent again; a frame counts as done
+only once its files and statistics are written, so a cancelled or failed job leaves complete
+frames only.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import bpy
+
+from . import results
+from .export import Exporter, ExportError, FrameExport, camera_path
+from .options import RenderOptions
+
+#: How often one frame is sent again after the daemon went away.
+RETRIES_PER_FRAME = 2
+
+
+class JobFailed(RuntimeError):
+    """A frame could not be rendered; the message names the frame (and object or field)."""
+
+
+@dataclass
+class FrameDone:
+    frame: int
+    result: object
+    seconds: float
+    export_seconds: float
+    stats_lines: list[str]
+    images: dict[str, str]
+    files: list[str]
+
+
+@dataclass
+class _Work:
+    frame: int
+    export: FrameExport
+    thread: threading.Thread | None = None
+    result: object = None
+    error: BaseException | None = None
+    started: float = field(default_factory=time.perf_counter)
+
+
+@dataclass
+class RenderJob:
+    scene: object
+    frames: list[int]
+    options: RenderOptions
+    link: object
+    out_dir: Path | None = None
+    load_images: bool = True
+    send_camera_path: bool = True
+    on_frame: object = None
+    #: Frames left, in order.
+    pending: deque = field(init=False)
+    done: list[FrameDone] = field(default_factory=list)
+    skipped: list[int] = field(default_factory=list)
+    error: str | None = None
+    cancelled: bool = False
+    finished: bool = False
+    #: (stage, done, total) of the render in flight, for progress displays.
+    stage: tuple[str, int, int] = ("", 0, 0)
+    camera_path_seconds: float = 0.0
+
+    def __post_init__(self):
+        self.pending = deque(self.frames)
+        self._work: _Work | None = None
+        self._exporter: Exporter | None = None
+        self._retries = 0
+        self._reconnect = False
+        self._camera_path: dict | None = None
+        self._camera_path_sent_to = None
+        self._start_frame = self.scene.frame_current
+
+    # -- the steps --------------------------------------------------------------------------
+
+    def skip_finished(self, finished: set[int]):
+        """Leaves out frames already complete in the output folder (resuming a batch)."""
+        self.skipped = [f for f in self.pending if f in finished]
+        self.pending = deque(f for f in self.pending if f not in finished)
+
+    def step(self) -> bool:
+        """Advances the job without blocking; True once it has finished."""
+        if self.finished:
+            return True
+        if self._work is None:
+            if self.cancelled or not self.pending:
+                return self._finish()
+            try:
+                self._begin(self.pending[0])
+            except (ExportError, Exception) as e:  # noqa: BLE001 - reported, job ends
+                return self._fail(f"frame {self.pending[0]}: {e}")
+            return False
+        if self._work.thread.is_alive():
+            return False
+        work, self._work = self._work, None
+        if work.error is None:
+            try:
+                self._collect(work)
+            except Exception as e:  # noqa: BLE001 - reported, job ends
+                return self._fail(f"frame {work.frame}: writing results: {e}")
+            self.pending.popleft()
+            self._retries = 0
+            return False
+        return self._failed_frame(work)
+
+    def run(self, poll: float = 0.005) -> RenderJob:
+        """Runs to the end in this thread (batches, ``execute``)."""
+        while not self.step():
+            if self._work is not None and self._work.thread is not None:
+                self._work.thread.join(poll)
+        return self
+
+    def cancel(self):
+        """Stops after the frame in flight (which the daemon is asked to abandon)."""
+        self.cancelled = True
+        client = self.link.client
+        if client is not None and self._work is not None:
+            try:
+                client.cancel()
+            except Exception:  # noqa: BLE001 - nothing in flight, or the daemon is gone
+                pass
+
+    # -- inside a step ----------------------------------------------------------------------
+
+    def _begin(self, frame: int):
+        client = self.link.module
+        if self._exporter is None:
+            self._exporter = Exporter(client)
+            if self.send_camera_path and len(self.frames) > 1:
+                self._camera_path, self.camera_path_seconds = camera_path(self.scene, self.frames)
+        if self.scene.frame_current != frame:
+            self.scene.frame_set(frame)
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        percentage = self.options.percentage(self.scene.render.resolution_percentage)
+        export = self._exporter.frame(depsgraph, self.scene, frame, percentage)
+        self._work = _Work(frame, export)
+        self._work.thread = threading.Thread(
+            target=self._send_and_render, args=(self._work,), name=f"antumbra frame {frame}"
+        )
+        self._work.thread.start()
+
+    def _send_and_render(self, work: _Work):
+        """On the worker thread: everything that waits for the daemon."""
+        try:
+            if self._reconnect:
+                self._reconnect = False
+                session = self.link.reconnect()
+            else:
+                session = self.link.session()
+            e = work.export
+            if self._camera_path is not None and self._camera_path_sent_to is not session:
+                session.camera_path(self._camera_path)
+                self._camera_path_sent_to = session
+            missing = session.frame_update(e.frame, e.objects, e.camera, e.lights, e.resolution)
+            for h in missing:
+                mesh = e.meshes[h]
+                session.upload_mesh(mesh.name, mesh.positions, mesh.triangles)
+            work.result = session.render(
+                e.frame, progress=self._progress, **self.options.render_kwargs()
+            )
+        except BaseException as error:  # noqa: BLE001 - handed to the main thread
+            work.error = error
+
+    def _progress(self, stage: str, done: int, total: int):
+        self.stage = (stage, done, total)
+        return not self.cancelled
+
+    def _collect(self, work: _Work):
+        result = work.result
+        client = self.link.module
+        images = results.load_images(client, result) if self.load_images else {}
+        files: list[str] = []
+        if self.out_dir is not None:
+            self.out_dir.mkdir(parents=True, exist_ok=True)
+            if self.options.save_exr or self.options.save_png:
+                files = result.save(
+                    self.out_dir, exr=self.options.save_exr, png=self.options.save_png
+                )
+            results.write_frame_stats(self.out_dir, work.frame, result.stats)
+            results.write_tables(self.out_dir)
+        done = FrameDone(
+            frame=work.frame,
+            result=result,
+            seconds=time.perf_counter() - work.started + work.export.seconds,
+            export_seconds=work.export.seconds,
+            stats_lines=results.stats_summary(result.stats),
+            images=images,
+            files=files,
+        )
+        self.done.append(done)
+        if self.on_frame is not None:
+            self.on_frame(self, done)
+
+    def _failed_frame(self, work: _Work) -> bool:
+        client = self.link.module
+        error = work.error
+        if self.cancelled or (
+            isinstance(error, client.DaemonError) and getattr(error, "code", "") == "Cancelled"
+        ):
+            self.cancelled = True
+            return self._finish()
+        lost = isinstance(
+            error, (client.ConnectionLost, client.DaemonUnavailable, client.DaemonTimeout)
+        )
+        if lost and self._retries < RETRIES_PER_FRAME:
+            # The daemon went away (killed, crashed, restarted): reconnect and send the frame
+            # again with all its meshes; nothing of it was kept.
+            self._retries += 1
+            self._reconnect = True
+            return False
+        return self._fail(f"frame {work.frame}: {error}")
+
+    def _fail(self, message: str) -> bool:
+        self.error = message
+        return self._finish()
+
+    def _finish(self) -> bool:
+        self.finished = True
+        if len(self.frames) > 1 and self.scene.frame_current != self._start_frame:
+            self.scene.frame_set(self._start_frame)
+        return True
+
+    # -- for displays -----------------------------------------------------------------------
+
+    @property
+    def total(self) -> int:
+        return len(self.frames) - len(self.skipped)
+
+    @property
+    def fraction(self) -> float:
+        if not self.total:
+            return 1.0
+        return min(1.0, len(self.done) / self.total)
+
+    @property
+    def current_frame(self) -> int | None:
+        return self._work.frame if self._work is not None else None

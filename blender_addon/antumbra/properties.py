@@ -1,0 +1,83 @@
+"""Per-scene settings of the panel, and the state it shows (daemon status, progress, last
+frame's statistics)."""
+
+from __future__ import annotations
+
+import bpy
+
+from .options import BUILDS, ORDERS, RenderOptions
+
+_BUILD_TEXT = {
+    "sah": ("SAH", "Binned surface area heuristic"),
+}
+_ORDER_TEXT = {
+    "near": ("Near first", "Nearer child first"),
+    "stored": ("Stored", "Children in build order"),
+}
+
+
+def _items(keys, text):
+    return [(k, *text.get(k, (k, k))) for k in keys]
+
+
+class AntumbraSettings(bpy.types.PropertyGroup):
+    build: bpy.props.EnumProperty(name="Build", items=_items(BUILDS, _BUILD_TEXT))
+    order: bpy.props.EnumProperty(
+        name="Shadow order", items=_items(ORDERS, _ORDER_TEXT), description="Child order"
+    )
+    spp: bpy.props.IntProperty(
+        name="Samples",
+        description="Shadow samples per pixel for soft lights (hard lights take one ray)",
+        default=4,
+        min=1,
+        max=4096,
+    )
+    seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
+    resolution_scale: bpy.props.FloatProperty(
+        name="Resolution scale",
+        description="Multiplies the render resolution percentage",
+        default=0.5,
+        min=0.01,
+        max=1.0,
+        subtype="FACTOR",
+    )
+    heat_maps: bpy.props.BoolProperty(
+        name="Heat maps", description="Node, leaf and triangle work per pixel", default=True
+    )
+    output_dir: bpy.props.StringProperty(
+        name="Output",
+        description="Folder for per-frame EXR/PNG files and the statistics tables",
+        default="//antumbra/",
+        subtype="DIR_PATH",
+    )
+    save_files: bpy.props.BoolProperty(
+        name="Save files", description="Write frame_NNNN.exr and PNGs per frame", default=True
+    )
+    # State shown by the panel; written by the operators.
+    last_stats: bpy.props.StringProperty(options={"SKIP_SAVE"})
+    last_frame: bpy.props.IntProperty(options={"SKIP_SAVE"})
+    status: bpy.props.StringProperty(options={"SKIP_SAVE"})
+    progress: bpy.props.FloatProperty(min=0.0, max=1.0, subtype="FACTOR", options={"SKIP_SAVE"})
+    running: bpy.props.BoolProperty(options={"SKIP_SAVE"})
+
+    def options(self) -> RenderOptions:
+        return RenderOptions(
+            build=self.build,
+            order=self.order,
+            spp=self.spp,
+            seed=self.seed,
+            resolution_scale=self.resolution_scale,
+            heat_maps=self.heat_maps,
+            save_exr=self.save_files,
+            save_png=self.save_files,
+        )
+
+
+def register():
+    bpy.utils.register_class(AntumbraSettings)
+    bpy.types.Scene.antumbra = bpy.props.PointerProperty(type=AntumbraSettings)
+
+
+def unregister():
+    del bpy.types.Scene.antumbra
+    bpy.utils.unregister_class(AntumbraSettings)

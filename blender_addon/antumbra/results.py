@@ -1,0 +1,152 @@
+"""A rendered frame into Blender and onto disk: images in ``bpy.data.images`` (loaded with
+``pixels.foreach_set``, shown in open Image Editors), per-frame files, and the statistics tables
+(``stats.csv``, ``stats.json``) of every finished frame."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+#: The heat maps' planes and how their images are called.
+HEAT_PLANES = {
+    "primary.N_B": "antumbra heat primary node visits",
+    "primary.N_L": "antumbra heat primary leaf visits",
+    "primary.N_T": "antumbra heat primary triangle tests",
+    "shadow.N_B": "antumbra heat shadow node visits",
+    "shadow.N_L": "antumbra heat shadow leaf visits",
+    "shadow.N_T": "antumbra heat shadow triangle tests",
+}
+COMBINED_IMAGE = "antumbra combined"
+
+
+def mask_image_name(light: str) -> str:
+    return f"antumbra {light} shadow"
+
+
+def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    # Float images hold linear values; the heat maps' colours are sRGB like their PNGs.
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def _image(name: str, width: int, height: int, data: bool):
+    image = bpy.data.images.get(name)
+    if image is not None and tuple(image.size) != (width, height):
+        image.scale(width, height)
+    if image is None:
+        image = bpy.data.images.new(name, width, height, alpha=False, float_buffer=True)
+    if data:
+        image.colorspace_settings.name = "Non-Color"
+    return image
+
+
+def _load(image, rgb: np.ndarray):
+    """rgb: float32 (h, w, 3) or (h, w), rows top to bottom."""
+    h, w = rgb.shape[:2]
+    rgba = np.ones((h, w, 4), dtype=np.float32)
+    rgba[..., :3] = rgb[::-1, :, None] if rgb.ndim == 2 else rgb[::-1]
+    image.pixels.foreach_set(rgba.ravel())
+    image.update()
+
+
+def load_images(client, result) -> dict[str, str]:
+    """Puts the frame's images into ``bpy.data.images``; returns {plane: image name}. Masks and
+    the combined pass are stored as they are (1 lit, 0 shadowed); heat maps as the turbo
+    colours of the PNGs, with the value of the top colour in the image's ``antumbra_max``."""
+    names: dict[str, str] = {}
+    # The daemon's order: masks (shadow.<light>, light order), combined, then the heat maps.
+    combined_at = [plane for plane, _ in result.planes].index("combined")
+    for index, (plane, array) in enumerate(result.planes):
+        if index < combined_at:
+            name = mask_image_name(plane.removeprefix("shadow."))
+            _load(_image(name, result.width, result.height, data=True), array)
+        elif index == combined_at:
+            name = COMBINED_IMAGE
+            _load(_image(name, result.width, result.height, data=True), array)
+        else:
+            name = HEAT_PLANES[plane]
+            rgb8, top = client.colorize_heat(array)
+            image = _image(name, result.width, result.height, data=False)
+            _load(image, _srgb_to_linear(rgb8.astype(np.float32) / 255.0))
+            image["antumbra_max"] = float(top)
+        image = bpy.data.images[name]
+        image["antumbra_frame"] = result.frame
+        names[plane] = name
+    return names
+
+
+def show_in_image_editors(name: str) -> int:
+    """Shows image ``name`` in every open Image Editor; returns how many."""
+    image = bpy.data.images.get(name)
+    shown = 0
+    wm = bpy.context.window_manager
+    if image is None or wm is None:
+        return 0
+    for window in wm.windows:
+        for area in window.screen.areas:
+            if area.type == "IMAGE_EDITOR":
+                area.spaces.active.image = image
+                area.tag_redraw()
+                shown += 1
+    return shown
+
+
+def stats_summary(rows: list[dict]) -> list[str]:
+    """One line per pass: what the panel and the batch print."""
+    lines = []
+    for r in rows:
+        who = r["pass"] if r["pass"] == "primary" else f"{r['light']}"
+        lines.append(
+            f"{who}: {r['rays']} rays, {100 * r['occluded_fraction']:.1f}% occluded, "
+            f"N_B {r['nb_per_ray']:.2f} N_L {r['nl_per_ray']:.2f} N_T {r['nt_per_ray']:.2f}"
+            " per ray"
+        )
+    return lines
+
+
+def _write_atomic(path: Path, text: str):
+    partial = path.with_name(path.name + ".partial")
+    partial.write_text(text)
+    os.replace(partial, path)
+
+
+def write_frame_stats(out_dir: Path, frame: int, rows: list[dict]) -> Path:
+    """``frame_NNNN.stats.json``: the frame's rows, written last, so its presence means the
+    frame's files are complete (a batch resumes after it)."""
+    path = out_dir / f"frame_{frame:04d}.stats.json"
+    _write_atomic(path, json.dumps(rows, indent=1))
+    return path
+
+
+def finished_frames(out_dir: Path) -> dict[int, list[dict]]:
+    """The frames whose statistics (and so files) are complete in ``out_dir``."""
+    done = {}
+    for path in sorted(out_dir.glob("frame_*.stats.json")):
+        try:
+            frame = int(path.name[len("frame_") : -len(".stats.json")])
+            done[frame] = json.loads(path.read_text())
+        except (ValueError, json.JSONDecodeError):
+            continue  # a foreign or damaged file: the frame is rendered again
+    return done
+
+
+def write_tables(out_dir: Path) -> tuple[Path, Path, int]:
+    """``stats.csv`` and ``stats.json`` with the rows of every finished frame, in frame order
+    (rebuilt from the per-frame files, so a resumed run never repeats a row)."""
+    frames = finished_frames(out_dir)
+    rows = [row for f in sorted(frames) for row in frames[f]]
+    _write_atomic(out_dir / "stats.json", json.dumps(rows, indent=1))
+    columns: list[str] = []
+    for row in rows:
+        columns.extend(k for k in row if k not in columns)
+    partial = out_dir / "stats.csv.partial"
+    with open(partial, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(partial, out_dir / "stats.csv")
+    return out_dir / "stats.csv", out_dir / "stats.json", len(rows)

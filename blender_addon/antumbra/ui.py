@@ -1,0 +1,111 @@
+"""The panel, in Render properties and in the 3D view's sidebar: daemon status, method settings,
+the render buttons, progress and the last frame's statistics."""
+
+from __future__ import annotations
+
+import json
+
+import bpy
+
+from . import client_loader, operators
+
+
+def _daemon_box(layout):
+    box = layout.box()
+    try:
+        client_loader.load()
+    except client_loader.ClientMissing as e:
+        box.label(text="Client missing", icon="ERROR")
+        box.label(text=str(e)[:80])
+        return
+    link = operators.current_link()
+    row = box.row()
+    if link.connected():
+        row.label(text=f"Daemon: {link.status()}", icon="LINKED")
+        row.operator("antumbra.daemon_stop", text="", icon="CANCEL")
+    else:
+        row.label(text="Daemon: not running", icon="UNLINKED")
+        row.operator("antumbra.daemon_start", text="Start", icon="PLAY")
+
+
+def _stats_box(layout, settings):
+    if not settings.last_stats:
+        return
+    box = layout.box()
+    box.label(text=f"Frame {settings.last_frame}")
+    try:
+        rows = json.loads(settings.last_stats)
+    except json.JSONDecodeError:
+        return
+    grid = box.grid_flow(columns=5, even_columns=False, align=True)
+    for head in ("pass", "occluded", "N_B/ray", "N_L/ray", "N_T/ray"):
+        grid.label(text=head)
+    for r in rows:
+        grid.label(text="primary" if r["pass"] == "primary" else r["light"])
+        grid.label(text=f"{100 * r['occluded_fraction']:.1f}%")
+        grid.label(text=f"{r['nb_per_ray']:.2f}")
+        grid.label(text=f"{r['nl_per_ray']:.2f}")
+        grid.label(text=f"{r['nt_per_ray']:.2f}")
+
+
+def draw_panel(layout, context):
+    settings = context.scene.antumbra
+    _daemon_box(layout)
+    col = layout.column(align=True)
+    col.prop(settings, "build")
+    col.prop(settings, "order")
+    col.prop(settings, "spp")
+    col.prop(settings, "resolution_scale")
+    col.prop(settings, "heat_maps")
+    col = layout.column(align=True)
+    col.prop(settings, "output_dir")
+    col.prop(settings, "save_files")
+    row = layout.row(align=True)
+    row.enabled = not settings.running
+    row.operator(
+        "antumbra.render", text="Render shadow pass", icon="RENDER_STILL"
+    ).animation = False
+    row.operator(
+        "antumbra.render", text="Render animation", icon="RENDER_ANIMATION"
+    ).animation = True
+    if settings.running or settings.status:
+        col = layout.column()
+        if settings.running:
+            col.prop(settings, "progress", text="Progress", slider=True)
+        col.label(text=settings.status)
+    _stats_box(layout, settings)
+
+
+class ANTUMBRA_PT_render(bpy.types.Panel):
+    bl_label = "antumbra"
+    bl_idname = "ANTUMBRA_PT_render"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+
+    def draw(self, context):
+        draw_panel(self.layout, context)
+
+
+class ANTUMBRA_PT_sidebar(bpy.types.Panel):
+    bl_label = "antumbra"
+    bl_idname = "ANTUMBRA_PT_sidebar"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "antumbra"
+
+    def draw(self, context):
+        draw_panel(self.layout, context)
+
+
+CLASSES = (ANTUMBRA_PT_render, ANTUMBRA_PT_sidebar)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

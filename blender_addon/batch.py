@@ -1,0 +1,157 @@
+"""Headless shadow-pass batches of a .blend's frames.
+
+    blender -b scene.blend -P blender_addon/batch.py -- --frames 1-100 --out DIR
+        [--build sah] [--order near] [--spp 4] [--scale 1.0] [--no-heat-maps]
+        [--socket PATH] [--binary PATH] [--restart]
+
+Prints one line per frame and a summary, writes ``frame_NNNN.exr``, PNGs and
+``frame_NNNN.stats.json`` per frame and ``stats.csv``/``stats.json`` for all finished frames into
+DIR. A run over a half-done DIR renders only the frames that are missing (``--restart`` renders
+everything again). The exit status is 0 only if every frame was rendered.
+
+The daemon: the one at ``--socket`` (or the default socket) if it runs, otherwise one started for
+the batch (``--binary``, ``$ANTUMBRA_BIN``, the add-on's bundled copy, or ``antumbra`` on PATH)
+and stopped at the end. If it dies mid-run the batch restarts it and renders the frame again.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import bpy
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from antumbra import client_loader, daemon, results
+from antumbra.jobs import RenderJob
+from antumbra.options import BUILDS, ORDERS, RenderOptions
+
+
+def parse_frames(text: str, scene) -> list[int]:
+    if not text:
+        return list(range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step)))
+    first, sep, last = text.partition("-")
+    try:
+        a = int(first)
+        b = int(last) if sep else a
+    except ValueError:
+        raise SystemExit(f"--frames: '{text}' is not A-B or N") from None
+    if b < a:
+        raise SystemExit(f"--frames: the range {a}-{b} is empty")
+    return list(range(a, b + 1))
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="batch.py", description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", default="", help="A-B or N (default: the scene's range)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder")
+    parser.add_argument("--build", default="sah", choices=BUILDS)
+    parser.add_argument("--order", default="near", choices=ORDERS)
+    parser.add_argument("--spp", type=int, default=4)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--scale", type=float, default=1.0, help="resolution scale")
+    parser.add_argument("--no-heat-maps", action="store_true")
+    parser.add_argument("--no-png", action="store_true")
+    parser.add_argument("--socket", default="", help="the daemon's socket")
+    parser.add_argument("--binary", default="", help="the antumbra executable")
+    parser.add_argument("--restart", action="store_true", help="render finished frames again")
+    args = parser.parse_args(argv)
+    if not 1 <= args.spp <= 4096:
+        parser.error("--spp must be in 1..4096")
+    if not 0.0 < args.scale <= 1.0:
+        parser.error("--scale must be in (0, 1]")
+    return args
+
+
+def run(argv: list[str]) -> int:
+    args = parse_args(argv)
+    scene = bpy.context.scene
+    frames = parse_frames(args.frames, scene)
+    options = RenderOptions(
+        build=args.build,
+        order=args.order,
+        spp=args.spp,
+        seed=args.seed,
+        resolution_scale=args.scale,
+        heat_maps=not args.no_heat_maps,
+        save_png=not args.no_png,
+    )
+    client_loader.load()
+    out = args.out.resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    link = daemon.DaemonLink(
+        binary=args.binary, socket_path=args.socket, client_name="antumbra-batch"
+    )
+
+    def progress(job: RenderJob, done):
+        n = len(job.done) + len(job.skipped)
+        print(
+            f"antumbra: frame {done.frame} ({n}/{len(job.frames)}) {done.seconds:.2f} s "
+            f"(export {done.export_seconds:.3f} s) | " + " | ".join(done.stats_lines),
+            flush=True,
+        )
+
+    job = RenderJob(
+        scene=scene,
+        frames=frames,
+        options=options,
+        link=link,
+        out_dir=out,
+        load_images=False,
+        on_frame=progress,
+    )
+    if not args.restart:
+        job.skip_finished(set(results.finished_frames(out)))
+        if job.skipped:
+            print(f"antumbra: resuming: {len(job.skipped)} frame(s) already done", flush=True)
+    name = Path(bpy.data.filepath).name or "(unsaved scene)"
+    print(f"antumbra: {name}: {len(job.pending)} frame(s) to render, {options.describe()}")
+    start = time.perf_counter()
+    try:
+        job.run()
+    finally:
+        for line in link.log:
+            print(f"antumbra: {line}", flush=True)
+        link.close()
+    elapsed = time.perf_counter() - start
+    csv_path, _, rows = results.write_tables(out)
+    exported = [d.export_seconds for d in job.done]
+    mean_export = sum(exported) / len(exported) if exported else 0.0
+    print(
+        f"antumbra: summary: {len(job.done)} rendered, {len(job.skipped)} already done, "
+        f"{len(job.pending)} not rendered, {elapsed:.1f} s, mean export {mean_export:.3f} s, "
+        f"daemon reconnects {link.reconnects}; {rows} statistics rows in {csv_path}",
+        flush=True,
+    )
+    if job.error:
+        print(f"antumbra: error: {job.error}", file=sys.stderr, flush=True)
+        return 1
+    if job.pending:
+        print("antumbra: error: stopped before the last frame", file=sys.stderr, flush=True)
+        return 1
+    return 0
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
+    try:
+        code = run(argv)
+    except SystemExit as e:
+        code = e.code if isinstance(e.code, int) else 2
+        if not isinstance(e.code, int):
+            print(f"antumbra: error: {e.code}", file=sys.stderr)
+    except Exception as e:  # noqa: BLE001 - any failure is the exit status
+        print(f"antumbra: error: {type(e).__name__}: {e}", file=sys.stderr)
+        code = 1
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # Blender exits 0 after a -P script whatever happened; the batch's status must mean
+    # something, and an explicit exit is the only way to set it.
+    os._exit(code)
+
+
+if __name__ == "__main__":
+    main()
