@@ -83,7 +83,10 @@ def run(argv: list[str]) -> int:
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     link = daemon.DaemonLink(
-        binary=args.binary, socket_path=args.socket, client_name="antumbra-batch"
+        binary=args.binary,
+        socket_path=args.socket,
+        client_name="antumbra-batch",
+        on_log=lambda line: print(f"antumbra: {line}", flush=True),
     )
 
     def progress(job: RenderJob, done):
@@ -113,17 +116,15 @@ def run(argv: list[str]) -> int:
     try:
         job.run()
     finally:
-        for line in link.log:
-            print(f"antumbra: {line}", flush=True)
         link.close()
     elapsed = time.perf_counter() - start
-    csv_path, _, rows = results.write_tables(out)
+    frames_csv, rows = results.write_tables(out)
     exported = [d.export_seconds for d in job.done]
     mean_export = sum(exported) / len(exported) if exported else 0.0
     print(
         f"antumbra: summary: {len(job.done)} rendered, {len(job.skipped)} already done, "
         f"{len(job.pending)} not rendered, {elapsed:.1f} s, mean export {mean_export:.3f} s, "
-        f"daemon reconnects {link.reconnects}; {rows} statistics rows in {csv_path}",
+        f"daemon reconnects {link.reconnects}; {rows} frames in {frames_csv}",
         flush=True,
     )
     if job.error:

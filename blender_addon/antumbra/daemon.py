@@ -50,6 +50,13 @@ class DaemonLink:
     owns_daemon: bool = False
     reconnects: int = 0
     log: list[str] = field(default_factory=list)
+    #: Called with each log line as it happens (batches print them).
+    on_log: object = None
+
+    def _log(self, line: str):
+        self.log.append(line)
+        if self.on_log is not None:
+            self.on_log(line)
 
     @property
     def module(self):
@@ -99,13 +106,14 @@ class DaemonLink:
             binary, socket_path=self.socket(), client_name=self.client_name
         )
         self.owns_daemon = True
-        self.log.append(f"started {binary} (pid {self.client.process.pid}) at {self.socket()}")
+        self._log(f"started {binary} (pid {self.client.process.pid}) at {self.socket()}")
         return self.client
 
     def reconnect(self, attempts: int = 3):
         """After a lost connection: close what is left, then connect or restart."""
         self.drop()
         self.reconnects += 1
+        self._log(f"lost the daemon; reconnecting (attempt {self.reconnects})")
         error = None
         for attempt in range(attempts):
             try:

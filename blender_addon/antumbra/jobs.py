@@ -40,6 +40,8 @@ class FrameDone:
     stats_lines: list[str]
     images: dict[str, str]
     files: list[str]
+    objects: int
+    triangles: int
 
 
 @dataclass
@@ -188,8 +190,6 @@ class RenderJob:
                 files = result.save(
                     self.out_dir, exr=self.options.save_exr, png=self.options.save_png
                 )
-            results.write_frame_stats(self.out_dir, work.frame, result.stats)
-            results.write_tables(self.out_dir)
         done = FrameDone(
             frame=work.frame,
             result=result,
@@ -198,7 +198,12 @@ class RenderJob:
             stats_lines=results.stats_summary(result.stats),
             images=images,
             files=files,
+            objects=len(work.export.objects),
+            triangles=work.export.triangles,
         )
+        if self.out_dir is not None:
+            results.write_frame_stats(self.out_dir, results.frame_record(done))
+            results.write_tables(self.out_dir)
         self.done.append(done)
         if self.on_frame is not None:
             self.on_frame(self, done)

@@ -114,39 +114,85 @@ def _write_atomic(path: Path, text: str):
     os.replace(partial, path)
 
 
-def write_frame_stats(out_dir: Path, frame: int, rows: list[dict]) -> Path:
-    """``frame_NNNN.stats.json``: the frame's rows, written last, so its presence means the
-    frame's files are complete (a batch resumes after it)."""
-    path = out_dir / f"frame_{frame:04d}.stats.json"
-    _write_atomic(path, json.dumps(rows, indent=1))
+def frame_record(done) -> dict:
+    """What a finished frame leaves in ``frame_NNNN.stats.json``: its timing and size, and the
+    daemon's statistics rows (one per pass: primary, then each shadow-casting light)."""
+    return {
+        "frame": done.frame,
+        "seconds": done.seconds,
+        "export_seconds": done.export_seconds,
+        "objects": done.objects,
+        "triangles": done.triangles,
+        "rows": done.result.stats,
+    }
+
+
+def write_frame_stats(out_dir: Path, record: dict) -> Path:
+    """``frame_NNNN.stats.json``, written last, so its presence means the frame's files are
+    complete (a batch resumes after it)."""
+    path = out_dir / f"frame_{record['frame']:04d}.stats.json"
+    _write_atomic(path, json.dumps(record, indent=1))
     return path
 
 
-def finished_frames(out_dir: Path) -> dict[int, list[dict]]:
-    """The frames whose statistics (and so files) are complete in ``out_dir``."""
+def finished_frames(out_dir: Path) -> dict[int, dict]:
+    """The records of the frames whose files are complete in ``out_dir``."""
     done = {}
     for path in sorted(out_dir.glob("frame_*.stats.json")):
         try:
-            frame = int(path.name[len("frame_") : -len(".stats.json")])
-            done[frame] = json.loads(path.read_text())
-        except (ValueError, json.JSONDecodeError):
+            record = json.loads(path.read_text())
+            done[int(record["frame"])] = record
+        except (ValueError, KeyError, TypeError, json.JSONDecodeError):
             continue  # a foreign or damaged file: the frame is rendered again
     return done
 
 
-def write_tables(out_dir: Path) -> tuple[Path, Path, int]:
-    """``stats.csv`` and ``stats.json`` with the rows of every finished frame, in frame order
-    (rebuilt from the per-frame files, so a resumed run never repeats a row)."""
-    frames = finished_frames(out_dir)
-    rows = [row for f in sorted(frames) for row in frames[f]]
-    _write_atomic(out_dir / "stats.json", json.dumps(rows, indent=1))
+def frame_summary(record: dict) -> dict:
+    """One row per frame: timing, size, and the shadow rays' work summed over lights."""
+    rows = record["rows"]
+    primary = next((r for r in rows if r["pass"] == "primary"), None)
+    shadow = [r for r in rows if r["pass"] == "shadow"]
+    rays = sum(r["rays"] for r in shadow)
+
+    def per_ray(key: str) -> float:
+        return sum(r[key] * r["rays"] for r in shadow) / rays if rays else 0.0
+
+    return {
+        "frame": record["frame"],
+        "seconds": round(record["seconds"], 6),
+        "export_seconds": round(record["export_seconds"], 6),
+        "objects": record["objects"],
+        "triangles": record["triangles"],
+        "primary_rays": primary["rays"] if primary else 0,
+        "primary_nb_per_ray": primary["nb_per_ray"] if primary else 0.0,
+        "shadow_rays": rays,
+        "shadow_occluded_fraction": per_ray("occluded_fraction"),
+        "shadow_nb_per_ray": per_ray("nb_per_ray"),
+        "shadow_nl_per_ray": per_ray("nl_per_ray"),
+        "shadow_nt_per_ray": per_ray("nt_per_ray"),
+        "build_ms": primary["build_ms"] if primary else 0.0,
+    }
+
+
+def _write_csv(path: Path, rows: list[dict]):
     columns: list[str] = []
     for row in rows:
         columns.extend(k for k in row if k not in columns)
-    partial = out_dir / "stats.csv.partial"
+    partial = path.with_name(path.name + ".partial")
     with open(partial, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=columns)
         writer.writeheader()
         writer.writerows(rows)
-    os.replace(partial, out_dir / "stats.csv")
-    return out_dir / "stats.csv", out_dir / "stats.json", len(rows)
+    os.replace(partial, path)
+
+
+def write_tables(out_dir: Path) -> tuple[Path, int]:
+    """The tables of every finished frame, in frame order, rebuilt from the per-frame files (so
+    a resumed run never repeats a row): ``frames.csv`` (one row per frame), ``stats.csv`` and
+    ``stats.json`` (one row per pass and frame). Returns the frames table and its row count."""
+    records = finished_frames(out_dir)
+    rows = [row for f in sorted(records) for row in records[f]["rows"]]
+    _write_atomic(out_dir / "stats.json", json.dumps(rows, indent=1))
+    _write_csv(out_dir / "stats.csv", rows)
+    _write_csv(out_dir / "frames.csv", [frame_summary(records[f]) for f in sorted(records)])
+    return out_dir / "frames.csv", len(records)
