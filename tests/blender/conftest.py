@@ -83,8 +83,10 @@ def run_blender(
 def recording(antumbra_bin, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("scene") / f"{SCENE}.antrec"
     subprocess.run(
-        [str(antumbra_bin), "record", "--scene", SCENE, "--triangles", str(TRIANGLES)]
-        + ["--frames", f"1-{FRAMES}", "--size", f"{SIZE[0]}x{SIZE[1]}", "--out", str(out)],
+        [
+            *(str(antumbra_bin), "record", "--scene", SCENE, "--triangles", str(TRIANGLES)),
+            *("--frames", f"1-{FRAMES}", "--size", f"{SIZE[0]}x{SIZE[1]}", "--out", str(out)),
+        ],
         check=True,
         capture_output=True,
     )
@@ -97,8 +99,15 @@ def scene_blend(recording, addon_zips, tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("blend")
     out = folder / f"{SCENE}.blend"
     done = run_blender(
-        ["-P", str(ADDON / "make_blend.py"), "--", "--recording", str(recording)]
-        + ["--out", str(out)],
+        [
+            "-P",
+            str(ADDON / "make_blend.py"),
+            "--",
+            "--recording",
+            str(recording),
+            "--out",
+            str(out),
+        ],
         folder / "home",
     )
     assert done.returncode == 0 and out.is_file(), done.stdout + done.stderr
@@ -108,8 +117,10 @@ def scene_blend(recording, addon_zips, tmp_path_factory) -> Path:
 def cli_render(antumbra_bin: Path, recording: Path, frame: int, out: Path, spp: int) -> Path:
     """``antumbra render`` of one frame of a recording; returns the frame's EXR."""
     subprocess.run(
-        [str(antumbra_bin), "render", "--scene", str(recording), "--frames", str(frame)]
-        + ["--spp", str(spp), "--out", str(out)],
+        [
+            *(str(antumbra_bin), "render", "--scene", str(recording), "--frames", str(frame)),
+            *("--spp", str(spp), "--out", str(out)),
+        ],
         check=True,
         capture_output=True,
     )

@@ -1,0 +1,165 @@
+"""Headless batches in Debian's ``blender -b``: ten frames with files and statistics, resuming a
+half-done folder, surviving a daemon killed mid-run, and failing clearly (non-zero exit, the
+object and frame named) on bad input or with no daemon to be had."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+from conftest import ADDON, FRAMES, SIZE, blender_env, run_blender
+
+import antumbra
+
+BATCH = ADDON / "batch.py"
+LIGHTS = ("Sun", "Window")
+
+
+def batch(blend: Path, out: Path, home: Path, *extra: str, env=None):
+    return run_blender(
+        [str(blend), "-P", str(BATCH), "--", "--out", str(out), "--spp", "1", *extra],
+        home,
+        env=env,
+    )
+
+
+def frame_lines(stdout: str) -> list[str]:
+    return [line for line in stdout.splitlines() if line.startswith("antumbra: frame ")]
+
+
+def test_ten_frames_then_resume(scene_blend, antumbra_bin, short_tmp):
+    out = short_tmp / "out"
+    env = blender_env(short_tmp / "home", ANTUMBRA_BIN=str(antumbra_bin))
+    sock = ["--socket", str(short_tmp / "d.sock")]
+    done = batch(scene_blend, out, short_tmp / "home", "--frames", f"1-{FRAMES}", *sock, env=env)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert len(frame_lines(done.stdout)) == FRAMES, done.stdout
+    assert f"summary: {FRAMES} rendered" in done.stdout
+    for f in range(1, FRAMES + 1):
+        planes = antumbra.read_exr(out / f"frame_{f:04d}.exr")
+        assert {f"shadow.{light}" for light in LIGHTS} <= set(planes)
+        assert planes["combined"].shape == (SIZE[1], SIZE[0])
+        assert (out / f"frame_{f:04d}_shadow_Sun.png").is_file()
+    with open(out / "frames.csv") as f:
+        frames = list(csv.DictReader(f))
+    assert [int(r["frame"]) for r in frames] == list(range(1, FRAMES + 1))
+    with open(out / "stats.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == FRAMES * (1 + len(LIGHTS))
+
+    # Half the work lost: the batch renders only what is missing, and the same pixels again.
+    before = (out / "frame_0004.exr").read_bytes()
+    for f in (4, 7):
+        (out / f"frame_{f:04d}.stats.json").unlink()
+    (out / "frame_0004.exr").unlink()
+    again = batch(scene_blend, out, short_tmp / "home", "--frames", f"1-{FRAMES}", *sock, env=env)
+    assert again.returncode == 0, again.stdout[-3000:] + again.stderr[-3000:]
+    assert f"resuming: {FRAMES - 2} frame(s) already done" in again.stdout
+    assert [line.split()[2] for line in frame_lines(again.stdout)] == ["4", "7"]
+    assert (out / "frame_0004.exr").read_bytes() == before
+    with open(out / "frames.csv") as f:
+        assert [int(r["frame"]) for r in csv.DictReader(f)] == list(range(1, FRAMES + 1))
+
+
+def test_daemon_killed_mid_animation(scene_blend, antumbra_bin, short_tmp):
+    """The batch starts its own daemon; it is killed (SIGKILL) after the second frame. The
+    batch restarts it and finishes every frame, none lost."""
+    out = short_tmp / "out"
+    home = short_tmp / "home"
+    home.mkdir()
+    env = blender_env(home, ANTUMBRA_BIN=str(antumbra_bin))
+    command = ["blender", "-b", "--factory-startup", "-noaudio", str(scene_blend)]
+    command += ["-P", str(BATCH), "--", "--out", str(out), "--spp", "1"]
+    command += ["--frames", f"1-{FRAMES}", "--socket", str(short_tmp / "d.sock")]
+    proc = subprocess.Popen(
+        command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    lines, pid, killed = [], None, False
+    deadline = time.monotonic() + 300
+    for line in proc.stdout:
+        lines.append(line)
+        if "started " in line and "(pid " in line:
+            pid = int(line.split("(pid ")[1].split(")")[0])
+        if not killed and line.startswith("antumbra: frame 2 "):
+            assert pid is not None, "".join(lines)
+            os.kill(pid, signal.SIGKILL)
+            killed = True
+        assert time.monotonic() < deadline, "".join(lines)
+    code = proc.wait(timeout=60)
+    stdout, stderr = "".join(lines), proc.stderr.read()
+    assert killed, stdout
+    assert code == 0, stdout[-3000:] + stderr[-3000:]
+    assert "lost the daemon" in stdout and "reconnects 1" in stdout, stdout
+    rendered = [int(line.split()[2]) for line in frame_lines(stdout)]
+    assert rendered == list(range(1, FRAMES + 1)), stdout
+    assert sorted(p.name for p in out.glob("frame_*.exr")) == [
+        f"frame_{f:04d}.exr" for f in range(1, FRAMES + 1)
+    ]
+
+
+NAN_SCENE = """
+import bpy, sys
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+mesh = bpy.data.meshes.new("BrokenMesh")
+mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, float("nan"))], [], [(0, 1, 2)])
+scene.collection.objects.link(bpy.data.objects.new("Broken", mesh))
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.location = (0.3, 0.3, 5.0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+scene.collection.objects.link(sun)
+scene.render.resolution_x, scene.render.resolution_y = 32, 24
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[-1])
+"""
+
+
+def test_nan_mesh_fails_naming_object_and_frame(antumbra_bin, short_tmp):
+    script = short_tmp / "nan_scene.py"
+    script.write_text(NAN_SCENE)
+    blend = short_tmp / "nan.blend"
+    made = run_blender(["-P", str(script), "--", str(blend)], short_tmp / "home")
+    assert made.returncode == 0 and blend.is_file(), made.stderr
+    env = blender_env(short_tmp / "home", ANTUMBRA_BIN=str(antumbra_bin))
+    done = batch(
+        blend,
+        short_tmp / "out",
+        short_tmp / "home",
+        "--frames",
+        "1",
+        "--socket",
+        str(short_tmp / "d.sock"),
+        env=env,
+    )
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "frame 1" in done.stderr and "object 'Broken'" in done.stderr, done.stderr
+    assert "non-finite" in done.stderr, done.stderr
+
+
+def test_no_daemon_and_no_binary_is_a_clear_failure(scene_blend, short_tmp):
+    env = blender_env(short_tmp / "home", PATH="/usr/bin:/bin")
+    env.pop("ANTUMBRA_BIN", None)
+    done = batch(
+        scene_blend,
+        short_tmp / "out",
+        short_tmp / "home",
+        "--frames",
+        "1-2",
+        "--socket",
+        str(short_tmp / "none.sock"),
+        env=env,
+    )
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "frame 1" in done.stderr and "antumbra binary was not found" in done.stderr
+    assert "summary: 0 rendered" in done.stdout
+
+
+def test_bad_arguments_exit_non_zero(scene_blend, short_tmp):
+    done = batch(scene_blend, short_tmp / "out", short_tmp / "home", "--frames", "9-3")
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert "--frames: the range 9-3 is empty" in done.stderr
