@@ -101,7 +101,9 @@ class RenderJob:
                 return self._finish()
             try:
                 self._begin(self.pending[0])
-            except (ExportError, Exception) as e:  # noqa: BLE001 - reported, job ends
+            except ExportError as e:
+                return self._fail(str(e))  # it names the frame and object
+            except Exception as e:  # noqa: BLE001 - reported, job ends
                 return self._fail(f"frame {self.pending[0]}: {e}")
             return False
         if self._work.thread.is_alive():

@@ -1,0 +1,333 @@
+"""The exporter, the render job and the operators' error paths inside the bpy 5.0.1 module:
+modifiers, shape keys and geometry-node instances come from the evaluated depsgraph; hidden and
+non-casting objects are handled; Blender's camera and light fields arrive; meshes that did not
+change are neither read again nor sent again; cancelling leaves complete frames only; bad input
+and a missing daemon are reported with the object or the fix named."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+# Blender writes into $HOME: keep it out of the real one. Set before bpy is imported.
+os.environ["HOME"] = tempfile.mkdtemp(prefix="antumbra-bpy-home-")
+
+import bpy
+import numpy as np
+import pytest
+from conftest import ADDON
+
+
+def _load_addon():
+    """The add-on package from this checkout, imported as ``antumbra_addon`` (its own name,
+    ``antumbra``, is the client's in this process)."""
+    init = ADDON / "antumbra" / "__init__.py"
+    spec = importlib.util.spec_from_file_location(
+        "antumbra_addon", init, submodule_search_locations=[str(init.parent)]
+    )
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["antumbra_addon"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+addon = _load_addon()
+from antumbra_addon import daemon, export, jobs, options, preferences  # noqa: E402
+
+client = addon.client_loader.load()
+
+
+def empty_scene():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 48, 32
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location = (0.0, -12.0, 6.0)
+    camera.rotation_euler = (1.1, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    return scene
+
+
+def add_mesh(scene, name, vertices, faces, location=(0, 0, 0)):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices, [], faces)
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location = location
+    scene.collection.objects.link(obj)
+    return obj
+
+
+CUBE_V = [(x, y, z) for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (0, 1)]
+CUBE_F = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+GROUND = ([(-8, -8, 0), (8, -8, 0), (8, 8, 0), (-8, 8, 0)], [(0, 1, 2, 3)])
+
+
+def add_light(scene, name, kind, location=(0, 0, 8), **fields):
+    data = bpy.data.lights.new(name, kind)
+    for key, value in fields.items():
+        setattr(data, key, value)
+    obj = bpy.data.objects.new(name, data)
+    obj.location = location
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def export_now(scene, exporter=None):
+    exporter = exporter or export.Exporter(client)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    return exporter.frame(depsgraph, scene, scene.frame_current, 100), exporter
+
+
+def by_name(frame_export):
+    return {o["name"]: o for o in frame_export.objects}
+
+
+def test_modifiers_and_shape_keys_are_evaluated():
+    scene = empty_scene()
+    arrayed = add_mesh(scene, "Arrayed", CUBE_V, CUBE_F)
+    modifier = arrayed.modifiers.new("Array", "ARRAY")
+    modifier.count = 3
+    keyed = add_mesh(scene, "Keyed", *GROUND, location=(0, 0, -1))
+    keyed.shape_key_add(name="Basis")
+    up = keyed.shape_key_add(name="Up")
+    for point in up.data:
+        point.co.z += 2.0
+    up.value = 1.0
+    e, _ = export_now(scene)
+    objects = by_name(e)
+    arrayed_mesh = e.meshes[objects["Arrayed"]["mesh_hash"]]
+    assert len(arrayed_mesh.triangles) == 3 * 12
+    assert arrayed_mesh.positions[:, 0].max() == pytest.approx(2.5)
+    keyed_mesh = e.meshes[objects["Keyed"]["mesh_hash"]]
+    assert np.allclose(keyed_mesh.positions[:, 2], 2.0)
+    assert e.triangles == 36 + 2
+
+
+def test_geometry_node_instances_are_objects():
+    scene = empty_scene()
+    cube = add_mesh(scene, "Cube", CUBE_V, CUBE_F)
+    points = add_mesh(scene, "Points", [(x, 3.0, 0.0) for x in (-3, -1, 1, 3)], [])
+    tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    group_in = tree.nodes.new("NodeGroupInput")
+    group_out = tree.nodes.new("NodeGroupOutput")
+    on_points = tree.nodes.new("GeometryNodeInstanceOnPoints")
+    info = tree.nodes.new("GeometryNodeObjectInfo")
+    info.inputs["Object"].default_value = cube
+    tree.links.new(group_in.outputs[0], on_points.inputs["Points"])
+    tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
+    tree.links.new(on_points.outputs["Instances"], group_out.inputs[0])
+    points.modifiers.new("Scatter", "NODES").node_group = tree
+    e, _ = export_now(scene)
+    instances = [o for o in e.objects if o["name"].startswith("Points/")]
+    assert len(instances) == 4, [o["name"] for o in e.objects]
+    cube_hash = by_name(e)["Cube"]["mesh_hash"]
+    assert {o["mesh_hash"] for o in instances} == {cube_hash}
+    xs = sorted(round(o["matrix_world"][0][3], 4) for o in instances)
+    assert xs == [-3.0, -1.0, 1.0, 3.0]
+    assert len({o["name"] for o in e.objects}) == len(e.objects)
+
+
+def test_hidden_and_non_casting_objects_and_lights():
+    scene = empty_scene()
+    add_mesh(scene, "Ground", *GROUND)
+    hidden = add_mesh(scene, "Hidden", CUBE_V, CUBE_F)
+    hidden.hide_render = True
+    ghost = add_mesh(scene, "Ghost", CUBE_V, CUBE_F, location=(2, 0, 0))
+    ghost.visible_shadow = False
+    invisible = add_mesh(scene, "Nothing", CUBE_V, CUBE_F)
+    invisible.visible_camera = False
+    invisible.visible_shadow = False
+    add_light(scene, "Lamp", "POINT", shadow_soft_size=0.3)
+    add_light(scene, "Sun", "SUN", angle=0.05)
+    add_light(scene, "Spot", "SPOT", spot_size=0.7, spot_blend=0.2, shadow_soft_size=0.1)
+    add_light(scene, "Panel", "AREA", shape="RECTANGLE", size=2.0, size_y=0.5)
+    add_light(scene, "Off", "POINT").hide_render = True
+    e, _ = export_now(scene)
+    objects = by_name(e)
+    assert set(objects) == {"Ground", "Ghost"}
+    assert objects["Ghost"]["visible_shadow"] is False
+    assert objects["Ghost"]["visible_camera"] is True
+    lights = {light["name"]: light for light in e.lights}
+    assert set(lights) == {"Lamp", "Sun", "Spot", "Panel"}
+    assert lights["Lamp"]["shadow_soft_size"] == pytest.approx(0.3)
+    assert lights["Sun"]["angle"] == pytest.approx(0.05)
+    assert lights["Spot"]["spot_size"] == pytest.approx(0.7)
+    assert lights["Spot"]["spot_blend"] == pytest.approx(0.2)
+    assert (lights["Panel"]["shape"], lights["Panel"]["size_y"]) == ("RECTANGLE", 0.5)
+
+
+def test_camera_fields_and_unsupported_cameras():
+    scene = empty_scene()
+    add_mesh(scene, "Ground", *GROUND)
+    cam = scene.camera.data
+    cam.lens, cam.sensor_fit, cam.sensor_height = 35.0, "VERTICAL", 20.0
+    cam.shift_x, cam.clip_start, cam.clip_end = 0.1, 0.2, 50.0
+    scene.render.resolution_percentage = 50
+    scene.render.pixel_aspect_x = 2.0
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    e = export.Exporter(client).frame(depsgraph, scene, 1, 25)
+    c = e.camera
+    assert (c["lens"], c["sensor_fit"], c["sensor_height"]) == (35.0, "VERTICAL", 20.0)
+    assert (c["shift_x"], c["clip_end"]) == (pytest.approx(0.1), 50.0)
+    assert c["clip_start"] == pytest.approx(0.2)
+    assert e.resolution == {
+        "x": 48,
+        "y": 32,
+        "percentage": 25,
+        "pixel_aspect_x": 2.0,
+        "pixel_aspect_y": 1.0,
+    }
+    cam.type = "ORTHO"
+    with pytest.raises(export.ExportError, match="camera 'Camera' is ORTHO"):
+        export_now(scene)
+
+
+def test_unchanged_meshes_are_neither_read_nor_sent_again():
+    scene = empty_scene()
+    add_mesh(scene, "Ground", *GROUND)
+    mover = add_mesh(scene, "Mover", CUBE_V, CUBE_F)
+    for frame, x in ((1, 0.0), (2, 2.0)):
+        mover.location.x = x
+        mover.keyframe_insert("location", frame=frame)
+    bent = add_mesh(scene, "Bent", *GROUND, location=(0, 0, 3))
+    lift = bent.modifiers.new("Lift", "DISPLACE")
+    lift.strength = 0.5
+    lift.keyframe_insert("strength", frame=1)
+    lift.strength = 1.5
+    lift.keyframe_insert("strength", frame=2)
+    with client.LocalSession() as session:
+        sent = []
+        exporter = export.Exporter(client)
+        for frame in (1, 2):
+            scene.frame_set(frame)
+            e, _ = export_now(scene, exporter)
+            missing = session.frame_update(frame, e.objects, e.camera, e.lights, e.resolution)
+            for h in missing:
+                session.upload_mesh(e.meshes[h].name, e.meshes[h].positions, e.meshes[h].triangles)
+            sent.append(sorted(e.meshes[h].name for h in missing))
+            if frame == 2:
+                # Ground and Mover come from the static cache; Bent's modifier is re-evaluated.
+                assert e.extracted == 1
+        assert sent == [["Bent", "Ground", "Mover"], ["Bent"]]
+
+
+def test_non_finite_vertex_names_object_and_frame():
+    scene = empty_scene()
+    add_mesh(scene, "Fine", *GROUND)
+    add_mesh(scene, "Broken", [(0, 0, 0), (1, 0, 0), (0, 1, float("inf"))], [(0, 1, 2)])
+    with pytest.raises(export.ExportError, match=r"frame 1: object 'Broken'.*index 2"):
+        export_now(scene)
+
+
+@pytest.fixture
+def link(antumbra_bin, short_tmp):
+    link = daemon.DaemonLink(binary=str(antumbra_bin), socket_path=str(short_tmp / "d.sock"))
+    yield link
+    link.stop()
+
+
+def animated_scene():
+    scene = empty_scene()
+    add_mesh(scene, "Ground", *GROUND)
+    mover = add_mesh(scene, "Mover", CUBE_V, CUBE_F)
+    add_light(scene, "Sun", "SUN", angle=0.0).rotation_euler = (0.4, 0.3, 0.0)
+    scene.frame_start, scene.frame_end = 1, 4
+    for frame in range(1, 5):
+        mover.location.x = frame - 2.5
+        mover.keyframe_insert("location", frame=frame)
+    scene.frame_set(2)
+    return scene
+
+
+def test_cancelled_job_keeps_complete_frames_only(link, short_tmp):
+    scene = animated_scene()
+    out = short_tmp / "out"
+
+    def cancel_after_first(job, done):
+        job.cancel()
+
+    job = jobs.RenderJob(
+        scene=scene,
+        frames=[1, 2, 3, 4],
+        options=options.RenderOptions(spp=1),
+        link=link,
+        out_dir=out,
+        on_frame=cancel_after_first,
+    ).run()
+    assert job.cancelled and job.error is None
+    assert [d.frame for d in job.done] == [1]
+    assert scene.frame_current == 2, "the scene's frame is restored"
+    records = sorted(p.name for p in out.glob("frame_*.stats.json"))
+    assert records == ["frame_0001.stats.json"]
+    assert len((out / "frames.csv").read_text().strip().splitlines()) == 2
+    combined = bpy.data.images["antumbra combined"]
+    assert combined["antumbra_frame"] == 1
+    assert tuple(combined.size) == (48, 32)
+
+
+def test_job_reconnects_after_the_daemon_dies(link, short_tmp):
+    scene = animated_scene()
+
+    def kill_after_first(job, done):
+        if done.frame == 1:
+            link.client.process.kill()
+            link.client.process.wait()
+
+    job = jobs.RenderJob(
+        scene=scene,
+        frames=[1, 2, 3],
+        options=options.RenderOptions(spp=1, heat_maps=False),
+        link=link,
+        out_dir=short_tmp / "out",
+        on_frame=kill_after_first,
+    ).run()
+    assert job.error is None, job.error
+    assert [d.frame for d in job.done] == [1, 2, 3]
+    assert link.reconnects == 1
+
+
+@pytest.fixture
+def registered(monkeypatch, short_tmp, antumbra_bin):
+    addon.register()
+    settings = {"binary": str(antumbra_bin), "socket": str(short_tmp / "d.sock"), "auto": True}
+    monkeypatch.setattr(
+        preferences,
+        "get",
+        lambda: preferences.Preferences(settings["binary"], settings["socket"], settings["auto"]),
+    )
+    yield settings
+    addon.unregister()
+
+
+def test_operator_reports_the_broken_object(registered):
+    scene = empty_scene()
+    add_mesh(scene, "Broken", [(0, 0, 0), (1, 0, 0), (0, 1, float("nan"))], [(0, 1, 2)])
+    scene.antumbra.save_files = False
+    with pytest.raises(RuntimeError, match=r"frame 1: object 'Broken'"):
+        bpy.ops.antumbra.render()
+    assert scene.antumbra.status.startswith("failed: frame 1: object 'Broken'")
+
+
+def test_operator_without_daemon_says_how_to_start_one(registered, short_tmp):
+    registered["socket"] = str(short_tmp / "nobody.sock")
+    registered["auto"] = False
+    scene = empty_scene()
+    add_mesh(scene, "Ground", *GROUND)
+    with pytest.raises(RuntimeError, match=r"no antumbra daemon at .*press Start daemon"):
+        bpy.ops.antumbra.render()
+    # The start button's operator starts one, after which rendering works.
+    assert bpy.ops.antumbra.daemon_start() == {"FINISHED"}
+    scene.antumbra.save_files = False
+    assert bpy.ops.antumbra.render() == {"FINISHED"}
+    stats = json.loads(scene.antumbra.last_stats)
+    assert stats[0]["pass"] == "primary"
+    assert bpy.ops.antumbra.daemon_stop() == {"FINISHED"}
+    assert not addon.operators.current_link().connected()
+    assert Path(registered["socket"]).exists() is False
