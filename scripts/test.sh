@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Sets up and runs every test: formatting and lints (Rust and Python), the whole workspace's
 # tests with the Embree oracle enabled (core, scenes, protocol, daemon over real sockets, CLI),
-# then the Python client's tests against the real daemon binary.
+# the Python client's tests against the real daemon binary, then the Blender add-on end to end
+# in Debian's Blender 3.4 (`blender -b`) and in the bpy 5.0.1 module.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -16,9 +17,15 @@ cargo test --workspace --all-features 2>&1 | tee target/test.log
 
 echo "== python client: build, lint, test"
 rm -rf target/wheels
-.venv/bin/maturin build --release -q -m rust/python/Cargo.toml -o target/wheels
+.venv/bin/maturin build --release --strip -q -m rust/python/Cargo.toml -o target/wheels
 .venv/bin/pip install -q --disable-pip-version-check --no-deps --force-reinstall target/wheels/antumbra-*.whl
 .venv/bin/ruff format --check --config rust/python/pyproject.toml rust/python/python tests/python
 .venv/bin/ruff check --config rust/python/pyproject.toml rust/python/python tests/python
+.venv/bin/ruff format --check --config blender_addon/ruff.toml blender_addon tests/blender
+.venv/bin/ruff check --config blender_addon/ruff.toml blender_addon tests/blender
 # The daemon the Python tests talk to: the debug binary `cargo test` just built.
 ANTUMBRA_BIN="$PWD/target/debug/antumbra" .venv/bin/pytest tests/python -q
+
+echo "== blender add-on: build, test in Blender 3.4 and bpy 5.0.1"
+.venv/bin/python blender_addon/build.py --wheel target/wheels/antumbra-*.whl
+ANTUMBRA_BIN="$PWD/target/debug/antumbra" .venv/bin/pytest tests/blender -q
