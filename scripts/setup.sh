@@ -29,4 +29,4 @@ if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
 .venv/bin/pip install -q --disable-pip-version-check \
-  "maturin==1.16.0" "numpy==2.4.6" "pytest==9.2.0" "ruff==0.17.5" "bpy==5.0.1"
+  "maturin==1.16.0" "numpy==1.26.4" "pytest==9.2.0" "ruff==0.17.5" "bpy==5.0.1"
