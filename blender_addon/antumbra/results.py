@@ -99,9 +99,12 @@ def stats_summary(rows: list[dict]) -> list[str]:
     """One line per pass: what the panel and the batch print."""
     lines = []
     for r in rows:
-        who = r["pass"] if r["pass"] == "primary" else f"{r['light']}"
+        primary = r["pass"] == "primary"
+        # For camera rays the fraction counts rays that hit something.
+        what = "hit" if primary else "occluded"
         lines.append(
-            f"{who}: {r['rays']} rays, {100 * r['occluded_fraction']:.1f}% occluded, "
+            f"{'primary' if primary else r['light']}: {r['rays']} rays, "
+            f"{100 * r['occluded_fraction']:.1f}% {what}, "
             f"N_B {r['nb_per_ray']:.2f} N_L {r['nl_per_ray']:.2f} N_T {r['nt_per_ray']:.2f}"
             " per ray"
         )

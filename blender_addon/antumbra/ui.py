@@ -7,7 +7,7 @@ import json
 
 import bpy
 
-from . import client_loader, operators
+from . import client_loader, operators, results
 
 
 def _daemon_box(layout):
@@ -37,15 +37,29 @@ def _stats_box(layout, settings):
         rows = json.loads(settings.last_stats)
     except json.JSONDecodeError:
         return
-    grid = box.grid_flow(columns=5, even_columns=False, align=True)
-    for head in ("pass", "occluded", "N_B/ray", "N_L/ray", "N_T/ray"):
-        grid.label(text=head)
-    for r in rows:
-        grid.label(text="primary" if r["pass"] == "primary" else r["light"])
-        grid.label(text=f"{100 * r['occluded_fraction']:.1f}%")
-        grid.label(text=f"{r['nb_per_ray']:.2f}")
-        grid.label(text=f"{r['nl_per_ray']:.2f}")
-        grid.label(text=f"{r['nt_per_ray']:.2f}")
+    for cells in [("rays", "hit/occl.", "N_B/ray", "N_L/ray", "N_T/ray")] + [
+        (
+            "primary" if r["pass"] == "primary" else r["light"],
+            f"{100 * r['occluded_fraction']:.1f}%",
+            f"{r['nb_per_ray']:.2f}",
+            f"{r['nl_per_ray']:.2f}",
+            f"{r['nt_per_ray']:.2f}",
+        )
+        for r in rows
+    ]:
+        line = box.row(align=True)
+        for cell in cells:
+            line.label(text=cell)
+    scales = [
+        (name.removeprefix("antumbra heat "), bpy.data.images[name].get("antumbra_max"))
+        for name in results.HEAT_PLANES.values()
+        if name in bpy.data.images
+    ]
+    if scales:
+        col = box.column(align=True)
+        col.label(text="Heat maps (turbo, 0 .. max per pixel):")
+        for label, top in scales:
+            col.label(text=f"  {label}: 0 .. {top:g}" if top is not None else label)
 
 
 def draw_panel(layout, context):
