@@ -2,7 +2,7 @@
 
     blender -b scene.blend -P blender_addon/batch.py -- --frames 1-100 --out DIR
         [--build sah] [--order near] [--spp 4] [--scale 1.0] [--no-heat-maps]
-        [--socket PATH] [--binary PATH] [--restart]
+        [--socket PATH] [--binary PATH] [--spool DIR] [--restart]
 
 Prints one line per frame and a summary, writes ``frame_NNNN.exr``, PNGs and
 ``frame_NNNN.stats.json`` per frame and ``stats.csv``/``stats.json`` for all finished frames into
@@ -12,12 +12,19 @@ everything again). The exit status is 0 only if every frame was rendered.
 The daemon: the one at ``--socket`` (or the default socket) if it runs, otherwise one started for
 the batch (``--binary``, ``$ANTUMBRA_BIN``, the add-on's bundled copy, or ``antumbra`` on PATH)
 and stopped at the end. If it dies mid-run the batch restarts it and renders the frame again.
+
+With ``--spool DIR`` the frames are exported once into a job in the daemon's spool folder
+(``antumbra serve --spool DIR``; one is started for the batch if none watches DIR), the daemon
+renders it crash-safely, and the batch collects each finished frame into ``--out``. Running the
+same batch again follows the same job.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -25,7 +32,7 @@ from pathlib import Path
 import bpy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from antumbra import client_loader, daemon, results
+from antumbra import client_loader, daemon, results, spool
 from antumbra.jobs import RenderJob
 from antumbra.options import BUILDS, ORDERS, RenderOptions
 
@@ -57,6 +64,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--no-png", action="store_true")
     parser.add_argument("--socket", default="", help="the daemon's socket")
     parser.add_argument("--binary", default="", help="the antumbra executable")
+    parser.add_argument("--spool", type=Path, help="render through this spool folder")
     parser.add_argument("--restart", action="store_true", help="render finished frames again")
     args = parser.parse_args(argv)
     if not 1 <= args.spp <= 4096:
@@ -79,9 +87,11 @@ def run(argv: list[str]) -> int:
         heat_maps=not args.no_heat_maps,
         save_png=not args.no_png,
     )
-    client_loader.load()
+    client = client_loader.load()
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
+    if args.spool:
+        return run_spool(args, scene, frames, options, out, client)
     link = daemon.DaemonLink(
         binary=args.binary,
         socket_path=args.socket,
@@ -134,6 +144,78 @@ def run(argv: list[str]) -> int:
         print("antumbra: error: stopped before the last frame", file=sys.stderr, flush=True)
         return 1
     return 0
+
+
+def run_spool(args, scene, frames, options, out: Path, client) -> int:
+    folder = args.spool.resolve()
+    folder.mkdir(parents=True, exist_ok=True)
+    jid = spool.job_id(bpy.data.filepath, frames, options)
+    finished = {} if args.restart else results.finished_frames(out)
+    started = None
+    if not spool.daemon_watching(folder):
+        binary = daemon.find_binary(args.binary)
+        if binary is None:
+            raise SystemExit(
+                f"no daemon watches {folder} and the antumbra binary was not found: start "
+                f"`antumbra serve --spool {folder}`, or pass --binary"
+            )
+        started = client.Client.spawn(
+            binary, args=["--spool", str(folder)], client_name="antumbra-batch"
+        )
+        print(f"antumbra: started {binary} (pid {started.process.pid}) on {folder}", flush=True)
+    done, skipped = [], []
+    start = time.perf_counter()
+
+    def collect(frame: int, folder_of_frame: Path):
+        if frame in finished:
+            skipped.append(frame)
+            return
+        rows = json.loads((folder_of_frame / "stats.json").read_text())
+        for f in folder_of_frame.iterdir():
+            if f.name != "stats.json" and not f.name.startswith("."):
+                shutil.copyfile(f, out / f.name)
+        record = {
+            "frame": frame,
+            "seconds": sum(r["build_ms"] + r["trace_ms"] for r in rows) / 1000.0,
+            "export_seconds": 0.0,
+            "objects": None,
+            "triangles": rows[0]["triangles"] if rows else 0,
+            "rows": rows,
+        }
+        results.write_frame_stats(out, record)
+        results.write_tables(out)
+        done.append(frame)
+        n = len(done) + len(skipped)
+        print(
+            f"antumbra: frame {frame} ({n}/{len(frames)}) "
+            + " | ".join(results.stats_summary(rows)),
+            flush=True,
+        )
+
+    try:
+        if (folder / "jobs" / jid).exists():
+            print(f"antumbra: following job {jid} (submitted before)", flush=True)
+        else:
+            spool.submit(folder, jid, scene, frames, options, client, log=_say)
+        spool.follow(folder, jid, len(frames), collect)
+    except spool.SpoolError as e:
+        print(f"antumbra: error: {e}", file=sys.stderr, flush=True)
+        return 1
+    finally:
+        if started is not None:
+            started.close()
+    frames_csv, rows = results.write_tables(out)
+    print(
+        f"antumbra: summary: {len(done)} rendered, {len(skipped)} already done, "
+        f"0 not rendered, {time.perf_counter() - start:.1f} s, spool job {jid}; "
+        f"{rows} frames in {frames_csv}",
+        flush=True,
+    )
+    return 0
+
+
+def _say(line: str):
+    print(f"antumbra: {line}", flush=True)
 
 
 def main():

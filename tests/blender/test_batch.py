@@ -163,3 +163,48 @@ def test_bad_arguments_exit_non_zero(scene_blend, short_tmp):
     done = batch(scene_blend, short_tmp / "out", short_tmp / "home", "--frames", "9-3")
     assert done.returncode == 2, done.stdout + done.stderr
     assert "--frames: the range 9-3 is empty" in done.stderr
+
+
+def test_spool_batch_equals_socket_batch_and_resumes(scene_blend, antumbra_bin, short_tmp):
+    """--spool: the frames go to the daemon as one spool job; the files collected equal, byte
+    for byte, those of a batch over the socket; running it again follows the same job."""
+    env = blender_env(short_tmp / "home", ANTUMBRA_BIN=str(antumbra_bin))
+    frames = ["--frames", "2-4"]
+    direct = batch(
+        scene_blend,
+        short_tmp / "direct",
+        short_tmp / "home",
+        *frames,
+        "--socket",
+        str(short_tmp / "d.sock"),
+        env=env,
+    )
+    assert direct.returncode == 0, direct.stdout[-3000:] + direct.stderr[-3000:]
+    spooled = batch(
+        scene_blend,
+        short_tmp / "spooled",
+        short_tmp / "home",
+        *frames,
+        "--spool",
+        str(short_tmp / "spool"),
+        env=env,
+    )
+    assert spooled.returncode == 0, spooled.stdout[-3000:] + spooled.stderr[-3000:]
+    assert "submitted job" in spooled.stdout
+    assert len(frame_lines(spooled.stdout)) == 3
+    for f in (2, 3, 4):
+        name = f"frame_{f:04d}.exr"
+        assert (short_tmp / "spooled" / name).read_bytes() == (
+            short_tmp / "direct" / name
+        ).read_bytes(), name
+    again = batch(
+        scene_blend,
+        short_tmp / "spooled",
+        short_tmp / "home",
+        *frames,
+        "--spool",
+        str(short_tmp / "spool"),
+        env=env,
+    )
+    assert again.returncode == 0, again.stdout[-3000:] + again.stderr[-3000:]
+    assert "following job" in again.stdout and "3 already done" in again.stdout
