@@ -202,11 +202,5 @@ class ANTUMBRA_OT_daemon_stop(bpy.types.Operator):
 CLASSES = (ANTUMBRA_OT_render, ANTUMBRA_OT_daemon_start, ANTUMBRA_OT_daemon_stop)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+# Registered in order, unregistered in reverse.
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -115,11 +115,5 @@ class ANTUMBRA_PT_sidebar(bpy.types.Panel):
 CLASSES = (ANTUMBRA_PT_render, ANTUMBRA_PT_sidebar)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+# Registered in order, unregistered in reverse.
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

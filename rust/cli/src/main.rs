@@ -3,6 +3,7 @@
 
 mod commands;
 mod frames;
+mod scene_args;
 mod scene_source;
 mod write;
 

@@ -117,3 +117,66 @@ fn bad_arguments_fail_with_a_clear_message() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn record_then_render_the_recording_equals_rendering_the_scene() {
+    let dir = temp_dir("record");
+    let rec = dir.join("city.antrec");
+    let scene_args = [
+        "--scene",
+        "city",
+        "--frames",
+        "2-3",
+        "--size",
+        "48x30",
+        "--triangles",
+        "8000",
+    ];
+    let recorded = antumbra()
+        .arg("record")
+        .args(scene_args)
+        .arg("--out")
+        .arg(&rec)
+        .output()
+        .unwrap();
+    assert!(
+        recorded.status.success(),
+        "{}",
+        String::from_utf8_lossy(&recorded.stderr)
+    );
+    assert!(String::from_utf8_lossy(&recorded.stdout).contains("recorded 2 frames of city"));
+    let frames = antumbra_protocol::replay_scenes(&rec).unwrap();
+    assert_eq!(frames.iter().map(|s| s.frame).collect::<Vec<_>>(), [2, 3]);
+    assert!(frames
+        .iter()
+        .all(|s| s.resolution.x == 48 && s.resolution.y == 30));
+    // The recording renders to the same images as the scene it came from.
+    for (name, scene) in [("direct", "city"), ("replayed", rec.to_str().unwrap())] {
+        let out = antumbra()
+            .args([
+                "render", "--scene", scene, "--frames", "3", "--size", "48x30",
+            ])
+            .args(["--triangles", "8000", "--spp", "1", "--out"])
+            .arg(dir.join(name))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let direct = std::fs::read(dir.join("direct/frame_0003.exr")).unwrap();
+    let replayed = std::fs::read(dir.join("replayed/frame_0003.exr")).unwrap();
+    assert!(
+        direct == replayed,
+        "the replayed frame differs from the scene's"
+    );
+    let bad = antumbra()
+        .args(["record", "--scene", "nowhere", "--out"])
+        .arg(dir.join("x.antrec"))
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("nowhere"));
+}

@@ -8,35 +8,19 @@ use antumbra_protocol::RecordingWriter;
 use anyhow::{Context, Result};
 use clap::Args;
 
-use crate::frames::{parse_frames, parse_size};
-use crate::scene_source::open_scene;
+use crate::scene_args::{frame_at_size, SceneArgs};
 
 #[derive(Args, Debug)]
 pub struct RecordArgs {
-    /// A built-in scene (bedroom, colonnade, city, forest, hairball; "-rot45" for the rotated
-    /// variant) or an OBJ/glTF file.
-    #[arg(long)]
-    pub scene: String,
-    /// Frames to record, "A-B" or "N" (default: the scene's whole range).
-    #[arg(long)]
-    pub frames: Option<String>,
-    /// Image size WxH stored with each frame (default: the scene's resolution).
-    #[arg(long)]
-    pub size: Option<String>,
-    /// Triangle budget of a built-in scene.
-    #[arg(long, default_value_t = 100_000)]
-    pub triangles: usize,
+    #[command(flatten)]
+    pub scene: SceneArgs,
     /// The recording to write.
     #[arg(long)]
     pub out: PathBuf,
 }
 
 pub fn run(args: RecordArgs) -> Result<()> {
-    let frames = args.frames.as_deref().map(parse_frames).transpose()?;
-    let size = args.size.as_deref().map(parse_size).transpose()?;
-    let frame_count = frames.as_ref().map_or(24, |r| *r.end());
-    let scene = open_scene(&args.scene, args.triangles, frame_count.max(1))?;
-    let frames = frames.unwrap_or_else(|| scene.frame_range());
+    let open = args.scene.open()?;
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
@@ -45,13 +29,8 @@ pub fn run(args: RecordArgs) -> Result<()> {
     let mut writer = RecordingWriter::create(&partial)
         .with_context(|| format!("creating {}", partial.display()))?;
     let mut count = 0;
-    for frame in frames {
-        let mut s = scene.frame(frame);
-        if let Some((w, h)) = size {
-            s.resolution.x = w;
-            s.resolution.y = h;
-            s.resolution.percentage = 100;
-        }
+    for frame in open.frames.clone() {
+        let s = frame_at_size(open.animation.as_ref(), frame, open.size);
         writer
             .append_scene(&s)
             .with_context(|| format!("frame {frame}"))?;
@@ -64,7 +43,7 @@ pub fn run(args: RecordArgs) -> Result<()> {
         .with_context(|| format!("renaming to {}", args.out.display()))?;
     println!(
         "recorded {count} frames of {} to {}",
-        scene.name(),
+        open.animation.name(),
         args.out.display()
     );
     Ok(())

@@ -11,8 +11,7 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::frames::{parse_frames, parse_size};
-use crate::scene_source::open_scene;
+use crate::scene_args::{frame_at_size, SceneArgs};
 use crate::write::write_frame;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -75,19 +74,8 @@ impl MethodArgs {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// A built-in scene (bedroom, colonnade, city, forest, hairball; "-rot45" for the rotated
-    /// variant) or an OBJ/glTF file.
-    #[arg(long)]
-    pub scene: String,
-    /// Frames to render, "A-B" or "N" (default: the scene's whole range).
-    #[arg(long)]
-    pub frames: Option<String>,
-    /// Image size WxH (default: the scene's resolution).
-    #[arg(long)]
-    pub size: Option<String>,
-    /// Triangle budget of a built-in scene.
-    #[arg(long, default_value_t = 100_000)]
-    pub triangles: usize,
+    #[command(flatten)]
+    pub scene: SceneArgs,
     #[command(flatten)]
     pub method: MethodArgs,
     /// Output folder.
@@ -96,11 +84,8 @@ pub struct RenderArgs {
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
-    let frames = args.frames.as_deref().map(parse_frames).transpose()?;
-    let size = args.size.as_deref().map(parse_size).transpose()?;
-    let frame_count = frames.as_ref().map_or(24, |r| *r.end());
-    let scene = open_scene(&args.scene, args.triangles, frame_count.max(1))?;
-    let frames = frames.unwrap_or_else(|| scene.frame_range());
+    let open = args.scene.open()?;
+    let (scene, frames, size) = (open.animation, open.frames, open.size);
     let rows = render_frames(
         scene.as_ref(),
         frames,
@@ -139,12 +124,7 @@ pub fn render_frames(
     let mut renderer = Renderer::new();
     let mut rows = Vec::new();
     for frame in frames {
-        let mut s = scene.frame(frame);
-        if let Some((w, h)) = size {
-            s.resolution.x = w;
-            s.resolution.y = h;
-            s.resolution.percentage = 100;
-        }
+        let s = frame_at_size(scene, frame, size);
         let result = renderer
             .render(scene.name(), &s, settings)
             .with_context(|| format!("frame {frame}"))?;

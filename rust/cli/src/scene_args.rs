@@ -1,0 +1,60 @@
+//! The scene arguments `render` and `record` share: which scene, which frames, what size.
+
+use std::ops::RangeInclusive;
+
+use antumbra_core::scene::{Animation, Scene};
+use anyhow::Result;
+use clap::Args;
+
+use crate::frames::{parse_frames, parse_size};
+use crate::scene_source::open_scene;
+
+#[derive(Args, Debug)]
+pub struct SceneArgs {
+    /// A built-in scene (bedroom, colonnade, city, forest, hairball; "-rot45" for the rotated
+    /// variant), an OBJ/glTF file, or a recording (.antrec).
+    #[arg(long)]
+    pub scene: String,
+    /// Frames, "A-B" or "N" (default: the scene's whole range).
+    #[arg(long)]
+    pub frames: Option<String>,
+    /// Image size WxH (default: the scene's resolution).
+    #[arg(long)]
+    pub size: Option<String>,
+    /// Triangle budget of a built-in scene.
+    #[arg(long, default_value_t = 100_000)]
+    pub triangles: usize,
+}
+
+/// An opened scene with the frames and image size asked for.
+pub struct OpenScene {
+    pub animation: Box<dyn Animation>,
+    pub frames: RangeInclusive<i32>,
+    pub size: Option<(u32, u32)>,
+}
+
+impl SceneArgs {
+    pub fn open(&self) -> Result<OpenScene> {
+        let frames = self.frames.as_deref().map(parse_frames).transpose()?;
+        let size = self.size.as_deref().map(parse_size).transpose()?;
+        let frame_count = frames.as_ref().map_or(24, |r| *r.end());
+        let animation = open_scene(&self.scene, self.triangles, frame_count.max(1))?;
+        let frames = frames.unwrap_or_else(|| animation.frame_range());
+        Ok(OpenScene {
+            animation,
+            frames,
+            size,
+        })
+    }
+}
+
+/// Frame `frame` of `animation`, at `size` (100%) if given.
+pub fn frame_at_size(animation: &dyn Animation, frame: i32, size: Option<(u32, u32)>) -> Scene {
+    let mut scene = animation.frame(frame);
+    if let Some((w, h)) = size {
+        scene.resolution.x = w;
+        scene.resolution.y = h;
+        scene.resolution.percentage = 100;
+    }
+    scene
+}
