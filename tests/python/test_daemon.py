@@ -80,8 +80,11 @@ def test_animation_equals_local_session_bit_for_bit(daemon):
         assert progress[-1] == ("encode", 1, 2)
         seen.append(remote.combined)
     assert not np.array_equal(seen[0], seen[2])  # the tall box moved
+    ids = daemon.render(3, passes=["object_ids"]).object_ids
+    assert ids is not None and ids.shape == seen[0].shape
+    assert np.array_equal(ids, local.render(3, passes=["object_ids"]).object_ids)
     # The daemon counts a render once its result is sent: allow it a moment.
-    assert eventually(lambda: daemon.stats()["renders_done"] == 3)
+    assert eventually(lambda: daemon.stats()["renders_done"] == 4)
 
 
 def test_unchanged_meshes_are_not_uploaded_again(daemon):

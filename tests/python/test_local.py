@@ -492,3 +492,37 @@ def test_blender_resolution_names_and_pairs(scene):
     session.frame_update(1, objects(hashes), camera(), lights(), (40, 30))
     r = session.render(1)
     assert (r.width, r.height) == (40, 30)
+
+
+def test_object_ids_pass(scene):
+    """``object_ids``: per pixel the index of the object hit in the frame's object list, -1
+    for background; the same objects as the visible set, and it follows the list's order."""
+    session, hashes = scene
+    r = session.render(1, passes=("object_ids", "visible"))
+    assert [n for n, _ in r.planes] == ["primary.object"]
+    ids = r.object_ids
+    assert ids is r.images["primary.object"]
+    assert ids.shape == (HEIGHT, WIDTH) and ids.dtype == np.float32
+    assert set(np.unique(ids)) <= {-1.0, 0.0, 1.0, 2.0, 3.0}
+    assert (ids == np.round(ids)).all()
+    seen = {int(v) for v in np.unique(ids) if v >= 0}
+    assert seen == {int(o) for o in np.unique(r.visible[:, 0])}
+    assert len(seen) >= 3
+    # Not asked for: absent; asked with the other passes: last, after the heat maps.
+    assert session.render(1).object_ids is None
+    full = session.render(1, passes=("masks", "combined", "heat_maps", "object_ids"))
+    assert full.planes[-1][0] == "primary.object"
+    assert np.array_equal(full.object_ids, ids)
+
+    # The same scene with the object list reversed: the same picture, indices reversed.
+    objs = objects(hashes, 1)
+    assert session.frame_update(2, objs[::-1], camera(1), lights(), RESOLUTION) == []
+    rev = session.render(2, passes=["object_ids"]).object_ids
+    n = len(objs)
+    assert np.array_equal(rev, np.where(ids < 0, -1.0, n - 1 - ids).astype(np.float32))
+    # Hidden from the camera: never an id.
+    objs[1]["visible_camera"] = False
+    assert session.frame_update(3, objs, camera(1), lights(), RESOLUTION) == []
+    hidden = session.render(3, passes=["object_ids"]).object_ids
+    assert not (hidden == 1.0).any()
+    assert np.array_equal(hidden[ids != 1.0], ids[ids != 1.0])

@@ -170,3 +170,88 @@ fn objects_without_shadows_are_seen_but_cast_none() {
         .unwrap();
     assert_eq!(r.masks.len(), 1);
 }
+
+/// The object-id pass is, per pixel, the object of the nearest hit found by brute force over
+/// each object's triangles on its own (ties to the lower object index), -1 where nothing is hit.
+#[test]
+fn object_ids_equal_brute_force_per_object() {
+    use antumbra_core::render::{PrimaryRays, OBJECT_PLANE};
+    use antumbra_core::trace::brute_closest_hit;
+    use glam::Vec3;
+
+    let mut scene = common::boxes_scene(64);
+    // The boxes share a mesh, and one is hidden from the camera: ids must still be positions
+    // in the frame's object list, not in the camera's triangle set.
+    scene.objects[2].visible_to_camera = false;
+    let mut renderer = Renderer::new();
+    let r = renderer
+        .render("t", &scene, &RenderSettings::default())
+        .unwrap();
+    let (geometry, _, _) = renderer.current().unwrap();
+    let space = geometry.space;
+    let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &space);
+
+    // Each camera-visible object's triangles in render space, transformed as the renderer does.
+    let per_object: Vec<Option<Vec<[Vec3; 3]>>> = scene
+        .objects
+        .iter()
+        .map(|o| {
+            o.visible_to_camera.then(|| {
+                let mesh = &scene.meshes[o.mesh];
+                let m = DMat4::from_scale(DVec3::splat(space.scale))
+                    * DMat4::from_translation(-space.origin)
+                    * o.world_from_object;
+                mesh.triangles
+                    .iter()
+                    .map(|t| {
+                        t.map(|i| {
+                            m.transform_point3(mesh.positions[i as usize].as_dvec3())
+                                .as_vec3()
+                        })
+                    })
+                    .collect()
+            })
+        })
+        .collect();
+
+    let plane = r.object_plane();
+    assert_eq!(plane.name, OBJECT_PLANE);
+    assert_eq!((plane.width, plane.height), (r.width, r.height));
+    let mut counts = vec![0usize; scene.objects.len()];
+    let mut misses = 0;
+    for y in 0..r.height {
+        for x in 0..r.width {
+            let ray = rays.ray(x, y);
+            let mut best: Option<(f32, usize)> = None;
+            for (object, tris) in per_object.iter().enumerate() {
+                let Some(tris) = tris else { continue };
+                if let Some(h) = brute_closest_hit(tris, &ray) {
+                    let closer = match best {
+                        None => true,
+                        Some((t, _)) => h.t < t,
+                    };
+                    if closer {
+                        best = Some((h.t, object));
+                    }
+                }
+            }
+            let i = (y * r.width + x) as usize;
+            let want = best.map_or(u32::MAX, |(_, o)| o as u32);
+            assert_eq!(r.primary_objects[i], want, "pixel ({x}, {y})");
+            assert_eq!(
+                plane.data[i],
+                best.map_or(-1.0, |(_, o)| o as f32),
+                "pixel ({x}, {y})"
+            );
+            match best {
+                Some((_, o)) => counts[o] += 1,
+                None => misses += 1,
+            }
+        }
+    }
+    // The check means something: the ground, several boxes and the sky are all in view, and
+    // the hidden box is nowhere.
+    assert!(misses > 0, "no background pixel");
+    assert_eq!(counts[2], 0);
+    assert!(counts.iter().filter(|&&c| c > 0).count() >= 4, "{counts:?}");
+}

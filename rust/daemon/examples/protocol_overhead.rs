@@ -126,6 +126,7 @@ fn main() {
         combined: true,
         heat_maps: true,
         visible_set: true,
+        object_ids: true,
     };
     let result_ms = result_ms(frame_result_reply(&result, 1, &passes));
     println!(

@@ -532,7 +532,7 @@ fn image(plane: &ImagePlane, name: String) -> Image {
 
 /// The reply for a rendered frame, with the requested passes. Image names follow the CLI's EXR
 /// channels: `shadow.<light>` per mask, `combined`, `primary.N_B|N_L|N_T`,
-/// `shadow.N_B|N_L|N_T`, in that order.
+/// `shadow.N_B|N_L|N_T`, then `primary.object` (the object-id pass), in that order.
 pub fn frame_result_reply(
     result: &FrameResult,
     request_id: u64,
@@ -553,6 +553,10 @@ pub fn frame_result_reply(
                 images.push(image(p, p.name.clone()));
             }
         }
+    }
+    if passes.object_ids {
+        let plane = result.object_plane();
+        images.push(image(&plane, plane.name.clone()));
     }
     FrameResultReply {
         request_id,

@@ -228,6 +228,10 @@ pub struct Passes {
     pub heat_maps: bool,
     /// The triangles a camera ray hit, as (object, primitive) pairs.
     pub visible_set: bool,
+    /// Per pixel, the index of the object the primary ray hit in the frame's object list (as
+    /// sent in `FrameUpdate`), -1 where it missed: the image `primary.object`, after the heat
+    /// maps. Off unless asked for (older peers omit it).
+    pub object_ids: bool,
 }
 
 impl Default for Passes {
@@ -237,6 +241,7 @@ impl Default for Passes {
             combined: true,
             heat_maps: true,
             visible_set: false,
+            object_ids: false,
         }
     }
 }

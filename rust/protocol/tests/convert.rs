@@ -298,12 +298,32 @@ fn a_real_render_survives_the_wire_bit_exact() {
             combined: true,
             heat_maps: false,
             visible_set: false,
+            object_ids: false,
         },
     );
     assert_eq!(only.images.len(), 1);
     assert_eq!(only.images[0].name, "combined");
     assert!(only.visible.is_none());
     assert!(visible_from_reply(&only).unwrap().is_none());
+
+    // The object-id pass comes last, as the core's plane: object indices, -1 for misses.
+    let with_ids = frame_result_reply(
+        &result,
+        2,
+        &Passes {
+            object_ids: true,
+            ..Passes::default()
+        },
+    );
+    let planes = planes_from_reply(&with_ids).unwrap();
+    let ids = planes.last().unwrap();
+    assert_eq!(ids.name, "primary.object");
+    assert_eq!(ids.data, result.object_plane().data);
+    assert!(ids.data.contains(&-1.0) && ids.data.contains(&0.0) && ids.data.contains(&1.0));
+    assert!(ids
+        .data
+        .iter()
+        .all(|&v| v == -1.0 || (v >= 0.0 && v < scene.objects.len() as f32 && v.fract() == 0.0)));
 }
 
 #[test]

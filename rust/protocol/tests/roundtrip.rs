@@ -246,7 +246,7 @@ fn request() -> impl Strategy<Value = Request> {
         (
             any::<i32>(),
             settings(),
-            prop::array::uniform4(any::<bool>()),
+            prop::array::uniform5(any::<bool>()),
             any::<u64>()
         )
             .prop_map(
@@ -258,6 +258,7 @@ fn request() -> impl Strategy<Value = Request> {
                         combined: p[1],
                         heat_maps: p[2],
                         visible_set: p[3],
+                        object_ids: p[4],
                     },
                     request_id,
                 })
@@ -496,6 +497,8 @@ fn field_order_unknown_fields_and_defaults() {
     assert_eq!(r.settings.spp, 16);
     assert_eq!(r.settings.build_settings, BuildSettingsState::default());
     assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);
+    // A field added later (the object-id pass) takes its default when an older peer omits it.
+    assert!(!r.passes.object_ids);
     let kind: LightKindState = decode_body(b"\x82\xa4type\xa3Sun\xa5angle\x00").unwrap();
     assert_eq!(kind, LightKindState::Sun { angle: 0.0 });
     let res: ResolutionState = decode_body(

@@ -91,6 +91,7 @@ fn result_from_planes(frame: i32, mut planes: Vec<ImagePlane>) -> ClientResult<F
         heat,
         visible: Vec::new(),
         primary_ids: Vec::new(),
+        primary_objects: Vec::new(),
         stats: Vec::new(),
     })
 }

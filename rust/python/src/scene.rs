@@ -563,7 +563,7 @@ pub fn camera_path(v: &Bound<'_, PyAny>) -> ClientResult<Vec<(i32, CameraState)>
 // ---------------------------------------------------------------------------------------------
 // Render settings
 
-pub const PASS_NAMES: &[&str] = &["masks", "combined", "heat_maps", "visible"];
+pub const PASS_NAMES: &[&str] = &["masks", "combined", "heat_maps", "visible", "object_ids"];
 
 #[allow(clippy::too_many_arguments)]
 pub fn render_settings_state(
@@ -630,6 +630,7 @@ pub fn passes(v: &Bound<'_, PyAny>) -> ClientResult<Passes> {
         combined: false,
         heat_maps: false,
         visible_set: false,
+        object_ids: false,
     };
     for item in items(v, "passes")? {
         let name = string(&item, "passes[]")?;
@@ -638,6 +639,7 @@ pub fn passes(v: &Bound<'_, PyAny>) -> ClientResult<Passes> {
             "combined" => p.combined = true,
             "heat_maps" => p.heat_maps = true,
             "visible" => p.visible_set = true,
+            "object_ids" => p.object_ids = true,
             other => {
                 return Err(ClientError::invalid(format!(
                     "passes: unknown pass '{other}' (known: {})",

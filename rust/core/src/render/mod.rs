@@ -12,6 +12,6 @@ mod shadow;
 pub use camera_rays::PrimaryRays;
 pub use lights::{LightSample, LightSampler};
 pub use primary::{PrimaryPass, SurfacePoint};
-pub use renderer::{FrameResult, HeatMaps, Renderer};
+pub use renderer::{FrameResult, HeatMaps, Renderer, OBJECT_PLANE};
 pub use settings::{RenderSettings, StatsMode, MAX_SPP};
 pub use shadow::{samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome};

@@ -37,7 +37,29 @@ pub struct FrameResult {
     pub visible: Vec<TriangleRef>,
     /// Closest-hit triangle id per pixel (u32::MAX where the ray missed).
     pub primary_ids: Vec<u32>,
+    /// Index of the object hit per pixel, in the frame's object list (`Scene::objects`, the
+    /// order of a frame update); u32::MAX where the ray missed. See [`FrameResult::object_plane`].
+    pub primary_objects: Vec<u32>,
     pub stats: Vec<StatsRow>,
+}
+
+/// The name of the object-id plane (the `object_ids` pass).
+pub const OBJECT_PLANE: &str = "primary.object";
+
+impl FrameResult {
+    /// The object-id pass as an image: per pixel, the index of the object the primary ray hit
+    /// (in the frame's object list), -1 where it missed. Exact in f32 up to 2^24 objects.
+    pub fn object_plane(&self) -> ImagePlane {
+        let mut plane = ImagePlane::new(OBJECT_PLANE, self.width, self.height);
+        if self.primary_objects.len() == plane.data.len() {
+            for (d, &o) in plane.data.iter_mut().zip(&self.primary_objects) {
+                *d = if o == u32::MAX { -1.0 } else { o as f32 };
+            }
+        } else {
+            plane.data.fill(-1.0);
+        }
+        plane
+    }
 }
 
 /// What identifies a frame's geometry: mesh identities, transforms and visibility flags.
@@ -204,6 +226,7 @@ impl Renderer {
             .iter()
             .map(|s| s.map_or(u32::MAX, |s| s.triangle))
             .collect();
+        let primary_objects = geometry.camera.objects_of(&primary_ids);
         let mut seen = vec![false; geometry.camera.len()];
         for &id in primary_ids.iter().filter(|&&id| id != u32::MAX) {
             seen[id as usize] = true;
@@ -225,6 +248,7 @@ impl Renderer {
             heat,
             visible,
             primary_ids,
+            primary_objects,
             stats,
         })
     }

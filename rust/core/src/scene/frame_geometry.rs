@@ -82,6 +82,17 @@ impl TriangleSet {
     pub fn is_empty(&self) -> bool {
         self.vertices.is_empty()
     }
+    /// The object of each triangle id (`TriangleRef::object`); u32::MAX (a miss) and ids out
+    /// of range map to u32::MAX.
+    pub fn objects_of(&self, ids: &[u32]) -> Vec<u32> {
+        ids.iter()
+            .map(|&id| {
+                self.refs
+                    .get(id as usize)
+                    .map_or(u32::MAX, |r: &TriangleRef| r.object)
+            })
+            .collect()
+    }
     pub fn bounds(&self) -> Aabb {
         let mut b = Aabb::EMPTY;
         for t in &self.vertices {

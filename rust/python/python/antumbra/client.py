@@ -34,9 +34,9 @@ __all__ = [
     "LocalSession",
     "ProgressCallback",
     "Result",
+    "colorize_heat",
     "default_socket_path",
     "mesh_hash",
-    "colorize_heat",
     "read_exr",
     "read_recording",
 ]
@@ -45,6 +45,9 @@ PROTOCOL_VERSION: int = _native.PROTOCOL_VERSION
 
 #: The passes ``render`` returns unless told otherwise.
 DEFAULT_PASSES: tuple[str, ...] = ("masks", "combined", "heat_maps", "visible")
+
+#: The image of the ``object_ids`` pass.
+OBJECT_PLANE = "primary.object"
 
 #: ``progress(stage, done, total)``; return False to cancel the render.
 ProgressCallback = Callable[[str, int, int], "bool | None"]
@@ -116,6 +119,7 @@ class Result:
             columns of ``antumbra_core::stats::StatsRow``.
         visible: the visible set, a uint32 array of shape (k, 2) of (object index, triangle
             index) rows, sorted; None unless the ``visible`` pass was asked for.
+        object_ids: (property) the ``primary.object`` plane of the ``object_ids`` pass.
     """
 
     frame: int
@@ -153,15 +157,25 @@ class Result:
         """The mean of the masks (None unless the ``combined`` pass was asked for)."""
         return self.images.get("combined")
 
+    @property
+    def object_ids(self) -> np.ndarray | None:
+        """The ``object_ids`` pass (plane ``primary.object``): float32 (height, width), rows top
+        to bottom, per pixel the index of the object the camera ray hit in the frame's object
+        list (the order of :meth:`frame_update`'s ``objects``), -1 where it hit nothing. None
+        unless the pass was asked for."""
+        return self.images.get(OBJECT_PLANE)
+
     def save(
         self, directory: str | os.PathLike[str], *, exr: bool = True, png: bool = True
     ) -> list[str]:
         """Writes the frame's files into ``directory`` as ``antumbra render`` does (same Rust
         writer, so the same bytes for the same images): ``frame_NNNN.exr`` with every plane,
         mask PNGs and turbo heat-map PNGs with their scale. Needs the ``masks`` and
-        ``combined`` passes. Returns the file names written."""
+        ``combined`` passes. The ``object_ids`` plane is not written. Returns the file names
+        written."""
+        planes = [(name, array) for name, array in self.planes if name != OBJECT_PLANE]
         return _native.save_frame(
-            os.fspath(directory), self.frame, self.width, self.height, self.planes, exr, png
+            os.fspath(directory), self.frame, self.width, self.height, planes, exr, png
         )
 
     def __repr__(self) -> str:
@@ -265,7 +279,7 @@ class _Session:
             leaf_size: most triangles per BVH leaf (1 to 64); bins: SAH bins (2 to 256).
             timing: False (exact work counters and heat maps), True (counters, then each pass
                 again without counters for Mrays/s) or 'only' (timings, no heat maps).
-            passes: any of 'masks', 'combined', 'heat_maps', 'visible'.
+            passes: any of 'masks', 'combined', 'heat_maps', 'visible', 'object_ids'.
             progress: ``progress(stage, done, total)``, called for each progress report (with
                 the GIL); returning False cancels the render (it then raises a
                 :class:`RequestError` with code 'Cancelled'), raising cancels it and the
