@@ -6,6 +6,7 @@ mod any_hit;
 mod brute;
 mod closest;
 mod counters;
+pub mod wide;
 
 pub use any_hit::{occluded, AnyHitOrder};
 pub use brute::{brute_closest_hit, brute_occluded};
