@@ -8,7 +8,7 @@ mod wide;
 
 pub use binned_sah::{build_binned_sah, BuildSettings};
 pub use node::{Bvh, BvhNode, NodeArray, MAX_DEPTH};
-pub use wide::{WideBvh, WideNode, EMPTY_CHILD};
+pub use wide::{BvhWidth, WideBvh, WideNode, EMPTY_CHILD};
 
 use serde::{Deserialize, Serialize};
 

@@ -12,9 +12,61 @@ use std::collections::VecDeque;
 use std::time::Instant;
 
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 
 use super::Bvh;
 use crate::geometry::Aabb;
+
+/// How many children a BVH node has: 2 is the builder's binary tree, 4 and 8 its collapse.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum BvhWidth {
+    #[default]
+    Two,
+    Four,
+    Eight,
+}
+
+impl BvhWidth {
+    pub fn get(self) -> u32 {
+        match self {
+            BvhWidth::Two => 2,
+            BvhWidth::Four => 4,
+            BvhWidth::Eight => 8,
+        }
+    }
+}
+
+impl TryFrom<u32> for BvhWidth {
+    type Error = crate::Error;
+    fn try_from(n: u32) -> crate::Result<Self> {
+        match n {
+            2 => Ok(BvhWidth::Two),
+            4 => Ok(BvhWidth::Four),
+            8 => Ok(BvhWidth::Eight),
+            _ => Err(crate::Error::invalid(
+                "width",
+                format!("must be 2, 4 or 8, got {n}"),
+            )),
+        }
+    }
+}
+
+impl std::str::FromStr for BvhWidth {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> crate::Result<Self> {
+        let n: u32 = s
+            .trim()
+            .parse()
+            .map_err(|_| crate::Error::invalid("width", format!("must be 2, 4 or 8, got '{s}'")))?;
+        n.try_into()
+    }
+}
+
+impl std::fmt::Display for BvhWidth {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.get())
+    }
+}
 
 /// Child reference of an unused slot. Its box is empty (min = +inf, max = -inf), which every
 /// box test rejects, so traversal needs no separate validity mask.
@@ -115,6 +167,18 @@ impl<const N: usize> WideBvh<N> {
             return out;
         };
         out.root_bounds = root.bounds();
+        let ranges = triangle_ranges(bvh);
+        // A binary subtree this small becomes one leaf (its triangles are contiguous in leaf
+        // order): wide nodes then do not end in nodes of two or three tiny leaves. Not for
+        // N = 2, which stays the binary tree.
+        let merge_limit = if N == 2 { 0 } else { MERGE_LIMIT };
+        let as_leaf = |c: usize| {
+            let n = &bvh.nodes[c];
+            if n.is_leaf() {
+                return Some((n.first, n.count));
+            }
+            ranges[c].filter(|&(_, count)| count <= merge_limit)
+        };
         // A wide node per queued binary node; its binary children fill the slots.
         let mut queue = VecDeque::from([(0usize, u32::MAX, 0u8, 0u16)]);
         while let Some((binary, parent, slot, depth)) = queue.pop_front() {
@@ -122,13 +186,12 @@ impl<const N: usize> WideBvh<N> {
             out.parent.push((parent, slot));
             out.depth.push(depth);
             let mut node = WideNode::<N>::default();
-            let children = open_children::<N>(bvh, binary);
+            let children = open_children::<N>(bvh, binary, &|c| as_leaf(c).is_some());
             for (s, &c) in children.iter().enumerate() {
-                let b = &bvh.nodes[c];
-                node.set_child_bounds(s, &b.bounds());
-                if b.is_leaf() {
-                    node.child[s] = b.first;
-                    node.count[s] = u8::try_from(b.count).expect("leaves hold at most 64");
+                node.set_child_bounds(s, &bvh.nodes[c].bounds());
+                if let Some((first, count)) = as_leaf(c) {
+                    node.child[s] = first;
+                    node.count[s] = u8::try_from(count).expect("leaves hold at most 64");
                 } else {
                     // Nodes are numbered in queue order: this child's index is known now.
                     node.child[s] = index + 1 + queue.len() as u32;
@@ -208,9 +271,13 @@ impl<const N: usize> WideBvh<N> {
 /// its two children, then greedily the children of the largest-area interior slot until N
 /// slots are filled. A slot opened in place keeps the builder's left-to-right order. A binary
 /// root that is a leaf becomes a one-slot wide root.
-fn open_children<const N: usize>(bvh: &Bvh, index: usize) -> Vec<usize> {
+fn open_children<const N: usize>(
+    bvh: &Bvh,
+    index: usize,
+    is_leaf: &dyn Fn(usize) -> bool,
+) -> Vec<usize> {
     let node = &bvh.nodes[index];
-    if node.is_leaf() {
+    if is_leaf(index) {
         return vec![index];
     }
     let first = node.first as usize;
@@ -219,7 +286,7 @@ fn open_children<const N: usize>(bvh: &Bvh, index: usize) -> Vec<usize> {
         let widest = slots
             .iter()
             .enumerate()
-            .filter(|(_, &c)| !bvh.nodes[c].is_leaf())
+            .filter(|(_, &c)| !is_leaf(c))
             .max_by(|(_, &a), (_, &b)| {
                 let (a, b) = (&bvh.nodes[a], &bvh.nodes[b]);
                 a.bounds().half_area().total_cmp(&b.bounds().half_area())
@@ -230,4 +297,32 @@ fn open_children<const N: usize>(bvh: &Bvh, index: usize) -> Vec<usize> {
         slots.splice(i..=i, [c, c + 1]);
     }
     slots
+}
+
+/// Largest binary subtree (in triangles) the collapse turns into a single leaf.
+pub const MERGE_LIMIT: u32 = 4;
+
+/// Per binary node, the triangle slots of its subtree as (first, count) when they are
+/// contiguous (the builders lay leaves out depth first, so they are), else `None`.
+fn triangle_ranges(bvh: &Bvh) -> Vec<Option<(u32, u32)>> {
+    fn visit(bvh: &Bvh, i: usize, out: &mut [Option<(u32, u32)>]) -> Option<(u32, u32)> {
+        let n = &bvh.nodes[i];
+        let r = if n.is_leaf() {
+            Some((n.first, n.count))
+        } else {
+            let l = n.first as usize;
+            match (visit(bvh, l, out), visit(bvh, l + 1, out)) {
+                (Some(a), Some(b)) if a.0 + a.1 == b.0 => Some((a.0, a.1 + b.1)),
+                (Some(a), Some(b)) if b.0 + b.1 == a.0 => Some((b.0, a.1 + b.1)),
+                _ => None,
+            }
+        };
+        out[i] = r;
+        r
+    }
+    let mut out = vec![None; bvh.nodes.len()];
+    if !bvh.nodes.is_empty() {
+        visit(bvh, 0, &mut out);
+    }
+    out
 }

@@ -9,6 +9,7 @@ mod child_sort;
 mod closest;
 pub mod cost;
 mod order;
+mod prepared;
 mod stack;
 pub mod static_orders;
 
@@ -17,6 +18,7 @@ pub use child_sort::{
     sort_for_light, ChildHitModel, LightOrder, LoggingOrder, SortSettings, SortTables,
 };
 pub use order::{OrderView, Permutation};
+pub use prepared::PreparedOrder;
 
 use super::{Counters, Hit};
 use crate::bvh::WideBvh;
