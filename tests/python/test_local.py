@@ -45,6 +45,7 @@ STATS_COLUMNS = {
     "nbox_per_ray",
     "back_facing",
     "unreached",
+    "sort_ms",
 }
 
 

@@ -489,6 +489,7 @@ impl From<&StatsRow> for StatsRowState {
             nbox_per_ray: r.nbox_per_ray,
             back_facing: r.back_facing,
             unreached: r.unreached,
+            sort_ms: r.sort_ms,
         }
     }
 }
@@ -517,6 +518,7 @@ impl From<&StatsRowState> for StatsRow {
             nbox_per_ray: r.nbox_per_ray,
             back_facing: r.back_facing,
             unreached: r.unreached,
+            sort_ms: r.sort_ms,
         }
     }
 }

@@ -334,6 +334,7 @@ pub struct StatsRowState {
     pub nbox_per_ray: f64,
     pub back_facing: u64,
     pub unreached: u64,
+    pub sort_ms: f64,
 }
 
 /// What the daemon has done since it started.

@@ -206,6 +206,7 @@ fn stats_row() -> impl Strategy<Value = StatsRowState> {
                 nbox_per_ray: nbox,
                 back_facing,
                 unreached,
+                sort_ms: trace_ms * 0.5,
             },
         )
 }

@@ -15,8 +15,9 @@ use crate::{Error, Result};
 pub enum ShadowOrder {
     /// Children in the order the builder (and the collapse) stored them.
     Stored,
-    /// Front to back by box entry distance.
+    /// Front to back by box entry distance (`NearFirst` in older settings).
     #[default]
+    #[serde(alias = "NearFirst")]
     Fbto,
     /// Largest child box first.
     Sato,
