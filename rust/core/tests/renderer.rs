@@ -50,7 +50,14 @@ fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
         .render("t", &scene, &RenderSettings::default())
         .unwrap();
     for width in ["2", "4", "8"] {
-        for order in ["stored", "fbto", "sato", "rtsah", "random:seed=1", "sorted:budget=0.2"] {
+        for order in [
+            "stored",
+            "fbto",
+            "sato",
+            "rtsah",
+            "random:seed=1",
+            "sorted:budget=0.2",
+        ] {
             for stats in [StatsMode::Counts, StatsMode::TimingOnly] {
                 let settings = RenderSettings {
                     width: width.parse().unwrap(),
@@ -64,7 +71,10 @@ fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
                 let shadow: Vec<_> = r.stats.iter().filter(|s| s.pass == "shadow").collect();
                 assert!(!shadow.is_empty());
                 for row in shadow {
-                    assert_eq!(row.method, format!("sah/bin{width}/{}", settings.shadow_order));
+                    assert_eq!(
+                        row.method,
+                        format!("sah/bin{width}/{}", settings.shadow_order)
+                    );
                     assert_eq!(row.sort_ms > 0.0, order.starts_with("sorted"), "{row:?}");
                 }
             }

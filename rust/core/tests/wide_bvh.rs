@@ -9,7 +9,7 @@ use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::wide::cost::{expected_cost, order_by_ratio};
 use antumbra_core::trace::wide::{BoxKernel, OrderView, PreparedOrder, WideQueries};
 use antumbra_core::trace::{
-    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats, ShadowOrder,
+    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, ShadowOrder,
     TraversalStats,
 };
 use glam::Vec3;
@@ -107,11 +107,20 @@ where
             assert_eq!(h, brute[i].0, "N={N} {k:?} closest, ray {i}: {ray:?}");
             work.push(st);
         }
-        assert!(work.windows(2).all(|w| w[0] == w[1]), "N={N} closest work {work:?}");
+        assert!(
+            work.windows(2).all(|w| w[0] == w[1]),
+            "N={N} closest work {work:?}"
+        );
     }
     let mut occluded_rays = 0;
     for order in orders() {
-        let prepared = PreparedOrder::new(&wide, &order, None, &rays[..rays.len() / 4], BoxKernel::Auto);
+        let prepared = PreparedOrder::new(
+            &wide,
+            &order,
+            None,
+            &rays[..rays.len() / 4],
+            BoxKernel::Auto,
+        );
         for (i, ray) in rays.iter().enumerate() {
             let mut work = Vec::new();
             for k in KERNELS {
@@ -120,7 +129,10 @@ where
                 assert_eq!(occ, brute[i].1, "N={N} {order} {k:?}, ray {i}: {ray:?}");
                 work.push(st);
             }
-            assert!(work.windows(2).all(|w| w[0] == w[1]), "N={N} {order}: {work:?}");
+            assert!(
+                work.windows(2).all(|w| w[0] == w[1]),
+                "N={N} {order}: {work:?}"
+            );
             occluded_rays += brute[i].1 as usize;
         }
     }
@@ -142,7 +154,10 @@ fn every_width_order_and_kernel_matches_brute_force() {
         let occ = check_width::<2>(&bvh, &tris, &rays)
             + check_width::<4>(&bvh, &tris, &rays)
             + check_width::<8>(&bvh, &tris, &rays);
-        assert!(occ > rays.len(), "too few occluded rays ({occ}) to mean anything");
+        assert!(
+            occ > rays.len(),
+            "too few occluded rays ({occ}) to mean anything"
+        );
     }
 }
 
@@ -168,7 +183,8 @@ fn two_wide_tree_does_the_binary_traversals_work() {
         let (mut a, mut b) = (TraversalStats::default(), TraversalStats::default());
         assert_eq!(
             closest_hit(&bvh, &ray, &mut a).map(|h| h.triangle),
-            wide.closest_hit(&ray, BoxKernel::Auto, &mut b).map(|h| h.triangle)
+            wide.closest_hit(&ray, BoxKernel::Auto, &mut b)
+                .map(|h| h.triangle)
         );
         assert_eq!(a, b, "closest {ray:?}");
     }

@@ -251,6 +251,11 @@ pub struct RenderSettingsState {
     pub build_settings: BuildSettingsState,
     pub shadow_order: ShadowOrderState,
     pub stats: StatsModeState,
+    /// Children per BVH node: 2, 4 or 8.
+    pub width: u32,
+    /// The shadow order in the command-line syntax (`sato`, `sorted:budget=0.05`, ...) when it
+    /// is not one `shadow_order` can say; it then takes precedence.
+    pub order: Option<String>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]

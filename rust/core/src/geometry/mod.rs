@@ -8,8 +8,8 @@ mod triangle;
 
 pub use aabb::Aabb;
 pub use offset::offset_ray_origin;
-pub use ray::{Ray, RayBoxPrecomp};
 pub(crate) use ray::FAR_SCALE;
+pub use ray::{Ray, RayBoxPrecomp};
 pub use triangle::{intersect_triangle, triangle_normal, TriangleHit, WatertightRay};
 
 /// `gamma(n)` of pbrt (Higham's bound): the relative error of `n` chained f32 operations.

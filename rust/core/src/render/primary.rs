@@ -35,7 +35,11 @@ pub struct PrimaryPass {
 
 impl PrimaryPass {
     /// Traces with exact counters.
-    pub fn counted(rays: &PrimaryRays, bvh: &impl ClosestHitQuery, triangles: &TriangleSet) -> Self {
+    pub fn counted(
+        rays: &PrimaryRays,
+        bvh: &impl ClosestHitQuery,
+        triangles: &TriangleSet,
+    ) -> Self {
         let start = Instant::now();
         let (surfaces, work): (Vec<_>, Vec<_>) = pixels(rays)
             .map(|(x, y)| {

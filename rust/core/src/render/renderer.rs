@@ -333,7 +333,8 @@ impl Renderer {
                 .shadow_bvh
                 .as_ref()
                 .map(|b| WideTree::collapse(b, settings.width));
-            let collapse_ms = camera.collapse_ms() + shadow.as_ref().map_or(0.0, |s| s.collapse_ms());
+            let collapse_ms =
+                camera.collapse_ms() + shadow.as_ref().map_or(0.0, |s| s.collapse_ms());
             c.wide = Some(WideTrees {
                 width: settings.width,
                 camera: Arc::new(camera),

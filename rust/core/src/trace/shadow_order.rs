@@ -126,7 +126,9 @@ fn parse_budget(f: &str) -> Result<f32> {
     }
     .map_err(|_| invalid(format!("sorted: budget must be a number, got '{f}'")))?;
     if !(v > 0.0 && v <= 1.0) {
-        return Err(invalid(format!("sorted: budget must be in (0, 1], got {f}")));
+        return Err(invalid(format!(
+            "sorted: budget must be in (0, 1], got {f}"
+        )));
     }
     Ok(v)
 }

@@ -129,6 +129,10 @@ fn ordered_hits<const N: usize>(
 
 /// Slots of `mask` ordered near to far (ties by slot), for the closest-hit traversal.
 #[inline(always)]
-pub(crate) fn near_to_far<const N: usize>(mask: u32, t_near: &[f32; N], out: &mut [u8; N]) -> usize {
+pub(crate) fn near_to_far<const N: usize>(
+    mask: u32,
+    t_near: &[f32; N],
+    out: &mut [u8; N],
+) -> usize {
     ordered_hits(0, mask, t_near, OrderView::FrontToBack, out)
 }

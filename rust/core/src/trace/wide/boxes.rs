@@ -160,21 +160,39 @@ mod x86 {
 
     impl ChildBoxTest<4> for Sse {
         #[inline(always)]
-        fn test(ray: &WideRay, node: &WideNode<4>, t_min: f32, t_max: f32, out: &mut [f32; 4]) -> u32 {
+        fn test(
+            ray: &WideRay,
+            node: &WideNode<4>,
+            t_min: f32,
+            t_max: f32,
+            out: &mut [f32; 4],
+        ) -> u32 {
             sse4(ray, node, 0, t_min, t_max, out)
         }
     }
 
     impl ChildBoxTest<8> for Sse {
         #[inline(always)]
-        fn test(ray: &WideRay, node: &WideNode<8>, t_min: f32, t_max: f32, out: &mut [f32; 8]) -> u32 {
+        fn test(
+            ray: &WideRay,
+            node: &WideNode<8>,
+            t_min: f32,
+            t_max: f32,
+            out: &mut [f32; 8],
+        ) -> u32 {
             sse4(ray, node, 0, t_min, t_max, out) | sse4(ray, node, 4, t_min, t_max, out) << 4
         }
     }
 
     impl ChildBoxTest<8> for Avx2 {
         #[inline(always)]
-        fn test(ray: &WideRay, node: &WideNode<8>, t_min: f32, t_max: f32, out: &mut [f32; 8]) -> u32 {
+        fn test(
+            ray: &WideRay,
+            node: &WideNode<8>,
+            t_min: f32,
+            t_max: f32,
+            out: &mut [f32; 8],
+        ) -> u32 {
             let b = &node.bounds;
             // SAFETY: this kernel is only instantiated inside functions compiled with
             // `target_feature(enable = "avx2")` and called after `is_x86_feature_detected!("avx2")`;

@@ -27,7 +27,13 @@ use crate::geometry::Ray;
 /// The queries of a wide BVH of one width, dispatched to a box kernel.
 pub trait WideQueries {
     /// True if any triangle intersects the ray in (t_min, t_max].
-    fn occluded<C: Counters>(&self, ray: &Ray, order: OrderView, kernel: BoxKernel, stats: &mut C) -> bool {
+    fn occluded<C: Counters>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        kernel: BoxKernel,
+        stats: &mut C,
+    ) -> bool {
         self.occluder_leaf(ray, order, kernel, stats).is_some()
     }
     /// The first triangle slot of the leaf that occluded the ray, if any.
@@ -44,7 +50,13 @@ pub trait WideQueries {
 
 impl WideQueries for WideBvh<2> {
     #[inline]
-    fn occluder_leaf<C: Counters>(&self, ray: &Ray, order: OrderView, _: BoxKernel, stats: &mut C) -> Option<u32> {
+    fn occluder_leaf<C: Counters>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        _: BoxKernel,
+        stats: &mut C,
+    ) -> Option<u32> {
         any_hit::any_hit::<2, Scalar, C>(self, ray, order, stats)
     }
     #[inline]
@@ -56,7 +68,13 @@ impl WideQueries for WideBvh<2> {
 #[cfg(not(target_arch = "x86_64"))]
 impl WideQueries for WideBvh<4> {
     #[inline]
-    fn occluder_leaf<C: Counters>(&self, ray: &Ray, order: OrderView, _: BoxKernel, stats: &mut C) -> Option<u32> {
+    fn occluder_leaf<C: Counters>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        _: BoxKernel,
+        stats: &mut C,
+    ) -> Option<u32> {
         any_hit::any_hit::<4, Scalar, C>(self, ray, order, stats)
     }
     #[inline]
@@ -68,7 +86,13 @@ impl WideQueries for WideBvh<4> {
 #[cfg(not(target_arch = "x86_64"))]
 impl WideQueries for WideBvh<8> {
     #[inline]
-    fn occluder_leaf<C: Counters>(&self, ray: &Ray, order: OrderView, _: BoxKernel, stats: &mut C) -> Option<u32> {
+    fn occluder_leaf<C: Counters>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        _: BoxKernel,
+        stats: &mut C,
+    ) -> Option<u32> {
         any_hit::any_hit::<8, Scalar, C>(self, ray, order, stats)
     }
     #[inline]
@@ -90,14 +114,27 @@ mod x86_dispatch {
 
     impl WideQueries for WideBvh<4> {
         #[inline]
-        fn occluder_leaf<C: Counters>(&self, ray: &Ray, order: OrderView, kernel: BoxKernel, stats: &mut C) -> Option<u32> {
+        fn occluder_leaf<C: Counters>(
+            &self,
+            ray: &Ray,
+            order: OrderView,
+            kernel: BoxKernel,
+            stats: &mut C,
+        ) -> Option<u32> {
             match kernel {
                 BoxKernel::Scalar => any_hit::any_hit::<4, Scalar, C>(self, ray, order, stats),
-                BoxKernel::Auto | BoxKernel::Sse => any_hit::any_hit::<4, Sse, C>(self, ray, order, stats),
+                BoxKernel::Auto | BoxKernel::Sse => {
+                    any_hit::any_hit::<4, Sse, C>(self, ray, order, stats)
+                }
             }
         }
         #[inline]
-        fn closest_hit<C: Counters>(&self, ray: &Ray, kernel: BoxKernel, stats: &mut C) -> Option<Hit> {
+        fn closest_hit<C: Counters>(
+            &self,
+            ray: &Ray,
+            kernel: BoxKernel,
+            stats: &mut C,
+        ) -> Option<Hit> {
             match kernel {
                 BoxKernel::Scalar => closest::closest::<4, Scalar, C>(self, ray, stats),
                 BoxKernel::Auto | BoxKernel::Sse => closest::closest::<4, Sse, C>(self, ray, stats),
@@ -107,7 +144,13 @@ mod x86_dispatch {
 
     impl WideQueries for WideBvh<8> {
         #[inline]
-        fn occluder_leaf<C: Counters>(&self, ray: &Ray, order: OrderView, kernel: BoxKernel, stats: &mut C) -> Option<u32> {
+        fn occluder_leaf<C: Counters>(
+            &self,
+            ray: &Ray,
+            order: OrderView,
+            kernel: BoxKernel,
+            stats: &mut C,
+        ) -> Option<u32> {
             match kernel {
                 BoxKernel::Scalar => any_hit::any_hit::<8, Scalar, C>(self, ray, order, stats),
                 BoxKernel::Auto if avx2() => {
@@ -118,7 +161,12 @@ mod x86_dispatch {
             }
         }
         #[inline]
-        fn closest_hit<C: Counters>(&self, ray: &Ray, kernel: BoxKernel, stats: &mut C) -> Option<Hit> {
+        fn closest_hit<C: Counters>(
+            &self,
+            ray: &Ray,
+            kernel: BoxKernel,
+            stats: &mut C,
+        ) -> Option<Hit> {
             match kernel {
                 BoxKernel::Scalar => closest::closest::<8, Scalar, C>(self, ray, stats),
                 BoxKernel::Auto if avx2() => {
