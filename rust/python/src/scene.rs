@@ -600,6 +600,10 @@ pub fn render_settings_state(
             describe(timing)
         )));
     };
+    // Parsed here too so a bad order is named before anything is sent.
+    order
+        .parse::<antumbra_core::trace::ShadowOrder>()
+        .map_err(|e| ClientError::invalid(e.to_string()))?;
     let state = RenderSettingsState {
         spp: integer::<u32>(spp, "spp", "1 to 4096")?,
         seed: integer::<u32>(seed, "seed", "an unsigned 32-bit integer")?,

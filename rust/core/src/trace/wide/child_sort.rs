@@ -206,17 +206,19 @@ where
     };
     let mut nodes_sorted = 0;
     for i in (0..counted).rev() {
-        let (slots, c) = child_costs(bvh, i, model, &cost);
-        let r: Vec<f64> = slots.iter().map(|&s| counters[i * N + s] as f64).collect();
-        let total: f64 = r.iter().sum();
-        if i > 0 {
-            let (p, s) = bvh.parent[i];
-            counters[p as usize * N + s as usize] += total as u32;
-        }
-        if total == 0.0 {
-            cost[i] = c.iter().sum();
+        let total: u32 = counters[i * N..(i + 1) * N].iter().sum();
+        if total == 0 {
+            // No ray stopped anywhere below: every descendant is unsorted too, so the node's
+            // cost is its blind cost, and it keeps its logging order.
             continue;
         }
+        if i > 0 {
+            let (p, s) = bvh.parent[i];
+            counters[p as usize * N + s as usize] += total;
+        }
+        let total = total as f64;
+        let (slots, c) = child_costs(bvh, i, model, &cost);
+        let r: Vec<f64> = slots.iter().map(|&s| counters[i * N + s] as f64).collect();
         let q: Vec<f64> = r.iter().map(|ri| ri / total).collect();
         let sato = tables.sato[i].slots(slots.len());
         let rank: Vec<usize> = slots
