@@ -239,12 +239,14 @@ impl<const N: usize> WideBvh<N> {
                     return Err(format!("child {s} of node {i} outside its parent"));
                 }
                 if node.is_leaf_slot(s) {
-                    let first = node.child[s] as usize;
-                    for t in first..first + node.count[s] as usize {
-                        if std::mem::replace(&mut seen[t], true) {
+                    let range =
+                        node.child[s] as usize..(node.child[s] + node.count[s] as u32) as usize;
+                    let (flags, tris) = (&mut seen[range.clone()], &self.triangles[range.clone()]);
+                    for ((t, flag), tri) in range.zip(flags).zip(tris) {
+                        if std::mem::replace(flag, true) {
                             return Err(format!("triangle slot {t} in two leaves"));
                         }
-                        if !b.contains(&Aabb::of_triangle(&self.triangles[t])) {
+                        if !b.contains(&Aabb::of_triangle(tri)) {
                             return Err(format!("triangle slot {t} outside its leaf"));
                         }
                     }
