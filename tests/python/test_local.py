@@ -45,6 +45,7 @@ STATS_COLUMNS = {
     "nbox_per_ray",
     "back_facing",
     "unreached",
+    "sort_ms",
 }
 
 
@@ -174,6 +175,17 @@ def test_passes_and_settings(scene):
     assert r.stats[0]["timed_without_counters"]
     r = session.render(1, passes=["heat_maps"], leaf_size=2, bins=8)
     assert r.planes[0][0] == "primary.N_B"
+
+
+def test_width_and_order_change_work_not_masks(scene):
+    session, _ = scene
+    base = session.render(1, passes=["masks"])
+    for width, order in [(4, "sato"), (8, "sorted:logging=fbto:budget=0.5"), (2, "rtsah")]:
+        r = session.render(1, passes=["masks"], width=width, order=order)
+        assert all(np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True))
+        shadow = [s for s in r.stats if s["pass"] == "shadow"]
+        assert shadow and all(s["method"].startswith(f"sah/bin{width}/") for s in shadow)
+        assert all((s["sort_ms"] > 0) == order.startswith("sorted") for s in shadow)
 
 
 def test_render_is_deterministic_and_reuses_bvhs(scene):
@@ -460,7 +472,9 @@ def test_bad_containers(scene):
         ({"spp": True}, r"spp: expected an integer, got bool"),
         ({"bins": 1}, r"bins"),
         ({"leaf_size": 0}, r"leaf_size|max_leaf_size"),
-        ({"order": "far"}, r"order: expected one of 'near', 'stored', got 'far'"),
+        ({"order": "far"}, r"order: .*unknown order 'far'"),
+        ({"order": "sorted:budget=2"}, r"order: .*budget must be in \(0, 1\]"),
+        ({"width": 3}, r"width: must be 2, 4 or 8, got 3"),
         ({"build": "lbvh"}, r"build: expected one of 'sah'"),
         ({"timing": "always"}, r"timing: expected one of"),
         ({"timing": 1}, r"timing: expected True, False or 'only'"),

@@ -5,13 +5,14 @@
 //! agreement on all but a tiny, reported fraction.
 #![cfg(feature = "embree")]
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings};
+use antumbra_core::bvh::{build_binned_sah, BuildSettings, WideBvh};
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
 };
 use antumbra_core::scene::{FrameGeometry, Resolution};
-use antumbra_core::trace::{closest_hit, occluded, AnyHitOrder, NoStats};
+use antumbra_core::trace::wide::{BoxKernel, PreparedOrder, WideQueries};
+use antumbra_core::trace::{closest_hit, occluded, AnyHitOrder, NoStats, ShadowOrder};
 use antumbra_embree::{EmbreeQuality, EmbreeScene};
 use antumbra_scenes::{builtin, SceneParams, BUILTIN_SCENES};
 
@@ -83,6 +84,34 @@ fn occlusion_agrees_with_embree_on_every_builtin_scene() {
         // two correct tracers; anything beyond a handful per thousand is a bug.
         assert!(occ_ratio < 1e-3, "{}", report.last().unwrap());
         assert!(id_ratio < 2e-3, "{}", report.last().unwrap());
+
+        // The wide trees with their SIMD kernels and per-light sorted order give the binary
+        // traversal's answers, so they differ from Embree on exactly the same rays.
+        let wide = WideBvh::<8>::collapse(&bvh);
+        let sorted: ShadowOrder = "sorted:budget=0.1".parse().unwrap();
+        let prepared = PreparedOrder::new(&wide, &sorted, None, &shadow, BoxKernel::Auto);
+        let wide_diff = shadow
+            .iter()
+            .filter(|r| {
+                wide.occluded(r, prepared.view(), BoxKernel::Auto, &mut NoStats)
+                    != embree.occluded(r)
+            })
+            .count();
+        assert_eq!(wide_diff, occ_diff, "{name}: 8-wide sorted vs Embree");
+        let wide4 = WideBvh::<4>::collapse(&bvh);
+        let mut wide_ids_diff = 0;
+        for y in 0..90 {
+            for x in 0..160 {
+                let ray = camera.ray(x, y);
+                let ours = wide4.closest_hit(&ray, BoxKernel::Auto, &mut NoStats);
+                let theirs = embree.intersect(&ray).map(|(_, id)| id);
+                wide_ids_diff += (ours.map(|h| h.triangle) != theirs) as usize;
+            }
+        }
+        assert_eq!(
+            wide_ids_diff, id_diff,
+            "{name}: 4-wide closest hit vs Embree"
+        );
     }
     eprintln!("{}", report.join("\n"));
 }

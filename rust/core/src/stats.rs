@@ -4,7 +4,7 @@
 //! | column | meaning |
 //! |---|---|
 //! | scene, frame | what was rendered |
-//! | method | builder / BVH width / shadow-ray child order, e.g. `sah/bin2/near` |
+//! | method | builder / BVH width / shadow-ray child order, e.g. `sah/bin8/sato` |
 //! | pass | `primary` (closest hit) or `shadow` (any hit) |
 //! | light | the light's name (empty for the primary pass) |
 //! | rebuilt | whether this frame built its BVH (false: the geometry did not change) |
@@ -22,6 +22,7 @@
 //! | nbox_per_ray | N_box: ray/box tests per ray |
 //! | back_facing | shadow samples behind the surface's own plane (shadowed, no ray) |
 //! | unreached | shadow samples of points outside a spot cone or behind an area light |
+//! | sort_ms | shadow: logging + sorting time of the light's per-light child order (0 for other orders) |
 
 use std::path::Path;
 
@@ -54,6 +55,8 @@ pub struct StatsRow {
     pub nbox_per_ray: f64,
     pub back_facing: u64,
     pub unreached: u64,
+    #[serde(default)]
+    pub sort_ms: f64,
 }
 
 impl StatsRow {
@@ -99,6 +102,7 @@ pub const CSV_COLUMNS: &[&str] = &[
     "nbox_per_ray",
     "back_facing",
     "unreached",
+    "sort_ms",
 ];
 
 fn csv_field(s: &str) -> String {
@@ -136,6 +140,7 @@ pub fn to_csv(rows: &[StatsRow]) -> String {
             format!("{:.6}", r.nbox_per_ray),
             r.back_facing.to_string(),
             r.unreached.to_string(),
+            format!("{:.4}", r.sort_ms),
         ];
         out.push_str(&fields.join(","));
         out.push('\n');

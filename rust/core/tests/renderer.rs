@@ -28,7 +28,7 @@ fn masks_do_not_depend_on_order_leaf_size_or_counting() {
         (AnyHitOrder::Stored, 4, StatsMode::CountsAndTiming),
     ] {
         let settings = RenderSettings {
-            shadow_order: order,
+            shadow_order: order.into(),
             build_settings: BuildSettings {
                 max_leaf_size: leaf,
                 ..BuildSettings::default()
@@ -41,6 +41,62 @@ fn masks_do_not_depend_on_order_leaf_size_or_counting() {
         assert_eq!(r.primary_ids, base.primary_ids);
         assert_eq!(r.visible, base.visible);
     }
+}
+
+#[test]
+fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
+    let scene = soft_scene();
+    let base = Renderer::new()
+        .render("t", &scene, &RenderSettings::default())
+        .unwrap();
+    for width in ["2", "4", "8"] {
+        for order in [
+            "stored",
+            "fbto",
+            "sato",
+            "rtsah",
+            "random:seed=1",
+            "sorted:budget=0.2",
+        ] {
+            for stats in [StatsMode::Counts, StatsMode::TimingOnly] {
+                let settings = RenderSettings {
+                    width: width.parse().unwrap(),
+                    shadow_order: order.parse().unwrap(),
+                    stats,
+                    ..RenderSettings::default()
+                };
+                let r = Renderer::new().render("t", &scene, &settings).unwrap();
+                assert_eq!(r.masks, base.masks, "{width} {order}");
+                assert_eq!(r.primary_ids, base.primary_ids, "{width} {order}");
+                let shadow: Vec<_> = r.stats.iter().filter(|s| s.pass == "shadow").collect();
+                assert!(!shadow.is_empty());
+                for row in shadow {
+                    assert_eq!(
+                        row.method,
+                        format!("sah/bin{width}/{}", settings.shadow_order)
+                    );
+                    assert_eq!(row.sort_ms > 0.0, order.starts_with("sorted"), "{row:?}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_static_scene_keeps_its_wide_tree_across_frames() {
+    let scene = soft_scene();
+    let settings = RenderSettings {
+        width: "8".parse().unwrap(),
+        shadow_order: "sorted".parse().unwrap(),
+        ..RenderSettings::default()
+    };
+    let mut renderer = Renderer::new();
+    let first = renderer.render("t", &scene, &settings).unwrap();
+    let second = renderer.render("t", &scene, &settings).unwrap();
+    assert_eq!(renderer.builds, 1);
+    assert!(first.stats.iter().all(|r| r.rebuilt));
+    assert!(second.stats.iter().all(|r| !r.rebuilt && r.build_ms == 0.0));
+    assert_eq!(first.masks, second.masks);
 }
 
 #[test]

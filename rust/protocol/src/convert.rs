@@ -8,14 +8,14 @@ use std::collections::HashMap;
 use std::hash::BuildHasher;
 use std::sync::Arc;
 
-use antumbra_core::bvh::{BuildMethod, BuildSettings};
+use antumbra_core::bvh::{BuildMethod, BuildSettings, BvhWidth};
 use antumbra_core::output::ImagePlane;
 use antumbra_core::render::{FrameResult, RenderSettings, StatsMode};
 use antumbra_core::scene::{
     AreaShape, Camera, Light, LightKind, Mesh, Object, Resolution, Scene, SensorFit, TriangleRef,
 };
 use antumbra_core::stats::StatsRow;
-use antumbra_core::trace::AnyHitOrder;
+use antumbra_core::trace::{AnyHitOrder, ShadowOrder};
 use glam::DMat4;
 
 use crate::bytes::{
@@ -402,10 +402,16 @@ impl From<&RenderSettings> for RenderSettingsState {
                 traversal_cost: s.build_settings.traversal_cost,
                 intersection_cost: s.build_settings.intersection_cost,
             },
-            shadow_order: match s.shadow_order {
-                AnyHitOrder::Stored => ShadowOrderState::Stored,
-                AnyHitOrder::NearFirst => ShadowOrderState::NearFirst,
+            shadow_order: match s.shadow_order.binary() {
+                Some(AnyHitOrder::Stored) => ShadowOrderState::Stored,
+                Some(AnyHitOrder::NearFirst) | None => ShadowOrderState::NearFirst,
             },
+            width: s.width.get(),
+            order: s
+                .shadow_order
+                .binary()
+                .is_none()
+                .then(|| s.shadow_order.to_string()),
             stats: match s.stats {
                 StatsMode::Counts => StatsModeState::Counts,
                 StatsMode::CountsAndTiming => StatsModeState::CountsAndTiming,
@@ -441,10 +447,15 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
             traversal_cost: s.build_settings.traversal_cost,
             intersection_cost: s.build_settings.intersection_cost,
         },
-        shadow_order: match s.shadow_order {
-            ShadowOrderState::Stored => AnyHitOrder::Stored,
-            ShadowOrderState::NearFirst => AnyHitOrder::NearFirst,
+        shadow_order: match &s.order {
+            Some(text) => text.parse::<ShadowOrder>()?,
+            None => match s.shadow_order {
+                ShadowOrderState::Stored => AnyHitOrder::Stored,
+                ShadowOrderState::NearFirst => AnyHitOrder::NearFirst,
+            }
+            .into(),
         },
+        width: BvhWidth::try_from(s.width)?,
         stats: match s.stats {
             StatsModeState::Counts => StatsMode::Counts,
             StatsModeState::CountsAndTiming => StatsMode::CountsAndTiming,
@@ -489,6 +500,7 @@ impl From<&StatsRow> for StatsRowState {
             nbox_per_ray: r.nbox_per_ray,
             back_facing: r.back_facing,
             unreached: r.unreached,
+            sort_ms: r.sort_ms,
         }
     }
 }
@@ -517,6 +529,7 @@ impl From<&StatsRowState> for StatsRow {
             nbox_per_ray: r.nbox_per_ray,
             back_facing: r.back_facing,
             unreached: r.unreached,
+            sort_ms: r.sort_ms,
         }
     }
 }

@@ -256,6 +256,11 @@ pub struct RenderSettingsState {
     pub build_settings: BuildSettingsState,
     pub shadow_order: ShadowOrderState,
     pub stats: StatsModeState,
+    /// Children per BVH node: 2, 4 or 8.
+    pub width: u32,
+    /// The shadow order in the command-line syntax (`sato`, `sorted:budget=0.05`, ...) when it
+    /// is not one `shadow_order` can say; it then takes precedence.
+    pub order: Option<String>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -339,6 +344,7 @@ pub struct StatsRowState {
     pub nbox_per_ray: f64,
     pub back_facing: u64,
     pub unreached: u64,
+    pub sort_ms: f64,
 }
 
 /// What the daemon has done since it started.

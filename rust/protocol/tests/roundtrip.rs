@@ -131,9 +131,19 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
             Just(StatsModeState::CountsAndTiming),
             Just(StatsModeState::TimingOnly)
         ],
+        (
+            prop_oneof![Just(2u32), Just(4), Just(8)],
+            prop_oneof![
+                Just(None),
+                Just(Some("sato".to_string())),
+                Just(Some(
+                    "sorted:logging=fbto:p=area:depth=3:budget=0.1".to_string()
+                ))
+            ],
+        ),
     )
-        .prop_map(
-            |(spp, seed, (b, l, tc, ic), order, stats)| RenderSettingsState {
+        .prop_map(|(spp, seed, (b, l, tc, ic), order, stats, (width, text))| {
+            RenderSettingsState {
                 spp,
                 seed,
                 build: BuildMethodState::Sah,
@@ -145,8 +155,10 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
                 },
                 shadow_order: order,
                 stats,
-            },
-        )
+                width,
+                order: text,
+            }
+        })
 }
 
 fn limits() -> impl Strategy<Value = Limits> {
@@ -206,6 +218,7 @@ fn stats_row() -> impl Strategy<Value = StatsRowState> {
                 nbox_per_ray: nbox,
                 back_facing,
                 unreached,
+                sort_ms: trace_ms * 0.5,
             },
         )
 }

@@ -535,7 +535,7 @@ impl Connection {
 
     /// Renders a frame sent with frame_update; returns a dict that `antumbra.Result` wraps.
     #[pyo3(signature = (frame, spp, seed, build, order, leaf_size, bins, traversal_cost,
-        intersection_cost, timing, passes, progress = None, timeout = None))]
+        intersection_cost, timing, passes, progress = None, timeout = None, width = None))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
@@ -553,6 +553,7 @@ impl Connection {
         passes: &Bound<'py, PyAny>,
         progress: Option<Bound<'py, PyAny>>,
         timeout: Option<f64>,
+        width: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
@@ -566,6 +567,7 @@ impl Connection {
                 traversal_cost,
                 intersection_cost,
                 timing,
+                &width.unwrap_or_else(|| 2u32.into_pyobject(py).expect("int").into_any()),
             )?;
             antumbra_protocol::check_limits(
                 &Request::Render(RenderRequest {

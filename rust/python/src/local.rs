@@ -233,7 +233,7 @@ impl LocalSession {
     /// ("render", 0, 2) before rendering, ("encode", 1, 2) after; returning False from the
     /// first call cancels.
     #[pyo3(signature = (frame, spp, seed, build, order, leaf_size, bins, traversal_cost,
-        intersection_cost, timing, passes, progress = None, timeout = None))]
+        intersection_cost, timing, passes, progress = None, timeout = None, width = None))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
@@ -251,6 +251,7 @@ impl LocalSession {
         passes: &Bound<'py, PyAny>,
         progress: Option<Bound<'py, PyAny>>,
         timeout: Option<f64>,
+        width: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = timeout;
         (|| {
@@ -265,6 +266,7 @@ impl LocalSession {
                 traversal_cost,
                 intersection_cost,
                 timing,
+                &width.unwrap_or_else(|| 2u32.into_pyobject(py).expect("int").into_any()),
             )?;
             let passes = scene::passes(passes)?;
             if let Some(p) = &progress {

@@ -85,6 +85,7 @@ pub fn stats_row<'py>(py: Python<'py>, r: &StatsRowState) -> PyResult<Bound<'py,
             nbox_per_ray,
             back_facing,
             unreached,
+            sort_ms,
         ]
     ))
 }

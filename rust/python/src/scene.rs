@@ -576,6 +576,7 @@ pub fn render_settings_state(
     traversal_cost: f64,
     intersection_cost: f64,
     timing: &Bound<'_, PyAny>,
+    width: &Bound<'_, PyAny>,
 ) -> ClientResult<RenderSettingsState> {
     let timing = if let Ok(b) = timing.cast::<PyBool>() {
         if b.is_true() {
@@ -599,6 +600,10 @@ pub fn render_settings_state(
             describe(timing)
         )));
     };
+    // Parsed here too so a bad order is named before anything is sent.
+    order
+        .parse::<antumbra_core::trace::ShadowOrder>()
+        .map_err(|e| ClientError::invalid(e.to_string()))?;
     let state = RenderSettingsState {
         spp: integer::<u32>(spp, "spp", "1 to 4096")?,
         seed: integer::<u32>(seed, "seed", "an unsigned 32-bit integer")?,
@@ -609,14 +614,14 @@ pub fn render_settings_state(
             traversal_cost: traversal_cost as f32,
             intersection_cost: intersection_cost as f32,
         },
-        shadow_order: choice(
-            order,
-            "order",
-            &[
-                ("near", ShadowOrderState::NearFirst),
-                ("stored", ShadowOrderState::Stored),
-            ],
-        )?,
+        // The two orders older daemons know travel as `shadow_order`; every other order (the
+        // `antumbra render --order` syntax) as text, checked by `render_settings` below.
+        shadow_order: match order {
+            "stored" => ShadowOrderState::Stored,
+            _ => ShadowOrderState::NearFirst,
+        },
+        order: (!matches!(order, "near" | "fbto" | "stored")).then(|| order.to_string()),
+        width: integer::<u32>(width, "width", "2, 4 or 8")?,
         stats: timing,
     };
     // The daemon's own check, made here so a bad setting fails before the request is sent.

@@ -3,13 +3,17 @@
 
 use std::time::Instant;
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, Bvh};
+use antumbra_core::bvh::{build_binned_sah, BuildSettings, Bvh, BvhWidth};
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
-    samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
+    binary_order, representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass,
+    PrimaryRays, SamplePlan, WideTree,
 };
 use antumbra_core::scene::FrameGeometry;
-use antumbra_core::trace::{closest_hit, occluded, AnyHitOrder, NoStats};
+use antumbra_core::trace::wide::{BoxKernel, PreparedOrder};
+use antumbra_core::trace::{
+    BinaryOcclusion, ClosestHitQuery, NoStats, OcclusionQuery, ShadowOrder, WideOcclusion,
+};
 use anyhow::{bail, Result};
 use clap::Args;
 use rayon::prelude::*;
@@ -17,6 +21,37 @@ use serde::Serialize;
 
 use crate::frames::parse_size;
 use crate::scene_source::open_scene;
+
+/// Runs `$body` with `$o` bound to the concrete occlusion query of one light (binary, or the
+/// wide tree of its width with the light's order), so timed loops have no per-ray dispatch.
+macro_rules! with_occluder {
+    ($bvh:expr, $binary:expr, $wide:expr, $prepared:expr, |$o:ident| $body:expr) => {
+        match ($binary, $wide, $prepared) {
+            (Some(order), _, _) => {
+                let $o = &BinaryOcclusion { bvh: $bvh, order };
+                $body
+            }
+            (None, Some(tree), Some(p)) => {
+                let (order, kernel) = (p.view(), BoxKernel::Auto);
+                match tree {
+                    WideTree::Two(bvh) => {
+                        let $o = &WideOcclusion { bvh, order, kernel };
+                        $body
+                    }
+                    WideTree::Four(bvh) => {
+                        let $o = &WideOcclusion { bvh, order, kernel };
+                        $body
+                    }
+                    WideTree::Eight(bvh) => {
+                        let $o = &WideOcclusion { bvh, order, kernel };
+                        $body
+                    }
+                }
+            }
+            _ => unreachable!("a wide order comes with its tree"),
+        }
+    };
+}
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
@@ -35,6 +70,13 @@ pub struct BenchArgs {
     /// Timing repetitions; the best is reported.
     #[arg(long, default_value_t = 3)]
     pub repeat: u32,
+    /// Children per BVH node: 2 (binary), 4 or 8.
+    #[arg(long, default_value = "2")]
+    pub width: BvhWidth,
+    /// Child order of shadow rays (see `antumbra render --help`); sorted orders are made per
+    /// light from that light's rays, and their cost is reported.
+    #[arg(long, default_value = "fbto")]
+    pub order: ShadowOrder,
     /// Compare with another tracer on the same triangles and rays ("embree").
     #[arg(long)]
     pub compare: Option<String>,
@@ -46,6 +88,8 @@ pub struct BenchArgs {
 #[derive(Debug, Default, Serialize)]
 pub struct BenchRow {
     pub scene: String,
+    /// Builder / width / shadow order, as in the statistics tables.
+    pub method: String,
     pub triangles: usize,
     pub threads: usize,
     pub build_ms: f64,
@@ -55,6 +99,11 @@ pub struct BenchRow {
     pub shadow_rays: usize,
     pub shadow_occluded: f64,
     pub shadow_mrays: f64,
+    /// Collapse to the wide tree (not in `build_ms`).
+    pub collapse_ms: f64,
+    /// Per light, logging + sorting ms of a sorted order (one thread for the sorting, the
+    /// pool for the logging rays).
+    pub sort_ms_per_light: Vec<f64>,
     pub embree_build_ms: Option<f64>,
     pub embree_primary_mrays: Option<f64>,
     pub embree_shadow_mrays: Option<f64>,
@@ -105,7 +154,17 @@ pub fn run(args: BenchArgs) -> Result<()> {
             }
             None => &bvh,
         };
-        let mut shadow = Vec::new();
+        let binary = binary_order(args.width, &args.order);
+        let wide_camera =
+            (args.width != BvhWidth::Two).then(|| WideTree::collapse(&bvh, args.width));
+        let wide_shadow = binary
+            .is_none()
+            .then(|| WideTree::collapse(shadow_bvh, args.width));
+        let tables = matches!(args.order, ShadowOrder::Sorted(_))
+            .then(|| wide_shadow.as_ref().map(|t| t.sort_tables()))
+            .flatten();
+        // Per light: its rays and its prepared order (the same rays the shadow pass traces).
+        let mut lights: Vec<(Vec<Ray>, Option<PreparedOrder>)> = Vec::new();
         for (i, light) in scene
             .lights
             .iter()
@@ -118,11 +177,43 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 samples: samples_for(&sampler, args.spp),
                 seed: 0,
             };
-            shadow.extend(shadow_rays(&pass, &sampler, plan));
+            let rays = shadow_rays(&pass, &sampler, plan);
+            let prepared = wide_shadow.as_ref().map(|t| {
+                let representative = match &args.order {
+                    ShadowOrder::Sorted(s) => representative_rays(&pass, &sampler, plan, s.budget),
+                    _ => Vec::new(),
+                };
+                // The sorting itself runs on one thread, as the target asks.
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(1)
+                    .build()
+                    .expect("thread pool")
+                    .install(|| t.prepare(&args.order, tables.as_ref(), &representative))
+            });
+            lights.push((rays, prepared));
         }
-        let answers: Vec<bool> = shadow
-            .par_iter()
-            .map(|r| occluded(shadow_bvh, r, AnyHitOrder::NearFirst, &mut NoStats))
+        let shadow: Vec<Ray> = lights.iter().flat_map(|(r, _)| r.iter().copied()).collect();
+        let answers: Vec<bool> = lights
+            .iter()
+            .flat_map(|(rays, prepared)| {
+                with_occluder!(
+                    shadow_bvh,
+                    binary,
+                    wide_shadow.as_ref(),
+                    prepared.as_ref(),
+                    |o| {
+                        rays.par_iter()
+                            .map(|r| o.occluded(r, &mut NoStats))
+                            .collect::<Vec<bool>>()
+                    }
+                )
+            })
+            .collect();
+        let method = format!("sah/bin{}/{}", args.width, args.order);
+        let sort_ms_per_light: Vec<f64> = lights
+            .iter()
+            .filter_map(|(_, p)| p.as_ref().map(|p| p.sort_ms()))
+            .filter(|ms| *ms > 0.0)
             .collect();
         for threads in [1, all] {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -130,38 +221,55 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 .build()?;
             let mut row = BenchRow {
                 scene: anim.name().to_string(),
+                method: method.clone(),
                 triangles: tris.len(),
                 threads,
-                bvh_bytes: bvh.bytes(),
+                bvh_bytes: wide_camera.as_ref().map_or(bvh.bytes(), |t| t.bytes()),
                 primary_rays: primary.len(),
                 shadow_rays: shadow.len(),
                 shadow_occluded: answers.iter().filter(|a| **a).count() as f64
                     / shadow.len().max(1) as f64,
+                collapse_ms: wide_camera.as_ref().map_or(0.0, |t| t.collapse_ms()),
+                sort_ms_per_light: sort_ms_per_light.clone(),
                 ..BenchRow::default()
             };
             pool.install(|| {
                 row.build_ms = best_of(args.repeat, || {
                     build_binned_sah(tris, &settings);
                 });
-                row.primary_mrays = mrays(
-                    primary.len(),
+                let closest = |tree: &(dyn Fn(&Ray) + Sync)| {
                     best_of(args.repeat, || {
-                        primary.par_iter().with_min_len(256).for_each(|r| {
-                            std::hint::black_box(closest_hit(&bvh, r, &mut NoStats));
-                        })
+                        primary.par_iter().with_min_len(256).for_each(tree)
+                    })
+                };
+                let primary_ms = match &wide_camera {
+                    Some(WideTree::Four(t)) => closest(&|r| {
+                        std::hint::black_box(t.closest_hit(r, &mut NoStats));
                     }),
-                );
+                    Some(WideTree::Eight(t)) => closest(&|r| {
+                        std::hint::black_box(t.closest_hit(r, &mut NoStats));
+                    }),
+                    _ => closest(&|r| {
+                        std::hint::black_box(bvh.closest_hit(r, &mut NoStats));
+                    }),
+                };
+                row.primary_mrays = mrays(primary.len(), primary_ms);
                 row.shadow_mrays = mrays(
                     shadow.len(),
                     best_of(args.repeat, || {
-                        shadow.par_iter().with_min_len(256).for_each(|r| {
-                            std::hint::black_box(occluded(
+                        for (rays, prepared) in &lights {
+                            with_occluder!(
                                 shadow_bvh,
-                                r,
-                                AnyHitOrder::NearFirst,
-                                &mut NoStats,
-                            ));
-                        })
+                                binary,
+                                wide_shadow.as_ref(),
+                                prepared.as_ref(),
+                                |o| {
+                                    rays.par_iter().with_min_len(256).for_each(|r| {
+                                        std::hint::black_box(o.occluded(r, &mut NoStats));
+                                    })
+                                }
+                            )
+                        }
                     }),
                 );
             });

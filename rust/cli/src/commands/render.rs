@@ -2,25 +2,17 @@
 
 use std::path::{Path, PathBuf};
 
-use antumbra_core::bvh::{BuildMethod, BuildSettings};
+use antumbra_core::bvh::{BuildMethod, BuildSettings, BvhWidth};
 use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
 use antumbra_core::scene::Animation;
 use antumbra_core::stats::{write_csv, write_json, StatsRow};
-use antumbra_core::trace::AnyHitOrder;
+use antumbra_core::trace::ShadowOrder;
 use anyhow::{Context, Result};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::scene_args::{frame_at_size, SceneArgs};
 use crate::write::write_frame;
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum OrderArg {
-    /// Left child first, as built.
-    Stored,
-    /// Nearer child first.
-    Near,
-}
 
 /// Settings shared by `render` and `demo`.
 #[derive(Args, Clone, Debug)]
@@ -34,9 +26,14 @@ pub struct MethodArgs {
     /// BVH builder.
     #[arg(long, default_value = "sah")]
     pub build: BuildMethod,
-    /// Child order of shadow-ray traversal.
-    #[arg(long, value_enum, default_value = "near")]
-    pub order: OrderArg,
+    /// Child order of shadow-ray traversal: stored | fbto (alias near) | sato | rtsah |
+    /// random[:seed=S] | sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]
+    /// (sorted: per light, from a budget share F of its shadow rays; default budget=0.05).
+    #[arg(long, default_value = "fbto")]
+    pub order: ShadowOrder,
+    /// Children per BVH node: 2 (binary), 4 or 8 (collapsed, SIMD traversal).
+    #[arg(long, default_value = "2")]
+    pub width: BvhWidth,
     /// Largest leaf of the BVH.
     #[arg(long, default_value_t = BuildSettings::default().max_leaf_size)]
     pub leaf_size: usize,
@@ -59,10 +56,8 @@ impl MethodArgs {
                 bins: self.bins,
                 ..BuildSettings::default()
             },
-            shadow_order: match self.order {
-                OrderArg::Stored => AnyHitOrder::Stored,
-                OrderArg::Near => AnyHitOrder::NearFirst,
-            },
+            shadow_order: self.order,
+            width: self.width,
             stats: if self.timing {
                 StatsMode::CountsAndTiming
             } else {

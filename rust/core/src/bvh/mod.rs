@@ -4,9 +4,11 @@
 
 mod binned_sah;
 mod node;
+mod wide;
 
 pub use binned_sah::{build_binned_sah, BuildSettings};
 pub use node::{Bvh, BvhNode, NodeArray, MAX_DEPTH};
+pub use wide::{BvhWidth, WideBvh, WideNode, EMPTY_CHILD};
 
 use serde::{Deserialize, Serialize};
 

@@ -8,10 +8,14 @@ mod primary;
 mod renderer;
 mod settings;
 mod shadow;
+mod wide_tree;
 
 pub use camera_rays::PrimaryRays;
 pub use lights::{LightSample, LightSampler};
 pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, OBJECT_PLANE};
 pub use settings::{RenderSettings, StatsMode, MAX_SPP};
-pub use shadow::{samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome};
+pub use shadow::{
+    representative_rays, samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome,
+};
+pub use wide_tree::{binary_order, ShadowTracer, WideTree};

@@ -6,11 +6,10 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::PrimaryRays;
-use crate::bvh::Bvh;
 use crate::geometry::triangle_normal;
 use crate::output::ImagePlane;
 use crate::scene::TriangleSet;
-use crate::trace::{closest_hit, Counters, NoStats, TraversalStats};
+use crate::trace::{ClosestHitQuery, Counters, NoStats, TraversalStats};
 
 /// What a primary ray found: the hit point and the unit geometric normal turned to face the
 /// camera (so "the light's side" is well defined for both faces of a triangle).
@@ -36,7 +35,11 @@ pub struct PrimaryPass {
 
 impl PrimaryPass {
     /// Traces with exact counters.
-    pub fn counted(rays: &PrimaryRays, bvh: &Bvh, triangles: &TriangleSet) -> Self {
+    pub fn counted(
+        rays: &PrimaryRays,
+        bvh: &impl ClosestHitQuery,
+        triangles: &TriangleSet,
+    ) -> Self {
         let start = Instant::now();
         let (surfaces, work): (Vec<_>, Vec<_>) = pixels(rays)
             .map(|(x, y)| {
@@ -61,7 +64,7 @@ impl PrimaryPass {
     }
 
     /// Traces with counters compiled out: the timed path.
-    pub fn timed(rays: &PrimaryRays, bvh: &Bvh, triangles: &TriangleSet) -> Self {
+    pub fn timed(rays: &PrimaryRays, bvh: &impl ClosestHitQuery, triangles: &TriangleSet) -> Self {
         let start = Instant::now();
         let surfaces: Vec<_> = pixels(rays)
             .map(|(x, y)| trace_pixel(rays, bvh, triangles, x, y, &mut NoStats))
@@ -119,14 +122,14 @@ fn pixels(rays: &PrimaryRays) -> impl IndexedParallelIterator<Item = (u32, u32)>
 #[inline]
 fn trace_pixel<C: Counters>(
     rays: &PrimaryRays,
-    bvh: &Bvh,
+    bvh: &impl ClosestHitQuery,
     triangles: &TriangleSet,
     x: u32,
     y: u32,
     stats: &mut C,
 ) -> Option<SurfacePoint> {
     let ray = rays.ray(x, y);
-    let hit = closest_hit(bvh, &ray, stats)?;
+    let hit = bvh.closest_hit(&ray, stats)?;
     let v = &triangles.vertices[hit.triangle as usize];
     // The barycentric point is what Wächter & Binder's offset assumes: its error is bounded by
     // the vertices' magnitude, not by the ray's length.

@@ -4,13 +4,15 @@
 use std::sync::Arc;
 
 use super::primary::heat_planes;
-use super::shadow::samples_for;
+use super::shadow::{representative_rays, samples_for, SamplePlan};
+use super::wide_tree::{binary_order, ShadowTracer, WideTree};
 use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
-use crate::bvh::{build, Bvh};
+use crate::bvh::{build, Bvh, BvhWidth};
 use crate::output::ImagePlane;
 use crate::scene::{FrameGeometry, Mesh, Scene, TriangleRef};
 use crate::stats::StatsRow;
-use crate::trace::TraversalStats;
+use crate::trace::wide::SortTables;
+use crate::trace::{BinaryOcclusion, ClosestHitQuery, ShadowOrder, TraversalStats};
 use crate::Result;
 
 /// Heat maps of traversal work per pixel: N_B, N_L, N_T for primary rays and for all shadow
@@ -76,6 +78,19 @@ struct Cached {
     geometry: Arc<FrameGeometry>,
     camera_bvh: Arc<Bvh>,
     shadow_bvh: Option<Arc<Bvh>>,
+    wide: Option<WideTrees>,
+}
+
+/// The collapsed trees of the cached BVHs for one width.
+struct WideTrees {
+    width: BvhWidth,
+    camera: Arc<WideTree>,
+    /// `None`: the camera tree serves shadow rays too.
+    shadow: Option<Arc<WideTree>>,
+    /// Made once per tree, on the first frame that sorts per light.
+    sort_tables: Option<SortTables>,
+    /// Collapse time, counted into the build time of the frame that collapsed.
+    collapse_ms: Option<f64>,
 }
 
 /// Renders frames, keeping state across them.
@@ -120,21 +135,30 @@ impl Renderer {
         settings.validate()?;
         scene.validate()?;
         let rebuilt = self.prepare(scene, settings)?;
+        self.prepare_wide(settings);
         let cached = self.cache.as_ref().expect("prepared above");
+        let wide = cached.wide.as_ref();
+        let collapse_ms = wide.and_then(|w| w.collapse_ms).unwrap_or(0.0);
+        // The primary pass uses the wide tree for widths 4 and 8; the shadow pass whenever the
+        // order is not one the binary traversal has.
+        let wide_camera = wide
+            .filter(|w| w.width != BvhWidth::Two)
+            .map(|w| &*w.camera);
+        let wide_shadow = wide.map(|w| w.shadow.as_deref().unwrap_or(&w.camera));
         let geometry = &cached.geometry;
         let camera_bvh = &cached.camera_bvh;
         let shadow_bvh = cached.shadow_bvh.as_ref().unwrap_or(camera_bvh);
         let method = settings.method_name();
-        let row = |pass: &str, light: &str, bvh: &Bvh| StatsRow {
+        let row = |pass: &str, light: &str, bvh: &Bvh, tree: Option<&WideTree>| StatsRow {
             scene: scene_name.to_string(),
             frame: scene.frame,
             method: method.clone(),
             pass: pass.to_string(),
             light: light.to_string(),
-            rebuilt: rebuilt.is_some(),
-            build_ms: rebuilt.map_or(0.0, |_| bvh.build_ms),
-            bvh_nodes: bvh.nodes.len() as u64,
-            bvh_bytes: bvh.bytes() as u64,
+            rebuilt: rebuilt.is_some() || collapse_ms > 0.0,
+            build_ms: rebuilt.map_or(0.0, |_| bvh.build_ms) + collapse_ms,
+            bvh_nodes: tree.map_or(bvh.nodes.len(), |t| t.node_count()) as u64,
+            bvh_bytes: tree.map_or(bvh.bytes(), |t| t.bytes()) as u64,
             triangles: bvh.triangles.len() as u64,
             ..StatsRow::default()
         };
@@ -142,20 +166,20 @@ impl Renderer {
         let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
         let counted = settings.stats != StatsMode::TimingOnly;
         let timed = settings.stats != StatsMode::Counts;
-        let primary = if counted {
-            PrimaryPass::counted(&rays, camera_bvh, &geometry.camera)
-        } else {
-            PrimaryPass::timed(&rays, camera_bvh, &geometry.camera)
+        let primary_pass = |counted: bool| match wide_camera {
+            Some(t) => primary_pass(counted, &rays, t, &geometry.camera),
+            None => primary_pass(counted, &rays, &**camera_bvh, &geometry.camera),
         };
+        let primary = primary_pass(counted);
         let mut stats = Vec::new();
-        let mut primary_row = row("primary", "", camera_bvh);
+        let mut primary_row = row("primary", "", camera_bvh, wide_camera);
         primary_row.rays = primary.ray_count();
         primary_row.occluded_fraction = primary.surfaces.iter().filter(|s| s.is_some()).count()
             as f64
             / primary_row.rays.max(1) as f64;
         primary_row.set_work(&primary.totals);
         if counted && timed {
-            let t = PrimaryPass::timed(&rays, camera_bvh, &geometry.camera);
+            let t = primary_pass(false);
             debug_assert_eq!(t.surfaces, primary.surfaces);
             primary_row.set_timing(t.trace_ms, true);
         } else {
@@ -173,26 +197,55 @@ impl Renderer {
             }
             let sampler = LightSampler::new(light, &geometry.space);
             let spp = samples_for(&sampler, settings.spp);
-            let args = (index as u32, spp, settings.seed, settings.shadow_order);
-            let pass = if counted {
-                ShadowPass::counted(
-                    &primary, shadow_bvh, &sampler, args.0, args.1, args.2, args.3,
-                )
-            } else {
-                ShadowPass::timed(
-                    &primary, shadow_bvh, &sampler, args.0, args.1, args.2, args.3,
-                )
+            let args = (index as u32, spp, settings.seed);
+            let order = &settings.shadow_order;
+            let prepared = match (binary_order(settings.width, order), wide_shadow) {
+                (None, Some(tree)) => {
+                    let representative = match order {
+                        ShadowOrder::Sorted(s) => {
+                            let plan = SamplePlan {
+                                light_index: args.0,
+                                samples: spp,
+                                seed: settings.seed,
+                            };
+                            representative_rays(&primary, &sampler, plan, s.budget)
+                        }
+                        _ => Vec::new(),
+                    };
+                    let tables = wide.and_then(|w| w.sort_tables.as_ref());
+                    Some((tree, tree.prepare(order, tables, &representative)))
+                }
+                _ => None,
             };
-            let mut r = row("shadow", &light.name, shadow_bvh);
+            let tracer = match &prepared {
+                Some((tree, p)) => ShadowTracer::Wide {
+                    tree,
+                    order: p.view(),
+                },
+                None => ShadowTracer::Binary(BinaryOcclusion {
+                    bvh: shadow_bvh,
+                    order: binary_order(settings.width, order).expect("binary order"),
+                }),
+            };
+            let pass = if counted {
+                ShadowPass::counted(&primary, &tracer, &sampler, args.0, args.1, args.2)
+            } else {
+                ShadowPass::timed(&primary, &tracer, &sampler, args.0, args.1, args.2)
+            };
+            let mut r = row(
+                "shadow",
+                &light.name,
+                shadow_bvh,
+                prepared.as_ref().map(|(t, _)| *t),
+            );
+            r.sort_ms = prepared.as_ref().map_or(0.0, |(_, p)| p.sort_ms());
             r.rays = pass.outcome.rays;
             r.occluded_fraction = pass.outcome.occluded as f64 / r.rays.max(1) as f64;
             r.back_facing = pass.outcome.back_facing;
             r.unreached = pass.outcome.unreached;
             r.set_work(&pass.totals);
             if counted && timed {
-                let t = ShadowPass::timed(
-                    &primary, shadow_bvh, &sampler, args.0, args.1, args.2, args.3,
-                );
+                let t = ShadowPass::timed(&primary, &tracer, &sampler, args.0, args.1, args.2);
                 debug_assert_eq!(t.mask, pass.mask);
                 r.set_timing(t.trace_ms, true);
             } else {
@@ -281,8 +334,44 @@ impl Renderer {
             geometry: Arc::new(geometry),
             camera_bvh: Arc::new(camera_bvh),
             shadow_bvh,
+            wide: None,
         });
         Ok(Some(()))
+    }
+
+    /// Collapses the cached BVHs to the settings' width when a pass will read a wide tree, and
+    /// makes the sorting tables when the order sorts per light. Reuses what the cache holds.
+    fn prepare_wide(&mut self, settings: &RenderSettings) {
+        let Some(c) = self.cache.as_mut() else { return };
+        let needed = settings.width != BvhWidth::Two
+            || binary_order(settings.width, &settings.shadow_order).is_none();
+        if !needed {
+            return;
+        }
+        if let Some(w) = &mut c.wide {
+            w.collapse_ms = None;
+        }
+        if c.wide.as_ref().map(|w| w.width) != Some(settings.width) {
+            let camera = WideTree::collapse(&c.camera_bvh, settings.width);
+            let shadow = c
+                .shadow_bvh
+                .as_ref()
+                .map(|b| WideTree::collapse(b, settings.width));
+            let collapse_ms =
+                camera.collapse_ms() + shadow.as_ref().map_or(0.0, |s| s.collapse_ms());
+            c.wide = Some(WideTrees {
+                width: settings.width,
+                camera: Arc::new(camera),
+                shadow: shadow.map(Arc::new),
+                sort_tables: None,
+                collapse_ms: Some(collapse_ms),
+            });
+        }
+        let w = c.wide.as_mut().expect("collapsed above");
+        if matches!(settings.shadow_order, ShadowOrder::Sorted(_)) && w.sort_tables.is_none() {
+            let tree = w.shadow.as_ref().unwrap_or(&w.camera);
+            w.sort_tables = Some(tree.sort_tables());
+        }
     }
 
     /// The geometry and BVHs of the last frame (for tests and tools that trace their own rays).
@@ -291,5 +380,19 @@ impl Renderer {
             let shadow = c.shadow_bvh.as_deref().unwrap_or(&c.camera_bvh);
             (&*c.geometry, &*c.camera_bvh, shadow)
         })
+    }
+}
+
+/// The primary pass on any tree, with counters or timed.
+fn primary_pass(
+    counted: bool,
+    rays: &PrimaryRays,
+    tree: &impl ClosestHitQuery,
+    triangles: &crate::scene::TriangleSet,
+) -> PrimaryPass {
+    if counted {
+        PrimaryPass::counted(rays, tree, triangles)
+    } else {
+        PrimaryPass::timed(rays, tree, triangles)
     }
 }

@@ -1,7 +1,7 @@
 use serde::{Deserialize, Serialize};
 
-use crate::bvh::{BuildMethod, BuildSettings};
-use crate::trace::AnyHitOrder;
+use crate::bvh::{BuildMethod, BuildSettings, BvhWidth};
+use crate::trace::ShadowOrder;
 use crate::{Error, Result};
 
 /// What the passes measure.
@@ -26,8 +26,11 @@ pub struct RenderSettings {
     pub seed: u32,
     pub build: BuildMethod,
     pub build_settings: BuildSettings,
-    /// Child order of the occlusion traversal.
-    pub shadow_order: AnyHitOrder,
+    /// Child order of the occlusion traversal (per light for the sorted order).
+    pub shadow_order: ShadowOrder,
+    /// Children per BVH node: the binary tree (2) or its 4- or 8-wide collapse.
+    #[serde(default)]
+    pub width: BvhWidth,
     pub stats: StatsMode,
 }
 
@@ -38,7 +41,8 @@ impl Default for RenderSettings {
             seed: 0,
             build: BuildMethod::Sah,
             build_settings: BuildSettings::default(),
-            shadow_order: AnyHitOrder::NearFirst,
+            shadow_order: ShadowOrder::Fbto,
+            width: BvhWidth::Two,
             stats: StatsMode::Counts,
         }
     }
@@ -55,15 +59,18 @@ impl RenderSettings {
                 format!("must be in 1..={MAX_SPP}, got {}", self.spp),
             ));
         }
+        self.shadow_order.validate()?;
         self.build_settings.validate()
     }
 
-    /// The method's name as it appears in statistics: builder and traversal order.
+    /// The method's name as it appears in statistics: builder, BVH width and shadow-ray child
+    /// order, e.g. `sah/bin8/sorted:logging=sato:p=1:budget=0.05`.
     pub fn method_name(&self) -> String {
-        let order = match self.shadow_order {
-            AnyHitOrder::Stored => "stored",
-            AnyHitOrder::NearFirst => "near",
-        };
-        format!("{}/bin2/{}", self.build.name(), order)
+        format!(
+            "{}/bin{}/{}",
+            self.build.name(),
+            self.width,
+            self.shadow_order
+        )
     }
 }

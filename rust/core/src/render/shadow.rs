@@ -5,11 +5,11 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
-use crate::bvh::Bvh;
 use crate::geometry::{offset_ray_origin, Ray};
 use crate::output::ImagePlane;
+use crate::sampling::hash_u32;
 use crate::sampling::{hash_combine, stratified_2d};
-use crate::trace::{occluded, AnyHitOrder, Counters, NoStats, TraversalStats};
+use crate::trace::{Counters, NoStats, OcclusionQuery, TraversalStats};
 
 /// What happened to the shadow samples of one light, counted over a frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -54,14 +54,14 @@ pub fn samples_for(light: &LightSampler, spp: u32) -> u32 {
 }
 
 impl ShadowPass {
+    /// `tracer` is the tree with this light's child order.
     pub fn counted(
         primary: &PrimaryPass,
-        bvh: &Bvh,
+        tracer: &impl OcclusionQuery,
         light: &LightSampler,
         light_index: u32,
         spp: u32,
         seed: u32,
-        order: AnyHitOrder,
     ) -> Self {
         let start = Instant::now();
         let n = samples_for(light, spp);
@@ -75,12 +75,11 @@ impl ShadowPass {
                 let (v, o) = shade_pixel(
                     s,
                     pixel,
-                    bvh,
+                    tracer,
                     light,
                     light_index,
                     n,
                     seed,
-                    order,
                     scratch,
                     &mut stats,
                 );
@@ -107,14 +106,14 @@ impl ShadowPass {
         }
     }
 
+    /// `tracer` is the tree with this light's child order.
     pub fn timed(
         primary: &PrimaryPass,
-        bvh: &Bvh,
+        tracer: &impl OcclusionQuery,
         light: &LightSampler,
         light_index: u32,
         spp: u32,
         seed: u32,
-        order: AnyHitOrder,
     ) -> Self {
         let start = Instant::now();
         let n = samples_for(light, spp);
@@ -127,12 +126,11 @@ impl ShadowPass {
                 shade_pixel(
                     s,
                     pixel,
-                    bvh,
+                    tracer,
                     light,
                     light_index,
                     n,
                     seed,
-                    order,
                     scratch,
                     &mut NoStats,
                 )
@@ -227,17 +225,38 @@ pub fn shadow_rays(primary: &PrimaryPass, light: &LightSampler, plan: SamplePlan
     rays
 }
 
+/// The representative shadow rays of one light for per-light child sorting: the rays of a
+/// pseudo-random `budget` share of the pixels (a hash of the pixel index, so the choice has no
+/// image-space pattern and is the same in every run).
+pub fn representative_rays(
+    primary: &PrimaryPass,
+    light: &LightSampler,
+    plan: SamplePlan,
+    budget: f32,
+) -> Vec<Ray> {
+    let threshold = (budget.clamp(0.0, 1.0) as f64 * u32::MAX as f64) as u32;
+    let mut rays = Vec::new();
+    let mut scratch = Vec::new();
+    for (pixel, s) in primary.surfaces.iter().enumerate() {
+        if let Some(s) = s {
+            if budget >= 1.0 || hash_u32(pixel as u32 ^ 0x9e37_79b9) < threshold {
+                plan.for_each_ray(s, pixel, light, &mut scratch, |r| rays.extend(r));
+            }
+        }
+    }
+    rays
+}
+
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn shade_pixel<C: Counters>(
     surface: &Option<SurfacePoint>,
     pixel: usize,
-    bvh: &Bvh,
+    tracer: &impl OcclusionQuery,
     light: &LightSampler,
     light_index: u32,
     n: u32,
     seed: u32,
-    order: AnyHitOrder,
     scratch: &mut Vec<[f32; 2]>,
     stats: &mut C,
 ) -> (f32, ShadowRayOutcome) {
@@ -255,7 +274,7 @@ fn shade_pixel<C: Counters>(
         None => outcome.back_facing += 1,
         Some(ray) => {
             outcome.rays += 1;
-            if occluded(bvh, &ray, order, stats) {
+            if tracer.occluded(&ray, stats) {
                 outcome.occluded += 1;
             } else {
                 lit += 1;

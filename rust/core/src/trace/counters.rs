@@ -4,6 +4,8 @@ use std::ops::AddAssign;
 /// Traversal work counters. Implemented by [`TraversalStats`] (counts) and [`NoStats`] (nothing;
 /// every call compiles away).
 pub trait Counters {
+    /// False for [`NoStats`]: lets a traversal skip work that only feeds the counters.
+    const COUNTING: bool = true;
     /// Entering an interior node (N_B).
     fn inner(&mut self);
     /// Entering a leaf (N_L).
@@ -19,6 +21,7 @@ pub trait Counters {
 pub struct NoStats;
 
 impl Counters for NoStats {
+    const COUNTING: bool = false;
     #[inline(always)]
     fn inner(&mut self) {}
     #[inline(always)]

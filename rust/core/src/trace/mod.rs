@@ -6,11 +6,16 @@ mod any_hit;
 mod brute;
 mod closest;
 mod counters;
+mod query;
+mod shadow_order;
+pub mod wide;
 
 pub use any_hit::{occluded, AnyHitOrder};
 pub use brute::{brute_closest_hit, brute_occluded};
 pub use closest::closest_hit;
 pub use counters::{Counters, NoStats, TraversalStats};
+pub use query::{BinaryOcclusion, ClosestHitQuery, OcclusionQuery, WideOcclusion};
+pub use shadow_order::ShadowOrder;
 
 /// A closest hit: the ray parameter, the triangle id (in the `TriangleSet` the BVH was built
 /// from) and the barycentric weights of its vertices.

@@ -258,13 +258,14 @@ class _Session:
         spp: int = 4,
         seed: int = 0,
         build: str = "sah",
-        order: str = "near",
+        order: str = "fbto",
         leaf_size: int = 8,
         bins: int = 16,
         timing: bool | str = False,
         passes: Iterable[str] = DEFAULT_PASSES,
         progress: ProgressCallback | None = None,
         *,
+        width: int = 2,
         traversal_cost: float = 1.0,
         intersection_cost: float = 1.0,
         timeout: float | None = None,
@@ -275,7 +276,10 @@ class _Session:
             spp: shadow samples per pixel for soft lights (1 to 4096).
             seed: seed of the light-sample patterns.
             build: the BVH builder ('sah').
-            order: child order of shadow rays ('near' or 'stored').
+            order: child order of shadow rays, as ``antumbra render --order`` takes it:
+                'stored', 'fbto' (or 'near'), 'sato', 'rtsah', 'random[:seed=S]' or
+                'sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]' (per light).
+            width: children per BVH node (2, 4 or 8).
             leaf_size: most triangles per BVH leaf (1 to 64); bins: SAH bins (2 to 256).
             timing: False (exact work counters and heat maps), True (counters, then each pass
                 again without counters for Mrays/s) or 'only' (timings, no heat maps).
@@ -301,6 +305,7 @@ class _Session:
             passes,
             progress,
             timeout,
+            width,
         )
         return Result._from_native(dict(raw), passes)
 

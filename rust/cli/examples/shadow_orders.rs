@@ -1,0 +1,220 @@
+//! Traversal work of shadow rays per child order and BVH width, in the form of Table 5 of
+//! Ogaki & Derouet-Jourdan (N_B, N_L, N_T per shadow ray), and the representative-ray budget /
+//! depth-limit trade of per-light sorting (node visits against logging + sorting ms).
+//! The rays are exactly a frame's shadow rays (one per pixel and hard light, `spp` for soft).
+//!
+//! ```text
+//! cargo run --release -p antumbra-cli --example shadow_orders -- table SCENE [TRIS] [WxH] [SPP]
+//! cargo run --release -p antumbra-cli --example shadow_orders -- trade SCENE [TRIS] [WxH] [SPP]
+//! ```
+
+use antumbra_core::bvh::{build_binned_sah, BuildSettings, WideBvh};
+use antumbra_core::geometry::Ray;
+use antumbra_core::render::{
+    representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
+    SamplePlan,
+};
+use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::trace::wide::{BoxKernel, PreparedOrder, SortTables, WideQueries};
+use antumbra_core::trace::{ShadowOrder, TraversalStats};
+use rayon::prelude::*;
+
+/// One light's rays and its representative rays for each budget asked for.
+struct Light {
+    rays: Vec<Ray>,
+    /// (budget, representative rays)
+    representative: Vec<(f32, Vec<Ray>)>,
+}
+
+struct Measured {
+    stats: TraversalStats,
+    rays: u64,
+    sort_ms: f64,
+}
+
+fn measure<const N: usize>(
+    bvh: &WideBvh<N>,
+    tables: &SortTables,
+    lights: &[Light],
+    order: &ShadowOrder,
+) -> Measured
+where
+    WideBvh<N>: WideQueries,
+{
+    let mut m = Measured {
+        stats: TraversalStats::default(),
+        rays: 0,
+        sort_ms: 0.0,
+    };
+    for light in lights {
+        let budget = match order {
+            ShadowOrder::Sorted(s) => s.budget,
+            _ => 0.0,
+        };
+        let reps = light
+            .representative
+            .iter()
+            .find(|(b, _)| *b == budget)
+            .map_or(&[][..], |(_, r)| &r[..]);
+        // Sorting on one thread, as the per-light cost target is stated.
+        let prepared = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("pool")
+            .install(|| PreparedOrder::new(bvh, order, Some(tables), reps, BoxKernel::Auto));
+        m.sort_ms += prepared.sort_ms();
+        let view = prepared.view();
+        let stats = light
+            .rays
+            .par_iter()
+            .with_min_len(256)
+            .map(|r| {
+                let mut s = TraversalStats::default();
+                bvh.occluded(r, view, BoxKernel::Auto, &mut s);
+                s
+            })
+            .reduce(TraversalStats::default, |mut a, b| {
+                a += b;
+                a
+            });
+        m.stats += stats;
+        m.rays += light.rays.len() as u64;
+    }
+    m.sort_ms /= lights.len().max(1) as f64;
+    m
+}
+
+fn per_ray(v: u64, rays: u64) -> f64 {
+    v as f64 / rays.max(1) as f64
+}
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mode = args.first().map_or("table", |s| s.as_str()).to_string();
+    let name = args.get(1).cloned().unwrap_or_else(|| "bedroom".into());
+    let triangles = args.get(2).map_or(Ok(350_000), |s| s.parse())?;
+    let (w, h) = match args.get(3) {
+        Some(s) => {
+            let (a, b) = s.split_once('x').ok_or(anyhow::anyhow!("size WxH"))?;
+            (a.parse()?, b.parse()?)
+        }
+        None => (512, 512),
+    };
+    let spp: u32 = args.get(4).map_or(Ok(1), |s| s.parse())?;
+    let params = antumbra_scenes::SceneParams {
+        triangles,
+        frames: 1,
+        rotated: name.ends_with("-rot45"),
+    };
+    let anim = antumbra_scenes::builtin(name.trim_end_matches("-rot45"), &params)?;
+    let mut scene = anim.frame(*anim.frame_range().start());
+    scene.resolution = Resolution::new(w, h);
+    let g = FrameGeometry::from_scene(&scene)?;
+    let bvh = build_binned_sah(&g.camera.vertices, &BuildSettings::default());
+    let shadow_tris = g
+        .shadow
+        .as_ref()
+        .map_or(&g.camera.vertices, |s| &s.vertices);
+    let shadow_bvh = build_binned_sah(shadow_tris, &BuildSettings::default());
+    let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
+    let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+    let budgets = [0.001f32, 0.01, 0.05, 0.1, 1.0];
+    let lights: Vec<Light> = scene
+        .lights
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.casts_shadow)
+        .map(|(i, l)| {
+            let sampler = LightSampler::new(l, &g.space);
+            let plan = SamplePlan {
+                light_index: i as u32,
+                samples: samples_for(&sampler, spp),
+                seed: 0,
+            };
+            Light {
+                rays: shadow_rays(&pass, &sampler, plan),
+                representative: budgets
+                    .iter()
+                    .map(|&b| (b, representative_rays(&pass, &sampler, plan, b)))
+                    .collect(),
+            }
+        })
+        .collect();
+    let rays: usize = lights.iter().map(|l| l.rays.len()).sum();
+    println!(
+        "{name}: {} triangles ({} casting shadows), {w}x{h}, {} lights, {rays} shadow rays",
+        g.camera.vertices.len(),
+        shadow_tris.len(),
+        lights.len()
+    );
+    let w2 = WideBvh::<2>::collapse(&shadow_bvh);
+    let w4 = WideBvh::<4>::collapse(&shadow_bvh);
+    let w8 = WideBvh::<8>::collapse(&shadow_bvh);
+    let (t2, t4, t8) = (
+        SortTables::new(&w2),
+        SortTables::new(&w4),
+        SortTables::new(&w8),
+    );
+    let run = |width: u32, order: &ShadowOrder| match width {
+        2 => measure(&w2, &t2, &lights, order),
+        4 => measure(&w4, &t4, &lights, order),
+        _ => measure(&w8, &t8, &lights, order),
+    };
+    let parse = |s: &str| s.parse::<ShadowOrder>().expect("order");
+    if mode == "table" {
+        let columns = [
+            "fbto",
+            "sorted:logging=fbto",
+            "sato",
+            "sorted:logging=sato",
+            "stored",
+            "rtsah",
+            "random:seed=1",
+        ];
+        println!("\n| N | order | N_B/ray | N_L/ray | N_T/ray | sort ms/light |");
+        println!("|---|---|---:|---:|---:|---:|");
+        for width in [2u32, 4, 8] {
+            for c in columns {
+                let m = run(width, &parse(c));
+                println!(
+                    "| {width} | {c} | {:.2} | {:.2} | {:.2} | {:.2} |",
+                    per_ray(m.stats.inner, m.rays),
+                    per_ray(m.stats.leaves, m.rays),
+                    per_ray(m.stats.triangles, m.rays),
+                    m.sort_ms
+                );
+            }
+        }
+    } else {
+        println!("\n8-wide, sorted (logging SATO, P_i = 1): N_B per shadow ray / logging+sorting ms per light");
+        print!("| depth \\ budget |");
+        for b in budgets {
+            print!(" {}% |", b * 100.0);
+        }
+        println!();
+        println!("|---|{}", "---:|".repeat(budgets.len()));
+        let sato = run(8, &parse("sato"));
+        for depth in ["1", "2", "3", "4", "6", "all"] {
+            print!("| {depth} |");
+            for b in budgets {
+                let depth_opt = if depth == "all" {
+                    String::new()
+                } else {
+                    format!(":depth={depth}")
+                };
+                let m = run(8, &parse(&format!("sorted:budget={b}{depth_opt}")));
+                print!(
+                    " {:.2} / {:.1} |",
+                    per_ray(m.stats.inner, m.rays),
+                    m.sort_ms
+                );
+            }
+            println!();
+        }
+        println!(
+            "\nSATO (no sorting): N_B {:.2} per shadow ray",
+            per_ray(sato.stats.inner, sato.rays)
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,219 @@
+//! The child order of shadow (occlusion) rays as a run setting, with the command-line syntax
+//! `stored | fbto | sato | rtsah | random[:seed=S] | sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]`
+//! (`near` is accepted for `fbto`, its older name).
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+
+use super::wide::{ChildHitModel, LoggingOrder, SortSettings};
+use super::AnyHitOrder;
+use crate::{Error, Result};
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum ShadowOrder {
+    /// Children in the order the builder (and the collapse) stored them.
+    Stored,
+    /// Front to back by box entry distance (`NearFirst` in older settings).
+    #[default]
+    #[serde(alias = "NearFirst")]
+    Fbto,
+    /// Largest child box first.
+    Sato,
+    /// By estimated termination probability over cost, from geometry alone.
+    Rtsah,
+    /// A seeded random order per node.
+    Random { seed: u32 },
+    /// Per light, sorted from representative shadow rays.
+    Sorted(SortSettings),
+}
+
+impl ShadowOrder {
+    /// The binary traversal's order when this order is one it has (stored or front to back).
+    pub fn binary(&self) -> Option<AnyHitOrder> {
+        match self {
+            ShadowOrder::Stored => Some(AnyHitOrder::Stored),
+            ShadowOrder::Fbto => Some(AnyHitOrder::NearFirst),
+            _ => None,
+        }
+    }
+}
+
+impl From<AnyHitOrder> for ShadowOrder {
+    fn from(o: AnyHitOrder) -> Self {
+        match o {
+            AnyHitOrder::Stored => ShadowOrder::Stored,
+            AnyHitOrder::NearFirst => ShadowOrder::Fbto,
+        }
+    }
+}
+
+fn invalid(msg: String) -> Error {
+    Error::invalid("order", msg)
+}
+
+const KNOWN: &str = "stored, fbto, sato, rtsah, random[:seed=S], \
+                     sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]";
+
+impl FromStr for ShadowOrder {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        let mut parts = s.trim().split(':');
+        let name = parts.next().unwrap_or_default();
+        let options: Vec<(&str, &str)> = parts
+            .map(|p| {
+                p.split_once('=')
+                    .ok_or_else(|| invalid(format!("'{p}' in '{s}' is not key=value")))
+            })
+            .collect::<Result<_>>()?;
+        let no_options = |order: ShadowOrder| match options.first() {
+            None => Ok(order),
+            Some((k, _)) => Err(invalid(format!("'{name}' takes no option '{k}'"))),
+        };
+        match name {
+            "stored" => no_options(ShadowOrder::Stored),
+            "fbto" | "near" => no_options(ShadowOrder::Fbto),
+            "sato" => no_options(ShadowOrder::Sato),
+            "rtsah" => no_options(ShadowOrder::Rtsah),
+            "random" => {
+                let mut seed = 0;
+                for (k, v) in options {
+                    match k {
+                        "seed" => {
+                            seed = v
+                                .parse()
+                                .map_err(|_| invalid(format!("random: bad seed '{v}'")))?
+                        }
+                        _ => return Err(invalid(format!("random: unknown option '{k}'"))),
+                    }
+                }
+                Ok(ShadowOrder::Random { seed })
+            }
+            "sorted" => {
+                let mut st = SortSettings::default();
+                for (k, v) in options {
+                    match (k, v) {
+                        ("logging", "sato") => st.logging = LoggingOrder::Sato,
+                        ("logging", "fbto") => st.logging = LoggingOrder::Fbto,
+                        ("p", "1") => st.p = ChildHitModel::One,
+                        ("p", "area") => st.p = ChildHitModel::Area,
+                        ("depth", d) => {
+                            st.depth = Some(d.parse().map_err(|_| {
+                                invalid(format!("sorted: depth must be an integer, got '{d}'"))
+                            })?)
+                        }
+                        ("budget", f) => st.budget = parse_budget(f)?,
+                        _ => {
+                            return Err(invalid(format!(
+                                "sorted: unknown option '{k}={v}' (known: logging=sato|fbto, p=1|area, depth=K, budget=F)"
+                            )))
+                        }
+                    }
+                }
+                Ok(ShadowOrder::Sorted(st))
+            }
+            other => Err(invalid(format!("unknown order '{other}' (known: {KNOWN})"))),
+        }
+    }
+}
+
+/// A share of the rays: "0.05" or "5%", in (0, 1].
+fn parse_budget(f: &str) -> Result<f32> {
+    let v = match f.strip_suffix('%') {
+        Some(p) => p.parse::<f32>().map(|p| p / 100.0),
+        None => f.parse::<f32>(),
+    }
+    .map_err(|_| invalid(format!("sorted: budget must be a number, got '{f}'")))?;
+    if !(v > 0.0 && v <= 1.0) {
+        return Err(invalid(format!(
+            "sorted: budget must be in (0, 1], got {f}"
+        )));
+    }
+    Ok(v)
+}
+
+impl fmt::Display for ShadowOrder {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ShadowOrder::Stored => write!(f, "stored"),
+            ShadowOrder::Fbto => write!(f, "fbto"),
+            ShadowOrder::Sato => write!(f, "sato"),
+            ShadowOrder::Rtsah => write!(f, "rtsah"),
+            ShadowOrder::Random { seed } => write!(f, "random:seed={seed}"),
+            ShadowOrder::Sorted(s) => {
+                let logging = match s.logging {
+                    LoggingOrder::Sato => "sato",
+                    LoggingOrder::Fbto => "fbto",
+                };
+                let p = match s.p {
+                    ChildHitModel::One => "1",
+                    ChildHitModel::Area => "area",
+                };
+                write!(f, "sorted:logging={logging}:p={p}")?;
+                if let Some(d) = s.depth {
+                    write!(f, ":depth={d}")?;
+                }
+                write!(f, ":budget={}", s.budget)
+            }
+        }
+    }
+}
+
+impl ShadowOrder {
+    /// Checks the values a parsed order cannot have wrong but a deserialised one can.
+    pub fn validate(&self) -> Result<()> {
+        if let ShadowOrder::Sorted(s) = self {
+            if !(s.budget > 0.0 && s.budget <= 1.0) {
+                return Err(invalid(format!(
+                    "sorted: budget must be in (0, 1], got {}",
+                    s.budget
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_order_round_trips_through_its_text() {
+        for text in [
+            "stored",
+            "fbto",
+            "sato",
+            "rtsah",
+            "random:seed=7",
+            "sorted:logging=fbto:p=area:depth=4:budget=0.01",
+            "sorted:logging=sato:p=1:budget=0.05",
+        ] {
+            let o: ShadowOrder = text.parse().unwrap();
+            assert_eq!(o.to_string(), text);
+            assert_eq!(o.to_string().parse::<ShadowOrder>().unwrap(), o);
+        }
+    }
+
+    #[test]
+    fn options_and_aliases() {
+        assert_eq!("near".parse::<ShadowOrder>().unwrap(), ShadowOrder::Fbto);
+        let ShadowOrder::Sorted(s) = "sorted:budget=10%:depth=3".parse().unwrap() else {
+            panic!("not sorted")
+        };
+        assert_eq!((s.budget, s.depth), (0.1, Some(3)));
+        assert_eq!(s.logging, LoggingOrder::Sato);
+        for bad in [
+            "sorted:budget=0",
+            "sorted:budget=2",
+            "sorted:p=2",
+            "sorted:depth=x",
+            "sato:depth=3",
+            "sorted:logging",
+            "front",
+        ] {
+            assert!(bad.parse::<ShadowOrder>().is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,138 @@
+//! Occlusion (any hit) on a wide BVH with a chosen child order.
+
+use super::boxes::{ChildBoxTest, WideRay};
+use super::order::OrderView;
+use super::stack::Stack;
+use crate::bvh::WideBvh;
+use crate::geometry::{intersect_triangle, Ray, WatertightRay};
+use crate::trace::Counters;
+
+/// A child reference on the stack: interior node index or first triangle, and the triangle
+/// count (0 for interior nodes).
+#[derive(Clone, Copy, Default)]
+struct ChildRef {
+    child: u32,
+    count: u32,
+}
+
+/// Traces an occlusion ray. Returns the first triangle slot of the leaf that occluded the ray
+/// (the logging pass of per-light sorting attributes the ray to that leaf), or `None`.
+#[inline(always)]
+pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
+    bvh: &WideBvh<N>,
+    ray: &Ray,
+    order: OrderView,
+    stats: &mut C,
+) -> Option<u32> {
+    if bvh.nodes.is_empty() {
+        return None;
+    }
+    let wray = WideRay::new(ray);
+    let wt = WatertightRay::new(ray);
+    let t_min = ray.t_min;
+    // Box tests reach a margin past the segment's end; triangle tests do not (see t_margin).
+    let t_max = ray.t_max + wray.pre.t_margin;
+    stats.boxes(1);
+    let r = &bvh.root_bounds;
+    wray.pre.hit(r.min, r.max, t_min, t_max)?;
+    let mut stack = Stack::<ChildRef>::new();
+    let mut current = ChildRef { child: 0, count: 0 };
+    let mut t_near = [0f32; N];
+    loop {
+        if current.count > 0 {
+            stats.leaf();
+            let first = current.child as usize;
+            for slot in first..first + current.count as usize {
+                stats.triangles(1);
+                if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
+                    return Some(current.child);
+                }
+            }
+        } else {
+            stats.inner();
+            let index = current.child as usize;
+            let node = &bvh.nodes[index];
+            if C::COUNTING {
+                stats.boxes(node.arity() as u32);
+            }
+            let mask = K::test(&wray, node, t_min, t_max, &mut t_near);
+            if mask != 0 {
+                let mut visit = [0u8; N];
+                let hits = ordered_hits(index, mask, &t_near, order, &mut visit);
+                let r = |s: u8| ChildRef {
+                    child: node.child[s as usize],
+                    count: node.count[s as usize] as u32,
+                };
+                for &s in visit[1..hits].iter().rev() {
+                    stack.push(r(s));
+                }
+                current = r(visit[0]);
+                continue;
+            }
+        }
+        match stack.pop() {
+            Some(next) => current = next,
+            None => return None,
+        }
+    }
+}
+
+/// Writes the slots of `mask` in visiting order to `out`; returns how many.
+#[inline(always)]
+fn ordered_hits<const N: usize>(
+    node: usize,
+    mask: u32,
+    t_near: &[f32; N],
+    order: OrderView,
+    out: &mut [u8; N],
+) -> usize {
+    let fbto = match order {
+        OrderView::Stored => false,
+        OrderView::FrontToBack => true,
+        OrderView::Permuted {
+            perms,
+            fallback_fbto,
+        } => {
+            let p = perms[node];
+            if p.is_present() {
+                let mut n = 0;
+                for k in 0..N {
+                    let s = p.slot(k);
+                    if mask & (1 << s) != 0 {
+                        out[n] = s as u8;
+                        n += 1;
+                    }
+                }
+                return n;
+            }
+            fallback_fbto
+        }
+    };
+    let mut n = 0;
+    let mut m = mask;
+    while m != 0 {
+        let s = m.trailing_zeros() as usize;
+        m &= m - 1;
+        // Insertion by entry distance; equal distances keep slot order.
+        let mut k = n;
+        if fbto {
+            while k > 0 && t_near[out[k - 1] as usize] > t_near[s] {
+                out[k] = out[k - 1];
+                k -= 1;
+            }
+        }
+        out[k] = s as u8;
+        n += 1;
+    }
+    n
+}
+
+/// Slots of `mask` ordered near to far (ties by slot), for the closest-hit traversal.
+#[inline(always)]
+pub(crate) fn near_to_far<const N: usize>(
+    mask: u32,
+    t_near: &[f32; N],
+    out: &mut [u8; N],
+) -> usize {
+    ordered_hits(0, mask, t_near, OrderView::FrontToBack, out)
+}

@@ -1,0 +1,94 @@
+//! Closest hit on a wide BVH: the children a ray hits are visited near to far, the farther
+//! ones stacked with their entry distance and culled when a closer hit is known by the time they
+//! come off the stack. Same tie rule and `t_margin` reach as the binary traversal.
+
+use super::any_hit::near_to_far;
+use super::boxes::{ChildBoxTest, WideRay};
+use super::stack::Stack;
+use crate::bvh::WideBvh;
+use crate::geometry::{intersect_triangle, Ray, WatertightRay};
+use crate::trace::{Counters, Hit};
+
+#[derive(Clone, Copy, Default)]
+struct Entry {
+    child: u32,
+    count: u32,
+    t_entry: f32,
+}
+
+#[inline(always)]
+pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
+    bvh: &WideBvh<N>,
+    ray: &Ray,
+    stats: &mut C,
+) -> Option<Hit> {
+    if bvh.nodes.is_empty() {
+        return None;
+    }
+    let wray = WideRay::new(ray);
+    let wt = WatertightRay::new(ray);
+    let margin = wray.pre.t_margin;
+    let t_min = ray.t_min;
+    let mut t_max = ray.t_max;
+    let mut best: Option<Hit> = None;
+    stats.boxes(1);
+    let r = &bvh.root_bounds;
+    wray.pre.hit(r.min, r.max, t_min, t_max + margin)?;
+    let mut stack = Stack::<Entry>::new();
+    let mut current = Entry::default();
+    let mut t_near = [0f32; N];
+    loop {
+        if current.count > 0 {
+            stats.leaf();
+            stats.triangles(current.count);
+            let first = current.child as usize;
+            for slot in first..first + current.count as usize {
+                if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
+                    let id = bvh.triangle_ids[slot];
+                    if Hit::closer_than(h.t, id, &best) {
+                        t_max = h.t;
+                        best = Some(Hit {
+                            t: h.t,
+                            triangle: id,
+                            b0: h.b0,
+                            b1: h.b1,
+                            b2: h.b2,
+                        });
+                    }
+                }
+            }
+        } else {
+            stats.inner();
+            let node = &bvh.nodes[current.child as usize];
+            if C::COUNTING {
+                stats.boxes(node.arity() as u32);
+            }
+            let mask = K::test(&wray, node, t_min, t_max + margin, &mut t_near);
+            if mask != 0 {
+                let mut visit = [0u8; N];
+                let hits = near_to_far(mask, &t_near, &mut visit);
+                let e = |s: u8| Entry {
+                    child: node.child[s as usize],
+                    count: node.count[s as usize] as u32,
+                    t_entry: t_near[s as usize],
+                };
+                for &s in visit[1..hits].iter().rev() {
+                    stack.push(e(s));
+                }
+                current = e(visit[0]);
+                continue;
+            }
+        }
+        // The next stacked child that can still hold a closer (or equally close) triangle.
+        loop {
+            match stack.pop() {
+                None => return best,
+                Some(e) if e.t_entry <= t_max + margin => {
+                    current = e;
+                    break;
+                }
+                Some(_) => {}
+            }
+        }
+    }
+}

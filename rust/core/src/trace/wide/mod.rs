@@ -1,0 +1,196 @@
+//! Traversal of the N-wide BVH: SIMD child-box tests, closest hit near to far, and occlusion
+//! with a chosen child order (front to back, or a per-node permutation such as the per-light
+//! sorted order). The box kernel is picked at run time (AVX2 where the CPU has it, SSE otherwise,
+//! scalar for 2-wide); every kernel gives the same answers and the same counts.
+
+mod any_hit;
+mod boxes;
+mod child_sort;
+mod closest;
+pub mod cost;
+mod order;
+mod prepared;
+mod stack;
+pub mod static_orders;
+
+pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay};
+pub use child_sort::{
+    sort_for_light, ChildHitModel, LightOrder, LoggingOrder, SortSettings, SortTables,
+};
+pub use order::{OrderView, Permutation};
+pub use prepared::PreparedOrder;
+
+use super::{Counters, Hit};
+use crate::bvh::WideBvh;
+use crate::geometry::Ray;
+
+/// The queries of a wide BVH of one width, dispatched to a box kernel.
+pub trait WideQueries {
+    /// True if any triangle intersects the ray in (t_min, t_max].
+    fn occluded<C: Counters>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        kernel: BoxKernel,
+        stats: &mut C,
+    ) -> bool {
+        self.occluder_leaf(ray, order, kernel, stats).is_some()
+    }
+    /// The first triangle slot of the leaf that occluded the ray, if any.
+    fn occluder_leaf<C: Counters>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        kernel: BoxKernel,
+        stats: &mut C,
+    ) -> Option<u32>;
+    /// The closest hit, ties broken by the smaller triangle id.
+    fn closest_hit<C: Counters>(&self, ray: &Ray, kernel: BoxKernel, stats: &mut C) -> Option<Hit>;
+}
+
+impl WideQueries for WideBvh<2> {
+    #[inline]
+    fn occluder_leaf<C: Counters>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        _: BoxKernel,
+        stats: &mut C,
+    ) -> Option<u32> {
+        any_hit::any_hit::<2, Scalar, C>(self, ray, order, stats)
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, _: BoxKernel, stats: &mut C) -> Option<Hit> {
+        closest::closest::<2, Scalar, C>(self, ray, stats)
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+impl WideQueries for WideBvh<4> {
+    #[inline]
+    fn occluder_leaf<C: Counters>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        _: BoxKernel,
+        stats: &mut C,
+    ) -> Option<u32> {
+        any_hit::any_hit::<4, Scalar, C>(self, ray, order, stats)
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, _: BoxKernel, stats: &mut C) -> Option<Hit> {
+        closest::closest::<4, Scalar, C>(self, ray, stats)
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+impl WideQueries for WideBvh<8> {
+    #[inline]
+    fn occluder_leaf<C: Counters>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        _: BoxKernel,
+        stats: &mut C,
+    ) -> Option<u32> {
+        any_hit::any_hit::<8, Scalar, C>(self, ray, order, stats)
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, _: BoxKernel, stats: &mut C) -> Option<Hit> {
+        closest::closest::<8, Scalar, C>(self, ray, stats)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86_dispatch {
+    use super::boxes::{Avx2, Scalar, Sse};
+    use super::*;
+
+    /// True when the AVX2 kernel may run (checked once per call; std caches the CPUID result).
+    #[inline(always)]
+    fn avx2() -> bool {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+
+    impl WideQueries for WideBvh<4> {
+        #[inline]
+        fn occluder_leaf<C: Counters>(
+            &self,
+            ray: &Ray,
+            order: OrderView,
+            kernel: BoxKernel,
+            stats: &mut C,
+        ) -> Option<u32> {
+            match kernel {
+                BoxKernel::Scalar => any_hit::any_hit::<4, Scalar, C>(self, ray, order, stats),
+                BoxKernel::Auto | BoxKernel::Sse => {
+                    any_hit::any_hit::<4, Sse, C>(self, ray, order, stats)
+                }
+            }
+        }
+        #[inline]
+        fn closest_hit<C: Counters>(
+            &self,
+            ray: &Ray,
+            kernel: BoxKernel,
+            stats: &mut C,
+        ) -> Option<Hit> {
+            match kernel {
+                BoxKernel::Scalar => closest::closest::<4, Scalar, C>(self, ray, stats),
+                BoxKernel::Auto | BoxKernel::Sse => closest::closest::<4, Sse, C>(self, ray, stats),
+            }
+        }
+    }
+
+    impl WideQueries for WideBvh<8> {
+        #[inline]
+        fn occluder_leaf<C: Counters>(
+            &self,
+            ray: &Ray,
+            order: OrderView,
+            kernel: BoxKernel,
+            stats: &mut C,
+        ) -> Option<u32> {
+            match kernel {
+                BoxKernel::Scalar => any_hit::any_hit::<8, Scalar, C>(self, ray, order, stats),
+                BoxKernel::Auto if avx2() => {
+                    // SAFETY: AVX2 was detected on this CPU just above.
+                    unsafe { any_hit_avx2(self, ray, order, stats) }
+                }
+                _ => any_hit::any_hit::<8, Sse, C>(self, ray, order, stats),
+            }
+        }
+        #[inline]
+        fn closest_hit<C: Counters>(
+            &self,
+            ray: &Ray,
+            kernel: BoxKernel,
+            stats: &mut C,
+        ) -> Option<Hit> {
+            match kernel {
+                BoxKernel::Scalar => closest::closest::<8, Scalar, C>(self, ray, stats),
+                BoxKernel::Auto if avx2() => {
+                    // SAFETY: AVX2 was detected on this CPU just above.
+                    unsafe { closest_avx2(self, ray, stats) }
+                }
+                _ => closest::closest::<8, Sse, C>(self, ray, stats),
+            }
+        }
+    }
+
+    /// The whole traversal compiled with AVX2, so the kernel's intrinsics inline into it.
+    #[target_feature(enable = "avx2")]
+    unsafe fn any_hit_avx2<C: Counters>(
+        bvh: &WideBvh<8>,
+        ray: &Ray,
+        order: OrderView,
+        stats: &mut C,
+    ) -> Option<u32> {
+        any_hit::any_hit::<8, Avx2, C>(bvh, ray, order, stats)
+    }
+
+    #[target_feature(enable = "avx2")]
+    unsafe fn closest_avx2<C: Counters>(bvh: &WideBvh<8>, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        closest::closest::<8, Avx2, C>(bvh, ray, stats)
+    }
+}
