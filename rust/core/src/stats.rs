@@ -22,6 +22,12 @@
 //! | nbox_per_ray | N_box: ray/box tests per ray |
 //! | back_facing | shadow samples behind the surface's own plane (shadowed, no ray) |
 //! | unreached | shadow samples of points outside a spot cone or behind an area light |
+//! | references | triangle references in the structure's leaves (> triangles with spatial splits) |
+//! | visible_input | triangles of the structure's set the build was told are visible (ABVH/OSAH/VSAH) |
+//! | visibility_ms | time to get that set this frame (exact mode or first-frame prepass; else 0) |
+//! | nts_per_ray | N_TS, the OSAH paper's traversal steps: nodes entered, N_B + N_L |
+//!
+//! The paper's N_IT (ray/triangle intersection tests) is `nt_per_ray`.
 
 use std::path::Path;
 
@@ -54,6 +60,14 @@ pub struct StatsRow {
     pub nbox_per_ray: f64,
     pub back_facing: u64,
     pub unreached: u64,
+    #[serde(default)]
+    pub references: u64,
+    #[serde(default)]
+    pub visible_input: u64,
+    #[serde(default)]
+    pub visibility_ms: f64,
+    #[serde(default)]
+    pub nts_per_ray: f64,
 }
 
 impl StatsRow {
@@ -64,6 +78,7 @@ impl StatsRow {
         self.nl_per_ray = totals.leaves as f64 / r;
         self.nt_per_ray = totals.triangles as f64 / r;
         self.nbox_per_ray = totals.boxes as f64 / r;
+        self.nts_per_ray = (totals.inner + totals.leaves) as f64 / r;
     }
 
     pub fn set_timing(&mut self, trace_ms: f64, without_counters: bool) {
@@ -99,6 +114,10 @@ pub const CSV_COLUMNS: &[&str] = &[
     "nbox_per_ray",
     "back_facing",
     "unreached",
+    "references",
+    "visible_input",
+    "visibility_ms",
+    "nts_per_ray",
 ];
 
 fn csv_field(s: &str) -> String {
@@ -136,6 +155,10 @@ pub fn to_csv(rows: &[StatsRow]) -> String {
             format!("{:.6}", r.nbox_per_ray),
             r.back_facing.to_string(),
             r.unreached.to_string(),
+            r.references.to_string(),
+            r.visible_input.to_string(),
+            format!("{:.4}", r.visibility_ms),
+            format!("{:.6}", r.nts_per_ray),
         ];
         out.push_str(&fields.join(","));
         out.push('\n');

@@ -10,8 +10,7 @@ use antumbra_core::bvh::{
 use antumbra_core::geometry::Ray;
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::{
-    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats,
-    TraversalStats,
+    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats, TraversalStats,
 };
 use glam::Vec3;
 
@@ -28,7 +27,11 @@ fn soup(n: u32, seed: u32) -> Vec<[Vec3; 3]> {
     (0..n)
         .map(|i| {
             let c = rand3(seed + 3 * i) * 10.0 - 5.0;
-            let s = if i % 10 == 0 { 8.0 } else { 0.1 + r(seed + 3 * i + 1) };
+            let s = if i % 10 == 0 {
+                8.0
+            } else {
+                0.1 + r(seed + 3 * i + 1)
+            };
             [
                 c + (rand3(seed + 7 * i + 11) - 0.5) * s,
                 c + (rand3(seed + 7 * i + 12) - 0.5) * s,
@@ -81,7 +84,11 @@ fn assert_same_answers(tris: &[[Vec3; 3]], bvh: &Bvh, rays: &[Ray], what: &str) 
         hits += h.is_some() as usize;
         let occ = brute_occluded(tris, ray);
         for order in [AnyHitOrder::Stored, AnyHitOrder::NearFirst] {
-            assert_eq!(occluded(bvh, ray, order, &mut NoStats), occ, "{what} ray {i}");
+            assert_eq!(
+                occluded(bvh, ray, order, &mut NoStats),
+                occ,
+                "{what} ray {i}"
+            );
         }
     }
     assert!(hits > rays.len() / 20, "{what}: too few hits ({hits})");
@@ -105,7 +112,10 @@ fn spatial_splits_duplicate_references_but_lose_no_triangle() {
                 bvh.triangles.len()
             );
             let bound = tris.len() as f32 * (1.0 + settings.spatial.max_growth);
-            assert!(bvh.triangles.len() as f32 <= bound, "{method:?} grew past the bound");
+            assert!(
+                bvh.triangles.len() as f32 <= bound,
+                "{method:?} grew past the bound"
+            );
         }
     }
 }
@@ -142,7 +152,10 @@ fn vsah_answers_rays_whose_closest_hit_is_visible() {
     assert_eq!(bvh.triangles.len(), vis.iter().filter(|v| **v).count());
     for ray in &rays {
         let b = brute_closest_hit(&tris, ray).map(|h| (h.triangle, h.t));
-        assert_eq!(closest_hit(&bvh, ray, &mut NoStats).map(|h| (h.triangle, h.t)), b);
+        assert_eq!(
+            closest_hit(&bvh, ray, &mut NoStats).map(|h| (h.triangle, h.t)),
+            b
+        );
     }
 }
 
@@ -161,11 +174,22 @@ fn visibility_builds_fall_back_to_sah_and_sbvh() {
     assert!(!same_tree(&sah, &sbvh), "SBVH should differ from SAH here");
     for method in [BuildMethod::Osah, BuildMethod::Abvh] {
         let empty = build_with_visibility(method, &tris, Some(&none), &settings);
-        assert!(same_tree(&empty, &sah), "{method:?} with no visible triangle");
+        assert!(
+            same_tree(&empty, &sah),
+            "{method:?} with no visible triangle"
+        );
         let full = build_with_visibility(method, &tris, Some(&all), &settings);
-        assert!(same_tree(&full, &sbvh), "{method:?} with every triangle visible");
+        assert!(
+            same_tree(&full, &sbvh),
+            "{method:?} with every triangle visible"
+        );
     }
-    let osah = build_with_visibility(BuildMethod::Osah, &tris, Some(&every_third(tris.len())), &settings);
+    let osah = build_with_visibility(
+        BuildMethod::Osah,
+        &tris,
+        Some(&every_third(tris.len())),
+        &settings,
+    );
     assert!(!same_tree(&osah, &sah) && !same_tree(&osah, &sbvh));
 }
 
@@ -221,7 +245,9 @@ fn osah_saves_work_for_rays_that_hit_visible_triangles() {
     let (tris, rays) = walled_clutter();
     let mut vis = vec![false; tris.len()];
     for ray in &rays {
-        vis[brute_closest_hit(&tris, ray).expect("walls are hit").triangle as usize] = true;
+        vis[brute_closest_hit(&tris, ray)
+            .expect("walls are hit")
+            .triangle as usize] = true;
     }
     assert!(vis[12..].iter().all(|v| !v), "the clutter is hidden");
     let settings = BuildSettings::default();

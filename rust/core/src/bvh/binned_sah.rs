@@ -208,7 +208,11 @@ fn build_from_refs(refs: &mut [PrimRef], settings: &BuildSettings) -> Bvh {
 /// Binned SAH nodes over `refs` (reordered into leaf order), for a subtree whose root sits at
 /// `depth` in a larger tree: the other builders hand subtrees that need no spatial or visibility
 /// splits to this one. Leaf ranges index `refs`; triangles and ids are left to the caller.
-pub(super) fn build_sah_subtree(refs: &mut [PrimRef], settings: &BuildSettings, depth: usize) -> Bvh {
+pub(super) fn build_sah_subtree(
+    refs: &mut [PrimRef],
+    settings: &BuildSettings,
+    depth: usize,
+) -> Bvh {
     let n = refs.len();
     if n == 0 {
         return Bvh::default();

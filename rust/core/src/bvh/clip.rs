@@ -75,7 +75,11 @@ mod tests {
     fn clipped_box_is_tighter_than_the_cut_box() {
         // A diagonal triangle: cutting its box at x = 0.5 would keep y up to 1 on the right,
         // but the triangle's right part only reaches y = 0.5.
-        let t = [Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+        let t = [
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
         let right = clipped_box(&t, 0, 0.5, 1.0, &whole(&t));
         assert_eq!(right.lo.truncate(), Vec3::new(0.5, 0.0, 0.0));
         assert!((right.hi.y - 0.5).abs() < 1e-6, "{right:?}");
@@ -93,7 +97,11 @@ mod tests {
 
     #[test]
     fn result_stays_inside_the_reference_box() {
-        let t = [Vec3::ZERO, Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 4.0, 1.0)];
+        let t = [
+            Vec3::ZERO,
+            Vec3::new(4.0, 0.0, 0.0),
+            Vec3::new(0.0, 4.0, 1.0),
+        ];
         let within = Box4 {
             lo: Vec4::new(0.0, 0.0, 0.0, 0.0),
             hi: Vec4::new(2.0, 1.0, 1.0, 0.0),

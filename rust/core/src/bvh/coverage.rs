@@ -63,7 +63,9 @@ pub fn check_references(
                     (p - *lo).min_element() >= -tolerance && (*hi - p).min_element() >= -tolerance
                 });
                 if !inside {
-                    return Err(format!("point {p} of triangle {id} in no leaf that holds it"));
+                    return Err(format!(
+                        "point {p} of triangle {id} in no leaf that holds it"
+                    ));
                 }
             }
         }

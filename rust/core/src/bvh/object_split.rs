@@ -131,7 +131,10 @@ pub(super) fn partition_object(
 
 /// Splits at the middle reference along the widest centroid axis: the fallback when no binned
 /// split separates anything (coincident centroids).
-pub(super) fn median_split(mut refs: Vec<PrimRef>, centroids: &Box4) -> (Vec<PrimRef>, Vec<PrimRef>) {
+pub(super) fn median_split(
+    mut refs: Vec<PrimRef>,
+    centroids: &Box4,
+) -> (Vec<PrimRef>, Vec<PrimRef>) {
     let axis = (centroids.hi - centroids.lo).truncate().max_position();
     let mid = refs.len() / 2;
     refs.select_nth_unstable_by(mid, |a, b| {

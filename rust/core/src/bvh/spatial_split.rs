@@ -111,11 +111,20 @@ pub(super) fn best_spatial_splits(
         }
         let lo = bounds.lo[axis];
         let step = extent[axis] / nb as f32;
-        let plane = |i: usize| if i == nb { bounds.hi[axis] } else { lo + step * i as f32 };
+        let plane = |i: usize| {
+            if i == nb {
+                bounds.hi[axis]
+            } else {
+                lo + step * i as f32
+            }
+        };
         let bin_of = |x: f32| (((x - lo) / step).max(0.0) as usize).min(nb - 1);
         bins.fill(EMPTY_BIN);
         for r in refs {
-            let (b0, b1) = (bin_of(r.lo[axis]), bin_of(r.hi[axis]).max(bin_of(r.lo[axis])));
+            let (b0, b1) = (
+                bin_of(r.lo[axis]),
+                bin_of(r.hi[axis]).max(bin_of(r.lo[axis])),
+            );
             let visible = vis.of(r) as u32;
             if b0 == b1 {
                 bins[b0].bounds.grow_box(&r.bounds());
@@ -233,10 +242,10 @@ pub(super) fn partition_spatial(
         };
         let split_cost = grown(left_box, &lpart).half_area() * n_left
             + grown(right_box, &rpart).half_area() * n_right;
-        let to_left = grown(left_box, &within).half_area() * n_left
-            + right_box.half_area() * (n_right - 1.0);
-        let to_right = left_box.half_area() * (n_left - 1.0)
-            + grown(right_box, &within).half_area() * n_right;
+        let to_left =
+            grown(left_box, &within).half_area() * n_left + right_box.half_area() * (n_right - 1.0);
+        let to_right =
+            left_box.half_area() * (n_left - 1.0) + grown(right_box, &within).half_area() * n_right;
         let may_left = unsplit != Unsplit::RightOnly;
         let may_right = unsplit != Unsplit::LeftOnly;
         if r_empty || (may_left && to_left < split_cost && (!may_right || to_left <= to_right)) {

@@ -226,7 +226,9 @@ impl Builder<'_> {
                     p: Option<(super::spatial_split::SpatialSplit, f32)>,
                     unsplit: Unsplit| {
             match (o, p) {
-                (Some(o), Some(p)) if p.1 < o.1 => Some((Choice::Spatial(p.0, unsplit), p.1, p.0.sides)),
+                (Some(o), Some(p)) if p.1 < o.1 => {
+                    Some((Choice::Spatial(p.0, unsplit), p.1, p.0.sides))
+                }
                 (Some(o), _) => Some((Choice::Object(o.0), o.1, o.0.sides)),
                 (None, Some(p)) => Some((Choice::Spatial(p.0, unsplit), p.1, p.0.sides)),
                 (None, None) => None,

@@ -10,7 +10,11 @@ use super::binned_sah::{build_binned_sah, BuildSettings};
 use super::node::Bvh;
 
 /// A SAH tree over the triangles with `visible[i]`; triangle ids stay those of `triangles`.
-pub(super) fn build_vsah(triangles: &[[Vec3; 3]], visible: &[bool], settings: &BuildSettings) -> Bvh {
+pub(super) fn build_vsah(
+    triangles: &[[Vec3; 3]],
+    visible: &[bool],
+    settings: &BuildSettings,
+) -> Bvh {
     let start = Instant::now();
     let ids: Vec<u32> = (0..triangles.len() as u32)
         .filter(|&i| visible[i as usize])

@@ -8,6 +8,7 @@ mod primary;
 mod renderer;
 mod settings;
 mod shadow;
+mod visibility;
 
 pub use camera_rays::PrimaryRays;
 pub use lights::{LightSample, LightSampler};
@@ -15,3 +16,4 @@ pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer};
 pub use settings::{RenderSettings, StatsMode, MAX_SPP};
 pub use shadow::{samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome};
+pub use visibility::{visibility_flags, VisibilitySource};

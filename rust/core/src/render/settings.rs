@@ -1,5 +1,6 @@
 use serde::{Deserialize, Serialize};
 
+use super::VisibilitySource;
 use crate::bvh::{BuildMethod, BuildSettings};
 use crate::trace::AnyHitOrder;
 use crate::{Error, Result};
@@ -29,6 +30,9 @@ pub struct RenderSettings {
     /// Child order of the occlusion traversal.
     pub shadow_order: AnyHitOrder,
     pub stats: StatsMode,
+    /// Where ABVH, OSAH and VSAH builds take their visible-triangle set from.
+    #[serde(default)]
+    pub visibility: VisibilitySource,
 }
 
 impl Default for RenderSettings {
@@ -40,6 +44,7 @@ impl Default for RenderSettings {
             build_settings: BuildSettings::default(),
             shadow_order: AnyHitOrder::NearFirst,
             stats: StatsMode::Counts,
+            visibility: VisibilitySource::Previous,
         }
     }
 }
@@ -55,6 +60,7 @@ impl RenderSettings {
                 format!("must be in 1..={MAX_SPP}, got {}", self.spp),
             ));
         }
+        self.visibility.validate()?;
         self.build_settings.validate()
     }
 
@@ -64,6 +70,11 @@ impl RenderSettings {
             AnyHitOrder::Stored => "stored",
             AnyHitOrder::NearFirst => "near",
         };
-        format!("{}/bin2/{}", self.build.name(), order)
+        let build = if self.build.uses_visibility() {
+            format!("{}-{}", self.build.name(), self.visibility.name())
+        } else {
+            self.build.name().to_string()
+        };
+        format!("{build}/bin2/{order}")
     }
 }
