@@ -390,6 +390,6 @@ fn print_table(rows: &[BenchRow]) {
         println!();
     }
     if embree {
-        println!("build x = antumbra build / Embree MEDIUM build; shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays)");
+        println!("build x = antumbra build / Embree build (quality per --embree-quality, default medium); shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays)");
     }
 }
