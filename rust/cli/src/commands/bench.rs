@@ -274,6 +274,7 @@ fn mrays(n: usize, ms: f64) -> f64 {
 }
 
 #[cfg(feature = "embree")]
+#[allow(clippy::too_many_arguments)]
 fn compare_embree(
     row: &mut BenchRow,
     quality: &str,
@@ -333,6 +334,7 @@ fn compare_embree(
 }
 
 #[cfg(not(feature = "embree"))]
+#[allow(clippy::too_many_arguments)]
 fn compare_embree(
     _: &mut BenchRow,
     _: &str,
