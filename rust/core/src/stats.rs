@@ -23,6 +23,12 @@
 //! | back_facing | shadow samples behind the surface's own plane (shadowed, no ray) |
 //! | unreached | shadow samples of points outside a spot cone or behind an area light |
 //! | sort_ms | shadow: logging + sorting time of the light's per-light child order (0 for other orders) |
+//! | references | triangle references in the structure's leaves (> triangles with spatial splits) |
+//! | visible_input | triangles of the structure's set the build was told are visible (ABVH/OSAH/VSAH) |
+//! | visibility_ms | time to get that set this frame (exact mode or first-frame prepass; else 0) |
+//! | nts_per_ray | N_TS, the OSAH paper's traversal steps: nodes entered, N_B + N_L |
+//!
+//! The paper's N_IT (ray/triangle intersection tests) is `nt_per_ray`.
 
 use std::path::Path;
 
@@ -57,6 +63,14 @@ pub struct StatsRow {
     pub unreached: u64,
     #[serde(default)]
     pub sort_ms: f64,
+    #[serde(default)]
+    pub references: u64,
+    #[serde(default)]
+    pub visible_input: u64,
+    #[serde(default)]
+    pub visibility_ms: f64,
+    #[serde(default)]
+    pub nts_per_ray: f64,
 }
 
 impl StatsRow {
@@ -67,6 +81,7 @@ impl StatsRow {
         self.nl_per_ray = totals.leaves as f64 / r;
         self.nt_per_ray = totals.triangles as f64 / r;
         self.nbox_per_ray = totals.boxes as f64 / r;
+        self.nts_per_ray = (totals.inner + totals.leaves) as f64 / r;
     }
 
     pub fn set_timing(&mut self, trace_ms: f64, without_counters: bool) {
@@ -103,6 +118,10 @@ pub const CSV_COLUMNS: &[&str] = &[
     "back_facing",
     "unreached",
     "sort_ms",
+    "references",
+    "visible_input",
+    "visibility_ms",
+    "nts_per_ray",
 ];
 
 fn csv_field(s: &str) -> String {
@@ -141,6 +160,10 @@ pub fn to_csv(rows: &[StatsRow]) -> String {
             r.back_facing.to_string(),
             r.unreached.to_string(),
             format!("{:.4}", r.sort_ms),
+            r.references.to_string(),
+            r.visible_input.to_string(),
+            format!("{:.4}", r.visibility_ms),
+            format!("{:.6}", r.nts_per_ray),
         ];
         out.push_str(&fields.join(","));
         out.push('\n');

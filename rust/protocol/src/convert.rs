@@ -8,9 +8,9 @@ use std::collections::HashMap;
 use std::hash::BuildHasher;
 use std::sync::Arc;
 
-use antumbra_core::bvh::{BuildMethod, BuildSettings, BvhWidth};
+use antumbra_core::bvh::{BuildMethod, BuildSettings, BvhWidth, SpatialSettings};
 use antumbra_core::output::ImagePlane;
-use antumbra_core::render::{FrameResult, RenderSettings, StatsMode};
+use antumbra_core::render::{FrameResult, RenderSettings, StatsMode, VisibilitySource};
 use antumbra_core::scene::{
     AreaShape, Camera, Light, LightKind, Mesh, Object, Resolution, Scene, SensorFit, TriangleRef,
 };
@@ -395,12 +395,21 @@ impl From<&RenderSettings> for RenderSettingsState {
             seed: s.seed,
             build: match s.build {
                 BuildMethod::Sah => BuildMethodState::Sah,
+                BuildMethod::Sbvh => BuildMethodState::Sbvh,
+                BuildMethod::Abvh => BuildMethodState::Abvh,
+                BuildMethod::Osah => BuildMethodState::Osah,
+                BuildMethod::Vsah => BuildMethodState::Vsah,
             },
             build_settings: BuildSettingsState {
                 bins: u32_of(s.build_settings.bins),
                 max_leaf_size: u32_of(s.build_settings.max_leaf_size),
                 traversal_cost: s.build_settings.traversal_cost,
                 intersection_cost: s.build_settings.intersection_cost,
+                spatial_splits: s.build_settings.spatial.enabled,
+                spatial_bins: u32_of(s.build_settings.spatial.bins),
+                spatial_alpha: s.build_settings.spatial.alpha,
+                spatial_max_growth: s.build_settings.spatial.max_growth,
+                osah_weight: s.build_settings.osah_weight,
             },
             shadow_order: match s.shadow_order.binary() {
                 Some(AnyHitOrder::Stored) => ShadowOrderState::Stored,
@@ -416,6 +425,13 @@ impl From<&RenderSettings> for RenderSettingsState {
                 StatsMode::Counts => StatsModeState::Counts,
                 StatsMode::CountsAndTiming => StatsModeState::CountsAndTiming,
                 StatsMode::TimingOnly => StatsModeState::TimingOnly,
+            },
+            visibility: match s.visibility {
+                VisibilitySource::Previous => VisibilitySourceState::Previous,
+                VisibilitySource::Exact => VisibilitySourceState::Exact,
+                VisibilitySource::Prepass { width, height } => {
+                    VisibilitySourceState::Prepass { width, height }
+                }
             },
         }
     }
@@ -440,12 +456,23 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
         seed: s.seed,
         build: match s.build {
             BuildMethodState::Sah => BuildMethod::Sah,
+            BuildMethodState::Sbvh => BuildMethod::Sbvh,
+            BuildMethodState::Abvh => BuildMethod::Abvh,
+            BuildMethodState::Osah => BuildMethod::Osah,
+            BuildMethodState::Vsah => BuildMethod::Vsah,
         },
         build_settings: BuildSettings {
             bins: s.build_settings.bins as usize,
             max_leaf_size: s.build_settings.max_leaf_size as usize,
             traversal_cost: s.build_settings.traversal_cost,
             intersection_cost: s.build_settings.intersection_cost,
+            spatial: SpatialSettings {
+                enabled: s.build_settings.spatial_splits,
+                bins: s.build_settings.spatial_bins as usize,
+                alpha: s.build_settings.spatial_alpha,
+                max_growth: s.build_settings.spatial_max_growth,
+            },
+            osah_weight: s.build_settings.osah_weight,
         },
         shadow_order: match &s.order {
             Some(text) => text.parse::<ShadowOrder>()?,
@@ -460,6 +487,13 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
             StatsModeState::Counts => StatsMode::Counts,
             StatsModeState::CountsAndTiming => StatsMode::CountsAndTiming,
             StatsModeState::TimingOnly => StatsMode::TimingOnly,
+        },
+        visibility: match s.visibility {
+            VisibilitySourceState::Previous => VisibilitySource::Previous,
+            VisibilitySourceState::Exact => VisibilitySource::Exact,
+            VisibilitySourceState::Prepass { width, height } => {
+                VisibilitySource::Prepass { width, height }
+            }
         },
     };
     settings.validate()?;
@@ -501,6 +535,10 @@ impl From<&StatsRow> for StatsRowState {
             back_facing: r.back_facing,
             unreached: r.unreached,
             sort_ms: r.sort_ms,
+            references: r.references,
+            visible_input: r.visible_input,
+            visibility_ms: r.visibility_ms,
+            nts_per_ray: r.nts_per_ray,
         }
     }
 }
@@ -530,6 +568,10 @@ impl From<&StatsRowState> for StatsRow {
             back_facing: r.back_facing,
             unreached: r.unreached,
             sort_ms: r.sort_ms,
+            references: r.references,
+            visible_input: r.visible_input,
+            visibility_ms: r.visibility_ms,
+            nts_per_ray: r.nts_per_ray,
         }
     }
 }

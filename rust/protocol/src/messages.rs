@@ -261,12 +261,30 @@ pub struct RenderSettingsState {
     /// The shadow order in the command-line syntax (`sato`, `sorted:budget=0.05`, ...) when it
     /// is not one `shadow_order` can say; it then takes precedence.
     pub order: Option<String>,
+    /// Added with the visibility-driven builds; older messages get `Previous`.
+    pub visibility: VisibilitySourceState,
+}
+
+/// Mirrors [`antumbra_core::render::VisibilitySource`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum VisibilitySourceState {
+    #[default]
+    Previous,
+    Exact,
+    Prepass {
+        width: u32,
+        height: u32,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum BuildMethodState {
     #[default]
     Sah,
+    Sbvh,
+    Abvh,
+    Osah,
+    Vsah,
 }
 
 /// Mirrors [`antumbra_core::bvh::BuildSettings`].
@@ -277,6 +295,12 @@ pub struct BuildSettingsState {
     pub max_leaf_size: u32,
     pub traversal_cost: f32,
     pub intersection_cost: f32,
+    /// Spatial splits and OSAH (added later; omitted fields take the core defaults).
+    pub spatial_splits: bool,
+    pub spatial_bins: u32,
+    pub spatial_alpha: f32,
+    pub spatial_max_growth: f32,
+    pub osah_weight: f32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -345,6 +369,10 @@ pub struct StatsRowState {
     pub back_facing: u64,
     pub unreached: u64,
     pub sort_ms: f64,
+    pub references: u64,
+    pub visible_input: u64,
+    pub visibility_ms: f64,
+    pub nts_per_ray: f64,
 }
 
 /// What the daemon has done since it started.

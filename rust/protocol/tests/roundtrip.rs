@@ -146,17 +146,36 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
             RenderSettingsState {
                 spp,
                 seed,
-                build: BuildMethodState::Sah,
+                build: [
+                    BuildMethodState::Sah,
+                    BuildMethodState::Sbvh,
+                    BuildMethodState::Abvh,
+                    BuildMethodState::Osah,
+                    BuildMethodState::Vsah,
+                ][(b % 5) as usize],
                 build_settings: BuildSettingsState {
                     bins: b,
                     max_leaf_size: l,
                     traversal_cost: tc,
                     intersection_cost: ic,
+                    spatial_splits: l % 2 == 0,
+                    spatial_bins: b,
+                    spatial_alpha: tc,
+                    spatial_max_growth: ic,
+                    osah_weight: tc,
                 },
                 shadow_order: order,
                 stats,
                 width,
                 order: text,
+                visibility: match l % 3 {
+                    0 => VisibilitySourceState::Previous,
+                    1 => VisibilitySourceState::Exact,
+                    _ => VisibilitySourceState::Prepass {
+                        width: b,
+                        height: l,
+                    },
+                },
             }
         })
 }
@@ -219,6 +238,10 @@ fn stats_row() -> impl Strategy<Value = StatsRowState> {
                 back_facing,
                 unreached,
                 sort_ms: trace_ms * 0.5,
+                references: bvh_nodes ^ rays,
+                visible_input: triangles / 2,
+                visibility_ms: trace_ms,
+                nts_per_ray: nb,
             },
         )
 }
@@ -509,6 +532,27 @@ fn field_order_unknown_fields_and_defaults() {
     };
     assert_eq!(r.settings.spp, 16);
     assert_eq!(r.settings.build_settings, BuildSettingsState::default());
+    assert_eq!(r.settings.build, BuildMethodState::Sah);
+    assert_eq!(r.settings.visibility, VisibilitySourceState::Previous);
+    // Build settings from before spatial splits and OSAH take the core defaults for them.
+    #[derive(serde::Serialize)]
+    struct OldBuildSettings {
+        bins: u32,
+        max_leaf_size: u32,
+        traversal_cost: f32,
+        intersection_cost: f32,
+    }
+    let old = rmp_serde::to_vec_named(&OldBuildSettings {
+        bins: 8,
+        max_leaf_size: 2,
+        traversal_cost: 1.0,
+        intersection_cost: 1.0,
+    })
+    .unwrap();
+    let b: BuildSettingsState = decode_body(&old).unwrap();
+    assert_eq!((b.bins, b.max_leaf_size), (8, 2));
+    assert_eq!(b.osah_weight, 0.9);
+    assert!(b.spatial_splits && b.spatial_bins == 32);
     assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);
     // A field added later (the object-id pass) takes its default when an older peer omits it.
     assert!(!r.passes.object_ids);

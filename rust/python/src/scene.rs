@@ -607,12 +607,23 @@ pub fn render_settings_state(
     let state = RenderSettingsState {
         spp: integer::<u32>(spp, "spp", "1 to 4096")?,
         seed: integer::<u32>(seed, "seed", "an unsigned 32-bit integer")?,
-        build: choice(build, "build", &[("sah", BuildMethodState::Sah)])?,
+        build: choice(
+            build,
+            "build",
+            &[
+                ("sah", BuildMethodState::Sah),
+                ("sbvh", BuildMethodState::Sbvh),
+                ("abvh", BuildMethodState::Abvh),
+                ("osah", BuildMethodState::Osah),
+                ("vsah", BuildMethodState::Vsah),
+            ],
+        )?,
         build_settings: BuildSettingsState {
             bins: integer::<u32>(bins, "bins", "2 to 256")?,
             max_leaf_size: integer::<u32>(leaf_size, "leaf_size", "1 to 64")?,
             traversal_cost: traversal_cost as f32,
             intersection_cost: intersection_cost as f32,
+            ..BuildSettingsState::default()
         },
         // The two orders older daemons know travel as `shadow_order`; every other order (the
         // `antumbra render --order` syntax) as text, checked by `render_settings` below.
@@ -623,6 +634,7 @@ pub fn render_settings_state(
         order: (!matches!(order, "near" | "fbto" | "stored")).then(|| order.to_string()),
         width: integer::<u32>(width, "width", "2, 4 or 8")?,
         stats: timing,
+        ..RenderSettingsState::default()
     };
     // The daemon's own check, made here so a bad setting fails before the request is sent.
     render_settings(&state).map_err(|e| ClientError::invalid(e.to_string()))?;

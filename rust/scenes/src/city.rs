@@ -69,7 +69,7 @@ pub(crate) struct City {
 }
 
 /// The centre line of street `s` (0..=blocks) across a city `extent` wide.
-fn street(s: u32, extent: f64) -> f64 {
+pub(crate) fn street(s: u32, extent: f64) -> f64 {
     -0.5 * extent + s as f64 * PITCH
 }
 

@@ -19,6 +19,7 @@ mod rng;
 mod rotate;
 mod shapes;
 mod stage;
+mod viewpoints;
 
 use antumbra_core::scene::Animation;
 use antumbra_core::{Error, Result};
@@ -26,6 +27,7 @@ use antumbra_core::{Error, Result};
 pub use import::load_file;
 pub use params::SceneParams;
 pub use rotate::{rotate_scene, Rotated, ROTATED_SUFFIX};
+pub use viewpoints::viewpoints;
 
 /// The names [`builtin`] accepts (each also with the [`ROTATED_SUFFIX`], "-rot45").
 pub const BUILTIN_SCENES: &[&str] = &["bedroom", "colonnade", "city", "forest", "hairball"];

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, Bvh, BvhWidth};
+use antumbra_core::bvh::{build_binned_sah, BuildMethod, BuildSettings, Bvh, BvhWidth};
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     binary_order, representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass,
@@ -19,6 +19,7 @@ use clap::Args;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::bench_methods;
 use crate::frames::parse_size;
 use crate::scene_source::open_scene;
 
@@ -83,6 +84,26 @@ pub struct BenchArgs {
     /// Print the table as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Embree build quality with --compare embree: medium or high.
+    #[arg(long, default_value = "medium")]
+    pub embree_quality: String,
+    /// Compare build methods on each scene's viewpoints instead (the OSAH paper's tables),
+    /// e.g. sah,sbvh,abvh,osah,vsah; the first is the reference of the ratios.
+    #[arg(long, value_delimiter = ',')]
+    pub methods: Vec<BuildMethod>,
+    /// OSAH weights w to sweep (with --methods).
+    #[arg(long, value_delimiter = ',', default_value = "0.9")]
+    pub osah_w: Vec<f32>,
+    /// Spatial splits for sbvh/abvh/osah (with --methods): on, off, or on,off for both.
+    #[arg(long, value_delimiter = ',', default_value = "on")]
+    pub spatial_splits: Vec<String>,
+    /// Render this many frames with SAH, SBVH, OSAH-exact and OSAH-previous and write the
+    /// per-frame curve (animation.csv, animation.png) into --out.
+    #[arg(long)]
+    pub animation: Option<i32>,
+    /// Output folder of --animation.
+    #[arg(long, default_value = "bench-out")]
+    pub out: std::path::PathBuf,
 }
 
 #[derive(Debug, Default, Serialize)]
@@ -129,6 +150,56 @@ pub fn run(args: BenchArgs) -> Result<()> {
     } else {
         args.scene.clone()
     };
+    if let Some(frames) = args.animation {
+        for name in &scenes {
+            let out = args.out.join(name);
+            bench_methods::animation_curve(
+                name,
+                args.triangles,
+                (w, h),
+                frames,
+                &BuildSettings::default(),
+                &out,
+            )?;
+        }
+        return Ok(());
+    }
+    if !args.methods.is_empty() {
+        let spatial = args
+            .spatial_splits
+            .iter()
+            .map(|s| match s.as_str() {
+                "on" => Ok(true),
+                "off" => Ok(false),
+                other => Err(anyhow::anyhow!(
+                    "--spatial-splits: '{other}' is not on or off"
+                )),
+            })
+            .collect::<Result<Vec<bool>>>()?;
+        let variants = bench_methods::Variants {
+            methods: args.methods.clone(),
+            weights: args.osah_w.clone(),
+            spatial,
+            settings: BuildSettings::default(),
+        };
+        let mut rows = Vec::new();
+        for name in &scenes {
+            rows.extend(bench_methods::method_rows(
+                name,
+                args.triangles,
+                (w, h),
+                args.spp,
+                args.repeat,
+                &variants,
+            )?);
+        }
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&rows)?);
+        } else {
+            bench_methods::print_ratio_tables(&rows);
+        }
+        return Ok(());
+    }
     let all = rayon::current_num_threads();
     let mut rows = Vec::new();
     for name in &scenes {
@@ -276,6 +347,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             if args.compare.is_some() {
                 compare_embree(
                     &mut row,
+                    &args.embree_quality,
                     tris,
                     &primary,
                     &shadow,
@@ -310,8 +382,10 @@ fn mrays(n: usize, ms: f64) -> f64 {
 }
 
 #[cfg(feature = "embree")]
+#[allow(clippy::too_many_arguments)]
 fn compare_embree(
     row: &mut BenchRow,
+    quality: &str,
     tris: &[[glam::Vec3; 3]],
     primary: &[Ray],
     shadow: &[Ray],
@@ -320,10 +394,15 @@ fn compare_embree(
     repeat: u32,
 ) -> Result<()> {
     use antumbra_embree::{EmbreeQuality, EmbreeScene};
+    let quality = match quality {
+        "medium" => EmbreeQuality::Medium,
+        "high" => EmbreeQuality::High,
+        other => anyhow::bail!("--embree-quality: '{other}' is not medium or high"),
+    };
     let mut build_ms = f64::INFINITY;
     let mut scene = None;
     for _ in 0..repeat.max(1) {
-        let s = EmbreeScene::new(tris, EmbreeQuality::Medium, Some(threads))
+        let s = EmbreeScene::new(tris, quality, Some(threads))
             .map_err(|e| anyhow::anyhow!("embree: {e}"))?;
         build_ms = build_ms.min(s.build_ms());
         scene = Some(s);
@@ -363,8 +442,10 @@ fn compare_embree(
 }
 
 #[cfg(not(feature = "embree"))]
+#[allow(clippy::too_many_arguments)]
 fn compare_embree(
     _: &mut BenchRow,
+    _: &str,
     _: &[[glam::Vec3; 3]],
     _: &[Ray],
     _: &[Ray],
@@ -419,6 +500,6 @@ fn print_table(rows: &[BenchRow]) {
         println!();
     }
     if embree {
-        println!("build x = antumbra build / Embree MEDIUM build; shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays)");
+        println!("build x = antumbra build / Embree build (quality per --embree-quality, default medium); shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays)");
     }
 }

@@ -1,4 +1,5 @@
 pub mod bench;
+pub mod bench_methods;
 pub mod demo;
 pub mod record;
 pub mod render;

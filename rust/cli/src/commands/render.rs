@@ -2,8 +2,8 @@
 
 use std::path::{Path, PathBuf};
 
-use antumbra_core::bvh::{BuildMethod, BuildSettings, BvhWidth};
-use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
+use antumbra_core::bvh::{BuildMethod, BuildSettings, BvhWidth, SpatialSettings};
+use antumbra_core::render::{RenderSettings, Renderer, StatsMode, VisibilitySource};
 use antumbra_core::scene::Animation;
 use antumbra_core::stats::{write_csv, write_json, StatsRow};
 use antumbra_core::trace::ShadowOrder;
@@ -23,7 +23,8 @@ pub struct MethodArgs {
     /// Seed of the light-sample patterns.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
-    /// BVH builder.
+    /// BVH builder: sah, sbvh (spatial splits), abvh (spatial splits where visible triangles
+    /// are), osah (occlusion heuristic), vsah (SAH over visible triangles only; a reference).
     #[arg(long, default_value = "sah")]
     pub build: BuildMethod,
     /// Child order of shadow-ray traversal: stored | fbto (alias near) | sato | rtsah |
@@ -34,6 +35,26 @@ pub struct MethodArgs {
     /// Children per BVH node: 2 (binary), 4 or 8 (collapsed, SIMD traversal).
     #[arg(long, default_value = "2")]
     pub width: BvhWidth,
+    /// Visible set of abvh/osah/vsah builds: previous (frame t-1), exact (frame t, two
+    /// passes) or prepass:WxH (previous, with a WxH primary prepass on the first frame).
+    #[arg(long, default_value = "previous")]
+    pub visibility: VisibilitySource,
+    /// OSAH weight w of visible triangles, in (0, 1).
+    #[arg(long, default_value_t = BuildSettings::default().osah_weight)]
+    pub osah_w: f32,
+    /// Turn spatial splits off (sbvh/abvh/osah then split objects only).
+    #[arg(long)]
+    pub no_spatial_splits: bool,
+    /// Spatial-split bins per axis.
+    #[arg(long, default_value_t = SpatialSettings::default().bins)]
+    pub spatial_bins: usize,
+    /// Spatial splits only where object-split children overlap by more than this fraction of
+    /// the root's area.
+    #[arg(long, default_value_t = SpatialSettings::default().alpha)]
+    pub split_alpha: f32,
+    /// References may grow to (1 + this) x triangles through spatial splits.
+    #[arg(long, default_value_t = SpatialSettings::default().max_growth)]
+    pub max_growth: f32,
     /// Largest leaf of the BVH.
     #[arg(long, default_value_t = BuildSettings::default().max_leaf_size)]
     pub leaf_size: usize,
@@ -54,6 +75,13 @@ impl MethodArgs {
             build_settings: BuildSettings {
                 max_leaf_size: self.leaf_size,
                 bins: self.bins,
+                osah_weight: self.osah_w,
+                spatial: SpatialSettings {
+                    enabled: !self.no_spatial_splits,
+                    bins: self.spatial_bins,
+                    alpha: self.split_alpha,
+                    max_growth: self.max_growth,
+                },
                 ..BuildSettings::default()
             },
             shadow_order: self.order,
@@ -63,6 +91,7 @@ impl MethodArgs {
             } else {
                 StatsMode::Counts
             },
+            visibility: self.visibility,
         }
     }
 }

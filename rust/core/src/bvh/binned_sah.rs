@@ -10,6 +10,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::node::{Bvh, BvhNode, NodeArray, MAX_DEPTH};
+use super::spatial_split::SpatialSettings;
 use crate::geometry::Aabb;
 
 /// Settings of the binned SAH builder.
@@ -23,6 +24,16 @@ pub struct BuildSettings {
     pub traversal_cost: f32,
     /// SAH cost of one ray/triangle test.
     pub intersection_cost: f32,
+    /// Spatial splits of the SBVH, ABVH and OSAH builders.
+    #[serde(default)]
+    pub spatial: SpatialSettings,
+    /// OSAH weight w of the visible-triangle term (the paper's equation 4), in (0, 1).
+    #[serde(default = "default_osah_weight")]
+    pub osah_weight: f32,
+}
+
+fn default_osah_weight() -> f32 {
+    0.9
 }
 
 impl Default for BuildSettings {
@@ -32,6 +43,8 @@ impl Default for BuildSettings {
             max_leaf_size: 8,
             traversal_cost: 1.0,
             intersection_cost: 1.0,
+            spatial: SpatialSettings::default(),
+            osah_weight: default_osah_weight(),
         }
     }
 }
@@ -61,60 +74,84 @@ impl BuildSettings {
                 ));
             }
         }
-        Ok(())
+        // w = 1 would drop the area term that breaks ties between splits; w = 0 is plain SAH.
+        if !(self.osah_weight > 0.0 && self.osah_weight < 1.0) {
+            return Err(crate::Error::invalid(
+                "build.osah_weight",
+                format!("must be in (0, 1), got {}", self.osah_weight),
+            ));
+        }
+        self.spatial.validate()
     }
 }
 
 /// A triangle's box, with its id in the fourth lane of `lo` (as bits), so a reference is two
 /// 16-byte vectors that min/max in one instruction each.
 #[derive(Clone, Copy, Debug)]
-struct PrimRef {
-    lo: Vec4,
-    hi: Vec4,
+pub(super) struct PrimRef {
+    pub(super) lo: Vec4,
+    pub(super) hi: Vec4,
 }
 
 impl PrimRef {
+    /// A reference to triangle `id` with the given box (a spatial split's clipped part, or
+    /// the whole triangle's box).
     #[inline]
-    fn id(&self) -> u32 {
+    pub(super) fn new(id: u32, b: Box4) -> Self {
+        PrimRef {
+            lo: b.lo.truncate().extend(f32::from_bits(id)),
+            hi: b.hi.truncate().extend(0.0),
+        }
+    }
+    #[inline]
+    pub(super) fn id(&self) -> u32 {
         self.lo.w.to_bits()
+    }
+    /// The reference's box (without the id lane).
+    #[inline]
+    pub(super) fn bounds(&self) -> Box4 {
+        Box4 {
+            lo: self.lo.truncate().extend(0.0),
+            hi: self.hi,
+        }
     }
     /// Twice the centroid (the factor cancels in binning and saves a multiply).
     #[inline]
-    fn centroid2(&self) -> Vec4 {
+    pub(super) fn centroid2(&self) -> Vec4 {
         self.lo + self.hi
     }
 }
 
 /// A box in the builder's 4-lane form; the fourth lane carries nothing meaningful.
-#[derive(Clone, Copy, Debug)]
-struct Box4 {
-    lo: Vec4,
-    hi: Vec4,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Box4 {
+    pub(super) lo: Vec4,
+    pub(super) hi: Vec4,
 }
 
 impl Box4 {
-    const EMPTY: Box4 = Box4 {
+    pub(super) const EMPTY: Box4 = Box4 {
         lo: Vec4::splat(f32::INFINITY),
         hi: Vec4::splat(f32::NEG_INFINITY),
     };
     #[inline(always)]
-    fn grow(&mut self, lo: Vec4, hi: Vec4) {
+    pub(super) fn grow(&mut self, lo: Vec4, hi: Vec4) {
         self.lo = self.lo.min(lo);
         self.hi = self.hi.max(hi);
     }
     #[inline(always)]
-    fn grow_box(&mut self, b: &Box4) {
+    pub(super) fn grow_box(&mut self, b: &Box4) {
         self.grow(b.lo, b.hi);
     }
     #[inline(always)]
-    fn half_area(&self) -> f32 {
+    pub(super) fn half_area(&self) -> f32 {
         let e = (self.hi - self.lo).truncate();
         if e.x < 0.0 {
             return 0.0;
         }
         e.x * e.y + e.y * e.z + e.z * e.x
     }
-    fn to_aabb(self) -> Aabb {
+    pub(super) fn to_aabb(self) -> Aabb {
         Aabb::new(self.lo.truncate(), self.hi.truncate())
     }
 }
@@ -134,11 +171,11 @@ const EMPTY_BIN: Bin = Bin {
 pub const MAX_BINS: usize = 256;
 
 /// Subtrees smaller than this are built on the current thread.
-const PARALLEL_SUBTREE: usize = 4096;
+pub(super) const PARALLEL_SUBTREE: usize = 4096;
 /// Nodes with more references than this bin in parallel.
 const PARALLEL_BINNING: usize = 65536;
 /// Past this depth, splits are object medians so the depth bound holds on any input.
-const MEDIAN_DEPTH: usize = MAX_DEPTH - 33;
+pub(super) const MEDIAN_DEPTH: usize = MAX_DEPTH - 33;
 
 /// Builds a binned SAH BVH over `triangles` (the BVH keeps a leaf-ordered copy).
 pub fn build_binned_sah(triangles: &[[Vec3; 3]], settings: &BuildSettings) -> Bvh {
@@ -165,6 +202,17 @@ pub fn build_binned_sah(triangles: &[[Vec3; 3]], settings: &BuildSettings) -> Bv
 }
 
 fn build_from_refs(refs: &mut [PrimRef], settings: &BuildSettings) -> Bvh {
+    build_sah_subtree(refs, settings, 0)
+}
+
+/// Binned SAH nodes over `refs` (reordered into leaf order), for a subtree whose root sits at
+/// `depth` in a larger tree: the other builders hand subtrees that need no spatial or visibility
+/// splits to this one. Leaf ranges index `refs`; triangles and ids are left to the caller.
+pub(super) fn build_sah_subtree(
+    refs: &mut [PrimRef],
+    settings: &BuildSettings,
+    depth: usize,
+) -> Bvh {
     let n = refs.len();
     if n == 0 {
         return Bvh::default();
@@ -182,7 +230,7 @@ fn build_from_refs(refs: &mut [PrimRef], settings: &BuildSettings) -> Bvh {
         below_start: 1,
         bounds,
         centroids,
-        depth: 0,
+        depth,
     };
     ctx.build(refs, &mut root[0], below, task, &mut Scratch::new());
     Bvh {
@@ -192,7 +240,7 @@ fn build_from_refs(refs: &mut [PrimRef], settings: &BuildSettings) -> Bvh {
 }
 
 /// Bounds and (doubled) centroid bounds of some references.
-fn bounds_of(refs: &[PrimRef]) -> (Box4, Box4) {
+pub(super) fn bounds_of(refs: &[PrimRef]) -> (Box4, Box4) {
     let fold = |(mut b, mut c): (Box4, Box4), r: &PrimRef| {
         b.grow(r.lo, r.hi);
         let c2 = r.centroid2();

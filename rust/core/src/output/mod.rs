@@ -10,6 +10,7 @@ mod font;
 mod frame_files;
 mod heatmap;
 mod legend;
+mod line_plot;
 mod png;
 #[cfg(test)]
 mod test_dir;
@@ -20,6 +21,7 @@ pub use self::exr::{read_exr, write_exr};
 pub use self::frame_files::{frame_stem, planes, write_frame_files, FrameFiles, Outputs};
 pub use self::heatmap::{heatmap_rgb, write_heatmap_png, HeatLegend, HeatScale};
 pub use self::legend::heat_legend_height;
+pub use self::line_plot::write_line_plot;
 pub use self::png::write_mask_png;
 
 /// A single-channel float image, rows top to bottom.

@@ -8,6 +8,7 @@ mod primary;
 mod renderer;
 mod settings;
 mod shadow;
+mod visibility;
 mod wide_tree;
 
 pub use camera_rays::PrimaryRays;
@@ -18,4 +19,5 @@ pub use settings::{RenderSettings, StatsMode, MAX_SPP};
 pub use shadow::{
     representative_rays, samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome,
 };
+pub use visibility::{visibility_flags, VisibilitySource};
 pub use wide_tree::{binary_order, ShadowTracer, WideTree};

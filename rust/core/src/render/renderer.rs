@@ -1,15 +1,19 @@
 //! One frame end to end, and what carries over between frames: the geometry and BVHs of a frame
-//! whose geometry did not change are reused, and the visible set is kept for the next frame.
+//! whose geometry (and, for visibility-driven builds, visible-set input) did not change are
+//! reused, and the visible set is kept for the next frame's OSAH/ABVH build.
 
 use std::sync::Arc;
+use std::time::Instant;
 
 use super::primary::heat_planes;
 use super::shadow::{representative_rays, samples_for, SamplePlan};
+use super::visibility::{trace_visible_set, visibility_flags, visible_set};
 use super::wide_tree::{binary_order, ShadowTracer, WideTree};
+use super::VisibilitySource;
 use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
-use crate::bvh::{build, Bvh, BvhWidth};
+use crate::bvh::{build_binned_sah, build_with_visibility, Bvh, BvhWidth};
 use crate::output::ImagePlane;
-use crate::scene::{FrameGeometry, Mesh, Scene, TriangleRef};
+use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::stats::StatsRow;
 use crate::trace::wide::SortTables;
 use crate::trace::{BinaryOcclusion, ClosestHitQuery, ShadowOrder, TraversalStats};
@@ -78,6 +82,12 @@ struct Cached {
     geometry: Arc<FrameGeometry>,
     camera_bvh: Arc<Bvh>,
     shadow_bvh: Option<Arc<Bvh>>,
+    /// The visible set the BVHs were built from (visibility-driven builds only).
+    visible_input: Option<Vec<TriangleRef>>,
+    /// Triangles flagged visible in the camera and shadow BVHs' sets, and distinct triangles
+    /// in each structure.
+    camera_info: BvhInfo,
+    shadow_info: Option<BvhInfo>,
     wide: Option<WideTrees>,
 }
 
@@ -93,6 +103,19 @@ struct WideTrees {
     collapse_ms: Option<f64>,
 }
 
+#[derive(Clone, Copy, Default)]
+struct BvhInfo {
+    visible: u64,
+    triangles: u64,
+}
+
+/// What `prepare` did this frame.
+#[derive(Clone, Copy)]
+struct Prepared {
+    rebuilt: bool,
+    visibility_ms: f64,
+}
+
 /// Renders frames, keeping state across them.
 #[derive(Default)]
 pub struct Renderer {
@@ -101,6 +124,8 @@ pub struct Renderer {
     pub builds: u64,
     /// The visible set of the last rendered frame.
     pub previous_visible: Vec<TriangleRef>,
+    /// Frames rendered so far: the first has no previous visible set.
+    frames_rendered: u64,
 }
 
 fn key_of(scene: &Scene) -> GeometryKey {
@@ -134,7 +159,7 @@ impl Renderer {
     ) -> Result<FrameResult> {
         settings.validate()?;
         scene.validate()?;
-        let rebuilt = self.prepare(scene, settings)?;
+        let prepared = self.prepare(scene, settings)?;
         self.prepare_wide(settings);
         let cached = self.cache.as_ref().expect("prepared above");
         let wide = cached.wide.as_ref();
@@ -148,20 +173,25 @@ impl Renderer {
         let geometry = &cached.geometry;
         let camera_bvh = &cached.camera_bvh;
         let shadow_bvh = cached.shadow_bvh.as_ref().unwrap_or(camera_bvh);
+        let shadow_info = cached.shadow_info.unwrap_or(cached.camera_info);
         let method = settings.method_name();
-        let row = |pass: &str, light: &str, bvh: &Bvh, tree: Option<&WideTree>| StatsRow {
-            scene: scene_name.to_string(),
-            frame: scene.frame,
-            method: method.clone(),
-            pass: pass.to_string(),
-            light: light.to_string(),
-            rebuilt: rebuilt.is_some() || collapse_ms > 0.0,
-            build_ms: rebuilt.map_or(0.0, |_| bvh.build_ms) + collapse_ms,
-            bvh_nodes: tree.map_or(bvh.nodes.len(), |t| t.node_count()) as u64,
-            bvh_bytes: tree.map_or(bvh.bytes(), |t| t.bytes()) as u64,
-            triangles: bvh.triangles.len() as u64,
-            ..StatsRow::default()
-        };
+        let row =
+            |pass: &str, light: &str, bvh: &Bvh, info: BvhInfo, tree: Option<&WideTree>| StatsRow {
+                scene: scene_name.to_string(),
+                frame: scene.frame,
+                method: method.clone(),
+                pass: pass.to_string(),
+                light: light.to_string(),
+                rebuilt: prepared.rebuilt || collapse_ms > 0.0,
+                build_ms: if prepared.rebuilt { bvh.build_ms } else { 0.0 } + collapse_ms,
+                bvh_nodes: tree.map_or(bvh.nodes.len(), |t| t.node_count()) as u64,
+                bvh_bytes: tree.map_or(bvh.bytes(), |t| t.bytes()) as u64,
+                triangles: info.triangles,
+                references: bvh.triangles.len() as u64,
+                visible_input: info.visible,
+                visibility_ms: prepared.visibility_ms,
+                ..StatsRow::default()
+            };
 
         let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
         let counted = settings.stats != StatsMode::TimingOnly;
@@ -172,7 +202,7 @@ impl Renderer {
         };
         let primary = primary_pass(counted);
         let mut stats = Vec::new();
-        let mut primary_row = row("primary", "", camera_bvh, wide_camera);
+        let mut primary_row = row("primary", "", camera_bvh, cached.camera_info, wide_camera);
         primary_row.rays = primary.ray_count();
         primary_row.occluded_fraction = primary.surfaces.iter().filter(|s| s.is_some()).count()
             as f64
@@ -199,7 +229,7 @@ impl Renderer {
             let spp = samples_for(&sampler, settings.spp);
             let args = (index as u32, spp, settings.seed);
             let order = &settings.shadow_order;
-            let prepared = match (binary_order(settings.width, order), wide_shadow) {
+            let wide_order = match (binary_order(settings.width, order), wide_shadow) {
                 (None, Some(tree)) => {
                     let representative = match order {
                         ShadowOrder::Sorted(s) => {
@@ -217,7 +247,7 @@ impl Renderer {
                 }
                 _ => None,
             };
-            let tracer = match &prepared {
+            let tracer = match &wide_order {
                 Some((tree, p)) => ShadowTracer::Wide {
                     tree,
                     order: p.view(),
@@ -236,9 +266,10 @@ impl Renderer {
                 "shadow",
                 &light.name,
                 shadow_bvh,
-                prepared.as_ref().map(|(t, _)| *t),
+                shadow_info,
+                wide_order.as_ref().map(|(t, _)| *t),
             );
-            r.sort_ms = prepared.as_ref().map_or(0.0, |(_, p)| p.sort_ms());
+            r.sort_ms = wide_order.as_ref().map_or(0.0, |(_, p)| p.sort_ms());
             r.rays = pass.outcome.rays;
             r.occluded_fraction = pass.outcome.occluded as f64 / r.rays.max(1) as f64;
             r.back_facing = pass.outcome.back_facing;
@@ -280,18 +311,9 @@ impl Renderer {
             .map(|s| s.map_or(u32::MAX, |s| s.triangle))
             .collect();
         let primary_objects = geometry.camera.objects_of(&primary_ids);
-        let mut seen = vec![false; geometry.camera.len()];
-        for &id in primary_ids.iter().filter(|&&id| id != u32::MAX) {
-            seen[id as usize] = true;
-        }
-        let mut visible: Vec<TriangleRef> = seen
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| **s)
-            .map(|(i, _)| geometry.camera.refs[i])
-            .collect();
-        visible.sort_unstable();
+        let visible = visible_set(&primary_ids, &geometry.camera);
         self.previous_visible = visible.clone();
+        self.frames_rendered += 1;
         Ok(FrameResult {
             frame: scene.frame,
             width: w,
@@ -306,37 +328,124 @@ impl Renderer {
         })
     }
 
-    /// Builds geometry and BVHs unless the cached ones still hold. Returns Some(()) if it built.
-    fn prepare(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<Option<()>> {
+    /// Builds geometry and BVHs unless the cached ones still hold: same geometry, same build
+    /// settings and, for visibility-driven builds, the same visible-set input.
+    fn prepare(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<Prepared> {
         let key = key_of(scene);
         let build_key = (settings.build, settings.build_settings);
+        let reusable = self.cache.as_ref().filter(|c| c.key == key);
+        // `render` validated the scene already.
+        let geometry = match reusable {
+            Some(c) => c.geometry.clone(),
+            None => Arc::new(FrameGeometry::from_validated_scene(scene)),
+        };
+        let started = Instant::now();
+        let visible_input = settings
+            .build
+            .uses_visibility()
+            .then(|| self.visibility_input(scene, &geometry, settings));
+        let visibility_ms = match &visible_input {
+            Some(_) => started.elapsed().as_secs_f64() * 1e3,
+            None => 0.0,
+        };
         if let Some(c) = &self.cache {
-            if c.key == key && c.build == build_key {
-                return Ok(None);
+            if c.key == key && c.build == build_key && c.visible_input == visible_input {
+                return Ok(Prepared {
+                    rebuilt: false,
+                    visibility_ms,
+                });
             }
         }
-        // `render` validated the scene already.
-        let geometry = FrameGeometry::from_validated_scene(scene);
-        let camera_bvh = build(
-            settings.build,
-            &geometry.camera.vertices,
-            &settings.build_settings,
-        );
-        let shadow_bvh = geometry
-            .shadow
-            .as_ref()
-            .map(|s| Arc::new(build(settings.build, &s.vertices, &settings.build_settings)));
+        let method = settings.build;
+        let build_for = |set: &TriangleSet| {
+            let flags = visible_input.as_ref().map(|v| visibility_flags(set, v));
+            let bvh = build_with_visibility(
+                method,
+                &set.vertices,
+                flags.as_deref(),
+                &settings.build_settings,
+            );
+            let info = BvhInfo {
+                visible: flags.map_or(0, |f| f.iter().filter(|v| **v).count() as u64),
+                triangles: if method.is_complete() {
+                    set.len() as u64
+                } else {
+                    bvh.triangles.len() as u64
+                },
+            };
+            (bvh, info)
+        };
+        let (camera_bvh, camera_info) = build_for(&geometry.camera);
+        // VSAH answers only the camera rays it was built for: shadow rays get a complete tree.
+        let complete = |set: &TriangleSet| {
+            let info = BvhInfo {
+                visible: 0,
+                triangles: set.len() as u64,
+            };
+            (
+                build_binned_sah(&set.vertices, &settings.build_settings),
+                info,
+            )
+        };
+        let shadow = match (&geometry.shadow, method.is_complete()) {
+            (Some(s), true) => Some(build_for(s)),
+            (Some(s), false) => Some(complete(s)),
+            (None, true) => None,
+            (None, false) => Some(complete(&geometry.camera)),
+        };
+        let (shadow_bvh, shadow_info) = match shadow {
+            Some((bvh, info)) => (Some(Arc::new(bvh)), Some(info)),
+            None => (None, None),
+        };
         self.builds += 1;
         self.cache = Some(Cached {
             key,
             _meshes: scene.meshes.clone(),
             build: build_key,
-            geometry: Arc::new(geometry),
+            geometry,
             camera_bvh: Arc::new(camera_bvh),
             shadow_bvh,
             wide: None,
+            visible_input,
+            camera_info,
+            shadow_info,
         });
-        Ok(Some(()))
+        Ok(Prepared {
+            rebuilt: true,
+            visibility_ms,
+        })
+    }
+
+    /// The visible set this frame's build reads: V(t-1) after the first frame; on the first,
+    /// none or a low-resolution prepass; in exact mode this frame's own V(t).
+    fn visibility_input(
+        &self,
+        scene: &Scene,
+        geometry: &FrameGeometry,
+        settings: &RenderSettings,
+    ) -> Vec<TriangleRef> {
+        let trace_at = |resolution: &Resolution| {
+            // Any complete tree gives the same set; reuse this geometry's tree if there is one.
+            let cached = self
+                .cache
+                .as_ref()
+                .filter(|c| std::ptr::eq(&*c.geometry, geometry) && c.build.0.is_complete());
+            match cached {
+                Some(c) => trace_visible_set(scene, resolution, geometry, &c.camera_bvh),
+                None => {
+                    let bvh = build_binned_sah(&geometry.camera.vertices, &settings.build_settings);
+                    trace_visible_set(scene, resolution, geometry, &bvh)
+                }
+            }
+        };
+        match settings.visibility {
+            VisibilitySource::Exact => trace_at(&scene.resolution),
+            _ if self.frames_rendered > 0 => self.previous_visible.clone(),
+            VisibilitySource::Previous => Vec::new(),
+            VisibilitySource::Prepass { width, height } => {
+                trace_at(&Resolution::new(width, height))
+            }
+        }
     }
 
     /// Collapses the cached BVHs to the settings' width when a pass will read a wide tree, and

@@ -1,5 +1,6 @@
 use serde::{Deserialize, Serialize};
 
+use super::VisibilitySource;
 use crate::bvh::{BuildMethod, BuildSettings, BvhWidth};
 use crate::trace::ShadowOrder;
 use crate::{Error, Result};
@@ -32,6 +33,9 @@ pub struct RenderSettings {
     #[serde(default)]
     pub width: BvhWidth,
     pub stats: StatsMode,
+    /// Where ABVH, OSAH and VSAH builds take their visible-triangle set from.
+    #[serde(default)]
+    pub visibility: VisibilitySource,
 }
 
 impl Default for RenderSettings {
@@ -44,6 +48,7 @@ impl Default for RenderSettings {
             shadow_order: ShadowOrder::Fbto,
             width: BvhWidth::Two,
             stats: StatsMode::Counts,
+            visibility: VisibilitySource::Previous,
         }
     }
 }
@@ -60,17 +65,18 @@ impl RenderSettings {
             ));
         }
         self.shadow_order.validate()?;
+        self.visibility.validate()?;
         self.build_settings.validate()
     }
 
     /// The method's name as it appears in statistics: builder, BVH width and shadow-ray child
     /// order, e.g. `sah/bin8/sorted:logging=sato:p=1:budget=0.05`.
     pub fn method_name(&self) -> String {
-        format!(
-            "{}/bin{}/{}",
-            self.build.name(),
-            self.width,
-            self.shadow_order
-        )
+        let build = if self.build.uses_visibility() {
+            format!("{}-{}", self.build.name(), self.visibility.name())
+        } else {
+            self.build.name().to_string()
+        };
+        format!("{build}/bin{}/{}", self.width, self.shadow_order)
     }
 }

@@ -1,0 +1,113 @@
+//! Tight boxes of a triangle's part inside an axis-aligned slab, for spatial splits: a
+//! reference cut by a split plane gets the box of its clipped polygon, not the cut of its box
+//! (the "split clipping" of Havran & Bittner that Stich et al. use).
+
+use glam::{Vec3, Vec4};
+
+use super::binned_sah::Box4;
+
+/// The box of the part of `triangle` with `lo <= p[axis] <= hi`, intersected with `within`
+/// (the reference's current box, which already bounds earlier cuts). Empty if nothing is left.
+///
+/// Conservative: points computed on the plane are rounded, so the box is widened by a few ulps
+/// across the other two axes before it is cut back to `within`; along `axis` it ends exactly at
+/// the planes, so the two halves of a cut meet without a gap.
+pub(super) fn clipped_box(
+    triangle: &[Vec3; 3],
+    axis: usize,
+    lo: f32,
+    hi: f32,
+    within: &Box4,
+) -> Box4 {
+    let mut b = Box4::EMPTY;
+    let mut add = |p: Vec3| {
+        let p4 = p.extend(0.0);
+        b.grow(p4, p4);
+    };
+    for i in 0..3 {
+        let a = triangle[i];
+        let c = triangle[(i + 1) % 3];
+        if (lo..=hi).contains(&a[axis]) {
+            add(a);
+        }
+        for plane in [lo, hi] {
+            let (da, dc) = (a[axis] - plane, c[axis] - plane);
+            if (da < 0.0 && dc > 0.0) || (da > 0.0 && dc < 0.0) {
+                let t = da / (da - dc);
+                let mut p = a + (c - a) * t;
+                p[axis] = plane;
+                add(p);
+            }
+        }
+    }
+    if b.lo.x > b.hi.x {
+        return Box4::EMPTY;
+    }
+    let pad = (b.lo.abs().max(b.hi.abs()) * (4.0 * f32::EPSILON)).truncate();
+    let mut pad = pad.extend(0.0);
+    pad[axis] = 0.0;
+    let mut lo4 = (b.lo - pad).max(within.lo);
+    let mut hi4 = (b.hi + pad).min(within.hi);
+    lo4[axis] = lo4[axis].max(lo);
+    hi4[axis] = hi4[axis].min(hi);
+    if lo4.truncate().cmpgt(hi4.truncate()).any() {
+        return Box4::EMPTY;
+    }
+    Box4 {
+        lo: lo4 * Vec4::new(1.0, 1.0, 1.0, 0.0),
+        hi: hi4 * Vec4::new(1.0, 1.0, 1.0, 0.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn whole(t: &[Vec3; 3]) -> Box4 {
+        let mut b = Box4::EMPTY;
+        for v in t {
+            b.grow(v.extend(0.0), v.extend(0.0));
+        }
+        b
+    }
+
+    #[test]
+    fn clipped_box_is_tighter_than_the_cut_box() {
+        // A diagonal triangle: cutting its box at x = 0.5 would keep y up to 1 on the right,
+        // but the triangle's right part only reaches y = 0.5.
+        let t = [
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        let right = clipped_box(&t, 0, 0.5, 1.0, &whole(&t));
+        assert_eq!(right.lo.truncate(), Vec3::new(0.5, 0.0, 0.0));
+        assert!((right.hi.y - 0.5).abs() < 1e-6, "{right:?}");
+        let left = clipped_box(&t, 0, 0.0, 0.5, &whole(&t));
+        assert_eq!(left.hi.x, 0.5);
+        assert!((left.hi.y - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn slab_missing_the_triangle_is_empty() {
+        let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let b = clipped_box(&t, 2, 1.0, 2.0, &whole(&t));
+        assert!(b.lo.x > b.hi.x);
+    }
+
+    #[test]
+    fn result_stays_inside_the_reference_box() {
+        let t = [
+            Vec3::ZERO,
+            Vec3::new(4.0, 0.0, 0.0),
+            Vec3::new(0.0, 4.0, 1.0),
+        ];
+        let within = Box4 {
+            lo: Vec4::new(0.0, 0.0, 0.0, 0.0),
+            hi: Vec4::new(2.0, 1.0, 1.0, 0.0),
+        };
+        let b = clipped_box(&t, 0, 1.0, 3.0, &within);
+        assert!(b.lo.cmpge(within.lo).all() && b.hi.cmple(within.hi).all());
+        assert_eq!((b.lo.x, b.hi.x), (1.0, 2.0));
+    }
+}

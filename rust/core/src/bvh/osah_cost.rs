@@ -1,0 +1,144 @@
+//! The two cost models a split is judged by: the surface-area heuristic, and the occlusion
+//! heuristic of Vinkler, Havran & Sochor (OSAH), which replaces the child's hit probability
+//! by a blend of its share of the visible triangles and its share of the area. Also the
+//! viability test that keeps an OSAH split only when it hides more triangles than the best SAH
+//! split would.
+
+use super::binned_sah::{Box4, PrimRef};
+
+/// Which triangles a build treats as visible (indexed by triangle id); `None`: no input.
+#[derive(Clone, Copy)]
+pub(super) struct Visibility<'a>(pub(super) Option<&'a [bool]>);
+
+impl Visibility<'_> {
+    #[inline]
+    pub(super) fn of(&self, r: &PrimRef) -> bool {
+        self.0.is_some_and(|v| v[r.id() as usize])
+    }
+    pub(super) fn count(&self, refs: &[PrimRef]) -> u32 {
+        match self.0 {
+            None => 0,
+            Some(_) => refs.iter().filter(|r| self.of(r)).count() as u32,
+        }
+    }
+}
+
+/// The two sides of a candidate split: boxes, reference counts and visible-reference counts.
+/// A reference a spatial split duplicates counts on both sides.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Sides {
+    pub(super) left: Box4,
+    pub(super) right: Box4,
+    pub(super) n_left: u32,
+    pub(super) n_right: u32,
+    pub(super) vis_left: u32,
+    pub(super) vis_right: u32,
+}
+
+impl Sides {
+    /// Half area of the two boxes' intersection: what spatial splits try to remove.
+    pub(super) fn overlap_half_area(&self) -> f32 {
+        let lo = self.left.lo.max(self.right.lo);
+        let hi = self.left.hi.min(self.right.hi);
+        Box4 { lo, hi }.half_area()
+    }
+}
+
+/// Unit costs of a traversal step and a triangle test, and the OSAH weight w.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CostModel {
+    pub(super) traversal: f32,
+    pub(super) intersection: f32,
+    pub(super) weight: f32,
+}
+
+impl CostModel {
+    /// The SAH cost: each child is entered with the probability of its area.
+    pub(super) fn sah(&self, s: &Sides, parent_area: f32) -> f32 {
+        let work = s.left.half_area() * s.n_left as f32 + s.right.half_area() * s.n_right as f32;
+        self.traversal + self.intersection * work / parent_area
+    }
+
+    /// The OSAH cost: a child is entered with probability w x (its share of the visible
+    /// references) + (1 - w) x (its area share). Without visible references it is the SAH.
+    pub(super) fn osah(&self, s: &Sides, parent_area: f32) -> f32 {
+        let visible = (s.vis_left + s.vis_right) as f32;
+        if visible == 0.0 {
+            return self.sah(s, parent_area);
+        }
+        let w = self.weight;
+        let p_left = w * s.vis_left as f32 / visible + (1.0 - w) * s.left.half_area() / parent_area;
+        let p_right =
+            w * s.vis_right as f32 / visible + (1.0 - w) * s.right.half_area() / parent_area;
+        self.traversal + self.intersection * (p_left * s.n_left as f32 + p_right * s.n_right as f32)
+    }
+}
+
+/// An OSAH split is worth taking only if its less-visible child (the one rays hitting visible
+/// triangles should skip) holds more references than either child of the best SAH split.
+pub(super) fn osah_viable(osah: &Sides, sah: &Sides) -> bool {
+    let hidden = if osah.vis_left < osah.vis_right {
+        osah.n_left
+    } else {
+        osah.n_right
+    };
+    hidden > sah.n_left.max(sah.n_right)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec4;
+
+    fn cube(x0: f32, x1: f32) -> Box4 {
+        Box4 {
+            lo: Vec4::new(x0, 0.0, 0.0, 0.0),
+            hi: Vec4::new(x1, 1.0, 1.0, 0.0),
+        }
+    }
+
+    fn sides(n: (u32, u32), vis: (u32, u32)) -> Sides {
+        Sides {
+            left: cube(0.0, 1.0),
+            right: cube(1.0, 2.0),
+            n_left: n.0,
+            n_right: n.1,
+            vis_left: vis.0,
+            vis_right: vis.1,
+        }
+    }
+
+    const MODEL: CostModel = CostModel {
+        traversal: 1.0,
+        intersection: 1.0,
+        weight: 0.9,
+    };
+
+    #[test]
+    fn osah_prefers_the_split_that_isolates_visible_triangles() {
+        // Parent [0,2]x[0,1]^2 has half area 5; each child 3.
+        let balanced = sides((50, 50), (5, 5));
+        let isolating = sides((10, 90), (10, 0));
+        // Same boxes: SAH sees no difference between the two.
+        assert_eq!(MODEL.sah(&balanced, 5.0), MODEL.sah(&isolating, 5.0));
+        assert!(MODEL.osah(&isolating, 5.0) < MODEL.osah(&balanced, 5.0));
+        // p_left = 0.9 + 0.1 * 0.6, p_right = 0.1 * 0.6.
+        let expected = 1.0 + (0.96 * 10.0 + 0.06 * 90.0);
+        assert!((MODEL.osah(&isolating, 5.0) - expected).abs() < 1e-4);
+    }
+
+    #[test]
+    fn osah_without_visible_references_is_sah() {
+        let s = sides((30, 70), (0, 0));
+        assert_eq!(MODEL.osah(&s, 5.0), MODEL.sah(&s, 5.0));
+    }
+
+    #[test]
+    fn viability_needs_more_hidden_than_the_sah_children() {
+        let sah = sides((50, 50), (5, 5));
+        assert!(osah_viable(&sides((10, 90), (10, 0)), &sah));
+        assert!(!osah_viable(&sides((60, 40), (10, 0)), &sah));
+        // The hidden child is the one with fewer visible references.
+        assert!(osah_viable(&sides((90, 10), (0, 10)), &sah));
+    }
+}

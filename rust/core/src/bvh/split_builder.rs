@@ -1,0 +1,328 @@
+//! The builder of SBVH, ABVH and OSAH trees. Per node it finds the best object and spatial
+//! split by SAH and, in OSAH nodes that hold both visible and invisible references, by the
+//! occlusion heuristic, and takes the OSAH split if it is viable. Subtrees that need neither
+//! spatial nor visibility splits (ABVH/OSAH nodes without visible references) are handed to the
+//! fast binned SAH builder and grafted in, which is why these builds cost little more than SAH
+//! when few triangles are visible.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::binned_sah::{
+    bounds_of, build_sah_subtree, Box4, BuildSettings, PrimRef, MEDIAN_DEPTH, PARALLEL_SUBTREE,
+};
+use super::node::{Bvh, BvhNode, NodeArray};
+use super::object_split::{best_object_splits, median_split, partition_object};
+use super::osah_cost::{osah_viable, CostModel, Sides, Visibility};
+use super::spatial_split::{best_spatial_splits, partition_spatial, Unsplit};
+use crate::geometry::Aabb;
+
+/// Where a builder may use spatial splits and visibility-driven splits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum SplitPolicy {
+    /// Spatial splits everywhere (Stich et al.).
+    Sbvh,
+    /// Spatial splits only in nodes with visible triangles; SAH elsewhere.
+    Abvh,
+    /// ABVH plus OSAH splits in mixed nodes near the root, more-visible child first.
+    Osah,
+}
+
+/// Builds a tree over `triangles` with `policy`; `visible[i]` flags triangle i (ignored by SBVH).
+pub(super) fn build_split_bvh(
+    triangles: &[[Vec3; 3]],
+    visible: Option<&[bool]>,
+    policy: SplitPolicy,
+    settings: &BuildSettings,
+) -> Bvh {
+    let start = Instant::now();
+    let n = triangles.len();
+    if n == 0 {
+        return Bvh::default();
+    }
+    if let Some(v) = visible {
+        assert_eq!(v.len(), n, "one visibility flag per triangle");
+    }
+    let refs: Vec<PrimRef> = triangles
+        .par_iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let b = Aabb::of_triangle(t);
+            PrimRef::new(
+                i as u32,
+                Box4 {
+                    lo: b.min.extend(0.0),
+                    hi: b.max.extend(0.0),
+                },
+            )
+        })
+        .collect();
+    let (bounds, _) = bounds_of(&refs);
+    let builder = Builder {
+        triangles,
+        settings,
+        policy,
+        vis: Visibility(if policy == SplitPolicy::Sbvh {
+            None
+        } else {
+            visible
+        }),
+        model: CostModel {
+            traversal: settings.traversal_cost,
+            intersection: settings.intersection_cost,
+            weight: settings.osah_weight,
+        },
+        root_area: bounds.half_area().max(f32::MIN_POSITIVE),
+        osah_max_depth: 0.5 * (n as f32).log2(),
+    };
+    let budget = (settings.spatial.max_growth as f64 * n as f64) as usize;
+    let tree = builder.node(refs, bounds, 0, budget);
+    let (nodes, refs) = flatten(tree);
+    let mut bvh = Bvh {
+        nodes: NodeArray::from_nodes(&nodes),
+        triangles: refs
+            .par_iter()
+            .map(|r| triangles[r.id() as usize])
+            .collect(),
+        triangle_ids: refs.iter().map(|r| r.id()).collect(),
+        build_ms: 0.0,
+    };
+    bvh.build_ms = start.elapsed().as_secs_f64() * 1e3;
+    bvh
+}
+
+/// A subtree under construction.
+enum Built {
+    Leaf(Box4, Vec<PrimRef>),
+    Inner(Box4, Box<[Built; 2]>),
+    /// A binned SAH subtree: its compacted nodes, leaf ranges indexing its references.
+    Sah(Bvh, Vec<PrimRef>),
+}
+
+struct Builder<'a> {
+    triangles: &'a [[Vec3; 3]],
+    settings: &'a BuildSettings,
+    policy: SplitPolicy,
+    vis: Visibility<'a>,
+    model: CostModel,
+    root_area: f32,
+    osah_max_depth: f32,
+}
+
+/// The split a node takes.
+enum Choice {
+    Object(super::object_split::ObjectSplit),
+    Spatial(super::spatial_split::SpatialSplit, Unsplit),
+}
+
+impl Builder<'_> {
+    fn node(&self, mut refs: Vec<PrimRef>, bounds: Box4, depth: usize, budget: usize) -> Built {
+        let n = refs.len();
+        let visible = self.vis.count(&refs);
+        let spatial = self.settings.spatial.enabled
+            && depth < MEDIAN_DEPTH
+            && (self.policy == SplitPolicy::Sbvh || visible > 0);
+        let mixed = visible > 0 && (visible as usize) < n;
+        let osah =
+            self.policy == SplitPolicy::Osah && mixed && (depth as f32) <= self.osah_max_depth;
+        if !spatial && !osah {
+            let bvh = build_sah_subtree(&mut refs, self.settings, depth);
+            return Built::Sah(bvh, refs);
+        }
+        if n <= 1 {
+            return Built::Leaf(bounds, refs);
+        }
+        let (choice, cost) = self.choose(&refs, &bounds, spatial, osah, budget);
+        let leaf_cost = self.settings.intersection_cost * n as f32;
+        if n <= self.settings.max_leaf_size && cost.is_none_or(|c| c >= leaf_cost) {
+            return Built::Leaf(bounds, refs);
+        }
+        let (_, centroids) = bounds_of(&refs);
+        let (mut left, mut right) = match choice {
+            Some(Choice::Spatial(s, unsplit)) => {
+                partition_spatial(refs, self.triangles, &s, unsplit)
+            }
+            Some(Choice::Object(s)) => partition_object(refs, &s),
+            None => median_split(refs, &centroids),
+        };
+        if left.is_empty() || right.is_empty() {
+            let mut all = left;
+            all.append(&mut right);
+            (left, right) = median_split(all, &centroids);
+        }
+        // OSAH: the child with more visible references first, so that a traversal that takes
+        // the left child on equal entry distances reaches visible triangles first.
+        if self.policy == SplitPolicy::Osah
+            && mixed
+            && self.vis.count(&right) > self.vis.count(&left)
+        {
+            std::mem::swap(&mut left, &mut right);
+        }
+        let grown = (left.len() + right.len()).saturating_sub(n);
+        let remaining = budget.saturating_sub(grown);
+        let left_budget = remaining * left.len() / (left.len() + right.len());
+        let right_budget = remaining - left_budget;
+        let (lb, rb) = (bounds_of(&left).0, bounds_of(&right).0);
+        let children = if n > PARALLEL_SUBTREE {
+            rayon::join(
+                || self.node(left, lb, depth + 1, left_budget),
+                || self.node(right, rb, depth + 1, right_budget),
+            )
+        } else {
+            (
+                self.node(left, lb, depth + 1, left_budget),
+                self.node(right, rb, depth + 1, right_budget),
+            )
+        };
+        Built::Inner(bounds, Box::new([children.0, children.1]))
+    }
+
+    /// The best split and its cost: the best SAH split (object or spatial), replaced by the best
+    /// OSAH split if `osah` and the OSAH split is viable.
+    fn choose(
+        &self,
+        refs: &[PrimRef],
+        bounds: &Box4,
+        spatial: bool,
+        osah: bool,
+        budget: usize,
+    ) -> (Option<Choice>, Option<f32>) {
+        let (_, centroids) = bounds_of(refs);
+        let area = bounds.half_area().max(f32::MIN_POSITIVE);
+        let s = self.settings;
+        let [obj_sah, obj_osah] =
+            best_object_splits(refs, self.vis, &centroids, area, s.bins, &self.model, osah);
+        let overlap = [&obj_sah, &obj_osah]
+            .iter()
+            .filter_map(|o| o.as_ref().map(|(x, _)| x.sides.overlap_half_area()))
+            .fold(0.0f32, f32::max);
+        let try_spatial = spatial
+            && (obj_sah.is_none() || overlap / self.root_area > s.spatial.alpha)
+            && budget > 0;
+        let [sp_sah, sp_osah] = if try_spatial {
+            best_spatial_splits(
+                refs,
+                self.triangles,
+                self.vis,
+                bounds,
+                area,
+                s.spatial.bins,
+                &self.model,
+                osah,
+            )
+        } else {
+            [None, None]
+        };
+        let n = refs.len() as u32;
+        let affordable =
+            |sides: &Sides| (sides.n_left + sides.n_right).saturating_sub(n) as usize <= budget;
+        let sp_sah = sp_sah.filter(|(x, _)| affordable(&x.sides));
+        let sp_osah = sp_osah.filter(|(x, _)| affordable(&x.sides));
+
+        // Candidates as (choice, cost, sides); the lower cost wins, objects win ties.
+        let pick = |o: Option<(super::object_split::ObjectSplit, f32)>,
+                    p: Option<(super::spatial_split::SpatialSplit, f32)>,
+                    unsplit: Unsplit| {
+            match (o, p) {
+                (Some(o), Some(p)) if p.1 < o.1 => {
+                    Some((Choice::Spatial(p.0, unsplit), p.1, p.0.sides))
+                }
+                (Some(o), _) => Some((Choice::Object(o.0), o.1, o.0.sides)),
+                (None, Some(p)) => Some((Choice::Spatial(p.0, unsplit), p.1, p.0.sides)),
+                (None, None) => None,
+            }
+        };
+        let best_sah = pick(obj_sah, sp_sah, Unsplit::Both);
+        if osah {
+            let unsplit_of = |sides: &Sides| {
+                if sides.vis_left >= sides.vis_right {
+                    Unsplit::LeftOnly
+                } else {
+                    Unsplit::RightOnly
+                }
+            };
+            let best_osah = match (obj_osah, sp_osah) {
+                (Some(o), Some(p)) if p.1 < o.1 => {
+                    Some((Choice::Spatial(p.0, unsplit_of(&p.0.sides)), p.1, p.0.sides))
+                }
+                (Some(o), _) => Some((Choice::Object(o.0), o.1, o.0.sides)),
+                (None, Some(p)) => {
+                    Some((Choice::Spatial(p.0, unsplit_of(&p.0.sides)), p.1, p.0.sides))
+                }
+                (None, None) => None,
+            };
+            if let Some((choice, cost, sides)) = best_osah {
+                let viable = best_sah.as_ref().is_none_or(|b| osah_viable(&sides, &b.2));
+                if viable {
+                    return (Some(choice), Some(cost));
+                }
+            }
+        }
+        match best_sah {
+            Some((choice, cost, _)) => (Some(choice), Some(cost)),
+            None => (None, None),
+        }
+    }
+}
+
+/// Lays the tree out as [`NodeArray`] needs (root, pad, then sibling pairs depth-first) and
+/// returns its nodes and its references in leaf order.
+fn flatten(tree: Built) -> (Vec<BvhNode>, Vec<PrimRef>) {
+    if let Built::Sah(bvh, refs) = tree {
+        return (bvh.nodes.to_vec(), refs);
+    }
+    let mut nodes = vec![BvhNode::default(); 2];
+    let mut refs = Vec::new();
+    let mut stack: Vec<(Built, usize)> = vec![(tree, 0)];
+    while let Some((built, at)) = stack.pop() {
+        match built {
+            Built::Leaf(bounds, mut leaf) => {
+                nodes[at].set_bounds(&bounds.to_aabb());
+                nodes[at].first = refs.len() as u32;
+                nodes[at].count = leaf.len() as u32;
+                refs.append(&mut leaf);
+            }
+            Built::Inner(bounds, children) => {
+                nodes[at].set_bounds(&bounds.to_aabb());
+                nodes[at].count = 0;
+                let k = nodes.len();
+                nodes[at].first = k as u32;
+                nodes.push(BvhNode::default());
+                nodes.push(BvhNode::default());
+                let [l, r] = *children;
+                stack.push((r, k + 1));
+                stack.push((l, k));
+            }
+            Built::Sah(bvh, mut sub_refs) => {
+                let base = refs.len() as u32;
+                refs.append(&mut sub_refs);
+                graft(&bvh.nodes, &mut nodes, at, base);
+            }
+        }
+    }
+    (nodes, refs)
+}
+
+/// Copies a compacted SAH subtree into `out` with its root at `at`, offsetting leaf ranges by
+/// `base`.
+fn graft(sub: &[BvhNode], out: &mut Vec<BvhNode>, at: usize, base: u32) {
+    let mut stack = vec![(0usize, at)];
+    while let Some((i, o)) = stack.pop() {
+        let mut node = sub[i];
+        if node.is_leaf() {
+            node.first += base;
+            out[o] = node;
+            continue;
+        }
+        let k = out.len();
+        out.push(BvhNode::default());
+        out.push(BvhNode::default());
+        let child = node.first as usize;
+        node.first = k as u32;
+        out[o] = node;
+        stack.push((child + 1, k + 1));
+        stack.push((child, k));
+    }
+}

@@ -1,0 +1,160 @@
+//! Visible-triangle sets for visibility-driven builds (ABVH, OSAH, VSAH): where a frame's set
+//! comes from, how a set is taken from a primary pass, and how a set of [`TriangleRef`]s (stable
+//! across frames) becomes per-triangle flags of this frame's triangle arrays.
+
+use serde::{Deserialize, Serialize};
+
+use super::{PrimaryPass, PrimaryRays};
+use crate::bvh::Bvh;
+use crate::scene::{FrameGeometry, Resolution, Scene, TriangleRef, TriangleSet};
+use crate::{Error, Result};
+
+/// Where a visibility-driven build takes its visible set from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum VisibilitySource {
+    /// The set seen by the previous frame's primary rays, V(t-1); the first frame has none and
+    /// builds the tree the method falls back to (SAH for ABVH/OSAH).
+    #[default]
+    Previous,
+    /// This frame's own set V(t), from a primary pass before the build (two passes; a
+    /// reference for what "previous" loses).
+    Exact,
+    /// As `Previous`, but the first frame takes its set from a primary pass at this size.
+    Prepass { width: u32, height: u32 },
+}
+
+impl VisibilitySource {
+    pub fn name(&self) -> String {
+        match self {
+            VisibilitySource::Previous => "previous".into(),
+            VisibilitySource::Exact => "exact".into(),
+            VisibilitySource::Prepass { width, height } => format!("prepass:{width}x{height}"),
+        }
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        if let VisibilitySource::Prepass { width, height } = *self {
+            if !(1..=4096).contains(&width) || !(1..=4096).contains(&height) {
+                return Err(Error::invalid(
+                    "visibility",
+                    format!("prepass size must be in 1..=4096, got {width}x{height}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl std::str::FromStr for VisibilitySource {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        let bad = || {
+            Error::invalid(
+                "visibility",
+                format!("'{s}' is not previous, exact or prepass:WxH"),
+            )
+        };
+        match s {
+            "previous" => Ok(VisibilitySource::Previous),
+            "exact" => Ok(VisibilitySource::Exact),
+            _ => {
+                let size = s.strip_prefix("prepass:").ok_or_else(bad)?;
+                let (w, h) = size.split_once('x').ok_or_else(bad)?;
+                let v = VisibilitySource::Prepass {
+                    width: w.parse().map_err(|_| bad())?,
+                    height: h.parse().map_err(|_| bad())?,
+                };
+                v.validate()?;
+                Ok(v)
+            }
+        }
+    }
+}
+
+/// The sorted set of camera-set triangles that primary rays hit, by id per pixel.
+pub(super) fn visible_set(primary_ids: &[u32], camera: &TriangleSet) -> Vec<TriangleRef> {
+    let mut seen = vec![false; camera.len()];
+    for &id in primary_ids.iter().filter(|&&id| id != u32::MAX) {
+        seen[id as usize] = true;
+    }
+    let mut visible: Vec<TriangleRef> = seen
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| **s)
+        .map(|(i, _)| camera.refs[i])
+        .collect();
+    visible.sort_unstable();
+    visible
+}
+
+/// The visible set of `scene`'s camera at `resolution`, traced through `bvh` (any complete tree
+/// over the camera set: the answers do not depend on it).
+pub(super) fn trace_visible_set(
+    scene: &Scene,
+    resolution: &Resolution,
+    geometry: &FrameGeometry,
+    bvh: &Bvh,
+) -> Vec<TriangleRef> {
+    let rays = PrimaryRays::new(&scene.camera, resolution, &geometry.space);
+    let pass = PrimaryPass::timed(&rays, bvh, &geometry.camera);
+    let ids: Vec<u32> = pass
+        .surfaces
+        .iter()
+        .map(|s| s.map_or(u32::MAX, |s| s.triangle))
+        .collect();
+    visible_set(&ids, &geometry.camera)
+}
+
+/// Per-triangle flags of `set` for the sorted `visible` refs. Refs of triangles this frame does
+/// not have (an object removed, a mesh with fewer triangles) are ignored; new triangles are
+/// invisible until a frame sees them.
+pub fn visibility_flags(set: &TriangleSet, visible: &[TriangleRef]) -> Vec<bool> {
+    set.refs
+        .iter()
+        .map(|r| visible.binary_search(r).is_ok())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn parses_the_three_sources() {
+        assert_eq!(
+            "previous".parse::<VisibilitySource>().unwrap(),
+            VisibilitySource::Previous
+        );
+        assert_eq!(
+            "exact".parse::<VisibilitySource>().unwrap(),
+            VisibilitySource::Exact
+        );
+        let p: VisibilitySource = "prepass:32x16".parse().unwrap();
+        assert_eq!(
+            p,
+            VisibilitySource::Prepass {
+                width: 32,
+                height: 16
+            }
+        );
+        assert_eq!(p.name(), "prepass:32x16");
+        for bad in ["prepass", "prepass:0x4", "prepass:8", "nearest"] {
+            assert!(bad.parse::<VisibilitySource>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn flags_follow_refs_not_indices() {
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let r = |object, primitive| TriangleRef { object, primitive };
+        // Object 1 disappeared, object 3 is new: indices moved, identities did not.
+        let set = TriangleSet {
+            vertices: vec![tri; 4],
+            refs: vec![r(0, 0), r(0, 1), r(2, 0), r(3, 0)],
+            degenerate: 0,
+        };
+        let visible = vec![r(0, 1), r(1, 0), r(2, 0)];
+        assert_eq!(visibility_flags(&set, &visible), [false, true, true, false]);
+    }
+}
