@@ -535,7 +535,8 @@ impl Connection {
 
     /// Renders a frame sent with frame_update; returns a dict that `antumbra.Result` wraps.
     #[pyo3(signature = (frame, spp, seed, build, order, leaf_size, bins, traversal_cost,
-        intersection_cost, timing, passes, progress = None, timeout = None, width = None))]
+        intersection_cost, timing, passes, progress = None, timeout = None, width = None,
+        visibility = "previous", osah_w = None))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
@@ -554,6 +555,8 @@ impl Connection {
         progress: Option<Bound<'py, PyAny>>,
         timeout: Option<f64>,
         width: Option<Bound<'py, PyAny>>,
+        visibility: &str,
+        osah_w: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
@@ -568,6 +571,8 @@ impl Connection {
                 intersection_cost,
                 timing,
                 &width.unwrap_or_else(|| 2u32.into_pyobject(py).expect("int").into_any()),
+                visibility,
+                osah_w,
             )?;
             antumbra_protocol::check_limits(
                 &Request::Render(RenderRequest {

@@ -233,7 +233,8 @@ impl LocalSession {
     /// ("render", 0, 2) before rendering, ("encode", 1, 2) after; returning False from the
     /// first call cancels.
     #[pyo3(signature = (frame, spp, seed, build, order, leaf_size, bins, traversal_cost,
-        intersection_cost, timing, passes, progress = None, timeout = None, width = None))]
+        intersection_cost, timing, passes, progress = None, timeout = None, width = None,
+        visibility = "previous", osah_w = None))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
@@ -252,6 +253,8 @@ impl LocalSession {
         progress: Option<Bound<'py, PyAny>>,
         timeout: Option<f64>,
         width: Option<Bound<'py, PyAny>>,
+        visibility: &str,
+        osah_w: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = timeout;
         (|| {
@@ -267,6 +270,8 @@ impl LocalSession {
                 intersection_cost,
                 timing,
                 &width.unwrap_or_else(|| 2u32.into_pyobject(py).expect("int").into_any()),
+                visibility,
+                osah_w,
             )?;
             let passes = scene::passes(passes)?;
             if let Some(p) = &progress {

@@ -2,12 +2,13 @@
 //! name the field at fault. Both sessions build their requests here, so the socket and the
 //! in-process paths see the same messages.
 
+use antumbra_core::render::VisibilitySource;
 use antumbra_core::scene::{Camera, Light, Resolution};
 use antumbra_protocol::{
     check_limits, render_settings, AreaShapeState, BuildMethodState, BuildSettingsState,
     CameraState, FrameUpdate, LightKindState, LightState, Limits, ObjectState, Passes,
     RenderSettingsState, Request, ResolutionState, SensorFitState, ShadowOrderState,
-    StatsModeState,
+    StatsModeState, VisibilitySourceState,
 };
 use numpy::{PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyOverflowError;
@@ -577,6 +578,8 @@ pub fn render_settings_state(
     intersection_cost: f64,
     timing: &Bound<'_, PyAny>,
     width: &Bound<'_, PyAny>,
+    visibility: &str,
+    osah_w: Option<f64>,
 ) -> ClientResult<RenderSettingsState> {
     let timing = if let Ok(b) = timing.cast::<PyBool>() {
         if b.is_true() {
@@ -623,6 +626,7 @@ pub fn render_settings_state(
             max_leaf_size: integer::<u32>(leaf_size, "leaf_size", "1 to 64")?,
             traversal_cost: traversal_cost as f32,
             intersection_cost: intersection_cost as f32,
+            osah_weight: osah_w.map_or(BuildSettingsState::default().osah_weight, |w| w as f32),
             ..BuildSettingsState::default()
         },
         // The two orders older daemons know travel as `shadow_order`; every other order (the
@@ -634,7 +638,16 @@ pub fn render_settings_state(
         order: (!matches!(order, "near" | "fbto" | "stored")).then(|| order.to_string()),
         width: integer::<u32>(width, "width", "2, 4 or 8")?,
         stats: timing,
-        ..RenderSettingsState::default()
+        visibility: match visibility
+            .parse::<antumbra_core::render::VisibilitySource>()
+            .map_err(|e| ClientError::invalid(e.to_string()))?
+        {
+            VisibilitySource::Previous => VisibilitySourceState::Previous,
+            VisibilitySource::Exact => VisibilitySourceState::Exact,
+            VisibilitySource::Prepass { width, height } => {
+                VisibilitySourceState::Prepass { width, height }
+            }
+        },
     };
     // The daemon's own check, made here so a bad setting fails before the request is sent.
     render_settings(&state).map_err(|e| ClientError::invalid(e.to_string()))?;

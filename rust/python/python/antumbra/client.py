@@ -266,6 +266,8 @@ class _Session:
         progress: ProgressCallback | None = None,
         *,
         width: int = 2,
+        visibility: str = "previous",
+        osah_w: float | None = None,
         traversal_cost: float = 1.0,
         intersection_cost: float = 1.0,
         timeout: float | None = None,
@@ -275,11 +277,15 @@ class _Session:
         Args:
             spp: shadow samples per pixel for soft lights (1 to 4096).
             seed: seed of the light-sample patterns.
-            build: the BVH builder ('sah').
+            build: the BVH builder: 'sah', 'sbvh', 'abvh', 'osah' or 'vsah'.
             order: child order of shadow rays, as ``antumbra render --order`` takes it:
                 'stored', 'fbto' (or 'near'), 'sato', 'rtsah', 'random[:seed=S]' or
                 'sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]' (per light).
             width: children per BVH node (2, 4 or 8).
+            visibility: where 'abvh', 'osah' and 'vsah' builds take the visible triangles
+                from: 'previous' (the session's last frame), 'exact' (this frame, two passes)
+                or 'prepass:WxH' (previous; a WxH primary prepass on the first frame).
+            osah_w: OSAH's weight of visible triangles, in (0, 1) (None: 0.9).
             leaf_size: most triangles per BVH leaf (1 to 64); bins: SAH bins (2 to 256).
             timing: False (exact work counters and heat maps), True (counters, then each pass
                 again without counters for Mrays/s) or 'only' (timings, no heat maps).
@@ -306,6 +312,8 @@ class _Session:
             progress,
             timeout,
             width,
+            visibility,
+            osah_w,
         )
         return Result._from_native(dict(raw), passes)
 
