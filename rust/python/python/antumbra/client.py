@@ -220,7 +220,10 @@ class _Session:
         Args:
             spp: shadow samples per pixel for soft lights (1 to 4096).
             seed: seed of the light-sample patterns.
-            build: the BVH builder ('sah').
+            build: the BVH builder: 'sah', 'sbvh' (spatial splits), 'abvh', 'osah' (built from
+                the previous frame's visible triangles) or 'vsah' (a reference). Visibility
+                source, OSAH weight and spatial-split settings take the daemon's defaults
+                (previous frame, w = 0.9, splits on) from this client.
             order: child order of shadow rays ('near' or 'stored').
             leaf_size: most triangles per BVH leaf (1 to 64); bins: SAH bins (2 to 256).
             timing: False (exact work counters and heat maps), True (counters, then each pass
