@@ -277,7 +277,8 @@ class _Session:
         Args:
             spp: shadow samples per pixel for soft lights (1 to 4096).
             seed: seed of the light-sample patterns.
-            build: the BVH builder: 'sah', 'sbvh', 'abvh', 'osah' or 'vsah'.
+            build: the BVH builder: 'sah', 'sbvh' (spatial splits), 'abvh', 'osah' (built from
+                the visible triangles, see ``visibility``) or 'vsah' (a reference).
             order: child order of shadow rays, as ``antumbra render --order`` takes it:
                 'stored', 'fbto' (or 'near'), 'sato', 'rtsah', 'random[:seed=S]' or
                 'sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]' (per light).
