@@ -25,6 +25,7 @@ from .client import (
     mesh_hash,
     read_exr,
     read_recording,
+    render_settings,
 )
 from .errors import (
     AntumbraError,
@@ -61,4 +62,5 @@ __all__ = [
     "mesh_hash",
     "read_exr",
     "read_recording",
+    "render_settings",
 ]

@@ -9,6 +9,7 @@ manages the daemon process, the socket path and the shape of the results.
 from __future__ import annotations
 
 import collections
+import json
 import os
 import shutil
 import subprocess
@@ -39,6 +40,7 @@ __all__ = [
     "mesh_hash",
     "read_exr",
     "read_recording",
+    "render_settings",
 ]
 
 PROTOCOL_VERSION: int = _native.PROTOCOL_VERSION
@@ -93,6 +95,41 @@ def colorize_heat(array: np.ndarray, max: float | None = None) -> tuple[np.ndarr
     first colour, ``max`` (default: the image's largest value) the last. Returns the sRGB uint8
     array of shape (h, w, 3) and the max used."""
     return _native.colorize_heat(array, max)
+
+
+def render_settings(
+    spp: int = 4,
+    seed: int = 0,
+    build: str = "sah",
+    order: str = "fbto",
+    leaf_size: int = 8,
+    bins: int = 16,
+    timing: bool | str = False,
+    *,
+    width: int = 2,
+    visibility: str = "previous",
+    osah_w: float | None = None,
+    traversal_cost: float = 1.0,
+    intersection_cost: float = 1.0,
+) -> dict[str, Any]:
+    """The settings :meth:`render` takes, checked as it checks them, as the protocol spells
+    them (``RenderSettingsState``): the ``settings`` of a spool job's ``job.json``."""
+    return json.loads(
+        _native.render_settings_json(
+            spp,
+            seed,
+            build,
+            order,
+            leaf_size,
+            bins,
+            traversal_cost,
+            intersection_cost,
+            timing,
+            width,
+            visibility,
+            osah_w,
+        )
+    )
 
 
 def read_exr(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
