@@ -1,7 +1,9 @@
 """Headless shadow-pass batches of a .blend's frames.
 
     blender -b scene.blend -P blender_addon/batch.py -- --frames 1-100 --out DIR
-        [--build sah] [--order near] [--spp 4] [--scale 1.0] [--no-heat-maps]
+        [--build sah|sbvh|abvh|osah|vsah] [--width 2|4|8] [--order fbto|stored|sato|rtsah|
+        random|sorted] [--budget 0.05] [--visibility previous|exact|prepass] [--spp 4]
+        [--scale 1.0] [--no-heat-maps]
         [--socket PATH] [--binary PATH] [--spool DIR] [--restart]
 
 Prints one line per frame and a summary, writes ``frame_NNNN.exr``, PNGs and
@@ -34,7 +36,7 @@ import bpy
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from antumbra import client_loader, daemon, results, spool
 from antumbra.jobs import RenderJob
-from antumbra.options import BUILDS, ORDERS, RenderOptions
+from antumbra.options import BUILDS, ORDERS, VISIBILITIES, WIDTHS, RenderOptions
 
 
 def parse_frames(text: str, scene) -> list[int]:
@@ -56,7 +58,14 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--frames", default="", help="A-B or N (default: the scene's range)")
     parser.add_argument("--out", type=Path, required=True, help="output folder")
     parser.add_argument("--build", default="sah", choices=BUILDS)
-    parser.add_argument("--order", default="near", choices=ORDERS)
+    parser.add_argument("--width", type=int, default=2, choices=WIDTHS)
+    parser.add_argument(
+        "--order",
+        default="fbto",
+        help=f"{' | '.join(ORDERS)} (sorted: per light, from --budget of its shadow rays)",
+    )
+    parser.add_argument("--budget", type=float, default=0.05, help="sorted order's ray share")
+    parser.add_argument("--visibility", default="previous", choices=VISIBILITIES)
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--scale", type=float, default=1.0, help="resolution scale")
@@ -67,6 +76,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--spool", type=Path, help="render through this spool folder")
     parser.add_argument("--restart", action="store_true", help="render finished frames again")
     args = parser.parse_args(argv)
+    if args.order.split(":")[0] not in ORDERS:
+        parser.error(f"--order: '{args.order}' is not one of {', '.join(ORDERS)}")
     if not 1 <= args.spp <= 4096:
         parser.error("--spp must be in 1..4096")
     if not 0.0 < args.scale <= 1.0:
@@ -80,7 +91,10 @@ def run(argv: list[str]) -> int:
     frames = parse_frames(args.frames, scene)
     options = RenderOptions(
         build=args.build,
+        width=args.width,
         order=args.order,
+        sample_budget=args.budget,
+        visibility=args.visibility,
         spp=args.spp,
         seed=args.seed,
         resolution_scale=args.scale,

@@ -2,18 +2,29 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-#: BVH builders the daemon offers (``--build``).
-BUILDS = ("sah",)
-#: Child orders of the shadow-ray traversal (``--order``).
-ORDERS = ("near", "stored")
+#: BVH builders (``antumbra render --build``): binned SAH, spatial splits, and the
+#: visibility-driven ABVH, OSAH and the VSAH reference.
+BUILDS = ("sah", "sbvh", "abvh", "osah", "vsah")
+#: Children per BVH node.
+WIDTHS = (2, 4, 8)
+#: Child orders of shadow rays (``--order``); "sorted" sorts per light from a budget of its rays.
+ORDERS = ("fbto", "stored", "sato", "rtsah", "random", "sorted")
+#: Where ABVH/OSAH/VSAH take the visible triangles from.
+VISIBILITIES = ("previous", "exact", "prepass")
 
 
 @dataclass
 class RenderOptions:
     build: str = "sah"
-    order: str = "near"
+    width: int = 2
+    order: str = "fbto"
+    #: Share of a light's shadow rays that log occlusion for the sorted order (0..1].
+    sample_budget: float = 0.05
+    visibility: str = "previous"
+    #: The first frame's primary prepass size for ``visibility="prepass"``.
+    prepass: int = 32
     spp: int = 4
     seed: int = 0
     #: Multiplies the scene's resolution percentage (a quick preview at 0.25).
@@ -22,21 +33,38 @@ class RenderOptions:
     #: Per-frame files in the output folder (``frame_NNNN.exr`` and PNGs).
     save_exr: bool = True
     save_png: bool = True
-    extra: dict = field(default_factory=dict)
 
-    def render_kwargs(self) -> dict:
-        passes = ["masks", "combined"] + (["heat_maps"] if self.heat_maps else [])
+    def order_spec(self) -> str:
+        """The order as ``--order`` spells it."""
+        if self.order == "sorted":
+            return f"sorted:budget={self.sample_budget:g}"
+        return self.order
+
+    def visibility_spec(self) -> str:
+        if self.visibility == "prepass":
+            return f"prepass:{self.prepass}x{self.prepass}"
+        return self.visibility
+
+    def settings_kwargs(self) -> dict:
+        """The render settings, as ``render()`` and ``antumbra.render_settings()`` take them."""
         return {
             "spp": self.spp,
             "seed": self.seed,
             "build": self.build,
-            "order": self.order,
-            "passes": tuple(passes),
-            **self.extra,
+            "order": self.order_spec(),
+            "width": self.width,
+            "visibility": self.visibility_spec(),
         }
+
+    def render_kwargs(self) -> dict:
+        passes = ["masks", "combined"] + (["heat_maps"] if self.heat_maps else [])
+        return {**self.settings_kwargs(), "passes": tuple(passes)}
 
     def percentage(self, scene_percentage: int) -> int:
         return max(1, min(10000, round(scene_percentage * self.resolution_scale)))
 
     def describe(self) -> str:
-        return f"build={self.build} order={self.order} spp={self.spp}"
+        text = f"build={self.build} width={self.width} order={self.order_spec()} spp={self.spp}"
+        if self.build in {"abvh", "osah", "vsah"}:
+            text += f" visibility={self.visibility_spec()}"
+        return text

@@ -5,14 +5,27 @@ from __future__ import annotations
 
 import bpy
 
-from .options import BUILDS, ORDERS, RenderOptions
+from .options import BUILDS, ORDERS, VISIBILITIES, WIDTHS, RenderOptions
 
 _BUILD_TEXT = {
     "sah": ("SAH", "Binned surface area heuristic"),
+    "sbvh": ("SBVH", "SAH with spatial splits"),
+    "abvh": ("ABVH", "Spatial splits only where the visible triangles are"),
+    "osah": ("OSAH", "Occlusion heuristic from the visible triangles"),
+    "vsah": ("VSAH", "SAH over the visible triangles only (a reference)"),
 }
 _ORDER_TEXT = {
-    "near": ("Near first", "Nearer child first"),
+    "fbto": ("Front to back", "Nearer child first"),
     "stored": ("Stored", "Children in build order"),
+    "sato": ("SATO", "Largest surface area first"),
+    "rtsah": ("RTSAH", "By estimated termination cost"),
+    "random": ("Random", "Seeded random order"),
+    "sorted": ("Sorted per light", "Sorted from the light's own representative shadow rays"),
+}
+_VISIBILITY_TEXT = {
+    "previous": ("Previous frame", "The triangles the previous frame's camera saw"),
+    "exact": ("This frame", "This frame's own visible triangles (two passes)"),
+    "prepass": ("Prepass", "Previous frame, a low-resolution prepass on the first frame"),
 }
 
 
@@ -22,8 +35,23 @@ def _items(keys, text):
 
 class AntumbraSettings(bpy.types.PropertyGroup):
     build: bpy.props.EnumProperty(name="Build", items=_items(BUILDS, _BUILD_TEXT))
+    width: bpy.props.EnumProperty(
+        name="Width",
+        description="Children per BVH node",
+        items=[(str(w), str(w), f"{w}-wide BVH") for w in WIDTHS],
+    )
     order: bpy.props.EnumProperty(
         name="Shadow order", items=_items(ORDERS, _ORDER_TEXT), description="Child order"
+    )
+    sample_budget: bpy.props.FloatProperty(
+        name="Sample budget",
+        description="Share of each light's shadow rays that decide its sorted order",
+        default=0.05,
+        min=0.001,
+        max=1.0,
+    )
+    visibility: bpy.props.EnumProperty(
+        name="Visibility", items=_items(VISIBILITIES, _VISIBILITY_TEXT)
     )
     spp: bpy.props.IntProperty(
         name="Samples",
@@ -63,7 +91,10 @@ class AntumbraSettings(bpy.types.PropertyGroup):
     def options(self) -> RenderOptions:
         return RenderOptions(
             build=self.build,
+            width=int(self.width),
             order=self.order,
+            sample_budget=self.sample_budget,
+            visibility=self.visibility,
             spp=self.spp,
             seed=self.seed,
             resolution_scale=self.resolution_scale,

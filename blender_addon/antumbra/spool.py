@@ -20,10 +20,6 @@ import bpy
 from .export import Exporter
 from .options import RenderOptions
 
-#: RenderOptions names to the protocol's RenderSettingsState variant names.
-BUILD_STATE = {"sah": "Sah"}
-ORDER_STATE = {"near": "NearFirst", "stored": "Stored"}
-
 
 class SpoolError(RuntimeError):
     pass
@@ -37,17 +33,9 @@ def job_id(blend: str, frames: list[int], options: RenderOptions) -> str:
     return f"{safe}-{hashlib.sha1(key.encode()).hexdigest()[:12]}"
 
 
-def job_settings(options: RenderOptions) -> dict:
-    try:
-        return {
-            "spp": options.spp,
-            "seed": options.seed,
-            "build": BUILD_STATE[options.build],
-            "shadow_order": ORDER_STATE[options.order],
-            "stats": "Counts",
-        }
-    except KeyError as e:
-        raise SpoolError(f"the spool cannot express setting {e}") from None
+def job_settings(options: RenderOptions, client) -> dict:
+    """The job's settings as the protocol spells them, checked by the client."""
+    return client.render_settings(**options.settings_kwargs())
 
 
 def daemon_watching(spool: Path) -> bool:
@@ -98,7 +86,7 @@ def submit(
         "version": 1,
         "name": jid,
         "frames": frames,
-        "settings": job_settings(options),
+        "settings": job_settings(options, client),
         "outputs": {"exr": options.save_exr, "png": options.save_png, "stats": True},
     }
     (incoming / "job.json").write_text(json.dumps(job, indent=1))

@@ -67,7 +67,12 @@ def draw_panel(layout, context):
     _daemon_box(layout)
     col = layout.column(align=True)
     col.prop(settings, "build")
+    if settings.build in {"abvh", "osah", "vsah"}:
+        col.prop(settings, "visibility")
+    col.prop(settings, "width")
     col.prop(settings, "order")
+    if settings.order == "sorted":
+        col.prop(settings, "sample_budget")
     col.prop(settings, "spp")
     col.prop(settings, "resolution_scale")
     col.prop(settings, "heat_maps")

@@ -167,9 +167,10 @@ def test_bad_arguments_exit_non_zero(scene_blend, short_tmp):
 
 def test_spool_batch_equals_socket_batch_and_resumes(scene_blend, antumbra_bin, short_tmp):
     """--spool: the frames go to the daemon as one spool job; the files collected equal, byte
-    for byte, those of a batch over the socket; running it again follows the same job."""
+    for byte, those of a batch over the socket with the same (non-default) method settings;
+    running it again follows the same job."""
     env = blender_env(short_tmp / "home", ANTUMBRA_BIN=str(antumbra_bin))
-    frames = ["--frames", "2-4"]
+    frames = ["--frames", "2-4", "--build", "osah", "--width", "8", "--order", "sorted"]
     direct = batch(
         scene_blend,
         short_tmp / "direct",
@@ -208,3 +209,7 @@ def test_spool_batch_equals_socket_batch_and_resumes(scene_blend, antumbra_bin, 
     )
     assert again.returncode == 0, again.stdout[-3000:] + again.stderr[-3000:]
     assert "following job" in again.stdout and "3 already done" in again.stdout
+    for folder in ("direct", "spooled"):
+        with open(short_tmp / folder / "stats.csv") as f:
+            methods = {row["method"] for row in csv.DictReader(f)}
+        assert methods == {"osah-previous/bin8/sorted:logging=sato:p=1:budget=0.05"}, methods

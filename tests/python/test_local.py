@@ -182,7 +182,9 @@ def test_width_and_order_change_work_not_masks(scene):
     base = session.render(1, passes=["masks"])
     for width, order in [(4, "sato"), (8, "sorted:logging=fbto:budget=0.5"), (2, "rtsah")]:
         r = session.render(1, passes=["masks"], width=width, order=order)
-        assert all(np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True))
+        assert all(
+            np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True)
+        )
         shadow = [s for s in r.stats if s["pass"] == "shadow"]
         assert shadow and all(s["method"].startswith(f"sah/bin{width}/") for s in shadow)
         assert all((s["sort_ms"] > 0) == order.startswith("sorted") for s in shadow)
