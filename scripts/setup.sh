@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
 # Installs what antumbra needs on a fresh Debian 12 machine: Embree (the oracle and the speed
 # reference) and Blender 3.4 from Debian, the X/GL client libraries the bpy module needs even
-# headless, the Rust toolchain's components, and a Python venv (.venv) with the tools that build
-# and test the Python client and the bpy 5.0.1 module. Safe to run again.
+# headless, Xvfb (a test drives Blender's UI), the Rust toolchain's components, and a Python
+# venv (.venv) with the tools that build and test the Python client and the bpy 5.0.1 module.
+# Safe to run again.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need_apt=()
 for pkg in libembree-dev blender python3-numpy \
   libx11-6 libxrender1 libxfixes3 libxi6 libxkbcommon0 libsm6 libice6 libgl1 libxext6 libxt6 \
-  libxcb1 libegl1 libegl-mesa0 libgl1-mesa-dri; do
+  libxcb1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xauth; do
   dpkg -s "$pkg" >/dev/null 2>&1 || need_apt+=("$pkg")
 done
 if [ ${#need_apt[@]} -gt 0 ]; then
