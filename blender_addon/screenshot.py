@@ -55,6 +55,8 @@ def setup():
     scene.render.engine = "BLENDER_WORKBENCH"  # fewer render panels above ours
     scene.antumbra.resolution_scale = 1.0
     scene.antumbra.spp = 4
+    scene.antumbra.width = "8"
+    scene.antumbra.order = "sorted"
     window, screen = main_window()
     view = largest(screen, "VIEW_3D")
     with bpy.context.temp_override(window=window, screen=screen, area=view):
