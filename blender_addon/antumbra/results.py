@@ -67,12 +67,14 @@ def load_images(client, result) -> dict[str, str]:
         elif index == combined_at:
             name = COMBINED_IMAGE
             _load(_image(name, result.width, result.height, data=True), array)
-        else:
+        elif plane in HEAT_PLANES:
             name = HEAT_PLANES[plane]
             rgb8, top = client.colorize_heat(array)
             image = _image(name, result.width, result.height, data=False)
             _load(image, _srgb_to_linear(rgb8.astype(np.float32) / 255.0))
             image["antumbra_max"] = float(top)
+        else:
+            continue  # a pass the add-on does not show (e.g. object ids)
         image = bpy.data.images[name]
         image["antumbra_frame"] = result.frame
         names[plane] = name
