@@ -130,10 +130,18 @@ def run(argv: list[str]) -> int:
         load_images=False,
         on_frame=progress,
     )
+    job.key = results.run_key(bpy.data.filepath, options)
     if not args.restart:
-        job.skip_finished(set(results.finished_frames(out)))
+        job.skip_finished(set(results.finished_frames(out, job.key)))
+        stale = set(results.finished_frames(out)) - set(job.skipped)
         if job.skipped:
             print(f"antumbra: resuming: {len(job.skipped)} frame(s) already done", flush=True)
+        if stale & set(job.pending):
+            print(
+                f"antumbra: {len(stale & set(job.pending))} frame(s) in {out} were made from "
+                "another .blend or other settings: rendering them again",
+                flush=True,
+            )
     name = Path(bpy.data.filepath).name or "(unsaved scene)"
     print(f"antumbra: {name}: {len(job.pending)} frame(s) to render, {options.describe()}")
     start = time.perf_counter()
@@ -164,7 +172,8 @@ def run_spool(args, scene, frames, options, out: Path, client) -> int:
     folder = args.spool.resolve()
     folder.mkdir(parents=True, exist_ok=True)
     jid = spool.job_id(bpy.data.filepath, frames, options)
-    finished = {} if args.restart else results.finished_frames(out)
+    key = results.run_key(bpy.data.filepath, options)
+    finished = {} if args.restart else results.finished_frames(out, key)
     started = None
     if not spool.daemon_watching(folder):
         binary = daemon.find_binary(args.binary)
@@ -190,6 +199,7 @@ def run_spool(args, scene, frames, options, out: Path, client) -> int:
                 shutil.copyfile(f, out / f.name)
         record = {
             "frame": frame,
+            "key": key,
             "seconds": sum(r["build_ms"] + r["trace_ms"] for r in rows) / 1000.0,
             "export_seconds": 0.0,
             "objects": None,

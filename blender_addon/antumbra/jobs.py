@@ -64,6 +64,8 @@ class RenderJob:
     load_images: bool = True
     send_camera_path: bool = True
     on_frame: object = None
+    #: Recorded with each frame's statistics (``results.run_key``): what a resume compares.
+    key: str | None = None
     #: Frames left, in order.
     pending: deque = field(init=False)
     done: list[FrameDone] = field(default_factory=list)
@@ -204,7 +206,7 @@ class RenderJob:
             triangles=work.export.triangles,
         )
         if self.out_dir is not None:
-            results.write_frame_stats(self.out_dir, results.frame_record(done))
+            results.write_frame_stats(self.out_dir, results.frame_record(done, self.key))
             results.write_tables(self.out_dir)
         self.done.append(done)
         if self.on_frame is not None:

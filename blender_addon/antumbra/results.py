@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -119,11 +120,21 @@ def _write_atomic(path: Path, text: str):
     os.replace(partial, path)
 
 
-def frame_record(done) -> dict:
-    """What a finished frame leaves in ``frame_NNNN.stats.json``: its timing and size, and the
-    daemon's statistics rows (one per pass: primary, then each shadow-casting light)."""
+def run_key(blend: str, options) -> str:
+    """What decides a frame's pixels besides the frame number: the .blend (path and modification
+    time) and the render options. A batch resumes only frames recorded with the same key."""
+    mtime = os.stat(blend).st_mtime_ns if blend and os.path.exists(blend) else 0
+    what = [blend, mtime, options.render_kwargs(), options.resolution_scale]
+    return hashlib.sha1(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def frame_record(done, key: str | None = None) -> dict:
+    """What a finished frame leaves in ``frame_NNNN.stats.json``: its timing and size, the run
+    key it was made with, and the daemon's statistics rows (one per pass: primary, then each
+    shadow-casting light)."""
     return {
         "frame": done.frame,
+        "key": key,
         "seconds": done.seconds,
         "export_seconds": done.export_seconds,
         "objects": done.objects,
@@ -140,13 +151,15 @@ def write_frame_stats(out_dir: Path, record: dict) -> Path:
     return path
 
 
-def finished_frames(out_dir: Path) -> dict[int, dict]:
-    """The records of the frames whose files are complete in ``out_dir``."""
+def finished_frames(out_dir: Path, key: str | None = None) -> dict[int, dict]:
+    """The records of the frames whose files are complete in ``out_dir`` (made with run key
+    ``key``, if given)."""
     done = {}
     for path in sorted(out_dir.glob("frame_*.stats.json")):
         try:
             record = json.loads(path.read_text())
-            done[int(record["frame"])] = record
+            if key is None or record.get("key") == key:
+                done[int(record["frame"])] = record
         except (ValueError, KeyError, TypeError, json.JSONDecodeError):
             continue  # a foreign or damaged file: the frame is rendered again
     return done

@@ -64,6 +64,14 @@ def test_ten_frames_then_resume(scene_blend, antumbra_bin, short_tmp):
     with open(out / "frames.csv") as f:
         assert [int(r["frame"]) for r in csv.DictReader(f)] == list(range(1, FRAMES + 1))
 
+    # Other settings: nothing in the folder is theirs, so every frame is rendered again.
+    other = batch(
+        scene_blend, out, short_tmp / "home", "--frames", "1-3", "--width", "4", *sock, env=env
+    )
+    assert other.returncode == 0, other.stdout[-3000:] + other.stderr[-3000:]
+    assert "3 frame(s) in" in other.stdout and "other settings" in other.stdout, other.stdout
+    assert len(frame_lines(other.stdout)) == 3
+
 
 def test_daemon_killed_mid_animation(scene_blend, antumbra_bin, short_tmp):
     """The batch starts its own daemon; it is killed (SIGKILL) after the second frame. The
