@@ -46,6 +46,10 @@ STATS_COLUMNS = {
     "back_facing",
     "unreached",
     "sort_ms",
+    "references",
+    "visible_input",
+    "visibility_ms",
+    "nts_per_ray",
 }
 
 

@@ -86,6 +86,10 @@ pub fn stats_row<'py>(py: Python<'py>, r: &StatsRowState) -> PyResult<Bound<'py,
             back_facing,
             unreached,
             sort_ms,
+            references,
+            visible_input,
+            visibility_ms,
+            nts_per_ray,
         ]
     ))
 }
