@@ -23,6 +23,7 @@ use crate::error::{ClientError, ClientResult, IntoPyResult};
 use crate::recording::Recorder;
 use crate::result::{daemon_stats, frame_result_to_py, limits as limits_dict};
 use crate::scene;
+use crate::settings::RenderSettings;
 use antumbra_protocol::{upload_from_mesh, RenderRequest};
 
 /// Longest time spent without the GIL before checking for signals.
@@ -534,46 +535,19 @@ impl Connection {
     }
 
     /// Renders a frame sent with frame_update; returns a dict that `antumbra.Result` wraps.
-    #[pyo3(signature = (frame, spp, seed, build, order, leaf_size, bins, traversal_cost,
-        intersection_cost, timing, passes, progress = None, timeout = None, width = None,
-        visibility = "previous", osah_w = None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (frame, settings, passes, progress = None, timeout = None))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         frame: &Bound<'py, PyAny>,
-        spp: &Bound<'py, PyAny>,
-        seed: &Bound<'py, PyAny>,
-        build: &str,
-        order: &str,
-        leaf_size: &Bound<'py, PyAny>,
-        bins: &Bound<'py, PyAny>,
-        traversal_cost: f64,
-        intersection_cost: f64,
-        timing: &Bound<'py, PyAny>,
+        settings: &RenderSettings,
         passes: &Bound<'py, PyAny>,
         progress: Option<Bound<'py, PyAny>>,
         timeout: Option<f64>,
-        width: Option<Bound<'py, PyAny>>,
-        visibility: &str,
-        osah_w: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
-            let settings = scene::render_settings_state(
-                spp,
-                seed,
-                build,
-                order,
-                leaf_size,
-                bins,
-                traversal_cost,
-                intersection_cost,
-                timing,
-                &width.unwrap_or_else(|| 2u32.into_pyobject(py).expect("int").into_any()),
-                visibility,
-                osah_w,
-            )?;
+            let settings = settings.state.clone();
             antumbra_protocol::check_limits(
                 &Request::Render(RenderRequest {
                     frame,

@@ -17,6 +17,7 @@ mod recording;
 mod replay;
 mod result;
 mod scene;
+mod settings;
 
 use pyo3::prelude::*;
 use pyo3::types::PyString;
@@ -90,45 +91,6 @@ fn colorize_heat<'py>(
     files::colorize_heat(py, array, max).py_result(py)
 }
 
-/// The render settings as the protocol spells them (`RenderSettingsState`), as JSON: what the
-/// daemon's spool reads from a job's `job.json`. Checked as `render` checks them.
-#[pyfunction]
-#[pyo3(signature = (spp, seed, build, order, leaf_size, bins, traversal_cost, intersection_cost,
-    timing, width, visibility, osah_w = None))]
-#[allow(clippy::too_many_arguments)]
-fn render_settings_json(
-    py: Python<'_>,
-    spp: &Bound<'_, PyAny>,
-    seed: &Bound<'_, PyAny>,
-    build: &str,
-    order: &str,
-    leaf_size: &Bound<'_, PyAny>,
-    bins: &Bound<'_, PyAny>,
-    traversal_cost: f64,
-    intersection_cost: f64,
-    timing: &Bound<'_, PyAny>,
-    width: &Bound<'_, PyAny>,
-    visibility: &str,
-    osah_w: Option<f64>,
-) -> PyResult<String> {
-    scene::render_settings_state(
-        spp,
-        seed,
-        build,
-        order,
-        leaf_size,
-        bins,
-        traversal_cost,
-        intersection_cost,
-        timing,
-        width,
-        visibility,
-        osah_w,
-    )
-    .and_then(|s| serde_json::to_string(&s).map_err(|e| ClientError::invalid(e.to_string())))
-    .py_result(py)
-}
-
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     error::set_package(&m.name()?.to_string());
@@ -137,7 +99,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(save_frame, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(colorize_heat, m)?)?;
-    m.add_function(wrap_pyfunction!(render_settings_json, m)?)?;
+    m.add_class::<settings::RenderSettings>()?;
     m.add_class::<connection::Connection>()?;
     m.add_class::<local::LocalSession>()?;
     m.add("PROTOCOL_VERSION", antumbra_protocol::PROTOCOL_VERSION)?;

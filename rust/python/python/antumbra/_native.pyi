@@ -53,21 +53,26 @@ def colorize_heat(
 ) -> tuple[npt.NDArray[np.uint8], float]:
     """A heat map through the turbo colour map (sRGB uint8 (h, w, 3)) and the max it used."""
 
-def render_settings_json(
-    spp: int,
-    seed: int,
-    build: str,
-    order: str,
-    leaf_size: int,
-    bins: int,
-    traversal_cost: float,
-    intersection_cost: float,
-    timing: bool | str,
-    width: int,
-    visibility: str,
-    osah_w: float | None = None,
-) -> str:
-    """RenderSettingsState as JSON (a spool job's settings)."""
+class RenderSettings:
+    """Render settings, checked when made (InvalidInput names a bad field)."""
+
+    def __init__(
+        self,
+        spp: int,
+        seed: int,
+        build: str,
+        order: str,
+        leaf_size: int,
+        bins: int,
+        traversal_cost: float,
+        intersection_cost: float,
+        timing: bool | str,
+        width: int,
+        visibility: str,
+        osah_w: float | None = None,
+    ) -> None: ...
+    def json(self) -> str:
+        """RenderSettingsState as JSON (a spool job's settings)."""
 
 class _SessionMethods:
     @property
@@ -100,21 +105,10 @@ class _SessionMethods:
     def render(
         self,
         frame: int,
-        spp: int,
-        seed: int,
-        build: str,
-        order: str,
-        leaf_size: int,
-        bins: int,
-        traversal_cost: float,
-        intersection_cost: float,
-        timing: bool | str,
+        settings: RenderSettings,
         passes: Iterable[str],
         progress: Progress | None = None,
         timeout: float | None = None,
-        width: int | None = None,
-        visibility: str = "previous",
-        osah_w: float | None = None,
     ) -> RawResult: ...
     def cancel(self, request_id: int | None = None) -> bool: ...
     def stats(self) -> dict[str, Any]:

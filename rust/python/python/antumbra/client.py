@@ -115,7 +115,7 @@ def render_settings(
     """The settings :meth:`render` takes, checked as it checks them, as the protocol spells
     them (``RenderSettingsState``): the ``settings`` of a spool job's ``job.json``."""
     return json.loads(
-        _native.render_settings_json(
+        _native.RenderSettings(
             spp,
             seed,
             build,
@@ -128,7 +128,7 @@ def render_settings(
             width,
             visibility,
             osah_w,
-        )
+        ).json()
     )
 
 
@@ -335,8 +335,7 @@ class _Session:
             timeout: seconds to wait between two replies of the daemon (None: no limit).
         """
         passes = tuple(passes) if not isinstance(passes, str) else (passes,)
-        raw = self._native.render(
-            frame,
+        settings = _native.RenderSettings(
             spp,
             seed,
             build,
@@ -346,13 +345,11 @@ class _Session:
             traversal_cost,
             intersection_cost,
             timing,
-            passes,
-            progress,
-            timeout,
             width,
             visibility,
             osah_w,
         )
+        raw = self._native.render(frame, settings, passes, progress, timeout)
         return Result._from_native(dict(raw), passes)
 
     def cancel(self, request_id: int | None = None) -> bool:
