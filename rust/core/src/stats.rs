@@ -38,7 +38,11 @@ use crate::output::write_bytes_atomic;
 use crate::trace::TraversalStats;
 use crate::{Error, Result};
 
+/// One pass of one frame (the primary pass, or the shadow pass of one light). This struct is
+/// also the protocol's wire form (`StatsRowState`); `#[serde(default)]` lets a newer reader
+/// take rows without the columns added since. A new column goes here and in [`StatsRow::cells`].
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct StatsRow {
     pub scene: String,
     pub frame: i32,
@@ -61,15 +65,10 @@ pub struct StatsRow {
     pub nbox_per_ray: f64,
     pub back_facing: u64,
     pub unreached: u64,
-    #[serde(default)]
     pub sort_ms: f64,
-    #[serde(default)]
     pub references: u64,
-    #[serde(default)]
     pub visible_input: u64,
-    #[serde(default)]
     pub visibility_ms: f64,
-    #[serde(default)]
     pub nts_per_ray: f64,
 }
 
@@ -95,76 +94,79 @@ impl StatsRow {
     }
 }
 
-pub const CSV_COLUMNS: &[&str] = &[
-    "scene",
-    "frame",
-    "method",
-    "pass",
-    "light",
-    "rebuilt",
-    "build_ms",
-    "bvh_nodes",
-    "bvh_bytes",
-    "triangles",
-    "rays",
-    "trace_ms",
-    "mrays_per_s",
-    "timed_without_counters",
-    "occluded_fraction",
-    "nb_per_ray",
-    "nl_per_ray",
-    "nt_per_ray",
-    "nbox_per_ray",
-    "back_facing",
-    "unreached",
-    "sort_ms",
-    "references",
-    "visible_input",
-    "visibility_ms",
-    "nts_per_ray",
-];
+/// One column's value, as the CSV, JSON and Python renderings of a row need it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Cell<'a> {
+    Text(&'a str),
+    Int(i64),
+    Count(u64),
+    Flag(bool),
+    /// A value and the decimals the CSV prints.
+    Real(f64, usize),
+}
 
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
+impl StatsRow {
+    /// Every column, named and in order: the one list CSV files, the Python client's dicts and
+    /// the column header are made from (a test checks it against the struct's fields).
+    pub fn cells(&self) -> Vec<(&'static str, Cell<'_>)> {
+        use Cell::*;
+        vec![
+            ("scene", Text(&self.scene)),
+            ("frame", Int(self.frame as i64)),
+            ("method", Text(&self.method)),
+            ("pass", Text(&self.pass)),
+            ("light", Text(&self.light)),
+            ("rebuilt", Flag(self.rebuilt)),
+            ("build_ms", Real(self.build_ms, 4)),
+            ("bvh_nodes", Count(self.bvh_nodes)),
+            ("bvh_bytes", Count(self.bvh_bytes)),
+            ("triangles", Count(self.triangles)),
+            ("rays", Count(self.rays)),
+            ("trace_ms", Real(self.trace_ms, 4)),
+            ("mrays_per_s", Real(self.mrays_per_s, 4)),
+            ("timed_without_counters", Flag(self.timed_without_counters)),
+            ("occluded_fraction", Real(self.occluded_fraction, 6)),
+            ("nb_per_ray", Real(self.nb_per_ray, 6)),
+            ("nl_per_ray", Real(self.nl_per_ray, 6)),
+            ("nt_per_ray", Real(self.nt_per_ray, 6)),
+            ("nbox_per_ray", Real(self.nbox_per_ray, 6)),
+            ("back_facing", Count(self.back_facing)),
+            ("unreached", Count(self.unreached)),
+            ("sort_ms", Real(self.sort_ms, 4)),
+            ("references", Count(self.references)),
+            ("visible_input", Count(self.visible_input)),
+            ("visibility_ms", Real(self.visibility_ms, 4)),
+            ("nts_per_ray", Real(self.nts_per_ray, 6)),
+        ]
+    }
+
+    /// The column names, in CSV order.
+    pub fn columns() -> Vec<&'static str> {
+        StatsRow::default()
+            .cells()
+            .into_iter()
+            .map(|(name, _)| name)
+            .collect()
+    }
+}
+
+fn csv_field(cell: Cell<'_>) -> String {
+    match cell {
+        Cell::Text(s) if s.contains([',', '"', '\n']) => format!("\"{}\"", s.replace('"', "\"\"")),
+        Cell::Text(s) => s.to_string(),
+        Cell::Int(v) => v.to_string(),
+        Cell::Count(v) => v.to_string(),
+        Cell::Flag(v) => v.to_string(),
+        Cell::Real(v, decimals) => format!("{v:.decimals$}"),
     }
 }
 
 /// The rows as CSV text with a header line.
 pub fn to_csv(rows: &[StatsRow]) -> String {
-    let mut out = CSV_COLUMNS.join(",");
+    let mut out = StatsRow::columns().join(",");
     out.push('\n');
     for r in rows {
-        let fields = [
-            csv_field(&r.scene),
-            r.frame.to_string(),
-            csv_field(&r.method),
-            csv_field(&r.pass),
-            csv_field(&r.light),
-            r.rebuilt.to_string(),
-            format!("{:.4}", r.build_ms),
-            r.bvh_nodes.to_string(),
-            r.bvh_bytes.to_string(),
-            r.triangles.to_string(),
-            r.rays.to_string(),
-            format!("{:.4}", r.trace_ms),
-            format!("{:.4}", r.mrays_per_s),
-            r.timed_without_counters.to_string(),
-            format!("{:.6}", r.occluded_fraction),
-            format!("{:.6}", r.nb_per_ray),
-            format!("{:.6}", r.nl_per_ray),
-            format!("{:.6}", r.nt_per_ray),
-            format!("{:.6}", r.nbox_per_ray),
-            r.back_facing.to_string(),
-            r.unreached.to_string(),
-            format!("{:.4}", r.sort_ms),
-            r.references.to_string(),
-            r.visible_input.to_string(),
-            format!("{:.4}", r.visibility_ms),
-            format!("{:.6}", r.nts_per_ray),
-        ];
+        let fields: Vec<String> = r.cells().into_iter().map(|(_, c)| csv_field(c)).collect();
         out.push_str(&fields.join(","));
         out.push('\n');
     }
@@ -193,7 +195,10 @@ mod tests {
         };
         let csv = to_csv(&[row]);
         let mut lines = csv.lines();
-        assert_eq!(lines.next().unwrap().split(',').count(), CSV_COLUMNS.len());
+        assert_eq!(
+            lines.next().unwrap().split(',').count(),
+            StatsRow::columns().len()
+        );
         assert!(lines.next().unwrap().starts_with("\"a,b\",0,"));
     }
 
@@ -212,5 +217,58 @@ mod tests {
             serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
         assert_eq!(back, vec![row]);
         std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    /// `cells` must name every field once, with the field's own value: compared with what
+    /// serde writes.
+    #[test]
+    fn cells_are_the_fields() {
+        let row = StatsRow {
+            scene: "s".into(),
+            frame: -2,
+            method: "m".into(),
+            pass: "p".into(),
+            light: "l".into(),
+            rebuilt: true,
+            build_ms: 1.5,
+            bvh_nodes: 2,
+            bvh_bytes: 3,
+            triangles: 4,
+            rays: 5,
+            trace_ms: 6.5,
+            mrays_per_s: 7.5,
+            timed_without_counters: true,
+            occluded_fraction: 0.25,
+            nb_per_ray: 8.5,
+            nl_per_ray: 9.5,
+            nt_per_ray: 10.5,
+            nbox_per_ray: 11.5,
+            back_facing: 12,
+            unreached: 13,
+            sort_ms: 14.5,
+            references: 15,
+            visible_input: 16,
+            visibility_ms: 17.5,
+            nts_per_ray: 18.5,
+        };
+        let serde_json::Value::Object(fields) = serde_json::to_value(&row).unwrap() else {
+            panic!("a row serialises to a map");
+        };
+        let cells = row.cells();
+        let mut names: Vec<&str> = cells.iter().map(|(n, _)| *n).collect();
+        names.sort_unstable();
+        let keys: Vec<&str> = fields.keys().map(String::as_str).collect();
+        assert_eq!(names, keys, "one cell per field, none twice");
+        for (name, cell) in &cells {
+            let value = &fields[*name];
+            let as_json = match *cell {
+                Cell::Text(s) => serde_json::json!(s),
+                Cell::Int(v) => serde_json::json!(v),
+                Cell::Count(v) => serde_json::json!(v),
+                Cell::Flag(v) => serde_json::json!(v),
+                Cell::Real(v, _) => serde_json::json!(v),
+            };
+            assert_eq!(&as_json, value, "column {name}");
+        }
     }
 }

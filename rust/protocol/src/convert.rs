@@ -510,72 +510,6 @@ impl TryFrom<&RenderSettingsState> for RenderSettings {
 // ---------------------------------------------------------------------------------------------
 // Results
 
-impl From<&StatsRow> for StatsRowState {
-    fn from(r: &StatsRow) -> Self {
-        StatsRowState {
-            scene: r.scene.clone(),
-            frame: r.frame,
-            method: r.method.clone(),
-            pass: r.pass.clone(),
-            light: r.light.clone(),
-            rebuilt: r.rebuilt,
-            build_ms: r.build_ms,
-            bvh_nodes: r.bvh_nodes,
-            bvh_bytes: r.bvh_bytes,
-            triangles: r.triangles,
-            rays: r.rays,
-            trace_ms: r.trace_ms,
-            mrays_per_s: r.mrays_per_s,
-            timed_without_counters: r.timed_without_counters,
-            occluded_fraction: r.occluded_fraction,
-            nb_per_ray: r.nb_per_ray,
-            nl_per_ray: r.nl_per_ray,
-            nt_per_ray: r.nt_per_ray,
-            nbox_per_ray: r.nbox_per_ray,
-            back_facing: r.back_facing,
-            unreached: r.unreached,
-            sort_ms: r.sort_ms,
-            references: r.references,
-            visible_input: r.visible_input,
-            visibility_ms: r.visibility_ms,
-            nts_per_ray: r.nts_per_ray,
-        }
-    }
-}
-
-impl From<&StatsRowState> for StatsRow {
-    fn from(r: &StatsRowState) -> Self {
-        StatsRow {
-            scene: r.scene.clone(),
-            frame: r.frame,
-            method: r.method.clone(),
-            pass: r.pass.clone(),
-            light: r.light.clone(),
-            rebuilt: r.rebuilt,
-            build_ms: r.build_ms,
-            bvh_nodes: r.bvh_nodes,
-            bvh_bytes: r.bvh_bytes,
-            triangles: r.triangles,
-            rays: r.rays,
-            trace_ms: r.trace_ms,
-            mrays_per_s: r.mrays_per_s,
-            timed_without_counters: r.timed_without_counters,
-            occluded_fraction: r.occluded_fraction,
-            nb_per_ray: r.nb_per_ray,
-            nl_per_ray: r.nl_per_ray,
-            nt_per_ray: r.nt_per_ray,
-            nbox_per_ray: r.nbox_per_ray,
-            back_facing: r.back_facing,
-            unreached: r.unreached,
-            sort_ms: r.sort_ms,
-            references: r.references,
-            visible_input: r.visible_input,
-            visibility_ms: r.visibility_ms,
-            nts_per_ray: r.nts_per_ray,
-        }
-    }
-}
-
 fn image(plane: &ImagePlane, name: String) -> Image {
     Image {
         name,
@@ -619,7 +553,7 @@ pub fn frame_result_reply(
         width: result.width,
         height: result.height,
         images,
-        stats: result.stats.iter().map(StatsRowState::from).collect(),
+        stats: result.stats.clone(),
         visible: passes
             .visible_set
             .then(|| triangle_refs_to_bytes(&result.visible)),
@@ -668,5 +602,5 @@ pub fn visible_from_reply(
 }
 
 pub fn stats_from_reply(reply: &FrameResultReply) -> Vec<StatsRow> {
-    reply.stats.iter().map(StatsRow::from).collect()
+    reply.stats.clone()
 }

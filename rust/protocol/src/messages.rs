@@ -343,37 +343,10 @@ pub struct Image {
     pub data: ByteBuf,
 }
 
-/// Mirrors [`antumbra_core::stats::StatsRow`] (the columns are documented there).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct StatsRowState {
-    pub scene: String,
-    pub frame: i32,
-    pub method: String,
-    pub pass: String,
-    pub light: String,
-    pub rebuilt: bool,
-    pub build_ms: f64,
-    pub bvh_nodes: u64,
-    pub bvh_bytes: u64,
-    pub triangles: u64,
-    pub rays: u64,
-    pub trace_ms: f64,
-    pub mrays_per_s: f64,
-    pub timed_without_counters: bool,
-    pub occluded_fraction: f64,
-    pub nb_per_ray: f64,
-    pub nl_per_ray: f64,
-    pub nt_per_ray: f64,
-    pub nbox_per_ray: f64,
-    pub back_facing: u64,
-    pub unreached: u64,
-    pub sort_ms: f64,
-    pub references: u64,
-    pub visible_input: u64,
-    pub visibility_ms: f64,
-    pub nts_per_ray: f64,
-}
+/// A statistics row travels as the core's own row (named MessagePack map, columns documented
+/// at [`antumbra_core::stats::StatsRow`]); columns a reader does not know are ignored and
+/// columns a writer did not send read as 0.
+pub use antumbra_core::stats::StatsRow as StatsRowState;
 
 /// What the daemon has done since it started.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

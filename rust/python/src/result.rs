@@ -2,6 +2,7 @@
 //! both paths (the daemon sends it; the in-process session builds it with the daemon's
 //! `frame_result_reply`), so both give the same arrays bit for bit.
 
+use antumbra_core::stats::Cell;
 use antumbra_protocol::{
     planes_from_reply, visible_from_reply, DaemonStats, FrameResultReply, Limits, StatsRowState,
 };
@@ -59,39 +60,19 @@ macro_rules! dict_of {
     }};
 }
 
+/// A statistics row as a dict of its columns (`StatsRow::cells`: the CSV's names and order).
 pub fn stats_row<'py>(py: Python<'py>, r: &StatsRowState) -> PyResult<Bound<'py, PyDict>> {
-    Ok(dict_of!(
-        py,
-        r,
-        [
-            scene,
-            frame,
-            method,
-            pass,
-            light,
-            rebuilt,
-            build_ms,
-            bvh_nodes,
-            bvh_bytes,
-            triangles,
-            rays,
-            trace_ms,
-            mrays_per_s,
-            timed_without_counters,
-            occluded_fraction,
-            nb_per_ray,
-            nl_per_ray,
-            nt_per_ray,
-            nbox_per_ray,
-            back_facing,
-            unreached,
-            sort_ms,
-            references,
-            visible_input,
-            visibility_ms,
-            nts_per_ray,
-        ]
-    ))
+    let d = PyDict::new(py);
+    for (name, cell) in r.cells() {
+        match cell {
+            Cell::Text(v) => d.set_item(name, v)?,
+            Cell::Int(v) => d.set_item(name, v)?,
+            Cell::Count(v) => d.set_item(name, v)?,
+            Cell::Flag(v) => d.set_item(name, v)?,
+            Cell::Real(v, _) => d.set_item(name, v)?,
+        }
+    }
+    Ok(d)
 }
 
 pub fn daemon_stats<'py>(py: Python<'py>, s: &DaemonStats) -> PyResult<Bound<'py, PyDict>> {
