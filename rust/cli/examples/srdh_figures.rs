@@ -419,8 +419,8 @@ fn wall(
     let tables = SortTables::new(&wide);
     let wide_ms = ms_since(t);
     println!("SAH build {sah_ms:.1} ms; 8-wide collapse + sort tables {wide_ms:.1} ms (once per tree, shared by lights)");
-    println!("| light | rays | occluded (16x16 set) | SAH fbto trace | SRDH prep | SRDH trace | SRDH total | sorted prep | sorted trace | sorted total | SRDH / sorted |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| light | rays | occluded (16x16 set) | SAH fbto trace | SRDH prep | SRDH trace | SRDH total | SRDH leaf 4 prep + trace | sorted prep | sorted trace | sorted total | SRDH / sorted |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let sorted: ShadowOrder = "sorted".parse().expect("order");
     let ShadowOrder::Sorted(ss) = sorted else {
         unreachable!()
@@ -446,10 +446,37 @@ fn wall(
             tris,
             settings,
         );
-        let tree = l.tree.as_ref().expect("min_occluded 0 always builds");
+        let Some(tree) = l.tree.as_ref() else {
+            println!(
+                "| {} | {} | no representative rays: traces the SAH tree | {fbto:.1} |",
+                light.name,
+                rays.len()
+            );
+            continue;
+        };
         let srdh_trace = best_of(3, || {
             rays.par_iter().with_min_len(256).for_each(|r| {
                 std::hint::black_box(occluded_with(&tree.bvh, &tree.kernels, r, &mut NoStats));
+            })
+        });
+        // The same rays with 4-triangle leaves: fewer, cheaper steps for the timed path.
+        let leaf4 = SrdhSettings {
+            leaf: 4,
+            ..srdh_settings
+        };
+        let l4 = srdh_for_light(
+            pass,
+            &light.sampler,
+            light.plan,
+            &leaf4,
+            &sah,
+            tris,
+            settings,
+        );
+        let t4 = l4.tree.as_ref().expect("same rays as above");
+        let leaf4_trace = best_of(3, || {
+            rays.par_iter().with_min_len(256).for_each(|r| {
+                std::hint::black_box(occluded_with(&t4.bvh, &t4.kernels, r, &mut NoStats));
             })
         });
         let t = Instant::now();
@@ -467,16 +494,17 @@ fn wall(
         sum_srdh += a;
         sum_sorted += b;
         println!(
-            "| {} | {} | {:.0}% | {fbto:.1} | {:.1} | {srdh_trace:.1} | {a:.1} | {sorted_prep:.1} | {sorted_trace:.1} | {b:.1} | {:.2} |",
+            "| {} | {} | {:.0}% | {fbto:.1} | {:.1} | {srdh_trace:.1} | {a:.1} | {:.1} + {leaf4_trace:.1} | {sorted_prep:.1} | {sorted_trace:.1} | {b:.1} | {:.2} |",
             light.name,
             rays.len(),
             100.0 * l.occluded_fraction,
             l.ms,
+            l4.ms,
             a / b
         );
     }
     println!(
-        "| all lights | | | | | | {sum_srdh:.1} | | | {:.1} (+{wide_ms:.1} shared) | {:.2} |",
+        "| all lights | | | | | | {sum_srdh:.1} | | | | {:.1} (+{wide_ms:.1} shared) | {:.2} |",
         sum_sorted,
         sum_srdh / (sum_sorted + wide_ms)
     );

@@ -63,7 +63,7 @@ impl Default for SrdhSettings {
 }
 
 /// See [`SrdhSettings::min_occluded`] and BENCHMARKS.md (issue 7) for how it was chosen.
-pub const DEFAULT_MIN_OCCLUDED: f32 = 0.2;
+pub const DEFAULT_MIN_OCCLUDED: f32 = 0.5;
 
 fn invalid(msg: String) -> Error {
     Error::invalid("order", msg)
