@@ -147,16 +147,16 @@ fn chosen_split_is_the_cheapest_candidate() {
                 kernels,
                 ..SrdhSettings::default()
             };
-            let (all, chosen, reaching) = root_candidates(&tris, &set, &settings, &sah).unwrap();
-            assert_eq!(all.len() % kernels.kernels().len(), 0);
+            let root = root_candidates(&tris, &set, &settings, &sah).unwrap();
+            assert_eq!(root.scored.len() % kernels.kernels().len(), 0);
             let mut min = u64::MAX;
-            for (c, left, right) in &all {
-                let cost = reference_cost(&tris, left, right, c.kernel, &set, &reaching);
+            for (c, left, right) in &root.scored {
+                let cost = reference_cost(&tris, left, right, c.kernel, &set, &root.reaching);
                 assert_eq!(c.cost, cost, "incremental and reference costs of {c:?}");
                 assert_eq!(left.len() + right.len(), tris.len());
                 min = min.min(cost);
             }
-            assert_eq!(chosen.cost, min, "seed {seed}");
+            assert_eq!(root.chosen.cost, min, "seed {seed}");
         }
     }
 }
@@ -176,15 +176,15 @@ fn cost_of_two_leaves_is_the_triangle_tests_of_the_traversal() {
                 kernels,
                 ..SrdhSettings::default()
             };
-            let Some((_, chosen, reaching)) = root_candidates(&tris, &set, &settings, &sah) else {
+            let Some(root) = root_candidates(&tris, &set, &settings, &sah) else {
                 continue;
             };
             let t = build_srdh(&tris, &set, &settings, &sah);
             let mut stats = TraversalStats::default();
-            for &i in &reaching {
+            for &i in &root.reaching {
                 occluded_with(&t.bvh, &t.kernels, &rays[i], &mut stats);
             }
-            assert_eq!(stats.triangles, chosen.cost, "seed {seed}");
+            assert_eq!(stats.triangles, root.chosen.cost, "seed {seed}");
         }
     }
 }

@@ -157,31 +157,40 @@ pub fn build_srdh(
     }
 }
 
+/// What the builder scores at the root (for the exhaustive test).
+pub struct RootCandidates {
+    /// Every candidate with its left and right triangle sets.
+    pub scored: Vec<(Candidate, Vec<u32>, Vec<u32>)>,
+    pub chosen: Candidate,
+    /// Indices of the set's rays that reach the root (pierce its box).
+    pub reaching: Vec<usize>,
+}
+
 /// Every candidate the builder scores at the root, with its two triangle sets, and the one it
-/// chooses (for the exhaustive test). `None` when the root is a leaf or has no usable plane.
+/// chooses. `None` when all centroids coincide.
 pub fn root_candidates(
     triangles: &[[Vec3; 3]],
     set: &RaySet,
     settings: &SrdhSettings,
     sah: &BuildSettings,
-) -> Option<(Vec<(Candidate, Vec<u32>, Vec<u32>)>, Candidate, Vec<usize>)> {
+) -> Option<RootCandidates> {
     let b = Builder::new(triangles, set, settings, sah);
     let prims: Vec<u32> = (0..triangles.len() as u32).collect();
     let rays = b.root_rays(&b.bounds(&prims));
     let (all, binning) = b.score(&prims, &rays)?;
     let chosen = best(&all)?;
-    let sides = all
+    let scored = all
         .iter()
         .map(|c| {
             let (l, r) = b.partition(&prims, c, &binning);
             (*c, l, r)
         })
         .collect();
-    Some((
-        sides,
+    Some(RootCandidates {
+        scored,
         chosen,
-        rays.ids.iter().map(|&i| i as usize).collect(),
-    ))
+        reaching: rays.ids.iter().map(|&i| i as usize).collect(),
+    })
 }
 
 /// The cheapest candidate; ties go to the first scored.

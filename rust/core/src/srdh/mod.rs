@@ -12,7 +12,7 @@ mod ray_set;
 mod traverse;
 
 pub use baselines::rtsah_kernels;
-pub use build::{build_srdh, root_candidates, Candidate, SrdhBvh, DEFAULT_KERNEL};
+pub use build::{build_srdh, root_candidates, Candidate, RootCandidates, SrdhBvh, DEFAULT_KERNEL};
 pub use kernel::{Kernel, KernelSet, PackedKernels};
 pub use ray_set::{all_hits, RaySet};
 pub use traverse::{occluded_with, occluding_leaf, ray_key, KernelSource, RandomKernel, Uniform};
