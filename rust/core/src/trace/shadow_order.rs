@@ -1,5 +1,6 @@
 //! The child order of shadow (occlusion) rays as a run setting, with the command-line syntax
-//! `stored | fbto | sato | rtsah | random[:seed=S] | sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]`
+//! `stored | fbto | sato | rtsah | random[:seed=S] | sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]
+//! | srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional][:min_occluded=F]`
 //! (`near` is accepted for `fbto`, its older name).
 
 use std::fmt;
