@@ -9,8 +9,9 @@ from dataclasses import dataclass
 BUILDS = ("sah", "sbvh", "abvh", "osah", "vsah")
 #: Children per BVH node.
 WIDTHS = (2, 4, 8)
-#: Child orders of shadow rays (``--order``); "sorted" sorts per light from a budget of its rays.
-ORDERS = ("fbto", "stored", "sato", "rtsah", "random", "sorted")
+#: Child orders of shadow rays (``--order``); "sorted" sorts per light from a budget of its rays;
+#: "srdh" builds a shadow-ray BVH per mostly-occluded light from a 16x16 prepass of its rays.
+ORDERS = ("fbto", "stored", "sato", "rtsah", "random", "sorted", "srdh")
 #: Where ABVH/OSAH/VSAH take the visible triangles from.
 VISIBILITIES = ("previous", "exact", "prepass")
 

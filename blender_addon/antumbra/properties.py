@@ -21,6 +21,7 @@ _ORDER_TEXT = {
     "rtsah": ("RTSAH", "By estimated termination cost"),
     "random": ("Random", "Seeded random order"),
     "sorted": ("Sorted per light", "Sorted from the light's own representative shadow rays"),
+    "srdh": ("SRDH per light", "A shadow-ray BVH with traversal kernels per mostly-occluded light"),
 }
 _VISIBILITY_TEXT = {
     "previous": ("Previous frame", "The triangles the previous frame's camera saw"),

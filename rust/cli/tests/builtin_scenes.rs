@@ -205,3 +205,82 @@ fn check_wide<const N: usize>(
         }
     }
 }
+
+/// SRDH on every built-in scene: per light a tree from the light's own rays (all of them, and
+/// a 4x4 prepass) and the baselines' kernels on the SAH tree answer every shadow ray and random
+/// ray as brute force does.
+#[test]
+fn srdh_trees_match_brute_force_on_every_builtin_scene() {
+    use antumbra_core::render::srdh_rays;
+    use antumbra_core::srdh::{
+        build_srdh, occluded_with, rtsah_kernels, Kernel, RandomKernel, RaySet, RaySetSource,
+        SrdhSettings, Uniform,
+    };
+    for name in BUILTIN_SCENES {
+        for rotated in [false, true] {
+            let params = SceneParams {
+                triangles: 4_000,
+                frames: 1,
+                rotated,
+            };
+            let anim = builtin(name, &params).unwrap();
+            let mut scene = anim.frame(*anim.frame_range().start());
+            scene.resolution = Resolution::new(40, 30);
+            let g = FrameGeometry::from_scene(&scene).unwrap();
+            let tris = &g.camera.vertices;
+            let settings = BuildSettings::default();
+            let bvh = build_binned_sah(tris, &settings);
+            let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
+            let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+            let b = g.camera.bounds();
+            let random = random_rays(b.min, b.max, 300);
+            let rtsah = rtsah_kernels(&bvh);
+            for (i, l) in scene.lights.iter().enumerate() {
+                let s = LightSampler::new(l, &g.space);
+                let plan = SamplePlan {
+                    light_index: i as u32,
+                    samples: samples_for(&s, 2),
+                    seed: 5,
+                };
+                let mut rays = shadow_rays(&pass, &s, plan);
+                rays.extend_from_slice(&random);
+                let occ: Vec<bool> = rays.par_iter().map(|r| brute_occluded(tris, r)).collect();
+                for source in [
+                    RaySetSource::All,
+                    RaySetSource::Prepass {
+                        width: 4,
+                        height: 4,
+                    },
+                ] {
+                    let srdh = SrdhSettings {
+                        rays: source,
+                        ..SrdhSettings::default()
+                    };
+                    let set = RaySet::trace(&bvh, srdh_rays(&pass, &s, plan, source));
+                    let tree = build_srdh(tris, &set, &srdh, &settings);
+                    tree.bvh.validate().unwrap();
+                    let wrong = rays
+                        .par_iter()
+                        .zip(&occ)
+                        .filter(|(r, o)| {
+                            occluded_with(&tree.bvh, &tree.kernels, r, &mut NoStats) != **o
+                        })
+                        .count();
+                    assert_eq!(wrong, 0, "{name} rotated={rotated} light {i} {source:?}");
+                }
+                let wrong = rays
+                    .par_iter()
+                    .zip(&occ)
+                    .filter(|(r, o)| {
+                        occluded_with(&bvh, &rtsah, r, &mut NoStats) != **o
+                            || occluded_with(&bvh, &RandomKernel { seed: 2 }, r, &mut NoStats)
+                                != **o
+                            || occluded_with(&bvh, &Uniform(Kernel::BackToFront), r, &mut NoStats)
+                                != **o
+                    })
+                    .count();
+                assert_eq!(wrong, 0, "{name} rotated={rotated} light {i} baselines");
+            }
+        }
+    }
+}

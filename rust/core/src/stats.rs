@@ -9,7 +9,7 @@
 //! | light | the light's name (empty for the primary pass) |
 //! | rebuilt | whether this frame built its BVH (false: the geometry did not change) |
 //! | build_ms | wall-clock BVH build time of this frame (0 when not rebuilt) |
-//! | bvh_nodes, bvh_bytes | size of the structure the pass traversed |
+//! | bvh_nodes, bvh_bytes | size of the structure the pass traversed (`srdh`: the light's SRDH tree with its kernel bits, when it has one) |
 //! | triangles | triangles in that structure |
 //! | rays | rays traced |
 //! | trace_ms | wall-clock time of the pass, ray generation included |
@@ -22,7 +22,7 @@
 //! | nbox_per_ray | N_box: ray/box tests per ray |
 //! | back_facing | shadow samples behind the surface's own plane (shadowed, no ray) |
 //! | unreached | shadow samples of points outside a spot cone or behind an area light |
-//! | sort_ms | shadow: logging + sorting time of the light's per-light child order (0 for other orders) |
+//! | sort_ms | shadow: per-light preparation: logging + sorting of the sorted order; for `srdh`, ray selection + hit lists + SRDH build (0 for other orders) |
 //! | references | triangle references in the structure's leaves (> triangles with spatial splits) |
 //! | visible_input | triangles of the structure's set the build was told are visible (ABVH/OSAH/VSAH) |
 //! | visibility_ms | time to get that set this frame (exact mode or first-frame prepass; else 0) |

@@ -311,3 +311,39 @@ fn object_ids_equal_brute_force_per_object() {
     assert_eq!(counts[2], 0);
     assert!(counts.iter().filter(|&&c| c > 0).count() >= 4, "{counts:?}");
 }
+
+#[test]
+fn srdh_masks_equal_the_default_and_rows_report_the_light_tree() {
+    let scene = soft_scene();
+    let base = Renderer::new()
+        .render("t", &scene, &RenderSettings::default())
+        .unwrap();
+    for width in ["2", "8"] {
+        for order in [
+            "srdh:min_occluded=0",
+            "srdh:rays=all:leaf=2:kernels=constant:min_occluded=0",
+            "srdh:rays=0.1:bins=8:kernels=directional:min_occluded=0",
+            "srdh:min_occluded=1",
+        ] {
+            let settings = RenderSettings {
+                width: width.parse().unwrap(),
+                shadow_order: order.parse().unwrap(),
+                stats: StatsMode::CountsAndTiming,
+                ..RenderSettings::default()
+            };
+            let r = Renderer::new().render("t", &scene, &settings).unwrap();
+            assert_eq!(r.masks, base.masks, "{width} {order}");
+            for row in r.stats.iter().filter(|s| s.pass == "shadow") {
+                assert!(row.sort_ms > 0.0, "{row:?}");
+                let default_row = base
+                    .stats
+                    .iter()
+                    .find(|b| b.pass == "shadow" && b.light == row.light)
+                    .unwrap();
+                // min_occluded=1: no light is fully occluded here, all trace the SAH tree.
+                let own_tree = !order.ends_with("min_occluded=1");
+                assert_eq!(row.bvh_bytes != default_row.bvh_bytes, own_tree, "{row:?}");
+            }
+        }
+    }
+}

@@ -138,6 +138,9 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
                 Just(Some("sato".to_string())),
                 Just(Some(
                     "sorted:logging=fbto:p=area:depth=3:budget=0.1".to_string()
+                )),
+                Just(Some(
+                    "srdh:rays=32x32:bins=16:leaf=2:kernels=constant:min_occluded=0.25".to_string()
                 ))
             ],
         ),

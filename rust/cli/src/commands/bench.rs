@@ -6,13 +6,14 @@ use std::time::Instant;
 use antumbra_core::bvh::{build_binned_sah, BuildMethod, BuildSettings, Bvh, BvhWidth};
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
-    binary_order, representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass,
-    PrimaryRays, SamplePlan, WideTree,
+    binary_order, representative_rays, samples_for, shadow_rays, srdh_for_light, LightSampler,
+    LightSrdh, PrimaryPass, PrimaryRays, SamplePlan, ShadowTracer, WideTree,
 };
 use antumbra_core::scene::FrameGeometry;
 use antumbra_core::trace::wide::{BoxKernel, PreparedOrder};
 use antumbra_core::trace::{
-    BinaryOcclusion, ClosestHitQuery, NoStats, OcclusionQuery, ShadowOrder, WideOcclusion,
+    AnyHitOrder, BinaryOcclusion, ClosestHitQuery, NoStats, OcclusionQuery, ShadowOrder,
+    WideOcclusion,
 };
 use anyhow::{bail, Result};
 use clap::Args;
@@ -26,8 +27,22 @@ use crate::scene_source::open_scene;
 /// Runs `$body` with `$o` bound to the concrete occlusion query of one light (binary, or the
 /// wide tree of its width with the light's order), so timed loops have no per-ray dispatch.
 macro_rules! with_occluder {
-    ($bvh:expr, $binary:expr, $wide:expr, $prepared:expr, |$o:ident| $body:expr) => {
+    ($bvh:expr, $binary:expr, $wide:expr, $prepared:expr, $srdh:expr, |$o:ident| $body:expr) => {
         match ($binary, $wide, $prepared) {
+            _ if $srdh.is_some() => match $srdh.and_then(|l: &LightSrdh| l.tree.as_ref()) {
+                Some(t) => {
+                    let $o = &ShadowTracer::Srdh(t);
+                    $body
+                }
+                // Too few occluded rays: the SAH tree front to back, as the renderer does.
+                None => {
+                    let $o = &BinaryOcclusion {
+                        bvh: $bvh,
+                        order: AnyHitOrder::NearFirst,
+                    };
+                    $body
+                }
+            },
             (Some(order), _, _) => {
                 let $o = &BinaryOcclusion { bvh: $bvh, order };
                 $body
@@ -123,8 +138,11 @@ pub struct BenchRow {
     /// Collapse to the wide tree (not in `build_ms`).
     pub collapse_ms: f64,
     /// Per light, logging + sorting ms of a sorted order (one thread for the sorting, the
-    /// pool for the logging rays).
+    /// pool for the logging rays); for `srdh`, ray selection + hit lists + SRDH build (all
+    /// threads).
     pub sort_ms_per_light: Vec<f64>,
+    /// `srdh`: bytes of the lights' SRDH trees (0 for a light that traces the SAH tree).
+    pub srdh_bytes_per_light: Vec<usize>,
     pub embree_build_ms: Option<f64>,
     pub embree_primary_mrays: Option<f64>,
     pub embree_shadow_mrays: Option<f64>,
@@ -228,14 +246,23 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let binary = binary_order(args.width, &args.order);
         let wide_camera =
             (args.width != BvhWidth::Two).then(|| WideTree::collapse(&bvh, args.width));
-        let wide_shadow = binary
-            .is_none()
+        let srdh_settings = match &args.order {
+            ShadowOrder::Srdh(s) => Some(*s),
+            _ => None,
+        };
+        let wide_shadow = (binary.is_none() && srdh_settings.is_none())
             .then(|| WideTree::collapse(shadow_bvh, args.width));
+        let shadow_tris = &geometry
+            .shadow
+            .as_ref()
+            .unwrap_or(&geometry.camera)
+            .vertices;
         let tables = matches!(args.order, ShadowOrder::Sorted(_))
             .then(|| wide_shadow.as_ref().map(|t| t.sort_tables()))
             .flatten();
         // Per light: its rays and its prepared order (the same rays the shadow pass traces).
-        let mut lights: Vec<(Vec<Ray>, Option<PreparedOrder>)> = Vec::new();
+        type Light = (Vec<Ray>, Option<PreparedOrder>, Option<LightSrdh>);
+        let mut lights: Vec<Light> = Vec::new();
         for (i, light) in scene
             .lights
             .iter()
@@ -261,17 +288,32 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     .expect("thread pool")
                     .install(|| t.prepare(&args.order, tables.as_ref(), &representative))
             });
-            lights.push((rays, prepared));
+            let srdh = srdh_settings.map(|s| {
+                srdh_for_light(
+                    &pass,
+                    &sampler,
+                    plan,
+                    &s,
+                    shadow_bvh,
+                    shadow_tris,
+                    &settings,
+                )
+            });
+            lights.push((rays, prepared, srdh));
         }
-        let shadow: Vec<Ray> = lights.iter().flat_map(|(r, _)| r.iter().copied()).collect();
+        let shadow: Vec<Ray> = lights
+            .iter()
+            .flat_map(|(r, _, _)| r.iter().copied())
+            .collect();
         let answers: Vec<bool> = lights
             .iter()
-            .flat_map(|(rays, prepared)| {
+            .flat_map(|(rays, prepared, srdh)| {
                 with_occluder!(
                     shadow_bvh,
                     binary,
                     wide_shadow.as_ref(),
                     prepared.as_ref(),
+                    srdh.as_ref(),
                     |o| {
                         rays.par_iter()
                             .map(|r| o.occluded(r, &mut NoStats))
@@ -283,8 +325,16 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let method = format!("sah/bin{}/{}", args.width, args.order);
         let sort_ms_per_light: Vec<f64> = lights
             .iter()
-            .filter_map(|(_, p)| p.as_ref().map(|p| p.sort_ms()))
+            .filter_map(|(_, p, srdh)| match srdh {
+                Some(l) => Some(l.ms),
+                None => p.as_ref().map(|p| p.sort_ms()),
+            })
             .filter(|ms| *ms > 0.0)
+            .collect();
+        let srdh_bytes_per_light: Vec<usize> = lights
+            .iter()
+            .filter_map(|(_, _, srdh)| srdh.as_ref())
+            .map(|l| l.tree.as_ref().map_or(0, |t| t.bytes()))
             .collect();
         for threads in [1, all] {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -302,6 +352,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     / shadow.len().max(1) as f64,
                 collapse_ms: wide_camera.as_ref().map_or(0.0, |t| t.collapse_ms()),
                 sort_ms_per_light: sort_ms_per_light.clone(),
+                srdh_bytes_per_light: srdh_bytes_per_light.clone(),
                 ..BenchRow::default()
             };
             pool.install(|| {
@@ -328,12 +379,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 row.shadow_mrays = mrays(
                     shadow.len(),
                     best_of(args.repeat, || {
-                        for (rays, prepared) in &lights {
+                        for (rays, prepared, srdh) in &lights {
                             with_occluder!(
                                 shadow_bvh,
                                 binary,
                                 wide_shadow.as_ref(),
                                 prepared.as_ref(),
+                                srdh.as_ref(),
                                 |o| {
                                     rays.par_iter().with_min_len(256).for_each(|r| {
                                         std::hint::black_box(o.occluded(r, &mut NoStats));

@@ -29,7 +29,10 @@ pub struct MethodArgs {
     pub build: BuildMethod,
     /// Child order of shadow-ray traversal: stored | fbto (alias near) | sato | rtsah |
     /// random[:seed=S] | sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]
-    /// (sorted: per light, from a budget share F of its shadow rays; default budget=0.05).
+    /// (sorted: per light, from a budget share F of its shadow rays; default budget=0.05) |
+    /// srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional][:min_occluded=F]
+    /// (a binary SRDH tree with traversal kernels per light whose representative rays, default a
+    /// 16x16 grid of pixels, are at least min_occluded (0.5) occluded; others trace SAH fbto).
     #[arg(long, default_value = "fbto")]
     pub order: ShadowOrder,
     /// Children per BVH node: 2 (binary), 4 or 8 (collapsed, SIMD traversal).

@@ -88,28 +88,28 @@ impl BuildSettings {
 /// A triangle's box, with its id in the fourth lane of `lo` (as bits), so a reference is two
 /// 16-byte vectors that min/max in one instruction each.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct PrimRef {
-    pub(super) lo: Vec4,
-    pub(super) hi: Vec4,
+pub(crate) struct PrimRef {
+    pub(crate) lo: Vec4,
+    pub(crate) hi: Vec4,
 }
 
 impl PrimRef {
     /// A reference to triangle `id` with the given box (a spatial split's clipped part, or
     /// the whole triangle's box).
     #[inline]
-    pub(super) fn new(id: u32, b: Box4) -> Self {
+    pub(crate) fn new(id: u32, b: Box4) -> Self {
         PrimRef {
             lo: b.lo.truncate().extend(f32::from_bits(id)),
             hi: b.hi.truncate().extend(0.0),
         }
     }
     #[inline]
-    pub(super) fn id(&self) -> u32 {
+    pub(crate) fn id(&self) -> u32 {
         self.lo.w.to_bits()
     }
     /// The reference's box (without the id lane).
     #[inline]
-    pub(super) fn bounds(&self) -> Box4 {
+    pub(crate) fn bounds(&self) -> Box4 {
         Box4 {
             lo: self.lo.truncate().extend(0.0),
             hi: self.hi,
@@ -117,41 +117,41 @@ impl PrimRef {
     }
     /// Twice the centroid (the factor cancels in binning and saves a multiply).
     #[inline]
-    pub(super) fn centroid2(&self) -> Vec4 {
+    pub(crate) fn centroid2(&self) -> Vec4 {
         self.lo + self.hi
     }
 }
 
 /// A box in the builder's 4-lane form; the fourth lane carries nothing meaningful.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Box4 {
-    pub(super) lo: Vec4,
-    pub(super) hi: Vec4,
+pub(crate) struct Box4 {
+    pub(crate) lo: Vec4,
+    pub(crate) hi: Vec4,
 }
 
 impl Box4 {
-    pub(super) const EMPTY: Box4 = Box4 {
+    pub(crate) const EMPTY: Box4 = Box4 {
         lo: Vec4::splat(f32::INFINITY),
         hi: Vec4::splat(f32::NEG_INFINITY),
     };
     #[inline(always)]
-    pub(super) fn grow(&mut self, lo: Vec4, hi: Vec4) {
+    pub(crate) fn grow(&mut self, lo: Vec4, hi: Vec4) {
         self.lo = self.lo.min(lo);
         self.hi = self.hi.max(hi);
     }
     #[inline(always)]
-    pub(super) fn grow_box(&mut self, b: &Box4) {
+    pub(crate) fn grow_box(&mut self, b: &Box4) {
         self.grow(b.lo, b.hi);
     }
     #[inline(always)]
-    pub(super) fn half_area(&self) -> f32 {
+    pub(crate) fn half_area(&self) -> f32 {
         let e = (self.hi - self.lo).truncate();
         if e.x < 0.0 {
             return 0.0;
         }
         e.x * e.y + e.y * e.z + e.z * e.x
     }
-    pub(super) fn to_aabb(self) -> Aabb {
+    pub(crate) fn to_aabb(self) -> Aabb {
         Aabb::new(self.lo.truncate(), self.hi.truncate())
     }
 }
@@ -171,11 +171,11 @@ const EMPTY_BIN: Bin = Bin {
 pub const MAX_BINS: usize = 256;
 
 /// Subtrees smaller than this are built on the current thread.
-pub(super) const PARALLEL_SUBTREE: usize = 4096;
+pub(crate) const PARALLEL_SUBTREE: usize = 4096;
 /// Nodes with more references than this bin in parallel.
 const PARALLEL_BINNING: usize = 65536;
 /// Past this depth, splits are object medians so the depth bound holds on any input.
-pub(super) const MEDIAN_DEPTH: usize = MAX_DEPTH - 33;
+pub(crate) const MEDIAN_DEPTH: usize = MAX_DEPTH - 33;
 
 /// Builds a binned SAH BVH over `triangles` (the BVH keeps a leaf-ordered copy).
 pub fn build_binned_sah(triangles: &[[Vec3; 3]], settings: &BuildSettings) -> Bvh {
@@ -208,7 +208,7 @@ fn build_from_refs(refs: &mut [PrimRef], settings: &BuildSettings) -> Bvh {
 /// Binned SAH nodes over `refs` (reordered into leaf order), for a subtree whose root sits at
 /// `depth` in a larger tree: the other builders hand subtrees that need no spatial or visibility
 /// splits to this one. Leaf ranges index `refs`; triangles and ids are left to the caller.
-pub(super) fn build_sah_subtree(
+pub(crate) fn build_sah_subtree(
     refs: &mut [PrimRef],
     settings: &BuildSettings,
     depth: usize,
@@ -240,7 +240,7 @@ pub(super) fn build_sah_subtree(
 }
 
 /// Bounds and (doubled) centroid bounds of some references.
-pub(super) fn bounds_of(refs: &[PrimRef]) -> (Box4, Box4) {
+pub(crate) fn bounds_of(refs: &[PrimRef]) -> (Box4, Box4) {
     let fold = |(mut b, mut c): (Box4, Box4), r: &PrimRef| {
         b.grow(r.lo, r.hi);
         let c2 = r.centroid2();

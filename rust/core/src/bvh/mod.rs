@@ -15,6 +15,7 @@ mod vsah;
 mod wide;
 
 pub use binned_sah::{build_binned_sah, BuildSettings};
+pub(crate) use binned_sah::{build_sah_subtree, Box4, PrimRef, MEDIAN_DEPTH};
 pub use coverage::check_references;
 pub use node::{Bvh, BvhNode, NodeArray, MAX_DEPTH};
 pub use spatial_split::SpatialSettings;

@@ -8,6 +8,7 @@ mod primary;
 mod renderer;
 mod settings;
 mod shadow;
+mod srdh_light;
 mod visibility;
 mod wide_tree;
 
@@ -19,5 +20,6 @@ pub use settings::{RenderSettings, StatsMode, MAX_SPP};
 pub use shadow::{
     representative_rays, samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome,
 };
+pub use srdh_light::{srdh_for_light, srdh_rays, LightSrdh};
 pub use visibility::{visibility_flags, VisibilitySource};
 pub use wide_tree::{binary_order, ShadowTracer, WideTree};

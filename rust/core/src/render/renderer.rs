@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use super::primary::heat_planes;
 use super::shadow::{representative_rays, samples_for, SamplePlan};
+use super::srdh_light::{srdh_for_light, LightSrdh};
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
 use super::wide_tree::{binary_order, ShadowTracer, WideTree};
 use super::VisibilitySource;
@@ -16,7 +17,7 @@ use crate::output::ImagePlane;
 use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::stats::StatsRow;
 use crate::trace::wide::SortTables;
-use crate::trace::{BinaryOcclusion, ClosestHitQuery, ShadowOrder, TraversalStats};
+use crate::trace::{AnyHitOrder, BinaryOcclusion, ClosestHitQuery, ShadowOrder, TraversalStats};
 use crate::Result;
 
 /// Heat maps of traversal work per pixel: N_B, N_L, N_T for primary rays and for all shadow
@@ -229,15 +230,31 @@ impl Renderer {
             let spp = samples_for(&sampler, settings.spp);
             let args = (index as u32, spp, settings.seed);
             let order = &settings.shadow_order;
-            let wide_order = match (binary_order(settings.width, order), wide_shadow) {
-                (None, Some(tree)) => {
+            let plan = SamplePlan {
+                light_index: args.0,
+                samples: spp,
+                seed: settings.seed,
+            };
+            let srdh = match order {
+                ShadowOrder::Srdh(s) => Some(srdh_for_light(
+                    &primary,
+                    &sampler,
+                    plan,
+                    s,
+                    shadow_bvh,
+                    &geometry
+                        .shadow
+                        .as_ref()
+                        .unwrap_or(&geometry.camera)
+                        .vertices,
+                    &settings.build_settings,
+                )),
+                _ => None,
+            };
+            let wide_order = match (binary_order(settings.width, order), wide_shadow, &srdh) {
+                (None, Some(tree), None) => {
                     let representative = match order {
                         ShadowOrder::Sorted(s) => {
-                            let plan = SamplePlan {
-                                light_index: args.0,
-                                samples: spp,
-                                seed: settings.seed,
-                            };
                             representative_rays(&primary, &sampler, plan, s.budget)
                         }
                         _ => Vec::new(),
@@ -247,12 +264,18 @@ impl Renderer {
                 }
                 _ => None,
             };
-            let tracer = match &wide_order {
-                Some((tree, p)) => ShadowTracer::Wide {
+            let tracer = match (&srdh, &wide_order) {
+                (Some(LightSrdh { tree: Some(t), .. }), _) => ShadowTracer::Srdh(t),
+                // Too few occluded rays for a tree of its own: the SAH tree, front to back.
+                (Some(_), _) => ShadowTracer::Binary(BinaryOcclusion {
+                    bvh: shadow_bvh,
+                    order: AnyHitOrder::NearFirst,
+                }),
+                (None, Some((tree, p))) => ShadowTracer::Wide {
                     tree,
                     order: p.view(),
                 },
-                None => ShadowTracer::Binary(BinaryOcclusion {
+                (None, None) => ShadowTracer::Binary(BinaryOcclusion {
                     bvh: shadow_bvh,
                     order: binary_order(settings.width, order).expect("binary order"),
                 }),
@@ -270,6 +293,13 @@ impl Renderer {
                 wide_order.as_ref().map(|(t, _)| *t),
             );
             r.sort_ms = wide_order.as_ref().map_or(0.0, |(_, p)| p.sort_ms());
+            if let Some(l) = &srdh {
+                r.sort_ms = l.ms;
+                if let Some(t) = &l.tree {
+                    r.bvh_nodes = t.bvh.nodes.len() as u64;
+                    r.bvh_bytes = t.bytes() as u64;
+                }
+            }
             r.rays = pass.outcome.rays;
             r.occluded_fraction = pass.outcome.occluded as f64 / r.rays.max(1) as f64;
             r.back_facing = pass.outcome.back_facing;
@@ -452,8 +482,9 @@ impl Renderer {
     /// makes the sorting tables when the order sorts per light. Reuses what the cache holds.
     fn prepare_wide(&mut self, settings: &RenderSettings) {
         let Some(c) = self.cache.as_mut() else { return };
+        let srdh = matches!(settings.shadow_order, ShadowOrder::Srdh(_));
         let needed = settings.width != BvhWidth::Two
-            || binary_order(settings.width, &settings.shadow_order).is_none();
+            || (binary_order(settings.width, &settings.shadow_order).is_none() && !srdh);
         if !needed {
             return;
         }

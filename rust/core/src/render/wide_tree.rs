@@ -4,6 +4,7 @@
 
 use crate::bvh::{Bvh, BvhWidth, WideBvh};
 use crate::geometry::Ray;
+use crate::srdh::{occluded_with, SrdhBvh};
 use crate::trace::wide::{BoxKernel, OrderView, PreparedOrder, SortTables, WideQueries};
 use crate::trace::{
     AnyHitOrder, BinaryOcclusion, ClosestHitQuery, Counters, Hit, OcclusionQuery, ShadowOrder,
@@ -97,6 +98,8 @@ pub enum ShadowTracer<'a> {
         tree: &'a WideTree,
         order: OrderView<'a>,
     },
+    /// A light's SRDH tree with its kernels.
+    Srdh(&'a SrdhBvh),
 }
 
 impl OcclusionQuery for ShadowTracer<'_> {
@@ -107,6 +110,7 @@ impl OcclusionQuery for ShadowTracer<'_> {
             ShadowTracer::Wide { tree, order } => {
                 tree.occluded(ray, *order, BoxKernel::Auto, stats)
             }
+            ShadowTracer::Srdh(t) => occluded_with(&t.bvh, &t.kernels, ray, stats),
         }
     }
 }

@@ -1,5 +1,6 @@
 //! The child order of shadow (occlusion) rays as a run setting, with the command-line syntax
-//! `stored | fbto | sato | rtsah | random[:seed=S] | sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]`
+//! `stored | fbto | sato | rtsah | random[:seed=S] | sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]
+//! | srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional][:min_occluded=F]`
 //! (`near` is accepted for `fbto`, its older name).
 
 use std::fmt;
@@ -9,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::wide::{ChildHitModel, LoggingOrder, SortSettings};
 use super::AnyHitOrder;
+use crate::srdh::SrdhSettings;
 use crate::{Error, Result};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -27,6 +29,9 @@ pub enum ShadowOrder {
     Random { seed: u32 },
     /// Per light, sorted from representative shadow rays.
     Sorted(SortSettings),
+    /// Per light, a binary SRDH tree with traversal kernels built from representative rays
+    /// (lights with few occluded rays trace the binary tree front to back).
+    Srdh(SrdhSettings),
 }
 
 impl ShadowOrder {
@@ -54,7 +59,8 @@ fn invalid(msg: String) -> Error {
 }
 
 const KNOWN: &str = "stored, fbto, sato, rtsah, random[:seed=S], \
-                     sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]";
+                     sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F], \
+                     srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional][:min_occluded=F]";
 
 impl FromStr for ShadowOrder {
     type Err = Error;
@@ -113,6 +119,7 @@ impl FromStr for ShadowOrder {
                 }
                 Ok(ShadowOrder::Sorted(st))
             }
+            "srdh" => Ok(ShadowOrder::Srdh(SrdhSettings::parse_options(&options)?)),
             other => Err(invalid(format!("unknown order '{other}' (known: {KNOWN})"))),
         }
     }
@@ -156,6 +163,7 @@ impl fmt::Display for ShadowOrder {
                 }
                 write!(f, ":budget={}", s.budget)
             }
+            ShadowOrder::Srdh(s) => write!(f, "{s}"),
         }
     }
 }
@@ -163,15 +171,13 @@ impl fmt::Display for ShadowOrder {
 impl ShadowOrder {
     /// Checks the values a parsed order cannot have wrong but a deserialised one can.
     pub fn validate(&self) -> Result<()> {
-        if let ShadowOrder::Sorted(s) = self {
-            if !(s.budget > 0.0 && s.budget <= 1.0) {
-                return Err(invalid(format!(
-                    "sorted: budget must be in (0, 1], got {}",
-                    s.budget
-                )));
-            }
+        match self {
+            ShadowOrder::Sorted(s) if !(s.budget > 0.0 && s.budget <= 1.0) => Err(invalid(
+                format!("sorted: budget must be in (0, 1], got {}", s.budget),
+            )),
+            ShadowOrder::Srdh(s) => s.validate(),
+            _ => Ok(()),
         }
-        Ok(())
     }
 }
 
@@ -189,6 +195,9 @@ mod tests {
             "random:seed=7",
             "sorted:logging=fbto:p=area:depth=4:budget=0.01",
             "sorted:logging=sato:p=1:budget=0.05",
+            "srdh:rays=16x16:bins=32:leaf=1:kernels=all:min_occluded=0.2",
+            "srdh:rays=all:bins=8:leaf=4:kernels=constant:min_occluded=0",
+            "srdh:rays=0.05:bins=32:leaf=1:kernels=directional:min_occluded=0.5",
         ] {
             let o: ShadowOrder = text.parse().unwrap();
             assert_eq!(o.to_string(), text);
@@ -204,6 +213,10 @@ mod tests {
         };
         assert_eq!((s.budget, s.depth), (0.1, Some(3)));
         assert_eq!(s.logging, LoggingOrder::Sato);
+        let ShadowOrder::Srdh(s) = "srdh".parse().unwrap() else {
+            panic!("not srdh")
+        };
+        assert_eq!(s, SrdhSettings::default());
         for bad in [
             "sorted:budget=0",
             "sorted:budget=2",
@@ -212,6 +225,13 @@ mod tests {
             "sato:depth=3",
             "sorted:logging",
             "front",
+            "srdh:bins=1",
+            "srdh:leaf=0",
+            "srdh:rays=0x4",
+            "srdh:rays=2",
+            "srdh:kernels=some",
+            "srdh:min_occluded=1.5",
+            "srdh:depth=3",
         ] {
             assert!(bad.parse::<ShadowOrder>().is_err(), "{bad}");
         }

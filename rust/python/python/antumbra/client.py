@@ -318,7 +318,9 @@ class _Session:
                 the visible triangles, see ``visibility``) or 'vsah' (a reference).
             order: child order of shadow rays, as ``antumbra render --order`` takes it:
                 'stored', 'fbto' (or 'near'), 'sato', 'rtsah', 'random[:seed=S]' or
-                'sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]' (per light).
+                'sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]' (per light) or
+                'srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional]
+                [:min_occluded=F]' (a shadow-ray BVH per mostly-occluded light).
             width: children per BVH node (2, 4 or 8).
             visibility: where 'abvh', 'osah' and 'vsah' builds take the visible triangles
                 from: 'previous' (the session's last frame), 'exact' (this frame, two passes)

@@ -34,6 +34,8 @@ impl PreparedOrder {
         match order {
             ShadowOrder::Stored => PreparedOrder::Stored,
             ShadowOrder::Fbto => PreparedOrder::FrontToBack,
+            // SRDH trees are binary (see `crate::srdh`); on a wide tree the order is front to back.
+            ShadowOrder::Srdh(_) => PreparedOrder::FrontToBack,
             ShadowOrder::Sato => PreparedOrder::Static(static_orders::sato(bvh)),
             ShadowOrder::Rtsah => PreparedOrder::Static(static_orders::rtsah(bvh)),
             ShadowOrder::Random { seed } => {
