@@ -184,14 +184,29 @@ def test_passes_and_settings(scene):
 def test_width_and_order_change_work_not_masks(scene):
     session, _ = scene
     base = session.render(1, passes=["masks"])
-    for width, order in [(4, "sato"), (8, "sorted:logging=fbto:budget=0.5"), (2, "rtsah")]:
+    for width, order in [
+        (4, "sato"),
+        (8, "sorted:logging=fbto:budget=0.5"),
+        (2, "rtsah"),
+        (2, "srdh:rays=all:min_occluded=0"),
+    ]:
         r = session.render(1, passes=["masks"], width=width, order=order)
         assert all(
             np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True)
         )
         shadow = [s for s in r.stats if s["pass"] == "shadow"]
         assert shadow and all(s["method"].startswith(f"sah/bin{width}/") for s in shadow)
-        assert all((s["sort_ms"] > 0) == order.startswith("sorted") for s in shadow)
+        # sort_ms: the per-light preparation (sorting, or the SRDH ray set and build).
+        assert all((s["sort_ms"] > 0) == order.startswith(("sorted", "srdh")) for s in shadow)
+
+
+def test_build_srdh_is_the_srdh_order(scene):
+    session, _ = scene
+    r = session.render(1, passes=["masks"], build="srdh")
+    assert all(s["method"].startswith("sah/bin2/srdh:rays=16x16") for s in r.stats)
+    with pytest.raises(antumbra.InvalidInput, match="cannot also be 'sato'"):
+        session.render(1, build="srdh", order="sato")
+    assert antumbra.render_settings(build="srdh")["order"].startswith("srdh")
 
 
 def test_render_is_deterministic_and_reuses_bvhs(scene):
@@ -481,7 +496,10 @@ def test_bad_containers(scene):
         ({"order": "far"}, r"order: .*unknown order 'far'"),
         ({"order": "sorted:budget=2"}, r"order: .*budget must be in \(0, 1\]"),
         ({"width": 3}, r"width: must be 2, 4 or 8, got 3"),
-        ({"build": "lbvh"}, r"build: expected one of 'sah'"),
+        (
+            {"build": "lbvh"},
+            r"build: unknown build method 'lbvh' \(known: sah, sbvh, abvh, osah, vsah, srdh\)",
+        ),
         ({"timing": "always"}, r"timing: expected one of"),
         ({"timing": 1}, r"timing: expected True, False or 'only'"),
         ({"passes": ["masks", "shadows"]}, r"passes: unknown pass 'shadows'"),

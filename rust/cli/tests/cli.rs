@@ -110,6 +110,16 @@ fn bad_arguments_fail_with_a_clear_message() {
             vec!["render", "--scene", "/does/not/exist.obj", "--out"],
             "exist.obj",
         ),
+        (
+            vec![
+                "render", "--scene", "city", "--build", "srdh", "--order", "sato", "--out",
+            ],
+            "cannot also be 'sato'",
+        ),
+        (
+            vec!["render", "--scene", "city", "--build", "kd", "--out"],
+            "unknown build method 'kd'",
+        ),
     ] {
         let o = antumbra().args(&args).arg(&out).output().unwrap();
         assert!(!o.status.success(), "{args:?} succeeded");

@@ -571,7 +571,7 @@ pub fn render_settings_state(
     spp: &Bound<'_, PyAny>,
     seed: &Bound<'_, PyAny>,
     build: &str,
-    order: &str,
+    order: Option<&str>,
     leaf_size: &Bound<'_, PyAny>,
     bins: &Bound<'_, PyAny>,
     traversal_cost: f64,
@@ -603,15 +603,21 @@ pub fn render_settings_state(
             describe(timing)
         )));
     };
-    // Parsed here too so a bad order is named before anything is sent.
-    order
-        .parse::<antumbra_core::trace::ShadowOrder>()
+    // Parsed here too so a bad build or order is named before anything is sent; `build='srdh'`
+    // is the SAH tree with the srdh order, as `antumbra render --build srdh` is.
+    let given_order = order
+        .map(|o| o.parse::<antumbra_core::trace::ShadowOrder>())
+        .transpose()
         .map_err(|e| ClientError::invalid(e.to_string()))?;
+    let (build, shadow_order) = antumbra_core::render::build_and_order(build, given_order)
+        .map_err(|e| ClientError::invalid(e.to_string()))?;
+    let order_text = order.map_or_else(|| shadow_order.to_string(), str::to_string);
+    let order = order_text.as_str();
     let state = RenderSettingsState {
         spp: integer::<u32>(spp, "spp", "1 to 4096")?,
         seed: integer::<u32>(seed, "seed", "an unsigned 32-bit integer")?,
         build: choice(
-            build,
+            build.name(),
             "build",
             &[
                 ("sah", BuildMethodState::Sah),

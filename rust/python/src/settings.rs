@@ -26,7 +26,7 @@ impl RenderSettings {
         spp: &Bound<'_, PyAny>,
         seed: &Bound<'_, PyAny>,
         build: &str,
-        order: &str,
+        order: Option<&str>,
         leaf_size: &Bound<'_, PyAny>,
         bins: &Bound<'_, PyAny>,
         traversal_cost: f64,

@@ -2,8 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use antumbra_core::bvh::{BuildMethod, BuildSettings, BvhWidth, SpatialSettings};
-use antumbra_core::render::{RenderSettings, Renderer, StatsMode, VisibilitySource};
+use antumbra_core::bvh::{BuildSettings, BvhWidth, SpatialSettings};
+use antumbra_core::render::{
+    build_and_order, RenderSettings, Renderer, StatsMode, VisibilitySource,
+};
 use antumbra_core::scene::Animation;
 use antumbra_core::stats::{write_csv, write_json, StatsRow};
 use antumbra_core::trace::ShadowOrder;
@@ -24,17 +26,19 @@ pub struct MethodArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
     /// BVH builder: sah, sbvh (spatial splits), abvh (spatial splits where visible triangles
-    /// are), osah (occlusion heuristic), vsah (SAH over visible triangles only; a reference).
+    /// are), osah (occlusion heuristic), vsah (SAH over visible triangles only; a reference),
+    /// or srdh (SAH for camera rays, an SRDH tree per light for shadow rays: --order srdh).
     #[arg(long, default_value = "sah")]
-    pub build: BuildMethod,
+    pub build: String,
     /// Child order of shadow-ray traversal: stored | fbto (alias near) | sato | rtsah |
     /// random[:seed=S] | sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]
     /// (sorted: per light, from a budget share F of its shadow rays; default budget=0.05) |
     /// srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional][:min_occluded=F]
     /// (a binary SRDH tree with traversal kernels per light whose representative rays, default a
     /// 16x16 grid of pixels, are at least min_occluded (0.5) occluded; others trace SAH fbto).
-    #[arg(long, default_value = "fbto")]
-    pub order: ShadowOrder,
+    /// Default: fbto (srdh with --build srdh).
+    #[arg(long)]
+    pub order: Option<ShadowOrder>,
     /// Children per BVH node: 2 (binary), 4 or 8 (collapsed, SIMD traversal).
     #[arg(long, default_value = "2")]
     pub width: BvhWidth,
@@ -70,11 +74,12 @@ pub struct MethodArgs {
 }
 
 impl MethodArgs {
-    pub fn settings(&self) -> RenderSettings {
-        RenderSettings {
+    pub fn settings(&self) -> Result<RenderSettings> {
+        let (build, shadow_order) = build_and_order(&self.build, self.order)?;
+        Ok(RenderSettings {
             spp: self.spp,
             seed: self.seed,
-            build: self.build,
+            build,
             build_settings: BuildSettings {
                 max_leaf_size: self.leaf_size,
                 bins: self.bins,
@@ -87,7 +92,7 @@ impl MethodArgs {
                 },
                 ..BuildSettings::default()
             },
-            shadow_order: self.order,
+            shadow_order,
             width: self.width,
             stats: if self.timing {
                 StatsMode::CountsAndTiming
@@ -95,7 +100,7 @@ impl MethodArgs {
                 StatsMode::Counts
             },
             visibility: self.visibility,
-        }
+        })
     }
 }
 
@@ -117,7 +122,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         scene.as_ref(),
         frames,
         size,
-        &args.method.settings(),
+        &args.method.settings()?,
         &args.out,
     )?;
     println!(

@@ -53,6 +53,36 @@ impl Default for RenderSettings {
     }
 }
 
+/// `--build` as users spell it: a builder of the binary BVH, or `srdh`, which keeps the SAH tree
+/// for camera rays and gives each light its SRDH tree for shadow rays (the same as
+/// `--order srdh`). `order` is the order given, if any; with `srdh` it may only be an
+/// `srdh[:...]` order (its options) or absent.
+pub fn build_and_order(
+    build: &str,
+    order: Option<ShadowOrder>,
+) -> Result<(BuildMethod, ShadowOrder)> {
+    if build == "srdh" {
+        return match order {
+            None => Ok((BuildMethod::Sah, ShadowOrder::Srdh(Default::default()))),
+            Some(o @ ShadowOrder::Srdh(_)) => Ok((BuildMethod::Sah, o)),
+            Some(o) => Err(Error::invalid(
+                "build",
+                format!(
+                    "'srdh' traces shadow rays with an SRDH tree per light, so the order cannot \
+                     also be '{o}' (leave it out, or give srdh[:...] options)"
+                ),
+            )),
+        };
+    }
+    let method = build.parse::<BuildMethod>().map_err(|_| {
+        Error::invalid(
+            "build",
+            format!("unknown build method '{build}' (known: sah, sbvh, abvh, osah, vsah, srdh)"),
+        )
+    })?;
+    Ok((method, order.unwrap_or_default()))
+}
+
 /// Upper bound on shadow samples per pixel; more gives no visible gain and risks runaway work.
 pub const MAX_SPP: u32 = 4096;
 
@@ -78,5 +108,38 @@ impl RenderSettings {
             self.build.name().to_string()
         };
         format!("{build}/bin{}/{}", self.width, self.shadow_order)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn build_srdh_is_sah_with_the_srdh_order() {
+        let srdh: ShadowOrder = "srdh:rays=32x32".parse().unwrap();
+        assert_eq!(
+            build_and_order("srdh", None).unwrap(),
+            (BuildMethod::Sah, ShadowOrder::Srdh(Default::default()))
+        );
+        assert_eq!(
+            build_and_order("srdh", Some(srdh)).unwrap(),
+            (BuildMethod::Sah, srdh)
+        );
+        let err = build_and_order("srdh", Some(ShadowOrder::Sato)).unwrap_err();
+        assert!(
+            err.to_string().contains("build") && err.to_string().contains("sato"),
+            "{err}"
+        );
+        assert_eq!(
+            build_and_order("osah", None).unwrap(),
+            (BuildMethod::Osah, ShadowOrder::Fbto)
+        );
+        assert_eq!(
+            build_and_order("sbvh", Some(srdh)).unwrap(),
+            (BuildMethod::Sbvh, srdh)
+        );
+        let err = build_and_order("kd", None).unwrap_err();
+        assert!(err.to_string().contains("'kd'"), "{err}");
     }
 }

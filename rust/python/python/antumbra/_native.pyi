@@ -61,7 +61,7 @@ class RenderSettings:
         spp: int,
         seed: int,
         build: str,
-        order: str,
+        order: str | None,
         leaf_size: int,
         bins: int,
         traversal_cost: float,

@@ -101,7 +101,7 @@ def render_settings(
     spp: int = 4,
     seed: int = 0,
     build: str = "sah",
-    order: str = "fbto",
+    order: str | None = None,
     leaf_size: int = 8,
     bins: int = 16,
     timing: bool | str = False,
@@ -295,7 +295,7 @@ class _Session:
         spp: int = 4,
         seed: int = 0,
         build: str = "sah",
-        order: str = "fbto",
+        order: str | None = None,
         leaf_size: int = 8,
         bins: int = 16,
         timing: bool | str = False,
@@ -315,12 +315,14 @@ class _Session:
             spp: shadow samples per pixel for soft lights (1 to 4096).
             seed: seed of the light-sample patterns.
             build: the BVH builder: 'sah', 'sbvh' (spatial splits), 'abvh', 'osah' (built from
-                the visible triangles, see ``visibility``) or 'vsah' (a reference).
+                the visible triangles, see ``visibility``), 'vsah' (a reference) or 'srdh'
+                (SAH for camera rays, an SRDH tree per light for shadow rays: order 'srdh').
             order: child order of shadow rays, as ``antumbra render --order`` takes it:
                 'stored', 'fbto' (or 'near'), 'sato', 'rtsah', 'random[:seed=S]' or
                 'sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]' (per light) or
                 'srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional]
-                [:min_occluded=F]' (a shadow-ray BVH per mostly-occluded light).
+                [:min_occluded=F]' (a shadow-ray BVH per mostly-occluded light). None: 'fbto',
+                or 'srdh' with ``build='srdh'``.
             width: children per BVH node (2, 4 or 8).
             visibility: where 'abvh', 'osah' and 'vsah' builds take the visible triangles
                 from: 'previous' (the session's last frame), 'exact' (this frame, two passes)
