@@ -7,7 +7,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::binned_sah::{Box4, PrimRef};
-use super::clip::clipped_box;
+use super::clip::{clipped_box, clipped_strips};
 use super::osah_cost::{CostModel, Sides, Visibility};
 
 /// Settings of spatial splits.
@@ -130,11 +130,10 @@ pub(super) fn best_spatial_splits(
                 bins[b0].bounds.grow_box(&r.bounds());
             } else {
                 let tri = &triangles[r.id() as usize];
-                let within = r.bounds();
-                for (b, bin) in bins.iter_mut().enumerate().take(b1 + 1).skip(b0) {
-                    let part = clipped_box(tri, axis, plane(b), plane(b + 1), &within);
-                    bin.bounds.grow_box(&part);
-                }
+                let planes = (b0..=b1 + 1).map(plane);
+                clipped_strips(tri, axis, planes, &r.bounds(), |j, part| {
+                    bins[b0 + j].bounds.grow_box(&part);
+                });
             }
             bins[b0].enter += 1;
             bins[b0].vis_enter += visible;

@@ -78,7 +78,8 @@ pub(super) fn build_split_bvh(
         osah_max_depth: 0.5 * (n as f32).log2(),
     };
     let budget = (settings.spatial.max_growth as f64 * n as f64) as usize;
-    let tree = builder.node(refs, bounds, 0, budget);
+    let visible = builder.vis.count(&refs);
+    let tree = builder.node(refs, bounds, visible, 0, budget);
     let (nodes, refs) = flatten(tree);
     let mut bvh = Bvh {
         nodes: NodeArray::from_nodes(&nodes),
@@ -118,9 +119,16 @@ enum Choice {
 }
 
 impl Builder<'_> {
-    fn node(&self, mut refs: Vec<PrimRef>, bounds: Box4, depth: usize, budget: usize) -> Built {
+    /// Builds the subtree over `refs` (`visible` of them visible; counted once, by the parent).
+    fn node(
+        &self,
+        mut refs: Vec<PrimRef>,
+        bounds: Box4,
+        visible: u32,
+        depth: usize,
+        budget: usize,
+    ) -> Built {
         let n = refs.len();
-        let visible = self.vis.count(&refs);
         let spatial = self.settings.spatial.enabled
             && depth < MEDIAN_DEPTH
             && (self.policy == SplitPolicy::Sbvh || visible > 0);
@@ -134,12 +142,12 @@ impl Builder<'_> {
         if n <= 1 {
             return Built::Leaf(bounds, refs);
         }
-        let (choice, cost) = self.choose(&refs, &bounds, spatial, osah, budget);
+        let (_, centroids) = bounds_of(&refs);
+        let (choice, cost) = self.choose(&refs, &bounds, &centroids, spatial, osah, budget);
         let leaf_cost = self.settings.intersection_cost * n as f32;
         if n <= self.settings.max_leaf_size && cost.is_none_or(|c| c >= leaf_cost) {
             return Built::Leaf(bounds, refs);
         }
-        let (_, centroids) = bounds_of(&refs);
         let (mut left, mut right) = match choice {
             Some(Choice::Spatial(s, unsplit)) => {
                 partition_spatial(refs, self.triangles, &s, unsplit)
@@ -152,13 +160,12 @@ impl Builder<'_> {
             all.append(&mut right);
             (left, right) = median_split(all, &centroids);
         }
+        let (mut vis_left, mut vis_right) = (self.vis.count(&left), self.vis.count(&right));
         // OSAH: the child with more visible references first, so that a traversal that takes
         // the left child on equal entry distances reaches visible triangles first.
-        if self.policy == SplitPolicy::Osah
-            && mixed
-            && self.vis.count(&right) > self.vis.count(&left)
-        {
+        if self.policy == SplitPolicy::Osah && mixed && vis_right > vis_left {
             std::mem::swap(&mut left, &mut right);
+            std::mem::swap(&mut vis_left, &mut vis_right);
         }
         let grown = (left.len() + right.len()).saturating_sub(n);
         let remaining = budget.saturating_sub(grown);
@@ -167,13 +174,13 @@ impl Builder<'_> {
         let (lb, rb) = (bounds_of(&left).0, bounds_of(&right).0);
         let children = if n > PARALLEL_SUBTREE {
             rayon::join(
-                || self.node(left, lb, depth + 1, left_budget),
-                || self.node(right, rb, depth + 1, right_budget),
+                || self.node(left, lb, vis_left, depth + 1, left_budget),
+                || self.node(right, rb, vis_right, depth + 1, right_budget),
             )
         } else {
             (
-                self.node(left, lb, depth + 1, left_budget),
-                self.node(right, rb, depth + 1, right_budget),
+                self.node(left, lb, vis_left, depth + 1, left_budget),
+                self.node(right, rb, vis_right, depth + 1, right_budget),
             )
         };
         Built::Inner(bounds, Box::new([children.0, children.1]))
@@ -185,15 +192,15 @@ impl Builder<'_> {
         &self,
         refs: &[PrimRef],
         bounds: &Box4,
+        centroids: &Box4,
         spatial: bool,
         osah: bool,
         budget: usize,
     ) -> (Option<Choice>, Option<f32>) {
-        let (_, centroids) = bounds_of(refs);
         let area = bounds.half_area().max(f32::MIN_POSITIVE);
         let s = self.settings;
         let [obj_sah, obj_osah] =
-            best_object_splits(refs, self.vis, &centroids, area, s.bins, &self.model, osah);
+            best_object_splits(refs, self.vis, centroids, area, s.bins, &self.model, osah);
         let overlap = [&obj_sah, &obj_osah]
             .iter()
             .filter_map(|o| o.as_ref().map(|(x, _)| x.sides.overlap_half_area()))
