@@ -42,6 +42,23 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
         if current.count > 0 {
             stats.leaf();
             let first = current.child as usize;
+            #[cfg(target_arch = "x86_64")]
+            if K::SIMD_LEAVES {
+                let count = current.count as usize;
+                let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+                match super::leaf::first_hit(rows, tris, &wt, first, count, t_min, ray.t_max) {
+                    Some(tested) => {
+                        stats.triangles(tested);
+                        return Some(current.child);
+                    }
+                    None => stats.triangles(count as u32),
+                }
+                current = match stack.pop() {
+                    Some(next) => next,
+                    None => return None,
+                };
+                continue;
+            }
             for slot in first..first + current.count as usize {
                 stats.triangles(1);
                 if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
@@ -95,13 +112,23 @@ fn ordered_hits<const N: usize>(
         } => {
             let p = perms[node];
             if p.is_present() {
+                // Place each hit slot at its rank, then read the ranks in order: work in the
+                // number of children hit, not in N.
+                let mut by_rank = [0u8; 8];
+                let mut ranks = 0u32;
+                let mut m = mask;
+                while m != 0 {
+                    let s = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let r = p.rank(s);
+                    by_rank[r] = s as u8;
+                    ranks |= 1 << r;
+                }
                 let mut n = 0;
-                for k in 0..N {
-                    let s = p.slot(k);
-                    if mask & (1 << s) != 0 {
-                        out[n] = s as u8;
-                        n += 1;
-                    }
+                while ranks != 0 {
+                    out[n] = by_rank[ranks.trailing_zeros() as usize];
+                    ranks &= ranks - 1;
+                    n += 1;
                 }
                 return n;
             }
