@@ -163,3 +163,25 @@ pub(crate) fn near_to_far<const N: usize>(
 ) -> usize {
     ordered_hits(0, mask, t_near, OrderView::FrontToBack, out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::wide::Permutation;
+
+    /// A node with fewer children than N visits each hit child once, in the permutation's
+    /// order (unused positions once decoded as slot 0 and queued it a second time).
+    #[test]
+    fn permuted_order_lists_each_hit_child_once() {
+        let perms = [Permutation::from_slots(&[2, 0, 1])];
+        let order = OrderView::Permuted {
+            perms: &perms,
+            fallback_fbto: false,
+        };
+        let mut out = [0u8; 8];
+        let n = ordered_hits(0, 0b111, &[0.0; 8], order, &mut out);
+        assert_eq!(&out[..n], &[2, 0, 1]);
+        let n = ordered_hits(0, 0b011, &[0.0; 8], order, &mut out);
+        assert_eq!(&out[..n], &[0, 1]);
+    }
+}
