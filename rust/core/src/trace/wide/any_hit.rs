@@ -42,9 +42,8 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
         if current.count > 0 {
             stats.leaf();
             let first = current.child as usize;
-            #[cfg(target_arch = "x86_64")]
+            let count = current.count as usize;
             if K::SIMD_LEAVES {
-                let count = current.count as usize;
                 let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
                 match super::leaf::first_hit(rows, tris, &wt, first, count, t_min, ray.t_max) {
                     Some(tested) => {
@@ -53,16 +52,12 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
                     }
                     None => stats.triangles(count as u32),
                 }
-                current = match stack.pop() {
-                    Some(next) => next,
-                    None => return None,
-                };
-                continue;
-            }
-            for slot in first..first + current.count as usize {
-                stats.triangles(1);
-                if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
-                    return Some(current.child);
+            } else {
+                for slot in first..first + count {
+                    stats.triangles(1);
+                    if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
+                        return Some(current.child);
+                    }
                 }
             }
         } else {

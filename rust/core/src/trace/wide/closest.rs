@@ -43,7 +43,6 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
             stats.triangles(current.count);
             let first = current.child as usize;
             let count = current.count as usize;
-            #[cfg(target_arch = "x86_64")]
             if K::SIMD_LEAVES {
                 let mut t = [0f32; 4];
                 for base in (0..count).step_by(4) {
@@ -72,30 +71,20 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
                         }
                     }
                 }
-                loop {
-                    match stack.pop() {
-                        None => return best,
-                        Some(e) if e.t_entry <= t_max + margin => {
-                            current = e;
-                            break;
+            } else {
+                for slot in first..first + count {
+                    if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
+                        let id = bvh.triangle_ids[slot];
+                        if Hit::closer_than(h.t, id, &best) {
+                            t_max = h.t;
+                            best = Some(Hit {
+                                t: h.t,
+                                triangle: id,
+                                b0: h.b0,
+                                b1: h.b1,
+                                b2: h.b2,
+                            });
                         }
-                        Some(_) => {}
-                    }
-                }
-                continue;
-            }
-            for slot in first..first + count {
-                if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
-                    let id = bvh.triangle_ids[slot];
-                    if Hit::closer_than(h.t, id, &best) {
-                        t_max = h.t;
-                        best = Some(Hit {
-                            t: h.t,
-                            triangle: id,
-                            b0: h.b0,
-                            b1: h.b1,
-                            b2: h.b2,
-                        });
                     }
                 }
             }

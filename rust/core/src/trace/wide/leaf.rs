@@ -129,9 +129,31 @@ pub(crate) fn test4(
     hits
 }
 
+/// Portable stand-in (no SIMD kernel selects it off x86_64): the scalar test per slot.
+#[cfg(not(target_arch = "x86_64"))]
+#[allow(clippy::too_many_arguments)] // the scalar test's arguments plus the leaf's range
+pub(crate) fn test4(
+    _rows: &TriangleRows,
+    triangles: &[[Vec3; 3]],
+    ray: &WatertightRay,
+    first: usize,
+    count: usize,
+    t_min: f32,
+    t_max: f32,
+    t: &mut [f32; 4],
+) -> u32 {
+    let mut hits = 0;
+    for (i, tri) in triangles[first..first + count].iter().enumerate() {
+        if let Some(h) = intersect_triangle(ray, tri, t_min, t_max) {
+            t[i] = h.t;
+            hits |= 1 << i;
+        }
+    }
+    hits
+}
+
 /// For the any-hit traversal: how many of the leaf's triangles the scalar loop would test
 /// before and including the first hit, or `None` when none is hit.
-#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub(crate) fn first_hit(
     rows: &TriangleRows,
