@@ -116,6 +116,8 @@ fn ordered_hits<const N: usize>(
                     let s = m.trailing_zeros() as usize;
                     m &= m - 1;
                     let r = p.rank(s);
+                    // Permutations list every used slot, and only used slots are hit.
+                    debug_assert!(ranks & (1 << r) == 0, "slot {s} not in the permutation");
                     by_rank[r] = s as u8;
                     ranks |= 1 << r;
                 }
