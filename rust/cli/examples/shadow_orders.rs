@@ -6,16 +6,23 @@
 //! ```text
 //! cargo run --release -p antumbra-cli --example shadow_orders -- table SCENE [TRIS] [WxH] [SPP]
 //! cargo run --release -p antumbra-cli --example shadow_orders -- trade SCENE [TRIS] [WxH] [SPP]
+//! cargo run --release -p antumbra-cli --example shadow_orders -- oracle SCENE [TRIS] [WxH] [SPP]
 //! ```
+//!
+//! `oracle` measures, on the 8-wide tree, the fewest node visits any child order could give each
+//! ray (an occluded ray: the interior nodes on the path to its shallowest occluding leaf; an
+//! unoccluded ray: every interior node it enters, which no order avoids), beside SATO and sorted.
 
 use antumbra_core::bvh::{build_binned_sah, BuildSettings, WideBvh};
-use antumbra_core::geometry::Ray;
+use antumbra_core::geometry::{intersect_triangle, Ray, WatertightRay};
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
     SamplePlan,
 };
 use antumbra_core::scene::{FrameGeometry, Resolution};
-use antumbra_core::trace::wide::{BoxKernel, PreparedOrder, SortTables, WideQueries};
+use antumbra_core::trace::wide::{
+    BoxKernel, ChildBoxTest, PreparedOrder, Scalar, SortTables, WideQueries, WideRay,
+};
 use antumbra_core::trace::{ShadowOrder, TraversalStats};
 use rayon::prelude::*;
 
@@ -82,6 +89,49 @@ where
     }
     m.sort_ms /= lights.len().max(1) as f64;
     m
+}
+
+/// The lower bound of N_B for one ray over all child orders (see the module comment), and
+/// whether the ray is occluded.
+fn oracle_visits<const N: usize>(bvh: &WideBvh<N>, ray: &Ray) -> (u64, bool)
+where
+    Scalar: ChildBoxTest<N>,
+{
+    let wray = WideRay::new(ray);
+    let wt = WatertightRay::new(ray);
+    let t_max = ray.t_max + wray.pre.t_margin;
+    let r = &bvh.root_bounds;
+    if bvh.nodes.is_empty() || wray.pre.hit(r.min, r.max, ray.t_min, t_max).is_none() {
+        return (0, false);
+    }
+    let (mut entered, mut best) = (0u64, u64::MAX);
+    let mut stack = vec![0usize];
+    let mut t_near = [0f32; N];
+    while let Some(i) = stack.pop() {
+        entered += 1;
+        let node = &bvh.nodes[i];
+        let mask = Scalar::test(&wray, node, ray.t_min, t_max, &mut t_near);
+        for s in (0..N).filter(|s| mask & (1 << s) != 0) {
+            if node.is_leaf_slot(s) {
+                let first = node.child[s] as usize;
+                let tris = &bvh.triangles[first..first + node.count[s] as usize];
+                if tris
+                    .iter()
+                    .any(|t| intersect_triangle(&wt, t, ray.t_min, ray.t_max).is_some())
+                {
+                    // Interior nodes from the root down to this leaf's node.
+                    best = best.min(bvh.depth[i] as u64 + 1);
+                }
+            } else {
+                stack.push(node.child[s] as usize);
+            }
+        }
+    }
+    if best == u64::MAX {
+        (entered, false)
+    } else {
+        (best, true)
+    }
 }
 
 fn per_ray(v: u64, rays: u64) -> f64 {
@@ -184,6 +234,49 @@ fn main() -> anyhow::Result<()> {
                     m.sort_ms
                 );
             }
+        }
+    } else if mode == "oracle" {
+        let all: Vec<Ray> = lights.iter().flat_map(|l| l.rays.iter().copied()).collect();
+        let (mut occ, mut occ_nb, mut free_nb) = (0u64, 0u64, 0u64);
+        let mut by_depth = [0u64; 16];
+        for (nb, occluded) in all
+            .par_iter()
+            .map(|r| oracle_visits(&w8, r))
+            .collect::<Vec<_>>()
+        {
+            if occluded {
+                occ += 1;
+                occ_nb += nb;
+                by_depth[(nb as usize).min(15)] += 1;
+            } else {
+                free_nb += nb;
+            }
+        }
+        let n = all.len() as u64;
+        println!("\n8-wide: lower bound of N_B over all child orders (per ray, oracle)");
+        println!(
+            "occluded {occ} of {n}: N_B >= {:.2} per occluded ray; unoccluded: N_B = {:.2} per ray",
+            per_ray(occ_nb, occ),
+            per_ray(free_nb, n - occ)
+        );
+        println!(
+            "all rays: N_B >= {:.2} per ray",
+            per_ray(occ_nb + free_nb, n)
+        );
+        println!("occluded rays by the interior nodes on the path to their shallowest occluder:");
+        for (d, c) in by_depth.iter().enumerate().filter(|(_, &c)| c > 0) {
+            println!("  {d}: {c} ({:.1}%)", 100.0 * *c as f64 / occ.max(1) as f64);
+        }
+        for o in [
+            "sato",
+            "fbto",
+            "sorted",
+            "sorted:budget=1",
+            "sorted:p=area",
+            "sorted:p=area:budget=1",
+        ] {
+            let m = run(8, &parse(o));
+            println!("{o}: N_B {:.2} per ray", per_ray(m.stats.inner, m.rays));
         }
     } else {
         println!("\n8-wide, sorted (logging SATO, P_i = 1): N_B per shadow ray / logging+sorting ms per light");

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Bvh;
 use crate::geometry::Aabb;
+use crate::trace::wide::TriangleRows;
 
 /// How many children a BVH node has: 2 is the builder's binary tree, 4 and 8 its collapse.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -141,6 +142,8 @@ pub struct WideBvh<const N: usize> {
     /// Bounds of the whole tree (the root node's box).
     pub root_bounds: Aabb,
     pub triangles: Vec<[Vec3; 3]>,
+    /// The same triangles as rows for the four-lane leaf test.
+    pub triangle_rows: TriangleRows,
     pub triangle_ids: Vec<u32>,
     /// Per node: the parent's index and the slot this node occupies in it (root: `u32::MAX`).
     pub parent: Vec<(u32, u8)>,
@@ -160,6 +163,7 @@ impl<const N: usize> WideBvh<N> {
         let start = Instant::now();
         let mut out = WideBvh {
             triangles: bvh.triangles.clone(),
+            triangle_rows: TriangleRows::new(&bvh.triangles),
             triangle_ids: bvh.triangle_ids.clone(),
             ..WideBvh::default()
         };
@@ -213,6 +217,7 @@ impl<const N: usize> WideBvh<N> {
     pub fn bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<WideNode<N>>()
             + self.triangles.len() * std::mem::size_of::<[Vec3; 3]>()
+            + self.triangle_rows.bytes()
             + self.triangle_ids.len() * 4
     }
 

@@ -42,10 +42,22 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
         if current.count > 0 {
             stats.leaf();
             let first = current.child as usize;
-            for slot in first..first + current.count as usize {
-                stats.triangles(1);
-                if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
-                    return Some(current.child);
+            let count = current.count as usize;
+            if K::SIMD_LEAVES {
+                let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+                match super::leaf::first_hit(rows, tris, &wt, first, count, t_min, ray.t_max) {
+                    Some(tested) => {
+                        stats.triangles(tested);
+                        return Some(current.child);
+                    }
+                    None => stats.triangles(count as u32),
+                }
+            } else {
+                for slot in first..first + count {
+                    stats.triangles(1);
+                    if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
+                        return Some(current.child);
+                    }
                 }
             }
         } else {
@@ -95,13 +107,25 @@ fn ordered_hits<const N: usize>(
         } => {
             let p = perms[node];
             if p.is_present() {
+                // Place each hit slot at its rank, then read the ranks in order: work in the
+                // number of children hit, not in N.
+                let mut by_rank = [0u8; 8];
+                let mut ranks = 0u32;
+                let mut m = mask;
+                while m != 0 {
+                    let s = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let r = p.rank(s);
+                    // Permutations list every used slot, and only used slots are hit.
+                    debug_assert!(ranks & (1 << r) == 0, "slot {s} not in the permutation");
+                    by_rank[r] = s as u8;
+                    ranks |= 1 << r;
+                }
                 let mut n = 0;
-                for k in 0..N {
-                    let s = p.slot(k);
-                    if mask & (1 << s) != 0 {
-                        out[n] = s as u8;
-                        n += 1;
-                    }
+                while ranks != 0 {
+                    out[n] = by_rank[ranks.trailing_zeros() as usize];
+                    ranks &= ranks - 1;
+                    n += 1;
                 }
                 return n;
             }
@@ -135,4 +159,26 @@ pub(crate) fn near_to_far<const N: usize>(
     out: &mut [u8; N],
 ) -> usize {
     ordered_hits(0, mask, t_near, OrderView::FrontToBack, out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::wide::Permutation;
+
+    /// A node with fewer children than N visits each hit child once, in the permutation's
+    /// order (unused positions once decoded as slot 0 and queued it a second time).
+    #[test]
+    fn permuted_order_lists_each_hit_child_once() {
+        let perms = [Permutation::from_slots(&[2, 0, 1])];
+        let order = OrderView::Permuted {
+            perms: &perms,
+            fallback_fbto: false,
+        };
+        let mut out = [0u8; 8];
+        let n = ordered_hits(0, 0b111, &[0.0; 8], order, &mut out);
+        assert_eq!(&out[..n], &[2, 0, 1]);
+        let n = ordered_hits(0, 0b011, &[0.0; 8], order, &mut out);
+        assert_eq!(&out[..n], &[0, 1]);
+    }
 }

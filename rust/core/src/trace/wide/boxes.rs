@@ -57,6 +57,9 @@ impl WideRay {
 /// Tests the N child boxes of a node. Returns a bit mask of the children hit (bit i = slot i)
 /// and writes each hit child's entry distance to `t_near[i]` (other lanes are unspecified).
 pub trait ChildBoxTest<const N: usize> {
+    /// Whether traversals with this kernel test leaf triangles four at a time (the SIMD
+    /// kernels) or one at a time (the scalar reference); both give the same answers.
+    const SIMD_LEAVES: bool;
     fn test(
         ray: &WideRay,
         node: &WideNode<N>,
@@ -70,6 +73,7 @@ pub trait ChildBoxTest<const N: usize> {
 pub struct Scalar;
 
 impl<const N: usize> ChildBoxTest<N> for Scalar {
+    const SIMD_LEAVES: bool = false;
     #[inline(always)]
     fn test(
         ray: &WideRay,
@@ -159,6 +163,7 @@ mod x86 {
     }
 
     impl ChildBoxTest<4> for Sse {
+        const SIMD_LEAVES: bool = true;
         #[inline(always)]
         fn test(
             ray: &WideRay,
@@ -172,6 +177,7 @@ mod x86 {
     }
 
     impl ChildBoxTest<8> for Sse {
+        const SIMD_LEAVES: bool = true;
         #[inline(always)]
         fn test(
             ray: &WideRay,
@@ -185,6 +191,7 @@ mod x86 {
     }
 
     impl ChildBoxTest<8> for Avx2 {
+        const SIMD_LEAVES: bool = true;
         #[inline(always)]
         fn test(
             ray: &WideRay,

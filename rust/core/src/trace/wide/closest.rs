@@ -42,18 +42,49 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
             stats.leaf();
             stats.triangles(current.count);
             let first = current.child as usize;
-            for slot in first..first + current.count as usize {
-                if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
-                    let id = bvh.triangle_ids[slot];
-                    if Hit::closer_than(h.t, id, &best) {
-                        t_max = h.t;
-                        best = Some(Hit {
-                            t: h.t,
-                            triangle: id,
-                            b0: h.b0,
-                            b1: h.b1,
-                            b2: h.b2,
-                        });
+            let count = current.count as usize;
+            if K::SIMD_LEAVES {
+                let mut t = [0f32; 4];
+                for base in (0..count).step_by(4) {
+                    let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+                    let n = (count - base).min(4);
+                    let at = first + base;
+                    let mut hits = super::leaf::test4(rows, tris, &wt, at, n, t_min, t_max, &mut t);
+                    while hits != 0 {
+                        let lane = hits.trailing_zeros() as usize;
+                        hits &= hits - 1;
+                        let slot = at + lane;
+                        let id = bvh.triangle_ids[slot];
+                        // As the scalar loop, which tests each triangle against the t_max left
+                        // by the ones before it; the winner's barycentrics come from that test.
+                        if t[lane] <= t_max && Hit::closer_than(t[lane], id, &best) {
+                            if let Some(h) = intersect_triangle(&wt, &tris[slot], t_min, t_max) {
+                                t_max = h.t;
+                                best = Some(Hit {
+                                    t: h.t,
+                                    triangle: id,
+                                    b0: h.b0,
+                                    b1: h.b1,
+                                    b2: h.b2,
+                                });
+                            }
+                        }
+                    }
+                }
+            } else {
+                for slot in first..first + count {
+                    if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
+                        let id = bvh.triangle_ids[slot];
+                        if Hit::closer_than(h.t, id, &best) {
+                            t_max = h.t;
+                            best = Some(Hit {
+                                t: h.t,
+                                triangle: id,
+                                b0: h.b0,
+                                b1: h.b1,
+                                b2: h.b2,
+                            });
+                        }
                     }
                 }
             }

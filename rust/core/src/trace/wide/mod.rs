@@ -8,6 +8,7 @@ mod boxes;
 mod child_sort;
 mod closest;
 pub mod cost;
+mod leaf;
 mod order;
 mod prepared;
 mod stack;
@@ -17,6 +18,7 @@ pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay};
 pub use child_sort::{
     sort_for_light, ChildHitModel, LightOrder, LoggingOrder, SortSettings, SortTables,
 };
+pub use leaf::TriangleRows;
 pub use order::{OrderView, Permutation};
 pub use prepared::PreparedOrder;
 

@@ -1,14 +1,17 @@
 //! Child visiting orders of the wide occlusion traversal, as the traversal reads them: front to
 //! back by entry distance, or a fixed permutation per node (SATO, RTSAH, random, per-light
-//! sorted), stored in 4 bytes per node so that lights share one topology.
+//! sorted), stored in 8 bytes per node so that lights share one topology.
 
 /// A node's child permutation: position `k` holds the slot visited k-th in bits `3k..3k+3`
-/// (3 bits per child covers N = 8). Bit 31 marks the permutation as present; a node without
-/// one uses the fallback order of its [`OrderView`].
+/// (3 bits per child covers N = 8), and slot `s` its position (rank) in bits `32+3s..35+3s`,
+/// so the traversal orders the children a ray hits without scanning all N positions. Bit 31
+/// marks the permutation as present; a node without one uses the fallback order of its
+/// [`OrderView`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Permutation(pub u32);
+pub struct Permutation(pub u64);
 
-const PRESENT: u32 = 1 << 31;
+const PRESENT: u64 = 1 << 31;
+const RANKS: u32 = 32;
 
 impl Permutation {
     /// No permutation: the node uses the fallback order.
@@ -17,10 +20,9 @@ impl Permutation {
     /// Packs slots in visiting order (at most 8).
     pub fn from_slots(slots: &[usize]) -> Self {
         debug_assert!(slots.len() <= 8);
-        let bits = slots
-            .iter()
-            .enumerate()
-            .fold(0u32, |acc, (k, &s)| acc | ((s as u32) << (3 * k)));
+        let bits = slots.iter().enumerate().fold(0u64, |acc, (k, &s)| {
+            acc | ((s as u64) << (3 * k)) | ((k as u64) << (RANKS as usize + 3 * s))
+        });
         Permutation(bits | PRESENT)
     }
 
@@ -37,6 +39,12 @@ impl Permutation {
     #[inline(always)]
     pub fn slot(self, k: usize) -> usize {
         ((self.0 >> (3 * k)) & 7) as usize
+    }
+
+    /// The position at which slot `s` is visited (meaningful for slots in the permutation).
+    #[inline(always)]
+    pub fn rank(self, s: usize) -> usize {
+        ((self.0 >> (RANKS as usize + 3 * s)) & 7) as usize
     }
 
     pub fn slots(self, n: usize) -> Vec<usize> {
@@ -56,4 +64,21 @@ pub enum OrderView<'a> {
         perms: &'a [Permutation],
         fallback_fbto: bool,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranks_invert_the_order() {
+        let order = [5, 0, 7, 2, 1];
+        let p = Permutation::from_slots(&order);
+        assert!(p.is_present());
+        for (k, &s) in order.iter().enumerate() {
+            assert_eq!(p.slot(k), s);
+            assert_eq!(p.rank(s), k);
+        }
+        assert!(!Permutation::NONE.is_present());
+    }
 }

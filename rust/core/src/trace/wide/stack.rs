@@ -2,28 +2,36 @@
 //! spilling into a heap vector only for pathological depths (a wide node pushes up to N - 1
 //! entries, and the collapse does not bound the depth of a degenerate binary tree).
 
+use std::mem::MaybeUninit;
+
 const INLINE: usize = 64;
 
-pub(crate) struct Stack<T: Copy + Default> {
-    inline: [T; INLINE],
+/// Entries below `len` are initialised; the rest are not: zeroing the array was a `memset` per
+/// ray, ~4% of the traversal's instructions in a callgrind profile. `repr(C)` with the array
+/// last: with `len` next to it, LLVM merged the `len = 0` store and the uninitialised array
+/// into one `memset`.
+#[repr(C)]
+pub(crate) struct Stack<T: Copy> {
     len: usize,
     spill: Vec<T>,
+    inline: MaybeUninit<[T; INLINE]>,
 }
 
-impl<T: Copy + Default> Stack<T> {
+impl<T: Copy> Stack<T> {
     #[inline(always)]
     pub(crate) fn new() -> Self {
         Stack {
-            inline: [T::default(); INLINE],
             len: 0,
             spill: Vec::new(),
+            inline: MaybeUninit::uninit(),
         }
     }
 
     #[inline(always)]
     pub(crate) fn push(&mut self, v: T) {
         if self.len < INLINE {
-            self.inline[self.len] = v;
+            // SAFETY: `len < INLINE`, so the write stays inside the array.
+            unsafe { self.inline.as_mut_ptr().cast::<T>().add(self.len).write(v) };
             self.len += 1;
         } else {
             self.spill.push(v);
@@ -39,6 +47,7 @@ impl<T: Copy + Default> Stack<T> {
             return None;
         }
         self.len -= 1;
-        Some(self.inline[self.len])
+        // SAFETY: entries below the old `len` were written by `push` and lie inside the array.
+        Some(unsafe { self.inline.as_ptr().cast::<T>().add(self.len).read() })
     }
 }

@@ -1,0 +1,95 @@
+//! Traces one frame's shadow rays (8-wide, per-light sorted order) and camera rays (8-wide,
+//! closest hit) on one thread, with nothing else in the traced functions: the run to profile
+//! with callgrind (instruction counts, stable on a loaded machine).
+//!
+//! ```text
+//! cargo build --release -p antumbra-cli --example trace_profile
+//! valgrind --tool=callgrind --dump-instr=no --collect-atstart=no \
+//!   --toggle-collect='*trace_profile*trace_*' target/release/examples/trace_profile bedroom 350000 256x256
+//! ```
+
+use antumbra_core::bvh::{build_binned_sah, BuildSettings, WideBvh};
+use antumbra_core::geometry::Ray;
+use antumbra_core::render::{
+    representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
+    SamplePlan,
+};
+use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::trace::wide::{BoxKernel, OrderView, PreparedOrder, WideQueries};
+use antumbra_core::trace::{NoStats, ShadowOrder};
+
+#[inline(never)]
+fn trace_shadow(bvh: &WideBvh<8>, rays: &[Ray], order: OrderView) -> usize {
+    rays.iter()
+        .filter(|r| bvh.occluded(r, order, BoxKernel::Auto, &mut NoStats))
+        .count()
+}
+
+#[inline(never)]
+fn trace_closest(bvh: &WideBvh<8>, rays: &[Ray]) -> usize {
+    rays.iter()
+        .filter(|r| bvh.closest_hit(r, BoxKernel::Auto, &mut NoStats).is_some())
+        .count()
+}
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let name = args.first().cloned().unwrap_or_else(|| "bedroom".into());
+    let triangles = args.get(1).map_or(Ok(350_000), |s| s.parse())?;
+    let (w, h) = match args.get(2) {
+        Some(s) => {
+            let (a, b) = s.split_once('x').ok_or(anyhow::anyhow!("size WxH"))?;
+            (a.parse()?, b.parse()?)
+        }
+        None => (256, 256),
+    };
+    let params = antumbra_scenes::SceneParams {
+        triangles,
+        frames: 1,
+        rotated: false,
+    };
+    let anim = antumbra_scenes::builtin(&name, &params)?;
+    let mut scene = anim.frame(*anim.frame_range().start());
+    scene.resolution = Resolution::new(w, h);
+    let g = FrameGeometry::from_scene(&scene)?;
+    let bvh = build_binned_sah(&g.camera.vertices, &BuildSettings::default());
+    let shadow_tris = g
+        .shadow
+        .as_ref()
+        .map_or(&g.camera.vertices, |s| &s.vertices);
+    let shadow_bvh = build_binned_sah(shadow_tris, &BuildSettings::default());
+    let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
+    let primary: Vec<Ray> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| camera.ray(x, y))
+        .collect();
+    let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+    let w8 = WideBvh::<8>::collapse(&bvh);
+    let s8 = WideBvh::<8>::collapse(&shadow_bvh);
+    let order: ShadowOrder = "sorted".parse().expect("order");
+    let (mut shadow, mut occluded) = (0, 0);
+    for (i, l) in scene
+        .lights
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.casts_shadow)
+    {
+        let sampler = LightSampler::new(l, &g.space);
+        let plan = SamplePlan {
+            light_index: i as u32,
+            samples: samples_for(&sampler, 1),
+            seed: 0,
+        };
+        let rays = shadow_rays(&pass, &sampler, plan);
+        let reps = representative_rays(&pass, &sampler, plan, 0.05);
+        let prepared = PreparedOrder::new(&s8, &order, None, &reps, BoxKernel::Auto);
+        occluded += trace_shadow(&s8, &rays, prepared.view());
+        shadow += rays.len();
+    }
+    let hits = trace_closest(&w8, &primary);
+    println!(
+        "{name}: {shadow} shadow rays ({occluded} occluded), {} camera rays ({hits} hit)",
+        primary.len()
+    );
+    Ok(())
+}
