@@ -125,7 +125,11 @@ fn every_build_answers_as_brute_force() {
     let tris = soup(2000, 7_000);
     let rays = rays(3000, 9_000_000);
     let vis = every_third(tris.len());
-    for settings in [BuildSettings::default(), eager_splits()] {
+    let paper_viability = BuildSettings {
+        osah_strict_viability: false,
+        ..eager_splits()
+    };
+    for settings in [BuildSettings::default(), eager_splits(), paper_viability] {
         for method in [
             BuildMethod::Sah,
             BuildMethod::Sbvh,
@@ -136,6 +140,10 @@ fn every_build_answers_as_brute_force() {
             assert_same_answers(&tris, &bvh, &rays, method.name());
         }
     }
+    // The viability rule is a real switch: on this soup the two rules build different trees.
+    let strict = build_with_visibility(BuildMethod::Osah, &tris, Some(&vis), &eager_splits());
+    let paper = build_with_visibility(BuildMethod::Osah, &tris, Some(&vis), &paper_viability);
+    assert!(!same_tree(&strict, &paper));
 }
 
 #[test]

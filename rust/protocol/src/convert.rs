@@ -473,6 +473,7 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
                 max_growth: s.build_settings.spatial_max_growth,
             },
             osah_weight: s.build_settings.osah_weight,
+            ..BuildSettings::default()
         },
         shadow_order: match &s.order {
             Some(text) => text.parse::<ShadowOrder>()?,

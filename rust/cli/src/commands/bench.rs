@@ -112,6 +112,9 @@ pub struct BenchArgs {
     /// Spatial splits for sbvh/abvh/osah (with --methods): on, off, or on,off for both.
     #[arg(long, value_delimiter = ',', default_value = "on")]
     pub spatial_splits: Vec<String>,
+    /// OSAH viability as the paper states it (condition (5) alone), with --methods.
+    #[arg(long)]
+    pub osah_paper_viability: bool,
     /// Render this many frames with SAH, SBVH, OSAH-exact and OSAH-previous and write the
     /// per-frame curve (animation.csv, animation.png) into --out.
     #[arg(long)]
@@ -198,7 +201,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
             methods: args.methods.clone(),
             weights: args.osah_w.clone(),
             spatial,
-            settings: BuildSettings::default(),
+            settings: BuildSettings {
+                osah_strict_viability: !args.osah_paper_viability,
+                ..BuildSettings::default()
+            },
         };
         let mut rows = Vec::new();
         for name in &scenes {

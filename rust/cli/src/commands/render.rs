@@ -49,6 +49,10 @@ pub struct MethodArgs {
     /// OSAH weight w of visible triangles, in (0, 1).
     #[arg(long, default_value_t = BuildSettings::default().osah_weight)]
     pub osah_w: f32,
+    /// OSAH viability as the paper states it (condition (5) alone); by default an OSAH split
+    /// must also leave no visible triangle in its hidden child.
+    #[arg(long)]
+    pub osah_paper_viability: bool,
     /// Turn spatial splits off (sbvh/abvh/osah then split objects only).
     #[arg(long)]
     pub no_spatial_splits: bool,
@@ -84,6 +88,7 @@ impl MethodArgs {
                 max_leaf_size: self.leaf_size,
                 bins: self.bins,
                 osah_weight: self.osah_w,
+                osah_strict_viability: !self.osah_paper_viability,
                 spatial: SpatialSettings {
                     enabled: !self.no_spatial_splits,
                     bins: self.spatial_bins,

@@ -30,6 +30,15 @@ pub struct BuildSettings {
     /// OSAH weight w of the visible-triangle term (the paper's equation 4), in (0, 1).
     #[serde(default = "default_osah_weight")]
     pub osah_weight: f32,
+    /// OSAH viability: besides the paper's condition (5), the hidden child must hold no visible
+    /// triangle (true, the default: measured better, BENCHMARKS.md issue 6); false is the paper's
+    /// condition (5) alone.
+    #[serde(default = "default_osah_strict")]
+    pub osah_strict_viability: bool,
+}
+
+fn default_osah_strict() -> bool {
+    true
 }
 
 fn default_osah_weight() -> f32 {
@@ -45,6 +54,7 @@ impl Default for BuildSettings {
             intersection_cost: 1.0,
             spatial: SpatialSettings::default(),
             osah_weight: default_osah_weight(),
+            osah_strict_viability: default_osah_strict(),
         }
     }
 }

@@ -83,13 +83,14 @@ impl CostModel {
 /// the visible rays' path, and the split, chosen for its visible counts rather than its areas,
 /// is a worse SAH split. Measured on bedroom and city (BENCHMARKS.md, issue 6), requiring an
 /// invisible-only hidden child lowers N_TS where condition (5) alone raised it.
-pub(super) fn osah_viable(osah: &Sides, sah: &Sides) -> bool {
+/// `strict` false is condition (5) alone, as the paper states it.
+pub(super) fn osah_viable(osah: &Sides, sah: &Sides, strict: bool) -> bool {
     let (hidden, hidden_visible) = if osah.vis_left < osah.vis_right {
         (osah.n_left, osah.vis_left)
     } else {
         (osah.n_right, osah.vis_right)
     };
-    hidden_visible == 0 && hidden > sah.n_left.max(sah.n_right)
+    (!strict || hidden_visible == 0) && hidden > sah.n_left.max(sah.n_right)
 }
 
 #[cfg(test)]
@@ -143,11 +144,14 @@ mod tests {
     #[test]
     fn viability_needs_more_hidden_than_the_sah_children() {
         let sah = sides((50, 50), (5, 5));
-        assert!(osah_viable(&sides((10, 90), (10, 0)), &sah));
-        assert!(!osah_viable(&sides((60, 40), (10, 0)), &sah));
+        assert!(osah_viable(&sides((10, 90), (10, 0)), &sah, true));
+        assert!(!osah_viable(&sides((60, 40), (10, 0)), &sah, true));
         // The hidden child is the one with fewer visible references.
-        assert!(osah_viable(&sides((90, 10), (0, 10)), &sah));
+        assert!(osah_viable(&sides((90, 10), (0, 10)), &sah, true));
         // A hidden child that still holds visible references hides nothing from their rays.
-        assert!(!osah_viable(&sides((90, 10), (4, 10)), &sah));
+        assert!(!osah_viable(&sides((90, 10), (4, 10)), &sah, true));
+        // The paper's condition (5) alone counts only the hidden child's references.
+        assert!(osah_viable(&sides((90, 10), (4, 10)), &sah, false));
+        assert!(!osah_viable(&sides((60, 40), (10, 0)), &sah, false));
     }
 }

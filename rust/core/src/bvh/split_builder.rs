@@ -261,7 +261,10 @@ impl Builder<'_> {
                 (None, None) => None,
             };
             if let Some((choice, cost, sides)) = best_osah {
-                let viable = best_sah.as_ref().is_none_or(|b| osah_viable(&sides, &b.2));
+                let strict = self.settings.osah_strict_viability;
+                let viable = best_sah
+                    .as_ref()
+                    .is_none_or(|b| osah_viable(&sides, &b.2, strict));
                 if viable {
                     return (Some(choice), Some(cost));
                 }
