@@ -6,6 +6,7 @@
 //! cargo build --release -p antumbra-cli --example trace_profile
 //! valgrind --tool=callgrind --dump-instr=no --collect-atstart=no \
 //!   --toggle-collect='*trace_profile*trace_*' target/release/examples/trace_profile bedroom 350000 256x256
+//! target/release/examples/trace_profile bedroom 350000 512x512 5   # wall clock, best of 5
 //! ```
 
 use antumbra_core::bvh::{build_binned_sah, BuildSettings, WideBvh};
@@ -32,6 +33,18 @@ fn trace_closest(bvh: &WideBvh<8>, rays: &[Ray]) -> usize {
         .count()
 }
 
+/// Runs `f` `repeat` times; its (last) result and the best time in ms.
+fn best_of<T>(repeat: usize, mut f: impl FnMut() -> T) -> (T, f64) {
+    let mut best = f64::INFINITY;
+    let mut out = None;
+    for _ in 0..repeat.max(1) {
+        let start = std::time::Instant::now();
+        out = Some(f());
+        best = best.min(start.elapsed().as_secs_f64() * 1e3);
+    }
+    (out.expect("ran at least once"), best)
+}
+
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let name = args.first().cloned().unwrap_or_else(|| "bedroom".into());
@@ -43,6 +56,8 @@ fn main() -> anyhow::Result<()> {
         }
         None => (256, 256),
     };
+    // Timed repetitions (best of); 1 under callgrind.
+    let repeat: usize = args.get(3).map_or(Ok(1), |s| s.parse())?;
     let params = antumbra_scenes::SceneParams {
         triangles,
         frames: 1,
@@ -67,7 +82,7 @@ fn main() -> anyhow::Result<()> {
     let w8 = WideBvh::<8>::collapse(&bvh);
     let s8 = WideBvh::<8>::collapse(&shadow_bvh);
     let order: ShadowOrder = "sorted".parse().expect("order");
-    let (mut shadow, mut occluded) = (0, 0);
+    let (mut shadow, mut occluded, mut shadow_ms) = (0, 0, 0.0);
     for (i, l) in scene
         .lights
         .iter()
@@ -83,13 +98,20 @@ fn main() -> anyhow::Result<()> {
         let rays = shadow_rays(&pass, &sampler, plan);
         let reps = representative_rays(&pass, &sampler, plan, 0.05);
         let prepared = PreparedOrder::new(&s8, &order, None, &reps, BoxKernel::Auto);
-        occluded += trace_shadow(&s8, &rays, prepared.view());
+        let (o, ms) = best_of(repeat, || trace_shadow(&s8, &rays, prepared.view()));
+        occluded += o;
+        shadow_ms += ms;
         shadow += rays.len();
     }
-    let hits = trace_closest(&w8, &primary);
+    let (hits, closest_ms) = best_of(repeat, || trace_closest(&w8, &primary));
     println!(
         "{name}: {shadow} shadow rays ({occluded} occluded), {} camera rays ({hits} hit)",
         primary.len()
+    );
+    println!(
+        "best of {repeat}: shadow {:.1} ns/ray, closest {:.1} ns/ray (one thread)",
+        shadow_ms * 1e6 / shadow.max(1) as f64,
+        closest_ms * 1e6 / primary.len().max(1) as f64
     );
     Ok(())
 }

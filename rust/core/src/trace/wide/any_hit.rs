@@ -1,6 +1,7 @@
 //! Occlusion (any hit) on a wide BVH with a chosen child order.
 
 use super::boxes::{ChildBoxTest, WideRay};
+use super::leaf::{first_hit, LeafLanes};
 use super::order::OrderView;
 use super::stack::Stack;
 use crate::bvh::WideBvh;
@@ -43,21 +44,21 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
             stats.leaf();
             let first = current.child as usize;
             let count = current.count as usize;
-            if K::SIMD_LEAVES {
-                let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
-                match super::leaf::first_hit(rows, tris, &wt, first, count, t_min, ray.t_max) {
-                    Some(tested) => {
-                        stats.triangles(tested);
-                        return Some(current.child);
-                    }
-                    None => stats.triangles(count as u32),
-                }
-            } else {
+            if K::LEAVES == LeafLanes::Scalar {
                 for slot in first..first + count {
                     stats.triangles(1);
                     if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
                         return Some(current.child);
                     }
+                }
+            } else {
+                let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+                match first_hit(K::LEAVES, rows, tris, &wt, first, count, t_min, ray.t_max) {
+                    Some(tested) => {
+                        stats.triangles(tested);
+                        return Some(current.child);
+                    }
+                    None => stats.triangles(count as u32),
                 }
             }
         } else {

@@ -12,6 +12,7 @@
 
 use glam::Vec3;
 
+use super::leaf::LeafLanes;
 use crate::bvh::WideNode;
 use crate::geometry::{Ray, RayBoxPrecomp};
 
@@ -57,9 +58,9 @@ impl WideRay {
 /// Tests the N child boxes of a node. Returns a bit mask of the children hit (bit i = slot i)
 /// and writes each hit child's entry distance to `t_near[i]` (other lanes are unspecified).
 pub trait ChildBoxTest<const N: usize> {
-    /// Whether traversals with this kernel test leaf triangles four at a time (the SIMD
-    /// kernels) or one at a time (the scalar reference); both give the same answers.
-    const SIMD_LEAVES: bool;
+    /// How traversals with this kernel test leaf triangles: several at a time (the SIMD
+    /// kernels) or one at a time (the scalar reference); all give the same answers.
+    const LEAVES: LeafLanes;
     fn test(
         ray: &WideRay,
         node: &WideNode<N>,
@@ -73,7 +74,7 @@ pub trait ChildBoxTest<const N: usize> {
 pub struct Scalar;
 
 impl<const N: usize> ChildBoxTest<N> for Scalar {
-    const SIMD_LEAVES: bool = false;
+    const LEAVES: LeafLanes = LeafLanes::Scalar;
     #[inline(always)]
     fn test(
         ray: &WideRay,
@@ -103,7 +104,7 @@ pub use x86::{Avx2, Sse};
 mod x86 {
     use std::arch::x86_64::*;
 
-    use super::{ChildBoxTest, WideRay};
+    use super::{ChildBoxTest, LeafLanes, WideRay};
     use crate::bvh::WideNode;
     use crate::geometry::FAR_SCALE;
 
@@ -163,7 +164,7 @@ mod x86 {
     }
 
     impl ChildBoxTest<4> for Sse {
-        const SIMD_LEAVES: bool = true;
+        const LEAVES: LeafLanes = LeafLanes::Four;
         #[inline(always)]
         fn test(
             ray: &WideRay,
@@ -177,7 +178,7 @@ mod x86 {
     }
 
     impl ChildBoxTest<8> for Sse {
-        const SIMD_LEAVES: bool = true;
+        const LEAVES: LeafLanes = LeafLanes::Four;
         #[inline(always)]
         fn test(
             ray: &WideRay,
@@ -191,7 +192,7 @@ mod x86 {
     }
 
     impl ChildBoxTest<8> for Avx2 {
-        const SIMD_LEAVES: bool = true;
+        const LEAVES: LeafLanes = LeafLanes::Eight;
         #[inline(always)]
         fn test(
             ray: &WideRay,

@@ -4,6 +4,7 @@
 
 use super::any_hit::near_to_far;
 use super::boxes::{ChildBoxTest, WideRay};
+use super::leaf::{each_hit, LeafLanes};
 use super::stack::Stack;
 use crate::bvh::WideBvh;
 use crate::geometry::{intersect_triangle, Ray, WatertightRay};
@@ -43,21 +44,23 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
             stats.triangles(current.count);
             let first = current.child as usize;
             let count = current.count as usize;
-            if K::SIMD_LEAVES {
-                let mut t = [0f32; 4];
-                for base in (0..count).step_by(4) {
-                    let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
-                    let n = (count - base).min(4);
-                    let at = first + base;
-                    let mut hits = super::leaf::test4(rows, tris, &wt, at, n, t_min, t_max, &mut t);
-                    while hits != 0 {
-                        let lane = hits.trailing_zeros() as usize;
-                        hits &= hits - 1;
-                        let slot = at + lane;
-                        let id = bvh.triangle_ids[slot];
-                        // As the scalar loop, which tests each triangle against the t_max left
-                        // by the ones before it; the winner's barycentrics come from that test.
-                        if t[lane] <= t_max && Hit::closer_than(t[lane], id, &best) {
+            if K::LEAVES != LeafLanes::Scalar {
+                let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+                let ids = &bvh.triangle_ids;
+                each_hit(
+                    K::LEAVES,
+                    rows,
+                    tris,
+                    &wt,
+                    first,
+                    count,
+                    t_min,
+                    t_max,
+                    |slot, t| {
+                        let id = ids[slot];
+                        // As the scalar loop, which tests each triangle against the t_max left by
+                        // the ones before it; the winner's barycentrics come from that test.
+                        if t <= t_max && Hit::closer_than(t, id, &best) {
                             if let Some(h) = intersect_triangle(&wt, &tris[slot], t_min, t_max) {
                                 t_max = h.t;
                                 best = Some(Hit {
@@ -69,8 +72,9 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
                                 });
                             }
                         }
-                    }
-                }
+                        t_max
+                    },
+                );
             } else {
                 for slot in first..first + count {
                     if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
