@@ -175,7 +175,12 @@ fn check_wide<const N: usize>(
 {
     let wide = WideBvh::<N>::collapse(bvh);
     wide.validate().unwrap();
-    let kernels = [BoxKernel::Scalar, BoxKernel::Sse, BoxKernel::Auto];
+    let kernels = [
+        BoxKernel::Scalar,
+        BoxKernel::Sse,
+        BoxKernel::Avx2,
+        BoxKernel::Auto,
+    ];
     for k in kernels {
         let differ = primary
             .par_iter()

@@ -81,7 +81,12 @@ fn orders() -> Vec<ShadowOrder> {
     .collect()
 }
 
-const KERNELS: [BoxKernel; 3] = [BoxKernel::Scalar, BoxKernel::Sse, BoxKernel::Auto];
+const KERNELS: [BoxKernel; 4] = [
+    BoxKernel::Scalar,
+    BoxKernel::Sse,
+    BoxKernel::Avx2,
+    BoxKernel::Auto,
+];
 
 /// Every order and kernel of width N against brute force, and SIMD work == scalar work.
 fn check_width<const N: usize>(bvh: &Bvh, tris: &[[Vec3; 3]], rays: &[Ray]) -> usize

@@ -40,28 +40,9 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
     let mut current = ChildRef { child: 0, count: 0 };
     let mut t_near = [0f32; N];
     loop {
-        if current.count > 0 {
-            stats.leaf();
-            let first = current.child as usize;
-            let count = current.count as usize;
-            if K::LEAVES == LeafLanes::Scalar {
-                for slot in first..first + count {
-                    stats.triangles(1);
-                    if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
-                        return Some(current.child);
-                    }
-                }
-            } else {
-                let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
-                match first_hit(K::LEAVES, rows, tris, &wt, first, count, t_min, ray.t_max) {
-                    Some(tested) => {
-                        stats.triangles(tested);
-                        return Some(current.child);
-                    }
-                    None => stats.triangles(count as u32),
-                }
-            }
-        } else {
+        // Descend through interior nodes until a leaf: a tight loop of its own, so the box
+        // test's per-ray constants can stay in registers across nodes.
+        while current.count == 0 {
             stats.inner();
             let index = current.child as usize;
             let node = &bvh.nodes[index];
@@ -69,24 +50,42 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
                 stats.boxes(node.arity() as u32);
             }
             let mask = K::test(&wray, node, t_min, t_max, &mut t_near);
-            if mask != 0 {
-                let mut visit = [0u8; N];
-                let hits = ordered_hits(index, mask, &t_near, order, &mut visit);
-                let r = |s: u8| ChildRef {
-                    child: node.child[s as usize],
-                    count: node.count[s as usize] as u32,
-                };
-                for &s in visit[1..hits].iter().rev() {
-                    stack.push(r(s));
-                }
-                current = r(visit[0]);
+            if mask == 0 {
+                current = stack.pop()?;
                 continue;
             }
+            let mut visit = [0u8; N];
+            let hits = ordered_hits(index, mask, &t_near, order, &mut visit);
+            let r = |s: u8| ChildRef {
+                child: node.child[s as usize],
+                count: node.count[s as usize] as u32,
+            };
+            for &s in visit[1..hits].iter().rev() {
+                stack.push(r(s));
+            }
+            current = r(visit[0]);
         }
-        match stack.pop() {
-            Some(next) => current = next,
-            None => return None,
+        stats.leaf();
+        let first = current.child as usize;
+        let count = current.count as usize;
+        if K::LEAVES == LeafLanes::Scalar {
+            for slot in first..first + count {
+                stats.triangles(1);
+                if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
+                    return Some(current.child);
+                }
+            }
+        } else {
+            let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+            match first_hit(K::LEAVES, rows, tris, &wt, first, count, t_min, ray.t_max) {
+                Some(tested) => {
+                    stats.triangles(tested);
+                    return Some(current.child);
+                }
+                None => stats.triangles(count as u32),
+            }
         }
+        current = stack.pop()?;
     }
 }
 

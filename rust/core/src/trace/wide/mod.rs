@@ -105,13 +105,20 @@ impl WideQueries for WideBvh<8> {
 
 #[cfg(target_arch = "x86_64")]
 mod x86_dispatch {
-    use super::boxes::{Avx2, Scalar, Sse};
+    use super::boxes::{Avx2, Avx512, Scalar, Sse};
     use super::*;
 
     /// True when the AVX2 kernel may run (checked once per call; std caches the CPUID result).
     #[inline(always)]
     fn avx2() -> bool {
         std::arch::is_x86_feature_detected!("avx2")
+    }
+
+    /// True when the AVX-512VL kernel may run.
+    #[inline(always)]
+    fn avx512() -> bool {
+        std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl")
     }
 
     impl WideQueries for WideBvh<4> {
@@ -125,7 +132,7 @@ mod x86_dispatch {
         ) -> Option<u32> {
             match kernel {
                 BoxKernel::Scalar => any_hit::any_hit::<4, Scalar, C>(self, ray, order, stats),
-                BoxKernel::Auto | BoxKernel::Sse => {
+                BoxKernel::Auto | BoxKernel::Sse | BoxKernel::Avx2 => {
                     any_hit::any_hit::<4, Sse, C>(self, ray, order, stats)
                 }
             }
@@ -139,7 +146,9 @@ mod x86_dispatch {
         ) -> Option<Hit> {
             match kernel {
                 BoxKernel::Scalar => closest::closest::<4, Scalar, C>(self, ray, stats),
-                BoxKernel::Auto | BoxKernel::Sse => closest::closest::<4, Sse, C>(self, ray, stats),
+                BoxKernel::Auto | BoxKernel::Sse | BoxKernel::Avx2 => {
+                    closest::closest::<4, Sse, C>(self, ray, stats)
+                }
             }
         }
     }
@@ -155,7 +164,11 @@ mod x86_dispatch {
         ) -> Option<u32> {
             match kernel {
                 BoxKernel::Scalar => any_hit::any_hit::<8, Scalar, C>(self, ray, order, stats),
-                BoxKernel::Auto if avx2() => {
+                BoxKernel::Auto if avx512() => {
+                    // SAFETY: AVX-512F and VL were detected on this CPU just above.
+                    unsafe { any_hit_avx512(self, ray, order, stats) }
+                }
+                BoxKernel::Auto | BoxKernel::Avx2 if avx2() => {
                     // SAFETY: AVX2 was detected on this CPU just above.
                     unsafe { any_hit_avx2(self, ray, order, stats) }
                 }
@@ -171,7 +184,11 @@ mod x86_dispatch {
         ) -> Option<Hit> {
             match kernel {
                 BoxKernel::Scalar => closest::closest::<8, Scalar, C>(self, ray, stats),
-                BoxKernel::Auto if avx2() => {
+                BoxKernel::Auto if avx512() => {
+                    // SAFETY: AVX-512F and VL were detected on this CPU just above.
+                    unsafe { closest_avx512(self, ray, stats) }
+                }
+                BoxKernel::Auto | BoxKernel::Avx2 if avx2() => {
                     // SAFETY: AVX2 was detected on this CPU just above.
                     unsafe { closest_avx2(self, ray, stats) }
                 }
@@ -194,5 +211,25 @@ mod x86_dispatch {
     #[target_feature(enable = "avx2")]
     unsafe fn closest_avx2<C: Counters>(bvh: &WideBvh<8>, ray: &Ray, stats: &mut C) -> Option<Hit> {
         closest::closest::<8, Avx2, C>(bvh, ray, stats)
+    }
+
+    /// The whole traversal compiled with AVX-512VL (32 vector registers, mask compares).
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn any_hit_avx512<C: Counters>(
+        bvh: &WideBvh<8>,
+        ray: &Ray,
+        order: OrderView,
+        stats: &mut C,
+    ) -> Option<u32> {
+        any_hit::any_hit::<8, Avx512, C>(bvh, ray, order, stats)
+    }
+
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn closest_avx512<C: Counters>(
+        bvh: &WideBvh<8>,
+        ray: &Ray,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        closest::closest::<8, Avx512, C>(bvh, ray, stats)
     }
 }

@@ -34,8 +34,17 @@ impl<T: Copy> Stack<T> {
             unsafe { self.inline.as_mut_ptr().cast::<T>().add(self.len).write(v) };
             self.len += 1;
         } else {
-            self.spill.push(v);
+            self.push_spill(v);
         }
+    }
+
+    /// Out of line: a call in the traversal loop makes the register allocator keep the ray's
+    /// vector constants on the stack (every vector register is caller-saved), even when the
+    /// call never runs.
+    #[cold]
+    #[inline(never)]
+    fn push_spill(&mut self, v: T) {
+        self.spill.push(v);
     }
 
     #[inline(always)]
