@@ -410,6 +410,7 @@ impl From<&RenderSettings> for RenderSettingsState {
                 spatial_alpha: s.build_settings.spatial.alpha,
                 spatial_max_growth: s.build_settings.spatial.max_growth,
                 osah_weight: s.build_settings.osah_weight,
+                osah_strict_viability: s.build_settings.osah_strict_viability,
             },
             shadow_order: match s.shadow_order.binary() {
                 Some(AnyHitOrder::Stored) => ShadowOrderState::Stored,
@@ -473,6 +474,7 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
                 max_growth: s.build_settings.spatial_max_growth,
             },
             osah_weight: s.build_settings.osah_weight,
+            osah_strict_viability: s.build_settings.osah_strict_viability,
             ..BuildSettings::default()
         },
         shadow_order: match &s.order {

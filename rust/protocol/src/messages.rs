@@ -301,6 +301,9 @@ pub struct BuildSettingsState {
     pub spatial_alpha: f32,
     pub spatial_max_growth: f32,
     pub osah_weight: f32,
+    /// OSAH's viability rule: the hidden child must hold no visible reference (true, the core
+    /// default) or the paper's condition (5) alone (false). Added later; omitted means true.
+    pub osah_strict_viability: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]

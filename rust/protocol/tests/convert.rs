@@ -213,6 +213,12 @@ fn settings_round_trip_and_validate() {
     };
     let state = RenderSettingsState::from(&core);
     assert_eq!(render_settings(&state).unwrap(), core);
+    // The OSAH viability rule travels both ways (the paper's rule is not the default).
+    let mut paper = core.clone();
+    paper.build_settings.osah_strict_viability = false;
+    let paper_state = RenderSettingsState::from(&paper);
+    assert!(!paper_state.build_settings.osah_strict_viability);
+    assert_eq!(render_settings(&paper_state).unwrap(), paper);
     assert_eq!(
         RenderSettings::try_from(&RenderSettingsState::default()).unwrap(),
         RenderSettings::default()

@@ -166,6 +166,7 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
                     spatial_alpha: tc,
                     spatial_max_growth: ic,
                     osah_weight: tc,
+                    osah_strict_viability: b % 2 == 1,
                 },
                 shadow_order: order,
                 stats,
@@ -555,6 +556,10 @@ fn field_order_unknown_fields_and_defaults() {
     let b: BuildSettingsState = decode_body(&old).unwrap();
     assert_eq!((b.bins, b.max_leaf_size), (8, 2));
     assert_eq!(b.osah_weight, 0.9);
+    assert!(
+        b.osah_strict_viability,
+        "omitted viability rule is the core default"
+    );
     assert!(b.spatial_splits && b.spatial_bins == 32);
     assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);
     // A field added later (the object-id pass) takes its default when an older peer omits it.

@@ -580,6 +580,7 @@ pub fn render_settings_state(
     width: &Bound<'_, PyAny>,
     visibility: &str,
     osah_w: Option<f64>,
+    osah_viability: Option<&str>,
 ) -> ClientResult<RenderSettingsState> {
     let timing = if let Ok(b) = timing.cast::<PyBool>() {
         if b.is_true() {
@@ -633,6 +634,10 @@ pub fn render_settings_state(
             traversal_cost: traversal_cost as f32,
             intersection_cost: intersection_cost as f32,
             osah_weight: osah_w.map_or(BuildSettingsState::default().osah_weight, |w| w as f32),
+            osah_strict_viability: match osah_viability {
+                None => BuildSettingsState::default().osah_strict_viability,
+                Some(v) => choice(v, "osah_viability", &[("strict", true), ("paper", false)])?,
+            },
             ..BuildSettingsState::default()
         },
         // The two orders older daemons know travel as `shadow_order`; every other order (the

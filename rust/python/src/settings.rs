@@ -19,7 +19,7 @@ pub struct RenderSettings {
 impl RenderSettings {
     #[new]
     #[pyo3(signature = (spp, seed, build, order, leaf_size, bins, traversal_cost,
-        intersection_cost, timing, width, visibility, osah_w = None))]
+        intersection_cost, timing, width, visibility, osah_w = None, osah_viability = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -35,6 +35,7 @@ impl RenderSettings {
         width: &Bound<'_, PyAny>,
         visibility: &str,
         osah_w: Option<f64>,
+        osah_viability: Option<&str>,
     ) -> PyResult<Self> {
         scene::render_settings_state(
             spp,
@@ -49,6 +50,7 @@ impl RenderSettings {
             width,
             visibility,
             osah_w,
+            osah_viability,
         )
         .map(|state| RenderSettings { state })
         .py_result(py)

@@ -109,6 +109,7 @@ def render_settings(
     width: int = 2,
     visibility: str = "previous",
     osah_w: float | None = None,
+    osah_viability: str | None = None,
     traversal_cost: float = 1.0,
     intersection_cost: float = 1.0,
 ) -> dict[str, Any]:
@@ -128,6 +129,7 @@ def render_settings(
             width,
             visibility,
             osah_w,
+            osah_viability,
         ).json()
     )
 
@@ -305,6 +307,7 @@ class _Session:
         width: int = 2,
         visibility: str = "previous",
         osah_w: float | None = None,
+        osah_viability: str | None = None,
         traversal_cost: float = 1.0,
         intersection_cost: float = 1.0,
         timeout: float | None = None,
@@ -328,6 +331,8 @@ class _Session:
                 from: 'previous' (the session's last frame), 'exact' (this frame, two passes)
                 or 'prepass:WxH' (previous; a WxH primary prepass on the first frame).
             osah_w: OSAH's weight of visible triangles, in (0, 1) (None: 0.9).
+            osah_viability: which OSAH splits are taken: 'strict' (None; the hidden child holds
+                no visible triangle, measured better) or 'paper' (the paper's condition alone).
             leaf_size: most triangles per BVH leaf (1 to 64); bins: SAH bins (2 to 256).
             timing: False (exact work counters and heat maps), True (counters, then each pass
                 again without counters for Mrays/s) or 'only' (timings, no heat maps).
@@ -352,6 +357,7 @@ class _Session:
             width,
             visibility,
             osah_w,
+            osah_viability,
         )
         raw = self._native.render(frame, settings, passes, progress, timeout)
         return Result._from_native(dict(raw), passes)
