@@ -55,17 +55,9 @@ def box(size: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """A cube of edge ``size`` standing on z = 0, centred on the z axis."""
     h = size / 2
     positions = np.array(
-        [[x, y, z] for z in (0.0, size) for y in (-h, h) for x in (-h, h)],
-        dtype=np.float32,
+        [[x, y, z] for z in (0.0, size) for y in (-h, h) for x in (-h, h)], dtype=np.float32
     )
-    quads = [
-        (0, 1, 3, 2),
-        (4, 6, 7, 5),
-        (0, 4, 5, 1),
-        (2, 3, 7, 6),
-        (0, 2, 6, 4),
-        (1, 5, 7, 3),
-    ]
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
     triangles = np.array(
         [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], dtype=np.uint32
     )
@@ -76,9 +68,7 @@ def grid(n: int = 16, size: float = 12.0) -> tuple[np.ndarray, np.ndarray]:
     """A square ground grid of n x n quads on z = 0, centred on the origin."""
     s = np.linspace(-size / 2, size / 2, n + 1)
     xs, ys = np.meshgrid(s, s, indexing="xy")
-    positions = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], axis=1).astype(
-        np.float32
-    )
+    positions = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], axis=1).astype(np.float32)
     i = np.arange(n)
     a = (i[None, :] + (n + 1) * i[:, None]).ravel()
     b, c, d = a + 1, a + n + 2, a + n + 1
@@ -126,9 +116,7 @@ def meshes() -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 def upload_missing(session, missing: list[int]) -> None:
     """Uploads the meshes with these hashes, as an add-on would after frame_update."""
-    by_hash = {
-        antumbra.mesh_hash(*arrays): (name, arrays) for name, arrays in meshes().items()
-    }
+    by_hash = {antumbra.mesh_hash(*arrays): (name, arrays) for name, arrays in meshes().items()}
     for h in missing:
         name, arrays = by_hash[h]
         assert session.upload_mesh(name, *arrays) == h
@@ -146,11 +134,7 @@ def objects(hashes: dict[str, int], frame: int = 1) -> list[dict]:
     tall = translation(-1.5 + 0.5 * frame, 1.0, 0.0) @ np.diag([1.0, 1.0, 4.0, 1.0])
     return [
         {"name": "Ground", "mesh_hash": hashes["Ground"], "matrix_world": np.eye(4)},
-        {
-            "name": "Box.A",
-            "mesh_hash": hashes["Box"],
-            "matrix_world": translation(1.0, 0, 0),
-        },
+        {"name": "Box.A", "mesh_hash": hashes["Box"], "matrix_world": translation(1.0, 0, 0)},
         {
             "name": "Box.B",
             "mesh_hash": hashes["Box"],
@@ -161,9 +145,7 @@ def objects(hashes: dict[str, int], frame: int = 1) -> list[dict]:
 
 
 def send_frame(session, hashes: dict[str, int], frame: int) -> list[int]:
-    return session.frame_update(
-        frame, objects(hashes, frame), camera(frame), lights(), RESOLUTION
-    )
+    return session.frame_update(frame, objects(hashes, frame), camera(frame), lights(), RESOLUTION)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -217,8 +199,6 @@ def short_tmp():
 @pytest.fixture
 def daemon(antumbra_bin, short_tmp):
     """A client of a daemon spawned for the test; the daemon stops at the end."""
-    client = antumbra.Client.spawn(
-        antumbra_bin, socket_path=short_tmp / "d.sock", timeout=30
-    )
+    client = antumbra.Client.spawn(antumbra_bin, socket_path=short_tmp / "d.sock", timeout=30)
     yield client
     client.close()

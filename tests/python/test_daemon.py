@@ -39,9 +39,7 @@ def assert_same_result(a: antumbra.Result, b: antumbra.Result) -> None:
     if a.visible is not None:
         assert np.array_equal(a.visible, b.visible)
     strip = [{k: v for k, v in row.items() if k not in TIMED} for row in a.stats]
-    assert strip == [
-        {k: v for k, v in row.items() if k not in TIMED} for row in b.stats
-    ]
+    assert strip == [{k: v for k, v in row.items() if k not in TIMED} for row in b.stats]
 
 
 def eventually(condition, seconds: float = 5.0) -> bool:
@@ -117,10 +115,7 @@ def test_meshes_outlive_the_session(daemon):
 
 def test_daemon_error_names_the_object(daemon):
     hashes = upload_scene(daemon)
-    objs = [
-        *objects(hashes),
-        {"name": "Ghost", "mesh_hash": 424242, "matrix_world": np.eye(4)},
-    ]
+    objs = [*objects(hashes), {"name": "Ghost", "mesh_hash": 424242, "matrix_world": np.eye(4)}]
     assert daemon.frame_update(4, objs, camera(), lights(), RESOLUTION) == [424242]
     with pytest.raises(antumbra.DaemonError) as e:
         daemon.render(4)
@@ -184,12 +179,7 @@ def test_progress_exception_propagates_and_session_goes_on(daemon):
 def test_cancel_from_another_thread(daemon):
     hashes = upload_scene(daemon)
     heavy = {"x": 200, "y": 150, "percentage": 100}
-    area = {
-        "name": "Area",
-        "type": "AREA",
-        "size": 2.0,
-        "matrix_world": translation(0, 0, 6),
-    }
+    area = {"name": "Area", "type": "AREA", "size": 2.0, "matrix_world": translation(0, 0, 6)}
     daemon.frame_update(1, objects(hashes), camera(), [*lights(), area], heavy)
     outcome = {}
 
@@ -239,9 +229,7 @@ def test_recording_replays_with_the_cli(daemon, antumbra_bin, short_tmp):
 
 
 def test_close_and_shutdown(antumbra_bin, short_tmp):
-    client = antumbra.Client.spawn(
-        antumbra_bin, socket_path=short_tmp / "s.sock", timeout=30
-    )
+    client = antumbra.Client.spawn(antumbra_bin, socket_path=short_tmp / "s.sock", timeout=30)
     process = client.process
     with antumbra.Client.connect(client.socket_path) as other:
         other.shutdown()
@@ -267,6 +255,4 @@ def test_spawned_daemon_stops_on_close(antumbra_bin):
 
 def test_spawn_reports_a_daemon_that_cannot_start(antumbra_bin, short_tmp):
     with pytest.raises(antumbra.DaemonUnavailable, match="exited"):
-        antumbra.Client.spawn(
-            antumbra_bin, socket_path=short_tmp / "x.sock", args=["--bogus"]
-        )
+        antumbra.Client.spawn(antumbra_bin, socket_path=short_tmp / "x.sock", args=["--bogus"])

@@ -62,11 +62,7 @@ def test_read_recording_names_a_bad_file(tmp_path):
 def render_recording(session, rec, frame_index: int) -> antumbra.Result:
     frame = rec["frames"][frame_index]
     missing = session.frame_update(
-        frame["frame"],
-        frame["objects"],
-        frame["camera"],
-        frame["lights"],
-        frame["resolution"],
+        frame["frame"], frame["objects"], frame["camera"], frame["lights"], frame["resolution"]
     )
     for h in missing:
         m = rec["meshes"][h]

@@ -75,12 +75,7 @@ def fnv_reference(positions: np.ndarray, triangles: np.ndarray) -> int:
     p = positions.astype("<f4").tobytes()
     t = triangles.astype("<u4").tobytes()
     h = 0xCBF29CE484222325
-    for part in (
-        struct.pack("<Q", len(p) // 12),
-        p,
-        struct.pack("<Q", len(t) // 12),
-        t,
-    ):
+    for part in (struct.pack("<Q", len(p) // 12), p, struct.pack("<Q", len(t) // 12), t):
         for b in part:
             h = ((h ^ b) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
     return h
@@ -197,17 +192,12 @@ def test_width_and_order_change_work_not_masks(scene):
     ]:
         r = session.render(1, passes=["masks"], width=width, order=order)
         assert all(
-            np.array_equal(x, y)
-            for (_, x), (_, y) in zip(base.planes, r.planes, strict=True)
+            np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True)
         )
         shadow = [s for s in r.stats if s["pass"] == "shadow"]
-        assert shadow and all(
-            s["method"].startswith(f"sah/bin{width}/") for s in shadow
-        )
+        assert shadow and all(s["method"].startswith(f"sah/bin{width}/") for s in shadow)
         # sort_ms: the per-light preparation (sorting, or the SRDH ray set and build).
-        assert all(
-            (s["sort_ms"] > 0) == order.startswith(("sorted", "srdh")) for s in shadow
-        )
+        assert all((s["sort_ms"] > 0) == order.startswith(("sorted", "srdh")) for s in shadow)
 
 
 def test_build_srdh_is_the_srdh_order(scene):
@@ -227,8 +217,7 @@ def test_osah_viability_rule_changes_work_not_masks(scene):
             1, passes=["masks"], build="osah", visibility="exact", osah_viability=rule
         )
         assert all(
-            np.array_equal(x, y)
-            for (_, x), (_, y) in zip(base.planes, r.planes, strict=True)
+            np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True)
         )
     settings = antumbra.render_settings(build="osah", osah_viability="paper")
     assert settings["build_settings"]["osah_strict_viability"] is False
@@ -239,14 +228,10 @@ def test_render_is_deterministic_and_reuses_bvhs(scene):
     session, _ = scene
     a = session.render(1, spp=4, seed=3)
     b = session.render(1, spp=4, seed=3)
-    assert all(
-        np.array_equal(x, y) for (_, x), (_, y) in zip(a.planes, b.planes, strict=True)
-    )
+    assert all(np.array_equal(x, y) for (_, x), (_, y) in zip(a.planes, b.planes, strict=True))
     assert [s["rebuilt"] for s in b.stats] == [False] * 3
     c = session.render(1, spp=4, seed=4)
-    assert not np.array_equal(
-        a.masks["Lamp"], c.masks["Lamp"]
-    )  # another sample pattern
+    assert not np.array_equal(a.masks["Lamp"], c.masks["Lamp"])  # another sample pattern
 
 
 def test_matrices_are_row_major_like_blender(session):
@@ -348,12 +333,7 @@ def test_area_and_spot_lights(scene):
             "shadow_soft_size": 0.0,
             "matrix_world": translation(1.0, 1.0, 6.0),
         },
-        {
-            "name": "NoShadow",
-            "type": "POINT",
-            "matrix_world": np.eye(4),
-            "use_shadow": False,
-        },
+        {"name": "NoShadow", "type": "POINT", "matrix_world": np.eye(4), "use_shadow": False},
     ]
     session.frame_update(2, objects(hashes, 2), camera(2), lights() + extra, RESOLUTION)
     r = session.render(2, spp=4)
@@ -393,31 +373,20 @@ def test_index_out_of_range_names_the_mesh(session):
     p, t = box()
     t[3, 2] = 8
     with pytest.raises(
-        antumbra.InvalidInput,
-        match=r"mesh 'Suzanne': triangle 3 refers to vertex 8.*8 vertices",
+        antumbra.InvalidInput, match=r"mesh 'Suzanne': triangle 3 refers to vertex 8.*8 vertices"
     ):
         session.upload_mesh("Suzanne", p, t)
     t = t.astype(np.int32)
     t[3, 2] = -1
-    with pytest.raises(
-        antumbra.InvalidInput, match=r"mesh 'Suzanne'.triangles: triangle 3.*-1"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match=r"mesh 'Suzanne'.triangles: triangle 3.*-1"):
         session.upload_mesh("Suzanne", p, t)
 
 
 @pytest.mark.parametrize(
     ("positions", "triangles", "pattern"),
     [
-        (
-            np.zeros((4, 3)),
-            None,
-            r"'M'.positions: .*float32.*float64 array of shape \(4, 3\)",
-        ),
-        (
-            np.zeros((4, 2), np.float32),
-            None,
-            r"'M'.positions: .*shape \(n, 3\).*\(4, 2\)",
-        ),
+        (np.zeros((4, 3)), None, r"'M'.positions: .*float32.*float64 array of shape \(4, 3\)"),
+        (np.zeros((4, 2), np.float32), None, r"'M'.positions: .*shape \(n, 3\).*\(4, 2\)"),
         (np.zeros(12, np.float32), None, r"'M'.positions: .*\(12,\)"),
         ([[0.0, 0.0, 0.0]], None, r"'M'.positions: .*got list"),
         (np.zeros((4, 3), np.int32), None, r"'M'.positions: .*float32.*int32"),
@@ -438,18 +407,13 @@ def test_wrong_array_shapes_and_dtypes(session, positions, triangles, pattern):
 
 
 def test_mesh_name_must_be_a_string(session):
-    with pytest.raises(
-        antumbra.InvalidInput, match="mesh name: expected a str, got int"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match="mesh name: expected a str, got int"):
         session.upload_mesh(3, *box())
 
 
 def test_unknown_mesh_hash_names_the_object(scene):
     session, hashes = scene
-    objs = [
-        *objects(hashes),
-        {"name": "Ghost", "mesh_hash": 12345, "matrix_world": np.eye(4)},
-    ]
+    objs = [*objects(hashes), {"name": "Ghost", "mesh_hash": 12345, "matrix_world": np.eye(4)}]
     assert session.frame_update(5, objs, camera(), lights(), RESOLUTION) == [12345]
     with pytest.raises(antumbra.RequestError) as e:
         session.render(5)
@@ -467,9 +431,7 @@ def test_render_of_a_frame_never_sent(scene):
     assert e.value.code == "InvalidInput"
 
 
-def frame_with(
-    session, hashes, *, obj=None, cam=None, light=None, resolution=RESOLUTION
-):
+def frame_with(session, hashes, *, obj=None, cam=None, light=None, resolution=RESOLUTION):
     objs = objects(hashes)
     if obj is not None:
         objs[1] = {**objs[1], **obj}
@@ -481,55 +443,28 @@ def frame_with(
 @pytest.mark.parametrize(
     ("kwargs", "pattern"),
     [
-        (
-            {"obj": {"matrix_world": np.eye(3)}},
-            r"objects\[1\] 'Box.A'.matrix_world: .*4x4",
-        ),
-        (
-            {"obj": {"matrix_world": "eye"}},
-            r"objects\[1\] 'Box.A'.matrix_world: .*got str",
-        ),
+        ({"obj": {"matrix_world": np.eye(3)}}, r"objects\[1\] 'Box.A'.matrix_world: .*4x4"),
+        ({"obj": {"matrix_world": "eye"}}, r"objects\[1\] 'Box.A'.matrix_world: .*got str"),
         (
             {"obj": {"matrix_world": np.full((4, 4), np.nan)}},
             r"objects\[1\] 'Box.A'.matrix_world\[0\]\[0\]: must be finite",
         ),
-        (
-            {"obj": {"mesh_hash": -1}},
-            r"objects\[1\] 'Box.A'.mesh_hash: -1 is out of range",
-        ),
-        (
-            {"obj": {"mesh_hash": 1.5}},
-            r"objects\[1\] 'Box.A'.mesh_hash: expected an integer",
-        ),
+        ({"obj": {"mesh_hash": -1}}, r"objects\[1\] 'Box.A'.mesh_hash: -1 is out of range"),
+        ({"obj": {"mesh_hash": 1.5}}, r"objects\[1\] 'Box.A'.mesh_hash: expected an integer"),
         ({"obj": {"name": 7}}, r"objects\[1\].name: expected a str, got int"),
-        (
-            {"obj": {"visible_camera": 1}},
-            r"'Box.A'.visible_camera: expected True or False",
-        ),
+        ({"obj": {"visible_camera": 1}}, r"'Box.A'.visible_camera: expected True or False"),
         ({"obj": {"colour": 1}}, r"'Box.A': unknown field 'colour'"),
         ({"cam": {"lens": "50"}}, r"camera.lens: expected a number, got str"),
         ({"cam": {"lens": -1.0}}, r"frame 1: camera.lens: must be a positive number"),
-        (
-            {"cam": {"sensor_fit": "DIAGONAL"}},
-            r"camera.sensor_fit: expected one of 'AUTO'",
-        ),
+        ({"cam": {"sensor_fit": "DIAGONAL"}}, r"camera.sensor_fit: expected one of 'AUTO'"),
         ({"cam": {"clip_end": 0.01}}, r"frame 1: camera.clip_start/clip_end"),
-        (
-            {"light": {"type": "LASER"}},
-            r"lights\[0\] 'Sun'.type: expected one of 'POINT'",
-        ),
+        ({"light": {"type": "LASER"}}, r"lights\[0\] 'Sun'.type: expected one of 'POINT'"),
         ({"light": {"angle": 4.0}}, r"frame 1: light 'Sun'.angle: must be at most pi"),
         ({"light": {"use_shadow": "yes"}}, r"'Sun'.use_shadow: expected True or False"),
         ({"resolution": {"x": 0, "y": 10}}, r"frame 1: resolution: must be positive"),
         ({"resolution": {"x": 10}}, r"resolution.y: missing"),
-        (
-            {"resolution": {"x": 10, "y": 10, "scale": 2}},
-            r"resolution: unknown field 'scale'",
-        ),
-        (
-            {"resolution": (10, 10, 10)},
-            r"resolution: expected a dict or an \(x, y\) pair",
-        ),
+        ({"resolution": {"x": 10, "y": 10, "scale": 2}}, r"resolution: unknown field 'scale'"),
+        ({"resolution": (10, 10, 10)}, r"resolution: expected a dict or an \(x, y\) pair"),
         (
             {"resolution": {"x": 100000, "y": 100000}},
             r"exceeds the limit of 67108864 \(max_image_pixels\)",
@@ -544,39 +479,23 @@ def test_bad_scene_fields_are_named(scene, kwargs, pattern):
 
 def test_bad_containers(scene):
     session, hashes = scene
-    with pytest.raises(
-        antumbra.InvalidInput, match=r"objects: expected a list, got dict"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match=r"objects: expected a list, got dict"):
         session.frame_update(1, {"a": 1}, camera(), [], RESOLUTION)
-    with pytest.raises(
-        antumbra.InvalidInput, match=r"objects\[0\]: expected a dict, got int"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match=r"objects\[0\]: expected a dict, got int"):
         session.frame_update(1, [1], camera(), [], RESOLUTION)
-    with pytest.raises(
-        antumbra.InvalidInput, match=r"objects\[0\]: unknown field 'nme'"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match=r"objects\[0\]: unknown field 'nme'"):
         session.frame_update(1, [{"nme": "x"}], camera(), [], RESOLUTION)
-    with pytest.raises(
-        antumbra.InvalidInput, match=r"objects\[0\] 'x'.mesh_hash: missing"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match=r"objects\[0\] 'x'.mesh_hash: missing"):
         session.frame_update(1, [{"name": "x"}], camera(), [], RESOLUTION)
     with pytest.raises(antumbra.InvalidInput, match=r"camera.matrix_world: missing"):
         session.frame_update(1, [], {}, [], RESOLUTION)
-    with pytest.raises(
-        antumbra.InvalidInput, match=r"frame: expected an integer, got float"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match=r"frame: expected an integer, got float"):
         session.frame_update(1.0, [], camera(), [], RESOLUTION)
-    with pytest.raises(
-        antumbra.InvalidInput, match=r"frames\[0\]: expected a \(frame, camera"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match=r"frames\[0\]: expected a \(frame, camera"):
         session.camera_path([1, 2])
-    with pytest.raises(
-        antumbra.InvalidInput, match=r"hashes\[1\]: expected an integer"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match=r"hashes\[1\]: expected an integer"):
         session.missing_meshes([1, "2"])
-    with pytest.raises(
-        antumbra.InvalidInput, match=r"visible_shadow.*cast_shadow.*not both"
-    ):
+    with pytest.raises(antumbra.InvalidInput, match=r"visible_shadow.*cast_shadow.*not both"):
         frame_with(session, hashes, obj={"visible_shadow": True, "cast_shadow": False})
 
 
@@ -597,10 +516,7 @@ def test_bad_containers(scene):
             r"build: unknown build method 'lbvh' \(known: sah, sbvh, abvh, osah, vsah, srdh\)",
         ),
         ({"timing": "always"}, r"timing: expected one of"),
-        (
-            {"osah_viability": "loose"},
-            r"osah_viability: expected one of 'strict', 'paper'",
-        ),
+        ({"osah_viability": "loose"}, r"osah_viability: expected one of 'strict', 'paper'"),
         ({"timing": 1}, r"timing: expected True, False or 'only'"),
         ({"passes": ["masks", "shadows"]}, r"passes: unknown pass 'shadows'"),
         ({"progress": 3}, r"progress: expected a callable"),

@@ -29,16 +29,12 @@ def test_stale_socket_file_is_daemon_unavailable(short_tmp):
     s = socket.socket(socket.AF_UNIX)
     s.bind(path)
     s.close()  # the file stays, nobody listens
-    with pytest.raises(
-        antumbra.DaemonUnavailable, match="no antumbra daemon is listening"
-    ):
+    with pytest.raises(antumbra.DaemonUnavailable, match="no antumbra daemon is listening"):
         antumbra.Client.connect(path)
 
 
 def test_spawn_of_a_missing_binary(short_tmp):
-    with pytest.raises(
-        antumbra.DaemonUnavailable, match="cannot start the antumbra daemon"
-    ):
+    with pytest.raises(antumbra.DaemonUnavailable, match="cannot start the antumbra daemon"):
         antumbra.Client.spawn(str(short_tmp / "no-such-antumbra"))
 
 
@@ -92,9 +88,7 @@ def fake(short_tmp):
 def test_garbage_reply_is_protocol_mismatch(fake):
     # 0xc1 is never used in MessagePack.
     path = fake(lambda conn: (conn.sendall(b"\x01\x00\x00\x00\xc1"), conn.recv(1)))
-    with pytest.raises(
-        antumbra.ProtocolMismatch, match="cannot read the daemon's reply"
-    ):
+    with pytest.raises(antumbra.ProtocolMismatch, match="cannot read the daemon's reply"):
         antumbra.Client.connect(path, timeout=5)
 
 
@@ -144,9 +138,7 @@ def pack(value) -> bytes:
         return bytes([0xD9, len(data)]) + data
     if isinstance(value, dict):
         assert len(value) < 16
-        return bytes([0x80 | len(value)]) + b"".join(
-            pack(k) + pack(v) for k, v in value.items()
-        )
+        return bytes([0x80 | len(value)]) + b"".join(pack(k) + pack(v) for k, v in value.items())
     raise TypeError(value)
 
 
@@ -259,19 +251,10 @@ def test_writing_to_a_closed_daemon_raises_instead_of_sigpipe(short_tmp):
     """Writes use MSG_NOSIGNAL (Rust's UnixStream), so a daemon that went away is an
     exception, not a SIGPIPE that would kill a host which does not ignore the signal."""
     run = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            SIGPIPE_SCRIPT,
-            str(short_tmp / "p.sock"),
-            WELCOME.hex(),
-        ],
+        [sys.executable, "-c", SIGPIPE_SCRIPT, str(short_tmp / "p.sock"), WELCOME.hex()],
         capture_output=True,
         text=True,
         timeout=60,
     )
     assert run.returncode == 0, (run.returncode, run.stderr)
-    assert (
-        "ConnectionLost: connection to the daemon broken while sending UploadMesh"
-        in run.stdout
-    )
+    assert "ConnectionLost: connection to the daemon broken while sending UploadMesh" in run.stdout
