@@ -153,7 +153,8 @@ fn main() -> anyhow::Result<()> {
         None => (512, 512),
     };
     let spp: u32 = args.get(4).map_or(Ok(1), |s| s.parse())?;
-    let collapse = CollapseSettings::new(args.get(5).map_or(Ok(Default::default()), |s| s.parse())?);
+    let collapse =
+        CollapseSettings::new(args.get(5).map_or(Ok(Default::default()), |s| s.parse())?);
     let params = antumbra_scenes::SceneParams {
         triangles,
         frames: 1,

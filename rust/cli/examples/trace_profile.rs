@@ -45,7 +45,8 @@ fn main() -> anyhow::Result<()> {
         }
         None => (256, 256),
     };
-    let collapse = CollapseSettings::new(args.get(3).map_or(Ok(Default::default()), |s| s.parse())?);
+    let collapse =
+        CollapseSettings::new(args.get(3).map_or(Ok(Default::default()), |s| s.parse())?);
     let params = antumbra_scenes::SceneParams {
         triangles,
         frames: 1,

@@ -92,7 +92,13 @@ where
 {
     CollapseMethod::ALL
         .into_iter()
-        .map(|m| check_tree(&WideBvh::<N>::collapse_with(bvh, &CollapseSettings::new(m)), tris, rays))
+        .map(|m| {
+            check_tree(
+                &WideBvh::<N>::collapse_with(bvh, &CollapseSettings::new(m)),
+                tris,
+                rays,
+            )
+        })
         .sum()
 }
 
@@ -126,13 +132,8 @@ where
     }
     let mut occluded_rays = 0;
     for order in orders() {
-        let prepared = PreparedOrder::new(
-            wide,
-            &order,
-            None,
-            &rays[..rays.len() / 4],
-            BoxKernel::Auto,
-        );
+        let prepared =
+            PreparedOrder::new(wide, &order, None, &rays[..rays.len() / 4], BoxKernel::Auto);
         for (i, ray) in rays.iter().enumerate() {
             let mut work = Vec::new();
             for k in KERNELS {

@@ -76,10 +76,16 @@ fn check_not_costlier<const N: usize>(bvh: &Bvh) {
     for model in models() {
         let tree = sah::<N>(bvh, model);
         tree.validate().unwrap();
-        assert_eq!(tree.triangles, bvh.triangles, "the collapse re-ordered triangles");
+        assert_eq!(
+            tree.triangles, bvh.triangles,
+            "the collapse re-ordered triangles"
+        );
         // Greedy leaves merge at most MERGE_LIMIT (4) triangles: within every model's choices.
         let (s, g) = (tree.sah_cost(&model), greedy.sah_cost(&model));
-        assert!(s <= g * (1.0 + 1e-9), "N={N} {model:?}: sah {s} > greedy {g}");
+        assert!(
+            s <= g * (1.0 + 1e-9),
+            "N={N} {model:?}: sah {s} > greedy {g}"
+        );
     }
 }
 

@@ -267,8 +267,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
             },
         };
         collapse.cost.validate()?;
-        let wide_camera = (args.width != BvhWidth::Two)
-            .then(|| WideTree::collapse(&bvh, args.width, &collapse));
+        let wide_camera =
+            (args.width != BvhWidth::Two).then(|| WideTree::collapse(&bvh, args.width, &collapse));
         let srdh_settings = match &args.order {
             ShadowOrder::Srdh(s) => Some(*s),
             _ => None,

@@ -492,7 +492,8 @@ impl Renderer {
         if let Some(w) = &mut c.wide {
             w.collapse_ms = None;
         }
-        if c.wide.as_ref().map(|w| (w.width, w.collapse)) != Some((settings.width, settings.collapse))
+        if c.wide.as_ref().map(|w| (w.width, w.collapse))
+            != Some((settings.width, settings.collapse))
         {
             let camera = WideTree::collapse(&c.camera_bvh, settings.width, &settings.collapse);
             let shadow = c
