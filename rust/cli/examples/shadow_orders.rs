@@ -4,16 +4,18 @@
 //! The rays are exactly a frame's shadow rays (one per pixel and hard light, `spp` for soft).
 //!
 //! ```text
-//! cargo run --release -p antumbra-cli --example shadow_orders -- table SCENE [TRIS] [WxH] [SPP]
-//! cargo run --release -p antumbra-cli --example shadow_orders -- trade SCENE [TRIS] [WxH] [SPP]
-//! cargo run --release -p antumbra-cli --example shadow_orders -- oracle SCENE [TRIS] [WxH] [SPP]
+//! cargo run --release -p antumbra-cli --example shadow_orders -- table SCENE [TRIS] [WxH] [SPP] [COLLAPSE]
+//! cargo run --release -p antumbra-cli --example shadow_orders -- trade SCENE [TRIS] [WxH] [SPP] [COLLAPSE]
+//! cargo run --release -p antumbra-cli --example shadow_orders -- oracle SCENE [TRIS] [WxH] [SPP] [COLLAPSE]
 //! ```
+//!
+//! COLLAPSE is how the 4- and 8-wide trees are made: greedy (default) or sah.
 //!
 //! `oracle` measures, on the 8-wide tree, the fewest node visits any child order could give each
 //! ray (an occluded ray: the interior nodes on the path to its shallowest occluding leaf; an
 //! unoccluded ray: every interior node it enters, which no order avoids), beside SATO and sorted.
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, WideBvh};
+use antumbra_core::bvh::{build_binned_sah, BuildSettings, CollapseSettings, WideBvh};
 use antumbra_core::geometry::{intersect_triangle, Ray, WatertightRay};
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
@@ -151,6 +153,8 @@ fn main() -> anyhow::Result<()> {
         None => (512, 512),
     };
     let spp: u32 = args.get(4).map_or(Ok(1), |s| s.parse())?;
+    let collapse =
+        CollapseSettings::new(args.get(5).map_or(Ok(Default::default()), |s| s.parse())?);
     let params = antumbra_scenes::SceneParams {
         triangles,
         frames: 1,
@@ -198,8 +202,22 @@ fn main() -> anyhow::Result<()> {
         lights.len()
     );
     let w2 = WideBvh::<2>::collapse(&shadow_bvh);
-    let w4 = WideBvh::<4>::collapse(&shadow_bvh);
-    let w8 = WideBvh::<8>::collapse(&shadow_bvh);
+    let w4 = WideBvh::<4>::collapse_with(&shadow_bvh, &collapse);
+    let w8 = WideBvh::<8>::collapse_with(&shadow_bvh, &collapse);
+    let model = collapse.cost;
+    println!(
+        "collapse {}: 4-wide {} nodes, {:.2} children/node, cost {:.4e} ({:.0} ms); \
+         8-wide {} nodes, {:.2} children/node, cost {:.4e} ({:.0} ms)",
+        collapse.method,
+        w4.nodes.len(),
+        w4.children_per_node(),
+        w4.sah_cost(&model),
+        w4.collapse_ms,
+        w8.nodes.len(),
+        w8.children_per_node(),
+        w8.sah_cost(&model),
+        w8.collapse_ms,
+    );
     let (t2, t4, t8) = (
         SortTables::new(&w2),
         SortTables::new(&w4),

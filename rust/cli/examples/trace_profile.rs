@@ -5,11 +5,14 @@
 //! ```text
 //! cargo build --release -p antumbra-cli --example trace_profile
 //! valgrind --tool=callgrind --dump-instr=no --collect-atstart=no \
-//!   --toggle-collect='*trace_profile*trace_*' target/release/examples/trace_profile bedroom 350000 256x256
-//! target/release/examples/trace_profile bedroom 350000 512x512 5   # wall clock, best of 5
+//!   --toggle-collect='*trace_profile*trace_*' target/release/examples/trace_profile bedroom 350000 256x256 1 [greedy|sah]
+//! target/release/examples/trace_profile bedroom 350000 512x512 5 [greedy|sah]   # wall clock, best of 5
 //! ```
+//!
+//! Arguments: scene, triangles, size, timed repetitions (1 under callgrind), and the collapse
+//! of the 8-wide trees (default: the default collapse).
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, WideBvh};
+use antumbra_core::bvh::{build_binned_sah, BuildSettings, CollapseSettings, WideBvh};
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
@@ -58,6 +61,8 @@ fn main() -> anyhow::Result<()> {
     };
     // Timed repetitions (best of); 1 under callgrind.
     let repeat: usize = args.get(3).map_or(Ok(1), |s| s.parse())?;
+    let collapse =
+        CollapseSettings::new(args.get(4).map_or(Ok(Default::default()), |s| s.parse())?);
     let params = antumbra_scenes::SceneParams {
         triangles,
         frames: 1,
@@ -79,8 +84,8 @@ fn main() -> anyhow::Result<()> {
         .map(|(x, y)| camera.ray(x, y))
         .collect();
     let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
-    let w8 = WideBvh::<8>::collapse(&bvh);
-    let s8 = WideBvh::<8>::collapse(&shadow_bvh);
+    let w8 = WideBvh::<8>::collapse_with(&bvh, &collapse);
+    let s8 = WideBvh::<8>::collapse_with(&shadow_bvh, &collapse);
     let order: ShadowOrder = "sorted".parse().expect("order");
     let (mut shadow, mut occluded, mut shadow_ms) = (0, 0, 0.0);
     for (i, l) in scene
@@ -105,7 +110,8 @@ fn main() -> anyhow::Result<()> {
     }
     let (hits, closest_ms) = best_of(repeat, || trace_closest(&w8, &primary));
     println!(
-        "{name}: {shadow} shadow rays ({occluded} occluded), {} camera rays ({hits} hit)",
+        "{name} ({} collapse): {shadow} shadow rays ({occluded} occluded), {} camera rays ({hits} hit)",
+        collapse.method,
         primary.len()
     );
     println!(

@@ -2,7 +2,9 @@
 //! occlusion answers equal brute force for thousands of rays — camera rays, the frame's own shadow
 //! rays, random rays, rays from inside closed meshes, grazing and axis-parallel rays.
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, WideBvh};
+use antumbra_core::bvh::{
+    build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings, WideBvh,
+};
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
@@ -173,7 +175,23 @@ fn check_wide<const N: usize>(
 ) where
     WideBvh<N>: WideQueries,
 {
-    let wide = WideBvh::<N>::collapse(bvh);
+    for method in CollapseMethod::ALL {
+        let wide = WideBvh::<N>::collapse_with(bvh, &CollapseSettings::new(method));
+        let label = format!("{label} {method}");
+        check_tree(&label, &wide, primary, ids, shadow, occ);
+    }
+}
+
+fn check_tree<const N: usize>(
+    label: &str,
+    wide: &WideBvh<N>,
+    primary: &[Ray],
+    ids: &[Option<u32>],
+    shadow: &[Ray],
+    occ: &[bool],
+) where
+    WideBvh<N>: WideQueries,
+{
     wide.validate().unwrap();
     let kernels = [
         BoxKernel::Scalar,
@@ -199,7 +217,7 @@ fn check_wide<const N: usize>(
         "sorted:logging=fbto:p=area:depth=3:budget=0.5",
     ] {
         let order: ShadowOrder = order.parse().unwrap();
-        let prepared = PreparedOrder::new(&wide, &order, None, shadow, BoxKernel::Auto);
+        let prepared = PreparedOrder::new(wide, &order, None, shadow, BoxKernel::Auto);
         for k in kernels {
             let differ = shadow
                 .par_iter()

@@ -3,7 +3,9 @@
 //! the 2-wide tree does exactly the binary traversal's work; sorting changes work, not answers;
 //! and the Q/C order minimises the node cost of equation (1) over all permutations.
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, Bvh, WideBvh};
+use antumbra_core::bvh::{
+    build_binned_sah, BuildSettings, Bvh, CollapseMethod, CollapseSettings, WideBvh,
+};
 use antumbra_core::geometry::Ray;
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::wide::cost::{expected_cost, order_by_ratio};
@@ -88,12 +90,28 @@ const KERNELS: [BoxKernel; 4] = [
     BoxKernel::Auto,
 ];
 
-/// Every order and kernel of width N against brute force, and SIMD work == scalar work.
+/// Both collapses of width N against brute force (see `check_tree`); occluded rays counted.
 fn check_width<const N: usize>(bvh: &Bvh, tris: &[[Vec3; 3]], rays: &[Ray]) -> usize
 where
     WideBvh<N>: WideQueries,
 {
-    let wide = WideBvh::<N>::collapse(bvh);
+    CollapseMethod::ALL
+        .into_iter()
+        .map(|m| {
+            check_tree(
+                &WideBvh::<N>::collapse_with(bvh, &CollapseSettings::new(m)),
+                tris,
+                rays,
+            )
+        })
+        .sum()
+}
+
+/// Every order and kernel of width N against brute force, and SIMD work == scalar work.
+fn check_tree<const N: usize>(wide: &WideBvh<N>, tris: &[[Vec3; 3]], rays: &[Ray]) -> usize
+where
+    WideBvh<N>: WideQueries,
+{
     wide.validate().unwrap();
     let brute: Vec<(Option<(u32, f32)>, bool)> = rays
         .iter()
@@ -119,13 +137,8 @@ where
     }
     let mut occluded_rays = 0;
     for order in orders() {
-        let prepared = PreparedOrder::new(
-            &wide,
-            &order,
-            None,
-            &rays[..rays.len() / 4],
-            BoxKernel::Auto,
-        );
+        let prepared =
+            PreparedOrder::new(wide, &order, None, &rays[..rays.len() / 4], BoxKernel::Auto);
         for (i, ray) in rays.iter().enumerate() {
             let mut work = Vec::new();
             for k in KERNELS {

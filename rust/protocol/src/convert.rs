@@ -486,6 +486,8 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
             .into(),
         },
         width: BvhWidth::try_from(s.width)?,
+        // Not in the protocol: clients get the default collapse.
+        collapse: Default::default(),
         stats: match s.stats {
             StatsModeState::Counts => StatsMode::Counts,
             StatsModeState::CountsAndTiming => StatsMode::CountsAndTiming,

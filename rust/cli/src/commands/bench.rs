@@ -3,7 +3,10 @@
 
 use std::time::Instant;
 
-use antumbra_core::bvh::{build_binned_sah, BuildMethod, BuildSettings, Bvh, BvhWidth};
+use antumbra_core::bvh::{
+    build_binned_sah, BuildMethod, BuildSettings, Bvh, BvhWidth, CollapseCost, CollapseMethod,
+    CollapseSettings,
+};
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     binary_order, representative_rays, samples_for, shadow_rays, srdh_for_light, LightSampler,
@@ -89,6 +92,12 @@ pub struct BenchArgs {
     /// Children per BVH node: 2 (binary), 4 or 8.
     #[arg(long, default_value = "2")]
     pub width: BvhWidth,
+    /// How widths 4 and 8 collapse the binary tree: greedy or sah (see `antumbra render --help`).
+    #[arg(long, default_value_t = CollapseSettings::default().method)]
+    pub collapse: CollapseMethod,
+    /// Largest leaf the sah collapse makes by merging binary leaves.
+    #[arg(long, default_value_t = CollapseCost::default().max_leaf)]
+    pub collapse_max_leaf: u32,
     /// Child order of shadow rays (see `antumbra render --help`); sorted orders are made per
     /// light from that light's rays, and their cost is reported.
     #[arg(long, default_value = "fbto")]
@@ -250,14 +259,22 @@ pub fn run(args: BenchArgs) -> Result<()> {
             None => &bvh,
         };
         let binary = binary_order(args.width, &args.order);
+        let collapse = CollapseSettings {
+            method: args.collapse,
+            cost: CollapseCost {
+                max_leaf: args.collapse_max_leaf,
+                ..CollapseCost::default()
+            },
+        };
+        collapse.cost.validate()?;
         let wide_camera =
-            (args.width != BvhWidth::Two).then(|| WideTree::collapse(&bvh, args.width));
+            (args.width != BvhWidth::Two).then(|| WideTree::collapse(&bvh, args.width, &collapse));
         let srdh_settings = match &args.order {
             ShadowOrder::Srdh(s) => Some(*s),
             _ => None,
         };
         let wide_shadow = (binary.is_none() && srdh_settings.is_none())
-            .then(|| WideTree::collapse(shadow_bvh, args.width));
+            .then(|| WideTree::collapse(shadow_bvh, args.width, &collapse));
         let shadow_tris = &geometry
             .shadow
             .as_ref()
@@ -328,7 +345,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 )
             })
             .collect();
-        let method = format!("sah/bin{}/{}", args.width, args.order);
+        // The collapse is named when it is not the default, e.g. sah/bin8:sah/sorted.
+        let collapsed = if args.collapse == CollapseSettings::default().method {
+            String::new()
+        } else {
+            format!(":{}", args.collapse)
+        };
+        let method = format!("sah/bin{}{collapsed}/{}", args.width, args.order);
         let sort_ms_per_light: Vec<f64> = lights
             .iter()
             .filter_map(|(_, p, srdh)| match srdh {

@@ -2,7 +2,9 @@
 
 use std::path::{Path, PathBuf};
 
-use antumbra_core::bvh::{BuildSettings, BvhWidth, SpatialSettings};
+use antumbra_core::bvh::{
+    BuildSettings, BvhWidth, CollapseCost, CollapseMethod, CollapseSettings, SpatialSettings,
+};
 use antumbra_core::render::{
     build_and_order, RenderSettings, Renderer, StatsMode, VisibilitySource,
 };
@@ -42,6 +44,13 @@ pub struct MethodArgs {
     /// Children per BVH node: 2 (binary), 4 or 8 (collapsed, SIMD traversal).
     #[arg(long, default_value = "2")]
     pub width: BvhWidth,
+    /// How widths 4 and 8 collapse the binary tree: greedy (open the largest child) or sah
+    /// (the SAH-optimal slots and leaves).
+    #[arg(long, default_value_t = CollapseSettings::default().method)]
+    pub collapse: CollapseMethod,
+    /// Largest leaf the sah collapse makes by merging binary leaves.
+    #[arg(long, default_value_t = CollapseCost::default().max_leaf)]
+    pub collapse_max_leaf: u32,
     /// Visible set of abvh/osah/vsah builds: previous (frame t-1), exact (frame t, two
     /// passes) or prepass:WxH (previous, with a WxH primary prepass on the first frame).
     #[arg(long, default_value = "previous")]
@@ -78,6 +87,16 @@ pub struct MethodArgs {
 }
 
 impl MethodArgs {
+    pub fn collapse_settings(&self) -> CollapseSettings {
+        CollapseSettings {
+            method: self.collapse,
+            cost: CollapseCost {
+                max_leaf: self.collapse_max_leaf,
+                ..CollapseCost::default()
+            },
+        }
+    }
+
     pub fn settings(&self) -> Result<RenderSettings> {
         let (build, shadow_order) = build_and_order(&self.build, self.order)?;
         Ok(RenderSettings {
@@ -99,6 +118,7 @@ impl MethodArgs {
             },
             shadow_order,
             width: self.width,
+            collapse: self.collapse_settings(),
             stats: if self.timing {
                 StatsMode::CountsAndTiming
             } else {

@@ -5,8 +5,9 @@
 //! The collapse keeps the binary tree's leaves (and so its leaf-ordered triangles) and only
 //! removes interior levels: each wide node starts from a binary node's two children and
 //! repeatedly opens the interior child with the largest surface area until it has N children or
-//! only leaves are left (Wald, Benthin, Boulos 2008; Dammertz, Hanika, Keller 2008). For N = 2 the
-//! result is the binary tree itself in this layout.
+//! only leaves are left (Wald, Benthin, Boulos 2008; Dammertz, Hanika, Keller 2008), or takes the
+//! SAH-optimal slots ([`CollapseMethod::Sah`], see `wide_collapse.rs`). For N = 2 the result is
+//! the binary tree itself in this layout, whatever the method.
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -14,6 +15,7 @@ use std::time::Instant;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::wide_collapse::{CollapseMethod, CollapseSettings, SahPlan};
 use super::Bvh;
 use crate::geometry::Aabb;
 use crate::trace::wide::TriangleRows;
@@ -154,8 +156,13 @@ pub struct WideBvh<const N: usize> {
 }
 
 impl<const N: usize> WideBvh<N> {
-    /// Collapses `bvh` into N-wide nodes.
+    /// Collapses `bvh` into N-wide nodes with the default settings.
     pub fn collapse(bvh: &Bvh) -> Self {
+        Self::collapse_with(bvh, &CollapseSettings::default())
+    }
+
+    /// Collapses `bvh` into N-wide nodes.
+    pub fn collapse_with(bvh: &Bvh, settings: &CollapseSettings) -> Self {
         assert!(
             matches!(N, 2 | 4 | 8),
             "wide BVHs are 2, 4 or 8 wide, not {N}"
@@ -172,16 +179,22 @@ impl<const N: usize> WideBvh<N> {
         };
         out.root_bounds = root.bounds();
         let ranges = triangle_ranges(bvh);
-        // A binary subtree this small becomes one leaf (its triangles are contiguous in leaf
-        // order): wide nodes then do not end in nodes of two or three tiny leaves. Not for
-        // N = 2, which stays the binary tree.
+        // N = 2 stays the binary tree, whatever the method.
+        let plan = (N > 2 && settings.method == CollapseMethod::Sah)
+            .then(|| SahPlan::<N>::new(bvh, &ranges, &settings.cost));
+        // Greedy: a binary subtree this small becomes one leaf (its triangles are contiguous in
+        // leaf order): wide nodes then do not end in nodes of two or three tiny leaves.
         let merge_limit = if N == 2 { 0 } else { MERGE_LIMIT };
         let as_leaf = |c: usize| {
             let n = &bvh.nodes[c];
             if n.is_leaf() {
                 return Some((n.first, n.count));
             }
-            ranges[c].filter(|&(_, count)| count <= merge_limit)
+            let merge = match &plan {
+                Some(p) => p.is_leaf(c),
+                None => ranges[c].is_some_and(|(_, count)| count <= merge_limit),
+            };
+            ranges[c].filter(|_| merge)
         };
         // A wide node per queued binary node; its binary children fill the slots.
         let mut queue = VecDeque::from([(0usize, u32::MAX, 0u8, 0u16)]);
@@ -190,7 +203,10 @@ impl<const N: usize> WideBvh<N> {
             out.parent.push((parent, slot));
             out.depth.push(depth);
             let mut node = WideNode::<N>::default();
-            let children = open_children::<N>(bvh, binary, &|c| as_leaf(c).is_some());
+            let children = match &plan {
+                Some(p) => p.children(bvh, binary),
+                None => open_children::<N>(bvh, binary, &|c| as_leaf(c).is_some()),
+            };
             for (s, &c) in children.iter().enumerate() {
                 node.set_child_bounds(s, &bvh.nodes[c].bounds());
                 if let Some((first, count)) = as_leaf(c) {

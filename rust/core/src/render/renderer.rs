@@ -12,7 +12,7 @@ use super::visibility::{trace_visible_set, visibility_flags, visible_set};
 use super::wide_tree::{binary_order, ShadowTracer, WideTree};
 use super::VisibilitySource;
 use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
-use crate::bvh::{build_binned_sah, build_with_visibility, Bvh, BvhWidth};
+use crate::bvh::{build_binned_sah, build_with_visibility, Bvh, BvhWidth, CollapseSettings};
 use crate::output::ImagePlane;
 use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::stats::StatsRow;
@@ -95,6 +95,7 @@ struct Cached {
 /// The collapsed trees of the cached BVHs for one width.
 struct WideTrees {
     width: BvhWidth,
+    collapse: CollapseSettings,
     camera: Arc<WideTree>,
     /// `None`: the camera tree serves shadow rays too.
     shadow: Option<Arc<WideTree>>,
@@ -491,16 +492,19 @@ impl Renderer {
         if let Some(w) = &mut c.wide {
             w.collapse_ms = None;
         }
-        if c.wide.as_ref().map(|w| w.width) != Some(settings.width) {
-            let camera = WideTree::collapse(&c.camera_bvh, settings.width);
+        if c.wide.as_ref().map(|w| (w.width, w.collapse))
+            != Some((settings.width, settings.collapse))
+        {
+            let camera = WideTree::collapse(&c.camera_bvh, settings.width, &settings.collapse);
             let shadow = c
                 .shadow_bvh
                 .as_ref()
-                .map(|b| WideTree::collapse(b, settings.width));
+                .map(|b| WideTree::collapse(b, settings.width, &settings.collapse));
             let collapse_ms =
                 camera.collapse_ms() + shadow.as_ref().map_or(0.0, |s| s.collapse_ms());
             c.wide = Some(WideTrees {
                 width: settings.width,
+                collapse: settings.collapse,
                 camera: Arc::new(camera),
                 shadow: shadow.map(Arc::new),
                 sort_tables: None,

@@ -1,7 +1,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::VisibilitySource;
-use crate::bvh::{BuildMethod, BuildSettings, BvhWidth};
+use crate::bvh::{BuildMethod, BuildSettings, BvhWidth, CollapseSettings};
 use crate::trace::ShadowOrder;
 use crate::{Error, Result};
 
@@ -32,6 +32,9 @@ pub struct RenderSettings {
     /// Children per BVH node: the binary tree (2) or its 4- or 8-wide collapse.
     #[serde(default)]
     pub width: BvhWidth,
+    /// How the binary tree is collapsed into the wide one (widths 4 and 8).
+    #[serde(default)]
+    pub collapse: CollapseSettings,
     pub stats: StatsMode,
     /// Where ABVH, OSAH and VSAH builds take their visible-triangle set from.
     #[serde(default)]
@@ -47,6 +50,7 @@ impl Default for RenderSettings {
             build_settings: BuildSettings::default(),
             shadow_order: ShadowOrder::Fbto,
             width: BvhWidth::Two,
+            collapse: CollapseSettings::default(),
             stats: StatsMode::Counts,
             visibility: VisibilitySource::Previous,
         }
@@ -96,6 +100,7 @@ impl RenderSettings {
         }
         self.shadow_order.validate()?;
         self.visibility.validate()?;
+        self.collapse.cost.validate()?;
         self.build_settings.validate()
     }
 

@@ -2,7 +2,7 @@
 //! pass uses: the binary traversal where the order is one it has (stored, front to back on the
 //! 2-wide tree), the wide tree with a prepared order otherwise.
 
-use crate::bvh::{Bvh, BvhWidth, WideBvh};
+use crate::bvh::{Bvh, BvhWidth, CollapseSettings, WideBvh};
 use crate::geometry::Ray;
 use crate::srdh::{occluded_with, SrdhBvh};
 use crate::trace::wide::{BoxKernel, OrderView, PreparedOrder, SortTables, WideQueries};
@@ -30,11 +30,11 @@ macro_rules! with_tree {
 }
 
 impl WideTree {
-    pub fn collapse(bvh: &Bvh, width: BvhWidth) -> Self {
+    pub fn collapse(bvh: &Bvh, width: BvhWidth, settings: &CollapseSettings) -> Self {
         match width {
-            BvhWidth::Two => WideTree::Two(WideBvh::collapse(bvh)),
-            BvhWidth::Four => WideTree::Four(WideBvh::collapse(bvh)),
-            BvhWidth::Eight => WideTree::Eight(WideBvh::collapse(bvh)),
+            BvhWidth::Two => WideTree::Two(WideBvh::collapse_with(bvh, settings)),
+            BvhWidth::Four => WideTree::Four(WideBvh::collapse_with(bvh, settings)),
+            BvhWidth::Eight => WideTree::Eight(WideBvh::collapse_with(bvh, settings)),
         }
     }
 
