@@ -124,6 +124,9 @@ pub struct BenchArgs {
     /// builder's).
     #[arg(long)]
     pub spatial_axes: Option<SpatialAxes>,
+    /// Spatial splits' overlap threshold alpha (with --methods; default: the builder's).
+    #[arg(long)]
+    pub split_alpha: Option<f32>,
     /// Render this many frames with SAH, SBVH, OSAH-exact and OSAH-previous and write the
     /// per-frame curve (animation.csv, animation.png) into --out.
     #[arg(long)]
@@ -217,6 +220,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 };
                 s.spatial.bins = args.spatial_bins.unwrap_or(s.spatial.bins);
                 s.spatial.axes = args.spatial_axes.unwrap_or(s.spatial.axes);
+                s.spatial.alpha = args.split_alpha.unwrap_or(s.spatial.alpha);
                 s.validate()?;
                 s
             },
