@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use glam::{BVec4A, UVec4, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -334,14 +334,14 @@ struct Task {
 /// Per-thread working memory, reused down the recursion so small nodes allocate nothing.
 struct Scratch {
     bins: Vec<Bin>,
-    right_cost: Vec<Vec4>,
+    right_cost: Vec<f32>,
 }
 
 impl Scratch {
     fn new() -> Self {
         Scratch {
             bins: vec![EMPTY_BIN; 3 * MAX_BINS],
-            right_cost: vec![Vec4::ZERO; MAX_BINS],
+            right_cost: vec![0.0; MAX_BINS],
         }
     }
 }
@@ -523,8 +523,45 @@ impl Context<'_> {
             bin_refs(refs, &binner, nb, bins);
         }
         let parent_area = task.bounds.half_area().max(f32::MIN_POSITIVE);
-        let live = [extent.x > 0.0, extent.y > 0.0, extent.z > 0.0];
-        let best = best_boundary(bins, nb, live, parent_area, self.settings, right_cost);
+        let s = self.settings;
+        let mut best: Option<(usize, usize, f32)> = None;
+        for axis in 0..3 {
+            if extent[axis] <= 0.0 {
+                continue;
+            }
+            let axis_bins = &bins[axis * nb..(axis + 1) * nb];
+            // Sweep from the right: right_cost[i] = area x count of bins i..nb. An empty bin
+            // changes nothing, so its value is copied rather than recomputed.
+            let mut acc = Box4::EMPTY;
+            let mut count = 0u32;
+            let mut cost = f32::NAN;
+            for i in (1..nb).rev() {
+                if axis_bins[i].count > 0 {
+                    acc.grow_box(&axis_bins[i].bounds);
+                    count += axis_bins[i].count;
+                    cost = acc.half_area() * count as f32;
+                }
+                right_cost[i] = cost;
+            }
+            let mut acc = Box4::EMPTY;
+            let mut count = 0u32;
+            for i in 1..nb {
+                let b = &axis_bins[i - 1];
+                // A boundary after an empty bin repeats the previous partition: skip it.
+                if b.count == 0 {
+                    continue;
+                }
+                acc.grow_box(&b.bounds);
+                count += b.count;
+                // An empty right side has NaN cost and is never chosen.
+                let cost = s.traversal_cost
+                    + s.intersection_cost * (acc.half_area() * count as f32 + right_cost[i])
+                        / parent_area;
+                if best.is_none_or(|b| cost < b.2) {
+                    best = Some((axis, i, cost));
+                }
+            }
+        }
         let (axis, bin, cost) = best?;
         let axis_bins = &bins[axis * nb..(axis + 1) * nb];
         let mut left = Box4::EMPTY;
@@ -545,80 +582,6 @@ impl Context<'_> {
             right,
         })
     }
-}
-
-/// The best bin boundary by SAH over the axes flagged `live` (axis a's bins at `a * nb..`), as
-/// (axis, boundary, cost); the first of equal costs in axis-then-boundary order wins. The three
-/// axes are swept together, one vector lane each: the sweep was a quarter of the build.
-fn best_boundary(
-    bins: &[Bin],
-    nb: usize,
-    live: [bool; 3],
-    parent_area: f32,
-    s: &BuildSettings,
-    right_cost: &mut [Vec4],
-) -> Option<(usize, usize, f32)> {
-    let counts =
-        |i: usize| UVec4::new(bins[i].count, bins[nb + i].count, bins[2 * nb + i].count, 0);
-    // Sweep from the right: right_cost[i] = area x count of bins i..nb per axis. An empty bin
-    // changes nothing (NaN until the first non-empty bin).
-    let mut acc = [Box4::EMPTY; 3];
-    let mut count = UVec4::ZERO;
-    let mut cost = Vec4::NAN;
-    for i in (1..nb).rev() {
-        for (a, b) in acc.iter_mut().enumerate() {
-            b.grow_box(&bins[a * nb + i].bounds);
-        }
-        let c = counts(i);
-        count += c;
-        cost = Vec4::select(
-            c.as_vec4().cmpgt(Vec4::ZERO),
-            half_areas(&acc) * count.as_vec4(),
-            cost,
-        );
-        right_cost[i] = cost;
-    }
-    let mut acc = [Box4::EMPTY; 3];
-    let mut count = UVec4::ZERO;
-    let mut best_cost = Vec4::INFINITY;
-    let mut best_bin = Vec4::ZERO;
-    let mut found = BVec4A::FALSE;
-    let live = BVec4A::new(live[0], live[1], live[2], false);
-    for i in 1..nb {
-        for (a, b) in acc.iter_mut().enumerate() {
-            b.grow_box(&bins[a * nb + i - 1].bounds);
-        }
-        let c = counts(i - 1);
-        count += c;
-        // A boundary after an empty bin repeats the previous partition: skipped.
-        let valid = live & c.as_vec4().cmpgt(Vec4::ZERO);
-        let cost = Vec4::splat(s.traversal_cost)
-            + Vec4::splat(s.intersection_cost)
-                * (half_areas(&acc) * count.as_vec4() + right_cost[i])
-                / Vec4::splat(parent_area);
-        let take = valid & (!found | cost.cmplt(best_cost));
-        best_cost = Vec4::select(take, cost, best_cost);
-        best_bin = Vec4::select(take, Vec4::splat(i as f32), best_bin);
-        found |= take;
-    }
-    let mut best: Option<(usize, usize, f32)> = None;
-    for a in 0..3 {
-        if found.test(a) && best.is_none_or(|b| best_cost[a] < b.2) {
-            best = Some((a, best_bin[a] as usize, best_cost[a]));
-        }
-    }
-    best
-}
-
-/// [`Box4::half_area`] of three boxes, one per lane (lane 3 is 0).
-#[inline(always)]
-fn half_areas(b: &[Box4; 3]) -> Vec4 {
-    let [d0, d1, d2] = [b[0].hi - b[0].lo, b[1].hi - b[1].lo, b[2].hi - b[2].lo];
-    let dx = Vec4::new(d0.x, d1.x, d2.x, 0.0);
-    let dy = Vec4::new(d0.y, d1.y, d2.y, 0.0);
-    let dz = Vec4::new(d0.z, d1.z, d2.z, 0.0);
-    let area = dx * dy + dy * dz + dz * dx;
-    Vec4::select(dx.cmplt(Vec4::ZERO), Vec4::ZERO, area)
 }
 
 fn bin_refs(refs: &[PrimRef], binner: &Binner, nb: usize, bins: &mut [Bin]) {
@@ -757,89 +720,6 @@ mod tests {
             for (slot, &id) in bvh.triangle_ids.iter().enumerate() {
                 assert_eq!(bvh.triangles[slot], tris[id as usize]);
             }
-        }
-    }
-
-    /// The scalar per-axis sweep the vector sweep replaced.
-    fn best_boundary_scalar(
-        bins: &[Bin],
-        nb: usize,
-        live: [bool; 3],
-        parent_area: f32,
-        s: &BuildSettings,
-    ) -> Option<(usize, usize, f32)> {
-        let mut right_cost = vec![0.0f32; nb];
-        let mut best: Option<(usize, usize, f32)> = None;
-        for axis in (0..3).filter(|&a| live[a]) {
-            let axis_bins = &bins[axis * nb..(axis + 1) * nb];
-            let mut acc = Box4::EMPTY;
-            let mut count = 0u32;
-            let mut cost = f32::NAN;
-            for i in (1..nb).rev() {
-                if axis_bins[i].count > 0 {
-                    acc.grow_box(&axis_bins[i].bounds);
-                    count += axis_bins[i].count;
-                    cost = acc.half_area() * count as f32;
-                }
-                right_cost[i] = cost;
-            }
-            let mut acc = Box4::EMPTY;
-            let mut count = 0u32;
-            for i in 1..nb {
-                let b = &axis_bins[i - 1];
-                if b.count == 0 {
-                    continue;
-                }
-                acc.grow_box(&b.bounds);
-                count += b.count;
-                let cost = s.traversal_cost
-                    + s.intersection_cost * (acc.half_area() * count as f32 + right_cost[i])
-                        / parent_area;
-                if best.is_none_or(|b| cost < b.2) {
-                    best = Some((axis, i, cost));
-                }
-            }
-        }
-        best
-    }
-
-    #[test]
-    fn vector_sweep_equals_scalar_sweep() {
-        let s = BuildSettings::default();
-        let mut right_cost = vec![Vec4::ZERO; MAX_BINS];
-        for seed in 0..2000u32 {
-            let h = |k: u32| {
-                seed.wrapping_mul(2654435761)
-                    .wrapping_add(k.wrapping_mul(40503))
-                    % 1000
-            };
-            let nb = 2 + (seed % 15) as usize;
-            let bins: Vec<Bin> = (0..3 * nb)
-                .map(|k| {
-                    // Some bins empty; equal costs appear with coarse coordinates.
-                    if h(k as u32 * 7) % 3 == 0 {
-                        return EMPTY_BIN;
-                    }
-                    let c = |j: u32| (h(k as u32 * 13 + j) % 8) as f32;
-                    let lo = Vec4::new(c(1), c(2), c(3), 0.0);
-                    Bin {
-                        bounds: Box4 {
-                            lo,
-                            hi: lo + Vec4::new(c(4), c(5), c(6), 0.0),
-                        },
-                        count: 1 + h(k as u32 * 17) % 5,
-                    }
-                })
-                .collect();
-            let live = [seed % 5 != 1, seed % 7 != 2, seed % 4 != 3];
-            let area = 50.0 + (seed % 11) as f32;
-            // Bits, so that the NaN of an empty right side compares too.
-            let bits = |b: Option<(usize, usize, f32)>| b.map(|(a, i, c)| (a, i, c.to_bits()));
-            assert_eq!(
-                bits(best_boundary(&bins, nb, live, area, &s, &mut right_cost)),
-                bits(best_boundary_scalar(&bins, nb, live, area, &s)),
-                "seed {seed}"
-            );
         }
     }
 
