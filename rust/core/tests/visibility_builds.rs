@@ -4,7 +4,7 @@
 //! work away from rays that hit visible triangles.
 
 use antumbra_core::bvh::{
-    build, build_with_visibility, check_references, BuildMethod, BuildSettings, Bvh,
+    build, build_with_visibility, check_references, BuildMethod, BuildSettings, Bvh, SpatialAxes,
     SpatialSettings,
 };
 use antumbra_core::geometry::Ray;
@@ -129,7 +129,14 @@ fn every_build_answers_as_brute_force() {
         osah_strict_viability: false,
         ..eager_splits()
     };
-    for settings in [BuildSettings::default(), eager_splits(), paper_viability] {
+    let mut all_axes = eager_splits();
+    all_axes.spatial.axes = SpatialAxes::All;
+    for settings in [
+        BuildSettings::default(),
+        eager_splits(),
+        paper_viability,
+        all_axes,
+    ] {
         for method in [
             BuildMethod::Sah,
             BuildMethod::Sbvh,
@@ -144,6 +151,10 @@ fn every_build_answers_as_brute_force() {
     let strict = build_with_visibility(BuildMethod::Osah, &tris, Some(&vis), &eager_splits());
     let paper = build_with_visibility(BuildMethod::Osah, &tris, Some(&vis), &paper_viability);
     assert!(!same_tree(&strict, &paper));
+    // So is the axis restriction of spatial binning.
+    let all = build_with_visibility(BuildMethod::Sbvh, &tris, Some(&vis), &all_axes);
+    let object = build_with_visibility(BuildMethod::Sbvh, &tris, Some(&vis), &eager_splits());
+    assert!(!same_tree(&all, &object));
 }
 
 #[test]

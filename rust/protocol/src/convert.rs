@@ -472,10 +472,10 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
                 bins: s.build_settings.spatial_bins as usize,
                 alpha: s.build_settings.spatial_alpha,
                 max_growth: s.build_settings.spatial_max_growth,
+                ..SpatialSettings::default()
             },
             osah_weight: s.build_settings.osah_weight,
             osah_strict_viability: s.build_settings.osah_strict_viability,
-            ..BuildSettings::default()
         },
         shadow_order: match &s.order {
             Some(text) => text.parse::<ShadowOrder>()?,

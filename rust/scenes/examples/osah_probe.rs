@@ -1,5 +1,5 @@
 //! Build-time probe (not part of the bench): builds one viewpoint's tree with a method, for
-//! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT`
+//! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT [SPATIAL_AXES [SPLIT_ALPHA]]`
 use antumbra_core::bvh::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
 use antumbra_core::render::{visibility_flags, PrimaryPass, PrimaryRays};
 use antumbra_core::scene::{FrameGeometry, Resolution};
@@ -23,7 +23,13 @@ fn main() {
     scene.resolution = Resolution::new(128, 128);
     let geometry = FrameGeometry::from_scene(&scene).unwrap();
     let set = &geometry.camera;
-    let settings = BuildSettings::default();
+    let mut settings = BuildSettings::default();
+    if let Some(axes) = a.get(6) {
+        settings.spatial.axes = axes.parse().unwrap();
+    }
+    if let Some(alpha) = a.get(7) {
+        settings.spatial.alpha = alpha.parse().unwrap();
+    }
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
     let sah = build_binned_sah(&set.vertices, &settings);
     let pass = PrimaryPass::timed(&rays, &sah, set);

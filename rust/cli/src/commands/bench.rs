@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use antumbra_core::bvh::{
     build_binned_sah, BuildMethod, BuildSettings, Bvh, BvhWidth, CollapseCost, CollapseMethod,
-    CollapseSettings,
+    CollapseSettings, SpatialAxes,
 };
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
@@ -124,6 +124,16 @@ pub struct BenchArgs {
     /// OSAH viability as the paper states it (condition (5) alone), with --methods.
     #[arg(long)]
     pub osah_paper_viability: bool,
+    /// Spatial bins per axis for sbvh/abvh/osah (with --methods; default: the builder's).
+    #[arg(long)]
+    pub spatial_bins: Option<usize>,
+    /// Axes spatial splits are binned on, all or object (with --methods; default: the
+    /// builder's).
+    #[arg(long)]
+    pub spatial_axes: Option<SpatialAxes>,
+    /// Spatial splits' overlap threshold alpha (with --methods; default: the builder's).
+    #[arg(long)]
+    pub split_alpha: Option<f32>,
     /// Render this many frames with SAH, SBVH, OSAH-exact and OSAH-previous and write the
     /// per-frame curve (animation.csv, animation.png) into --out.
     #[arg(long)]
@@ -210,9 +220,16 @@ pub fn run(args: BenchArgs) -> Result<()> {
             methods: args.methods.clone(),
             weights: args.osah_w.clone(),
             spatial,
-            settings: BuildSettings {
-                osah_strict_viability: !args.osah_paper_viability,
-                ..BuildSettings::default()
+            settings: {
+                let mut s = BuildSettings {
+                    osah_strict_viability: !args.osah_paper_viability,
+                    ..BuildSettings::default()
+                };
+                s.spatial.bins = args.spatial_bins.unwrap_or(s.spatial.bins);
+                s.spatial.axes = args.spatial_axes.unwrap_or(s.spatial.axes);
+                s.spatial.alpha = args.split_alpha.unwrap_or(s.spatial.alpha);
+                s.validate()?;
+                s
             },
         };
         let mut rows = Vec::new();

@@ -3,7 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use antumbra_core::bvh::{
-    BuildSettings, BvhWidth, CollapseCost, CollapseMethod, CollapseSettings, SpatialSettings,
+    BuildSettings, BvhWidth, CollapseCost, CollapseMethod, CollapseSettings, SpatialAxes,
+    SpatialSettings,
 };
 use antumbra_core::render::{
     build_and_order, RenderSettings, Renderer, StatsMode, VisibilitySource,
@@ -72,6 +73,9 @@ pub struct MethodArgs {
     /// the root's area.
     #[arg(long, default_value_t = SpatialSettings::default().alpha)]
     pub split_alpha: f32,
+    /// Axes spatial splits are binned on: all, or object (the best object split's axis only).
+    #[arg(long, default_value_t = SpatialSettings::default().axes)]
+    pub spatial_axes: SpatialAxes,
     /// References may grow to (1 + this) x triangles through spatial splits.
     #[arg(long, default_value_t = SpatialSettings::default().max_growth)]
     pub max_growth: f32,
@@ -113,6 +117,7 @@ impl MethodArgs {
                     bins: self.spatial_bins,
                     alpha: self.split_alpha,
                     max_growth: self.max_growth,
+                    axes: self.spatial_axes,
                 },
                 ..BuildSettings::default()
             },

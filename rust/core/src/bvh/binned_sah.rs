@@ -206,7 +206,7 @@ pub fn build_binned_sah(triangles: &[[Vec3; 3]], settings: &BuildSettings) -> Bv
         .par_iter()
         .map(|r| triangles[r.id() as usize])
         .collect();
-    bvh.triangle_ids = refs.iter().map(|r| r.id()).collect();
+    bvh.triangle_ids = refs.par_iter().map(|r| r.id()).collect();
     bvh.build_ms = start.elapsed().as_secs_f64() * 1e3;
     bvh
 }
@@ -223,14 +223,30 @@ pub(crate) fn build_sah_subtree(
     settings: &BuildSettings,
     depth: usize,
 ) -> Bvh {
-    let n = refs.len();
-    if n == 0 {
+    if refs.is_empty() {
         return Bvh::default();
     }
+    let (nodes, sizes) = build_uncompacted(refs, settings, depth);
+    Bvh {
+        nodes: NodeArray::from_nodes(&compact(&nodes, &sizes)),
+        ..Bvh::default()
+    }
+}
+
+/// The nodes of a build (non-empty `refs`) before compaction, with their subtree sizes.
+fn build_uncompacted(
+    refs: &mut [PrimRef],
+    settings: &BuildSettings,
+    depth: usize,
+) -> (Vec<BvhNode>, Vec<u32>) {
+    let n = refs.len();
     let (bounds, centroids) = bounds_of(refs);
-    // A subtree over k references uses at most 2k - 2 nodes below its root.
-    let mut nodes = vec![BvhNode::default(); 2 * n - 1];
+    // A subtree over k references uses at most 2k - 2 nodes below its root. Each node's
+    // subtree size goes to the same index of `sizes`, for the parallel compaction.
+    let mut nodes = zeroed_nodes(2 * n - 1);
+    let mut sizes = vec![0u32; 2 * n - 1];
     let (root, below) = nodes.split_at_mut(1);
+    let (root_size, sizes_below) = sizes.split_at_mut(1);
     let ctx = Context {
         settings,
         bins: settings.bins.clamp(2, MAX_BINS),
@@ -242,11 +258,38 @@ pub(crate) fn build_sah_subtree(
         centroids,
         depth,
     };
-    ctx.build(refs, &mut root[0], below, task, &mut Scratch::new());
-    Bvh {
-        nodes: NodeArray::from_nodes(&compact(&nodes)),
-        ..Bvh::default()
+    let slots = Slots {
+        below,
+        sizes: sizes_below,
+    };
+    root_size[0] = ctx.build(refs, &mut root[0], slots, task, &mut Scratch::new());
+    (nodes, sizes)
+}
+
+/// `count` default nodes from zeroed memory: the allocator hands out untouched pages, so they
+/// are faulted in by the (parallel) build that writes them instead of filled on one thread.
+/// Nodes the build never writes stay default and are never read.
+fn zeroed_nodes(count: usize) -> Vec<BvhNode> {
+    let layout = std::alloc::Layout::array::<BvhNode>(count).expect("node array size");
+    if layout.size() == 0 {
+        return Vec::new();
     }
+    // SAFETY: the layout is non-empty and is the one `Vec<BvhNode>` frees with (same element
+    // type and capacity); every field of `BvhNode` is an f32 or u32, for which all-zero bits
+    // are the value 0, i.e. `BvhNode::default()`.
+    unsafe {
+        let ptr = std::alloc::alloc_zeroed(layout) as *mut BvhNode;
+        if ptr.is_null() {
+            std::alloc::handle_alloc_error(layout);
+        }
+        Vec::from_raw_parts(ptr, count, count)
+    }
+}
+
+/// Where a subtree's descendants go: their nodes, and (same indices) their subtree sizes.
+struct Slots<'a> {
+    below: &'a mut [BvhNode],
+    sizes: &'a mut [u32],
 }
 
 /// Bounds and (doubled) centroid bounds of some references.
@@ -358,14 +401,16 @@ impl Binner {
 }
 
 impl Context<'_> {
+    /// Builds the subtree of `node` over `refs`, its descendants in `slots`; returns its node
+    /// count.
     fn build(
         &self,
         refs: &mut [PrimRef],
         node: &mut BvhNode,
-        below: &mut [BvhNode],
+        slots: Slots,
         task: Task,
         scratch: &mut Scratch,
-    ) {
+    ) -> u32 {
         node.set_bounds(&task.bounds.to_aabb());
         let n = refs.len();
         let s = self.settings;
@@ -383,7 +428,7 @@ impl Context<'_> {
         if make_leaf {
             node.first = task.first as u32;
             node.count = n as u32;
-            return;
+            return 1;
         }
         let parts = split.and_then(|sp| {
             let binner = Binner::new(&task.centroids, sp.nb);
@@ -392,10 +437,20 @@ impl Context<'_> {
         });
         let (mid, left, right) = parts.unwrap_or_else(|| median_split(refs));
 
-        let (pair, rest) = below.split_at_mut(2);
+        let (pair, rest) = slots.below.split_at_mut(2);
         let (left_node, right_node) = pair.split_at_mut(1);
         let left_size = 2 * mid - 2;
         let (left_below, right_below) = rest.split_at_mut(left_size);
+        let (pair_sizes, rest_sizes) = slots.sizes.split_at_mut(2);
+        let (left_sizes, right_sizes) = rest_sizes.split_at_mut(left_size);
+        let left_slots = Slots {
+            below: left_below,
+            sizes: left_sizes,
+        };
+        let right_slots = Slots {
+            below: right_below,
+            sizes: right_sizes,
+        };
         node.first = task.below_start as u32;
         node.count = 0;
         let (left_refs, right_refs) = refs.split_at_mut(mid);
@@ -413,30 +468,34 @@ impl Context<'_> {
             centroids: right.1,
             depth: task.depth + 1,
         };
-        if n > PARALLEL_SUBTREE {
+        let (l, r) = if n > PARALLEL_SUBTREE {
             rayon::join(
-                || self.build(left_refs, &mut left_node[0], left_below, left_task, scratch),
+                || self.build(left_refs, &mut left_node[0], left_slots, left_task, scratch),
                 || {
                     let mut own = Scratch::new();
                     self.build(
                         right_refs,
                         &mut right_node[0],
-                        right_below,
+                        right_slots,
                         right_task,
                         &mut own,
                     )
                 },
-            );
+            )
         } else {
-            self.build(left_refs, &mut left_node[0], left_below, left_task, scratch);
-            self.build(
+            let l = self.build(left_refs, &mut left_node[0], left_slots, left_task, scratch);
+            let r = self.build(
                 right_refs,
                 &mut right_node[0],
-                right_below,
+                right_slots,
                 right_task,
                 scratch,
             );
-        }
+            (l, r)
+        };
+        pair_sizes[0] = l;
+        pair_sizes[1] = r;
+        1 + l + r
     }
 
     fn find_split(&self, refs: &[PrimRef], task: &Task, scratch: &mut Scratch) -> Option<Split> {
@@ -583,27 +642,56 @@ fn median_split(refs: &mut [PrimRef]) -> (usize, (Box4, Box4), (Box4, Box4)) {
 }
 
 /// Renumbers the reachable nodes depth-first, keeping each sibling pair adjacent and at an even
-/// index (after the root and one pad node), as [`NodeArray`] needs.
-fn compact(nodes: &[BvhNode]) -> Vec<BvhNode> {
-    let mut out = Vec::with_capacity(nodes.len() + 1);
-    out.push(nodes[0]);
-    out.push(BvhNode::default());
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        if out[i].is_leaf() {
-            continue;
-        }
-        let old = out[i].first as usize;
-        let k = out.len();
-        out.push(nodes[old]);
-        out.push(nodes[old + 1]);
-        out[i].first = k as u32;
-        stack.push(k + 1);
-        stack.push(k);
+/// index (after the root and one pad node), as [`NodeArray`] needs. `sizes[i]` is the node count
+/// of node i's subtree, so every subtree's place is known up front and large subtrees are
+/// copied in parallel.
+fn compact(nodes: &[BvhNode], sizes: &[u32]) -> Vec<BvhNode> {
+    let total = sizes[0] as usize;
+    let mut out = zeroed_nodes(total + 1);
+    out[0] = nodes[0];
+    if !nodes[0].is_leaf() {
+        place_below(nodes, sizes, &mut out[2..], 2, 0);
+        out[0].first = 2;
     }
-    out.shrink_to_fit();
     out
 }
+
+/// Writes the descendants of `nodes[old]` (an interior node) into `out`, whose first slot is
+/// index `at` of the final array: its child pair first, then the left child's descendants,
+/// then the right child's (the order of a depth-first walk that visits left first).
+fn place_below(nodes: &[BvhNode], sizes: &[u32], out: &mut [BvhNode], at: usize, old: usize) {
+    let c = nodes[old].first as usize;
+    let (pair, rest) = out.split_at_mut(2);
+    pair[0] = nodes[c];
+    pair[1] = nodes[c + 1];
+    let left_len = sizes[c] as usize - 1;
+    let (left_out, right_out) = rest.split_at_mut(left_len);
+    let (left_at, right_at) = (at + 2, at + 2 + left_len);
+    let inner = [!pair[0].is_leaf(), !pair[1].is_leaf()];
+    if inner[0] {
+        pair[0].first = left_at as u32;
+    }
+    if inner[1] {
+        pair[1].first = right_at as u32;
+    }
+    let go = |out: &mut [BvhNode], at: usize, child: usize| {
+        if inner[child - c] {
+            place_below(nodes, sizes, out, at, child);
+        }
+    };
+    if left_len + right_out.len() > PARALLEL_COMPACT {
+        rayon::join(
+            || go(left_out, left_at, c),
+            || go(right_out, right_at, c + 1),
+        );
+    } else {
+        go(left_out, left_at, c);
+        go(right_out, right_at, c + 1);
+    }
+}
+
+/// Subtrees with more nodes than this are compacted in parallel.
+const PARALLEL_COMPACT: usize = 8192;
 
 #[cfg(test)]
 mod tests {
@@ -632,6 +720,49 @@ mod tests {
             for (slot, &id) in bvh.triangle_ids.iter().enumerate() {
                 assert_eq!(bvh.triangles[slot], tris[id as usize]);
             }
+        }
+    }
+
+    /// The serial depth-first renumbering the parallel compaction replaced.
+    fn compact_serial(nodes: &[BvhNode]) -> Vec<BvhNode> {
+        let mut out = vec![nodes[0], BvhNode::default()];
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            if out[i].is_leaf() {
+                continue;
+            }
+            let old = out[i].first as usize;
+            let k = out.len();
+            out.push(nodes[old]);
+            out.push(nodes[old + 1]);
+            out[i].first = k as u32;
+            stack.push(k + 1);
+            stack.push(k);
+        }
+        out
+    }
+
+    #[test]
+    fn parallel_compaction_equals_serial_renumbering() {
+        // 200^2 triangles: subtrees above PARALLEL_COMPACT nodes take the parallel path.
+        for n in [1, 3, 200] {
+            let tris = grid(n);
+            let mut refs: Vec<PrimRef> = tris
+                .iter()
+                .enumerate()
+                .map(|(i, t)| {
+                    let b = Aabb::of_triangle(t);
+                    PrimRef::new(
+                        i as u32,
+                        Box4 {
+                            lo: b.min.extend(0.0),
+                            hi: b.max.extend(0.0),
+                        },
+                    )
+                })
+                .collect();
+            let (nodes, sizes) = build_uncompacted(&mut refs, &BuildSettings::default(), 0);
+            assert_eq!(compact(&nodes, &sizes), compact_serial(&nodes));
         }
     }
 

@@ -19,7 +19,7 @@ pub use binned_sah::{build_binned_sah, BuildSettings};
 pub(crate) use binned_sah::{build_sah_subtree, Box4, PrimRef, MEDIAN_DEPTH};
 pub use coverage::check_references;
 pub use node::{Bvh, BvhNode, NodeArray, MAX_DEPTH};
-pub use spatial_split::SpatialSettings;
+pub use spatial_split::{SpatialAxes, SpatialSettings};
 pub use wide::{BvhWidth, WideBvh, WideNode, EMPTY_CHILD, MERGE_LIMIT};
 pub use wide_collapse::{CollapseCost, CollapseMethod, CollapseSettings};
 

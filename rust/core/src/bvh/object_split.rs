@@ -3,6 +3,7 @@
 //! candidate.
 
 use glam::Vec4;
+use rayon::prelude::*;
 
 use super::binned_sah::{Box4, PrimRef};
 use super::osah_cost::{CostModel, Sides, Visibility};
@@ -32,12 +33,29 @@ pub(super) struct ObjectSplit {
     pub(super) sides: Sides,
 }
 
-#[derive(Clone, Copy)]
+impl ObjectSplit {
+    pub(super) fn axis(&self) -> usize {
+        self.bins.axis
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Bin {
     bounds: Box4,
     count: u32,
     visible: u32,
 }
+
+const EMPTY_BIN: Bin = Bin {
+    bounds: Box4::EMPTY,
+    count: 0,
+    visible: 0,
+};
+
+/// Nodes with more references than this bin in parallel chunks (merged bins equal serial
+/// binning's exactly: min/max and integer sums).
+const PARALLEL_BINNING: usize = 65536;
+const BINNING_CHUNK: usize = 16384;
 
 /// The best object split by SAH and (if `osah`) by OSAH cost, each with its cost.
 pub(super) fn best_object_splits(
@@ -51,31 +69,28 @@ pub(super) fn best_object_splits(
 ) -> [Option<(ObjectSplit, f32)>; 2] {
     let nb = bin_count.min(refs.len() + 2).max(2);
     let extent = centroids.hi - centroids.lo;
-    let mut best: [Option<(ObjectSplit, f32)>; 2] = [None, None];
-    let empty = Bin {
-        bounds: Box4::EMPTY,
-        count: 0,
-        visible: 0,
-    };
-    let mut bins = vec![empty; nb];
-    let mut right: Vec<(Box4, u32, u32)> = vec![(Box4::EMPTY, 0, 0); nb];
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 {
-            continue;
-        }
-        let mapper = CentroidBins {
+    let mappers: [Option<CentroidBins>; 3] = std::array::from_fn(|axis| {
+        (extent[axis] > 0.0).then(|| CentroidBins {
             axis,
             lo: centroids.lo[axis],
             scale: nb as f32 * (1.0 - 1e-6) / extent[axis],
             count: nb,
+        })
+    });
+    let all = if refs.len() > PARALLEL_BINNING {
+        refs.par_chunks(BINNING_CHUNK)
+            .map(|c| bin_all(c, &mappers, nb, vis))
+            .reduce(|| vec![EMPTY_BIN; 3 * nb], merge_bins)
+    } else {
+        bin_all(refs, &mappers, nb, vis)
+    };
+    let mut best: [Option<(ObjectSplit, f32)>; 2] = [None, None];
+    let mut right: Vec<(Box4, u32, u32)> = vec![(Box4::EMPTY, 0, 0); nb];
+    for (axis, mapper) in mappers.iter().enumerate() {
+        let Some(mapper) = *mapper else {
+            continue;
         };
-        bins.fill(empty);
-        for r in refs {
-            let b = &mut bins[mapper.bin(r.centroid2())];
-            b.bounds.grow(r.lo, r.hi);
-            b.count += 1;
-            b.visible += vis.of(r) as u32;
-        }
+        let bins = &all[axis * nb..(axis + 1) * nb];
         let mut acc = (Box4::EMPTY, 0u32, 0u32);
         for i in (1..nb).rev() {
             acc.0.grow_box(&bins[i].bounds);
@@ -120,13 +135,53 @@ pub(super) fn best_object_splits(
     best
 }
 
-/// Splits `refs` by `split` into (left, right).
+/// Bins `refs` on every axis with a mapper in one pass (axis a's bins at `a * nb..`).
+fn bin_all(
+    refs: &[PrimRef],
+    mappers: &[Option<CentroidBins>; 3],
+    nb: usize,
+    vis: Visibility,
+) -> Vec<Bin> {
+    let mut bins = vec![EMPTY_BIN; 3 * nb];
+    for r in refs {
+        let c2 = r.centroid2();
+        let visible = vis.of(r) as u32;
+        for (axis, m) in mappers.iter().enumerate() {
+            if let Some(m) = m {
+                let b = &mut bins[axis * nb + m.bin(c2)];
+                b.bounds.grow(r.lo, r.hi);
+                b.count += 1;
+                b.visible += visible;
+            }
+        }
+    }
+    bins
+}
+
+fn merge_bins(mut a: Vec<Bin>, b: Vec<Bin>) -> Vec<Bin> {
+    for (x, y) in a.iter_mut().zip(&b) {
+        x.bounds.grow_box(&y.bounds);
+        x.count += y.count;
+        x.visible += y.visible;
+    }
+    a
+}
+
+/// Splits `refs` by `split` into (left, right), each allocated once at its known size.
 pub(super) fn partition_object(
     refs: Vec<PrimRef>,
     split: &ObjectSplit,
 ) -> (Vec<PrimRef>, Vec<PrimRef>) {
-    refs.into_iter()
-        .partition(|r| split.bins.bin(r.centroid2()) < split.bin)
+    let mut left = Vec::with_capacity(split.sides.n_left as usize);
+    let mut right = Vec::with_capacity(split.sides.n_right as usize);
+    for r in refs {
+        if split.bins.bin(r.centroid2()) < split.bin {
+            left.push(r);
+        } else {
+            right.push(r);
+        }
+    }
+    (left, right)
 }
 
 /// Splits at the middle reference along the widest centroid axis: the fallback when no binned
@@ -144,4 +199,71 @@ pub(super) fn median_split(
     });
     let right = refs.split_off(mid);
     (refs, right)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// Boxes of scattered triangles (a hash of the index), every third visible.
+    pub(crate) fn scattered(n: usize) -> Vec<[Vec3; 3]> {
+        (0..n)
+            .map(|i| {
+                let h = (i as u32).wrapping_mul(2654435761);
+                let p = Vec3::new(
+                    (h % 1000) as f32,
+                    ((h >> 10) % 1000) as f32,
+                    ((h >> 20) % 1000) as f32,
+                );
+                let s = 1.0 + (h % 37) as f32;
+                [
+                    p,
+                    p + Vec3::new(s, 0.5, 0.0),
+                    p + Vec3::new(0.0, s, 0.3 * s),
+                ]
+            })
+            .collect()
+    }
+
+    pub(crate) fn refs_of(tris: &[[Vec3; 3]]) -> Vec<PrimRef> {
+        tris.iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let b = crate::geometry::Aabb::of_triangle(t);
+                PrimRef::new(
+                    i as u32,
+                    Box4 {
+                        lo: b.min.extend(0.0),
+                        hi: b.max.extend(0.0),
+                    },
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn chunked_binning_merges_to_serial_binning() {
+        let tris = scattered(5000);
+        let refs = refs_of(&tris);
+        let flags: Vec<bool> = (0..tris.len()).map(|i| i % 3 == 0).collect();
+        let vis = Visibility(Some(&flags));
+        let (_, c) = super::super::binned_sah::bounds_of(&refs);
+        let nb = 16;
+        let mappers: [Option<CentroidBins>; 3] = std::array::from_fn(|axis| {
+            Some(CentroidBins {
+                axis,
+                lo: c.lo[axis],
+                scale: nb as f32 * (1.0 - 1e-6) / (c.hi[axis] - c.lo[axis]),
+                count: nb,
+            })
+        });
+        let serial = bin_all(&refs, &mappers, nb, vis);
+        let merged = refs
+            .chunks(777)
+            .map(|c| bin_all(c, &mappers, nb, vis))
+            .fold(vec![EMPTY_BIN; 3 * nb], merge_bins);
+        assert_eq!(serial, merged);
+        assert_eq!(serial.iter().map(|b| b.count).sum::<u32>(), 3 * 5000);
+    }
 }

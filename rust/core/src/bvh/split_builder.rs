@@ -16,7 +16,7 @@ use super::binned_sah::{
 use super::node::{Bvh, BvhNode, NodeArray};
 use super::object_split::{best_object_splits, median_split, partition_object};
 use super::osah_cost::{osah_viable, CostModel, Sides, Visibility};
-use super::spatial_split::{best_spatial_splits, partition_spatial, Unsplit};
+use super::spatial_split::{best_spatial_splits, partition_spatial, SpatialAxes, Unsplit};
 use crate::geometry::Aabb;
 
 /// Where a builder may use spatial splits and visibility-driven splits.
@@ -209,6 +209,13 @@ impl Builder<'_> {
             && (obj_sah.is_none() || overlap / self.root_area > s.spatial.alpha)
             && budget > 0;
         let [sp_sah, sp_osah] = if try_spatial {
+            let mut axes = [true; 3];
+            if s.spatial.axes == SpatialAxes::Object && obj_sah.is_some() {
+                axes = [false; 3];
+                for o in [&obj_sah, &obj_osah].into_iter().flatten() {
+                    axes[o.0.axis()] = true;
+                }
+            }
             best_spatial_splits(
                 refs,
                 self.triangles,
@@ -216,6 +223,7 @@ impl Builder<'_> {
                 bounds,
                 area,
                 s.spatial.bins,
+                axes,
                 &self.model,
                 osah,
             )
