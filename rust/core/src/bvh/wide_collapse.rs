@@ -16,9 +16,11 @@ use super::{Bvh, WideBvh};
 pub enum CollapseMethod {
     /// Open the largest-area interior child until N slots are filled; binary subtrees of at
     /// most [`super::wide::MERGE_LIMIT`] triangles become one leaf.
-    #[default]
     Greedy,
-    /// The slots and leaves that minimise [`CollapseCost`] over the whole tree.
+    /// The slots and leaves that minimise [`CollapseCost`] over the whole tree. The default:
+    /// fuller nodes, fewer node visits and fewer instructions per ray than `Greedy`
+    /// (BENCHMARKS.md, "SAH-optimal collapse").
+    #[default]
     Sah,
 }
 
