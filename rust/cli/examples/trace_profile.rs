@@ -6,11 +6,12 @@
 //! cargo build --release -p antumbra-cli --example trace_profile
 //! valgrind --tool=callgrind --dump-instr=no --collect-atstart=no \
 //!   --toggle-collect='*trace_profile*trace_*' target/release/examples/trace_profile bedroom 350000 256x256 1 [greedy|sah]
-//! target/release/examples/trace_profile bedroom 350000 512x512 5 [greedy|sah]   # wall clock, best of 5
+//! target/release/examples/trace_profile bedroom 350000 512x512 5 [sah|greedy] [auto,avx2]   # wall clock, best of 5
 //! ```
 //!
 //! Arguments: scene, triangles, size, timed repetitions (1 under callgrind), and the collapse
-//! of the 8-wide trees (default: the default collapse).
+//! of the 8-wide trees (default: the default collapse), and the box kernels to time in turn
+//! (default: auto).
 
 use antumbra_core::bvh::{build_binned_sah, BuildSettings, CollapseSettings, WideBvh};
 use antumbra_core::geometry::Ray;
@@ -23,16 +24,16 @@ use antumbra_core::trace::wide::{BoxKernel, OrderView, PreparedOrder, WideQuerie
 use antumbra_core::trace::{NoStats, ShadowOrder};
 
 #[inline(never)]
-fn trace_shadow(bvh: &WideBvh<8>, rays: &[Ray], order: OrderView) -> usize {
+fn trace_shadow(bvh: &WideBvh<8>, rays: &[Ray], order: OrderView, kernel: BoxKernel) -> usize {
     rays.iter()
-        .filter(|r| bvh.occluded(r, order, BoxKernel::Auto, &mut NoStats))
+        .filter(|r| bvh.occluded(r, order, kernel, &mut NoStats))
         .count()
 }
 
 #[inline(never)]
-fn trace_closest(bvh: &WideBvh<8>, rays: &[Ray]) -> usize {
+fn trace_closest(bvh: &WideBvh<8>, rays: &[Ray], kernel: BoxKernel) -> usize {
     rays.iter()
-        .filter(|r| bvh.closest_hit(r, BoxKernel::Auto, &mut NoStats).is_some())
+        .filter(|r| bvh.closest_hit(r, kernel, &mut NoStats).is_some())
         .count()
 }
 
@@ -87,7 +88,23 @@ fn main() -> anyhow::Result<()> {
     let w8 = WideBvh::<8>::collapse_with(&bvh, &collapse);
     let s8 = WideBvh::<8>::collapse_with(&shadow_bvh, &collapse);
     let order: ShadowOrder = "sorted".parse().expect("order");
-    let (mut shadow, mut occluded, mut shadow_ms) = (0, 0, 0.0);
+    // Box kernels to compare, timed in turn within each repetition so that load changes hit
+    // them alike (e.g. "auto,avx2": AVX-512 where present beside AVX2).
+    let kernels: Vec<BoxKernel> = args
+        .get(5)
+        .map_or("auto", |s| s.as_str())
+        .split(',')
+        .map(|k| match k {
+            "auto" => Ok(BoxKernel::Auto),
+            "avx2" => Ok(BoxKernel::Avx2),
+            "sse" => Ok(BoxKernel::Sse),
+            "scalar" => Ok(BoxKernel::Scalar),
+            _ => Err(anyhow::anyhow!(
+                "unknown kernel '{k}' (auto, avx2, sse, scalar)"
+            )),
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let mut lights = Vec::new();
     for (i, l) in scene
         .lights
         .iter()
@@ -103,21 +120,35 @@ fn main() -> anyhow::Result<()> {
         let rays = shadow_rays(&pass, &sampler, plan);
         let reps = representative_rays(&pass, &sampler, plan, 0.05);
         let prepared = PreparedOrder::new(&s8, &order, None, &reps, BoxKernel::Auto);
-        let (o, ms) = best_of(repeat, || trace_shadow(&s8, &rays, prepared.view()));
-        occluded += o;
-        shadow_ms += ms;
-        shadow += rays.len();
+        lights.push((rays, prepared));
     }
-    let (hits, closest_ms) = best_of(repeat, || trace_closest(&w8, &primary));
+    let shadow: usize = lights.iter().map(|(r, _)| r.len()).sum();
+    let mut best = vec![(f64::INFINITY, f64::INFINITY); kernels.len()];
+    let (mut occluded, mut hits) = (0, 0);
+    for _ in 0..repeat.max(1) {
+        for (k, &kernel) in kernels.iter().enumerate() {
+            let (o, shadow_ms) = best_of(1, || {
+                lights
+                    .iter()
+                    .map(|(rays, p)| trace_shadow(&s8, rays, p.view(), kernel))
+                    .sum::<usize>()
+            });
+            let (h, closest_ms) = best_of(1, || trace_closest(&w8, &primary, kernel));
+            (occluded, hits) = (o, h);
+            best[k] = (best[k].0.min(shadow_ms), best[k].1.min(closest_ms));
+        }
+    }
     println!(
         "{name} ({} collapse): {shadow} shadow rays ({occluded} occluded), {} camera rays ({hits} hit)",
         collapse.method,
         primary.len()
     );
-    println!(
-        "best of {repeat}: shadow {:.1} ns/ray, closest {:.1} ns/ray (one thread)",
-        shadow_ms * 1e6 / shadow.max(1) as f64,
-        closest_ms * 1e6 / primary.len().max(1) as f64
-    );
+    for (kernel, (shadow_ms, closest_ms)) in kernels.iter().zip(best) {
+        println!(
+            "{kernel:?} best of {repeat}: shadow {:.1} ns/ray, closest {:.1} ns/ray (one thread)",
+            shadow_ms * 1e6 / shadow.max(1) as f64,
+            closest_ms * 1e6 / primary.len().max(1) as f64
+        );
+    }
     Ok(())
 }

@@ -60,6 +60,10 @@ fn models() -> Vec<CollapseCost> {
     ]
 }
 
+fn greedy<const N: usize>(bvh: &Bvh) -> WideBvh<N> {
+    WideBvh::<N>::collapse_with(bvh, &CollapseSettings::new(CollapseMethod::Greedy))
+}
+
 fn sah<const N: usize>(bvh: &Bvh, cost: CollapseCost) -> WideBvh<N> {
     WideBvh::<N>::collapse_with(
         bvh,
@@ -71,7 +75,7 @@ fn sah<const N: usize>(bvh: &Bvh, cost: CollapseCost) -> WideBvh<N> {
 }
 
 fn check_not_costlier<const N: usize>(bvh: &Bvh) {
-    let greedy = WideBvh::<N>::collapse(bvh);
+    let greedy = greedy::<N>(bvh);
     greedy.validate().unwrap();
     for model in models() {
         let tree = sah::<N>(bvh, model);
@@ -107,7 +111,7 @@ fn sah_collapse_is_valid_and_never_costlier_than_greedy() {
 #[test]
 fn sah_collapse_fills_nodes_better_than_greedy() {
     let b = bvh(&scene(20_000, 9), 8);
-    let greedy = WideBvh::<8>::collapse(&b);
+    let greedy = greedy::<8>(&b);
     let tree = sah::<8>(&b, CollapseCost::default());
     assert!(
         tree.nodes.len() < greedy.nodes.len(),
@@ -121,7 +125,7 @@ fn sah_collapse_fills_nodes_better_than_greedy() {
 #[test]
 fn two_wide_sah_collapse_is_the_binary_tree() {
     let b = bvh(&scene(2000, 5), 4);
-    let greedy = WideBvh::<2>::collapse(&b);
+    let greedy = greedy::<2>(&b);
     let tree = sah::<2>(&b, CollapseCost::default());
     assert_eq!(tree.nodes, greedy.nodes);
     assert_eq!(tree.parent, greedy.parent);

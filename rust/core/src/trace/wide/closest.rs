@@ -100,13 +100,32 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
             }
             let mask = K::test(&wray, node, t_min, t_max + margin, &mut t_near);
             if mask != 0 {
-                let mut visit = [0u8; N];
-                let hits = near_to_far(mask, &t_near, &mut visit);
                 let e = |s: u8| Entry {
                     child: node.child[s as usize],
                     count: node.count[s as usize] as u32,
                     t_entry: t_near[s as usize],
                 };
+                // One or two children hit (most nodes) skip the general ordering loop.
+                let first = mask.trailing_zeros() as u8;
+                let rest = mask & (mask - 1);
+                if rest == 0 {
+                    current = e(first);
+                    continue;
+                }
+                if rest & (rest - 1) == 0 {
+                    // Two children: the nearer first, the lower slot on a tie (as near_to_far).
+                    let second = rest.trailing_zeros() as u8;
+                    let (near, far) = if t_near[first as usize] > t_near[second as usize] {
+                        (second, first)
+                    } else {
+                        (first, second)
+                    };
+                    stack.push(e(far));
+                    current = e(near);
+                    continue;
+                }
+                let mut visit = [0u8; N];
+                let hits = near_to_far(mask, &t_near, &mut visit);
                 for &s in visit[1..hits].iter().rev() {
                     stack.push(e(s));
                 }
