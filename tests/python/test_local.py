@@ -224,6 +224,27 @@ def test_osah_viability_rule_changes_work_not_masks(scene):
     assert antumbra.render_settings()["build_settings"]["osah_strict_viability"] is True
 
 
+def test_collapse_and_spatial_axes_change_work_not_masks(scene):
+    session, _ = scene
+    base = session.render(1, passes=["masks"])
+    work = {}
+    for collapse in ("sah", "greedy"):
+        r = session.render(1, passes=["masks"], width=8, collapse=collapse)
+        assert all(
+            np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True)
+        )
+        work[collapse] = r.stats[0]["bvh_nodes"]
+    # Different trees (fewer, fuller nodes with the SAH collapse), the same answers.
+    assert work["sah"] < work["greedy"]
+    r = session.render(1, passes=["masks"], build="sbvh", spatial_axes="all")
+    assert all(np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True))
+    settings = antumbra.render_settings(collapse="greedy", spatial_axes="all")
+    assert settings["collapse"] == "Greedy"
+    assert settings["build_settings"]["spatial_axes"] == "All"
+    default = antumbra.render_settings()
+    assert (default["collapse"], default["build_settings"]["spatial_axes"]) == ("Sah", "Object")
+
+
 def test_render_is_deterministic_and_reuses_bvhs(scene):
     session, _ = scene
     a = session.render(1, spp=4, seed=3)
@@ -517,6 +538,8 @@ def test_bad_containers(scene):
         ),
         ({"timing": "always"}, r"timing: expected one of"),
         ({"osah_viability": "loose"}, r"osah_viability: expected one of 'strict', 'paper'"),
+        ({"collapse": "lazy"}, r"collapse: expected one of 'sah', 'greedy'"),
+        ({"spatial_axes": "xy"}, r"spatial_axes: expected one of 'object', 'all'"),
         ({"timing": 1}, r"timing: expected True, False or 'only'"),
         ({"passes": ["masks", "shadows"]}, r"passes: unknown pass 'shadows'"),
         ({"progress": 3}, r"progress: expected a callable"),

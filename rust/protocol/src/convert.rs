@@ -8,7 +8,10 @@ use std::collections::HashMap;
 use std::hash::BuildHasher;
 use std::sync::Arc;
 
-use antumbra_core::bvh::{BuildMethod, BuildSettings, BvhWidth, SpatialSettings};
+use antumbra_core::bvh::{
+    BuildMethod, BuildSettings, BvhWidth, CollapseMethod, CollapseSettings, SpatialAxes,
+    SpatialSettings,
+};
 use antumbra_core::output::ImagePlane;
 use antumbra_core::render::{FrameResult, RenderSettings, StatsMode, VisibilitySource};
 use antumbra_core::scene::{
@@ -411,6 +414,14 @@ impl From<&RenderSettings> for RenderSettingsState {
                 spatial_max_growth: s.build_settings.spatial.max_growth,
                 osah_weight: s.build_settings.osah_weight,
                 osah_strict_viability: s.build_settings.osah_strict_viability,
+                spatial_axes: match s.build_settings.spatial.axes {
+                    SpatialAxes::Object => SpatialAxesState::Object,
+                    SpatialAxes::All => SpatialAxesState::All,
+                },
+            },
+            collapse: match s.collapse.method {
+                CollapseMethod::Sah => CollapseState::Sah,
+                CollapseMethod::Greedy => CollapseState::Greedy,
             },
             shadow_order: match s.shadow_order.binary() {
                 Some(AnyHitOrder::Stored) => ShadowOrderState::Stored,
@@ -450,6 +461,13 @@ impl Default for BuildSettingsState {
     }
 }
 
+fn spatial_axes(axes: SpatialAxesState) -> SpatialAxes {
+    match axes {
+        SpatialAxesState::Object => SpatialAxes::Object,
+        SpatialAxesState::All => SpatialAxes::All,
+    }
+}
+
 /// The core settings of a request, validated by [`RenderSettings::validate`].
 pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, ProtocolError> {
     let settings = RenderSettings {
@@ -472,7 +490,7 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
                 bins: s.build_settings.spatial_bins as usize,
                 alpha: s.build_settings.spatial_alpha,
                 max_growth: s.build_settings.spatial_max_growth,
-                ..SpatialSettings::default()
+                axes: spatial_axes(s.build_settings.spatial_axes),
             },
             osah_weight: s.build_settings.osah_weight,
             osah_strict_viability: s.build_settings.osah_strict_viability,
@@ -486,8 +504,10 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
             .into(),
         },
         width: BvhWidth::try_from(s.width)?,
-        // Not in the protocol: clients get the default collapse.
-        collapse: Default::default(),
+        collapse: CollapseSettings::new(match s.collapse {
+            CollapseState::Sah => CollapseMethod::Sah,
+            CollapseState::Greedy => CollapseMethod::Greedy,
+        }),
         stats: match s.stats {
             StatsModeState::Counts => StatsMode::Counts,
             StatsModeState::CountsAndTiming => StatsMode::CountsAndTiming,

@@ -263,6 +263,25 @@ pub struct RenderSettingsState {
     pub order: Option<String>,
     /// Added with the visibility-driven builds; older messages get `Previous`.
     pub visibility: VisibilitySourceState,
+    /// How widths 4 and 8 collapse the binary tree. Added later; omitted means the core
+    /// default (`Sah`). The cost model is the core's default.
+    pub collapse: CollapseState,
+}
+
+/// Mirrors [`antumbra_core::bvh::CollapseMethod`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum CollapseState {
+    #[default]
+    Sah,
+    Greedy,
+}
+
+/// Mirrors [`antumbra_core::bvh::SpatialAxes`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum SpatialAxesState {
+    #[default]
+    Object,
+    All,
 }
 
 /// Mirrors [`antumbra_core::render::VisibilitySource`].
@@ -304,6 +323,9 @@ pub struct BuildSettingsState {
     /// OSAH's viability rule: the hidden child must hold no visible reference (true, the core
     /// default) or the paper's condition (5) alone (false). Added later; omitted means true.
     pub osah_strict_viability: bool,
+    /// Axes binned for spatial splits: the best object split's (the core default) or all
+    /// three (SBVH as Stich et al.). Added later; omitted means `Object`.
+    pub spatial_axes: SpatialAxesState,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]

@@ -5,6 +5,7 @@ mod common;
 use std::collections::HashMap;
 use std::sync::Arc;
 
+use antumbra_core::bvh::{CollapseMethod, CollapseSettings, SpatialAxes};
 use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
 use antumbra_core::scene::{Mesh, Scene};
 use antumbra_protocol::bytes::{f32s_to_bytes, triangles_to_bytes, vec3s_to_bytes};
@@ -219,6 +220,23 @@ fn settings_round_trip_and_validate() {
     let paper_state = RenderSettingsState::from(&paper);
     assert!(!paper_state.build_settings.osah_strict_viability);
     assert_eq!(render_settings(&paper_state).unwrap(), paper);
+    // So do the collapse and the spatial-split axes (neither the default here).
+    let mut other = core.clone();
+    other.collapse = CollapseSettings::new(CollapseMethod::Greedy);
+    other.build_settings.spatial.axes = SpatialAxes::All;
+    let other_state = RenderSettingsState::from(&other);
+    assert_eq!(other_state.collapse, CollapseState::Greedy);
+    assert_eq!(
+        other_state.build_settings.spatial_axes,
+        SpatialAxesState::All
+    );
+    assert_eq!(render_settings(&other_state).unwrap(), other);
+    // An older client's settings (no collapse field) get the core default collapse.
+    assert_eq!(
+        RenderSettingsState::default().collapse,
+        CollapseState::Sah,
+        "the default collapse is SAH"
+    );
     assert_eq!(
         RenderSettings::try_from(&RenderSettingsState::default()).unwrap(),
         RenderSettings::default()

@@ -167,11 +167,21 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
                     spatial_max_growth: ic,
                     osah_weight: tc,
                     osah_strict_viability: b % 2 == 1,
+                    spatial_axes: if l % 2 == 1 {
+                        SpatialAxesState::All
+                    } else {
+                        SpatialAxesState::Object
+                    },
                 },
                 shadow_order: order,
                 stats,
                 width,
                 order: text,
+                collapse: if b % 3 == 0 {
+                    CollapseState::Greedy
+                } else {
+                    CollapseState::Sah
+                },
                 visibility: match l % 3 {
                     0 => VisibilitySourceState::Previous,
                     1 => VisibilitySourceState::Exact,
@@ -560,6 +570,7 @@ fn field_order_unknown_fields_and_defaults() {
         b.osah_strict_viability,
         "omitted viability rule is the core default"
     );
+    assert_eq!(b.spatial_axes, SpatialAxesState::Object);
     assert!(b.spatial_splits && b.spatial_bins == 32);
     assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);
     // A field added later (the object-id pass) takes its default when an older peer omits it.

@@ -6,9 +6,9 @@ use antumbra_core::render::VisibilitySource;
 use antumbra_core::scene::{Camera, Light, Resolution};
 use antumbra_protocol::{
     check_limits, render_settings, AreaShapeState, BuildMethodState, BuildSettingsState,
-    CameraState, FrameUpdate, LightKindState, LightState, Limits, ObjectState, Passes,
-    RenderSettingsState, Request, ResolutionState, SensorFitState, ShadowOrderState,
-    StatsModeState, VisibilitySourceState,
+    CameraState, CollapseState, FrameUpdate, LightKindState, LightState, Limits, ObjectState,
+    Passes, RenderSettingsState, Request, ResolutionState, SensorFitState, ShadowOrderState,
+    SpatialAxesState, StatsModeState, VisibilitySourceState,
 };
 use numpy::{PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyOverflowError;
@@ -581,6 +581,8 @@ pub fn render_settings_state(
     visibility: &str,
     osah_w: Option<f64>,
     osah_viability: Option<&str>,
+    collapse: Option<&str>,
+    spatial_axes: Option<&str>,
 ) -> ClientResult<RenderSettingsState> {
     let timing = if let Ok(b) = timing.cast::<PyBool>() {
         if b.is_true() {
@@ -638,7 +640,29 @@ pub fn render_settings_state(
                 None => BuildSettingsState::default().osah_strict_viability,
                 Some(v) => choice(v, "osah_viability", &[("strict", true), ("paper", false)])?,
             },
+            spatial_axes: match spatial_axes {
+                None => BuildSettingsState::default().spatial_axes,
+                Some(v) => choice(
+                    v,
+                    "spatial_axes",
+                    &[
+                        ("object", SpatialAxesState::Object),
+                        ("all", SpatialAxesState::All),
+                    ],
+                )?,
+            },
             ..BuildSettingsState::default()
+        },
+        collapse: match collapse {
+            None => RenderSettingsState::default().collapse,
+            Some(v) => choice(
+                v,
+                "collapse",
+                &[
+                    ("sah", CollapseState::Sah),
+                    ("greedy", CollapseState::Greedy),
+                ],
+            )?,
         },
         // The two orders older daemons know travel as `shadow_order`; every other order (the
         // `antumbra render --order` syntax) as text, checked by `render_settings` below.

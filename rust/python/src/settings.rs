@@ -19,7 +19,8 @@ pub struct RenderSettings {
 impl RenderSettings {
     #[new]
     #[pyo3(signature = (spp, seed, build, order, leaf_size, bins, traversal_cost,
-        intersection_cost, timing, width, visibility, osah_w = None, osah_viability = None))]
+        intersection_cost, timing, width, visibility, osah_w = None, osah_viability = None,
+        collapse = None, spatial_axes = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -36,6 +37,8 @@ impl RenderSettings {
         visibility: &str,
         osah_w: Option<f64>,
         osah_viability: Option<&str>,
+        collapse: Option<&str>,
+        spatial_axes: Option<&str>,
     ) -> PyResult<Self> {
         scene::render_settings_state(
             spp,
@@ -51,6 +54,8 @@ impl RenderSettings {
             visibility,
             osah_w,
             osah_viability,
+            collapse,
+            spatial_axes,
         )
         .map(|state| RenderSettings { state })
         .py_result(py)

@@ -1,7 +1,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::VisibilitySource;
-use crate::bvh::{BuildMethod, BuildSettings, BvhWidth, CollapseSettings};
+use crate::bvh::{BuildMethod, BuildSettings, BvhWidth, CollapseMethod, CollapseSettings};
 use crate::trace::ShadowOrder;
 use crate::{Error, Result};
 
@@ -112,13 +112,45 @@ impl RenderSettings {
         } else {
             self.build.name().to_string()
         };
-        format!("{build}/bin{}/{}", self.width, self.shadow_order)
+        // A non-default collapse of a wide tree is named, as `bench` does: sah/bin8:greedy/sato.
+        let collapse = if self.width.get() > 2 && self.collapse.method != CollapseMethod::default()
+        {
+            format!(":{}", self.collapse.method)
+        } else {
+            String::new()
+        };
+        format!("{build}/bin{}{collapse}/{}", self.width, self.shadow_order)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn method_names_say_a_non_default_collapse() {
+        let mut s = RenderSettings {
+            width: BvhWidth::Eight,
+            ..RenderSettings::default()
+        };
+        assert!(
+            s.method_name().starts_with("sah/bin8/"),
+            "{}",
+            s.method_name()
+        );
+        s.collapse = CollapseSettings::new(CollapseMethod::Greedy);
+        assert!(
+            s.method_name().starts_with("sah/bin8:greedy/"),
+            "{}",
+            s.method_name()
+        );
+        s.width = BvhWidth::Two;
+        assert!(
+            s.method_name().starts_with("sah/bin2/"),
+            "{}",
+            s.method_name()
+        );
+    }
 
     #[test]
     fn build_srdh_is_sah_with_the_srdh_order() {

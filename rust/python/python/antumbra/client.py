@@ -110,6 +110,8 @@ def render_settings(
     visibility: str = "previous",
     osah_w: float | None = None,
     osah_viability: str | None = None,
+    collapse: str | None = None,
+    spatial_axes: str | None = None,
     traversal_cost: float = 1.0,
     intersection_cost: float = 1.0,
 ) -> dict[str, Any]:
@@ -130,6 +132,8 @@ def render_settings(
             visibility,
             osah_w,
             osah_viability,
+            collapse,
+            spatial_axes,
         ).json()
     )
 
@@ -308,6 +312,8 @@ class _Session:
         visibility: str = "previous",
         osah_w: float | None = None,
         osah_viability: str | None = None,
+        collapse: str | None = None,
+        spatial_axes: str | None = None,
         traversal_cost: float = 1.0,
         intersection_cost: float = 1.0,
         timeout: float | None = None,
@@ -333,6 +339,10 @@ class _Session:
             osah_w: OSAH's weight of visible triangles, in (0, 1) (None: 0.9).
             osah_viability: which OSAH splits are taken: 'strict' (None; the hidden child holds
                 no visible triangle, measured better) or 'paper' (the paper's condition alone).
+            collapse: how widths 4 and 8 collapse the binary tree: 'sah' (None; SAH-optimal
+                slots and leaves) or 'greedy' (the largest child opened first).
+            spatial_axes: axes binned for spatial splits: 'object' (None; the best object
+                split's axis) or 'all' (SBVH as Stich et al.).
             leaf_size: most triangles per BVH leaf (1 to 64); bins: SAH bins (2 to 256).
             timing: False (exact work counters and heat maps), True (counters, then each pass
                 again without counters for Mrays/s) or 'only' (timings, no heat maps).
@@ -358,6 +368,8 @@ class _Session:
             visibility,
             osah_w,
             osah_viability,
+            collapse,
+            spatial_axes,
         )
         raw = self._native.render(frame, settings, passes, progress, timeout)
         return Result._from_native(dict(raw), passes)
