@@ -11,7 +11,7 @@ use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::wide::cost::{expected_cost, order_by_ratio};
 use antumbra_core::trace::wide::{BoxKernel, OrderView, PreparedOrder, WideQueries};
 use antumbra_core::trace::{
-    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, ShadowOrder,
+    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats, ShadowOrder,
     TraversalStats,
 };
 use glam::Vec3;
@@ -122,19 +122,31 @@ where
             )
         })
         .collect();
+    let mut missed_root = 0;
     for (i, ray) in rays.iter().enumerate() {
         let mut work = Vec::new();
         for k in KERNELS {
             let mut st = TraversalStats::default();
             let h = wide.closest_hit(ray, k, &mut st).map(|h| (h.triangle, h.t));
             assert_eq!(h, brute[i].0, "N={N} {k:?} closest, ray {i}: {ray:?}");
+            // The timed path (no counters) skips the root box test: the same answers.
+            let h = wide
+                .closest_hit(ray, k, &mut NoStats)
+                .map(|h| (h.triangle, h.t));
+            assert_eq!(
+                h, brute[i].0,
+                "N={N} {k:?} closest uncounted, ray {i}: {ray:?}"
+            );
             work.push(st);
         }
         assert!(
             work.windows(2).all(|w| w[0] == w[1]),
             "N={N} closest work {work:?}"
         );
+        missed_root += (work[0].inner == 0) as usize;
     }
+    // Some rays miss the root box, so the uncounted path's skipped root test is exercised.
+    assert!(missed_root > 0, "N={N}: no ray misses the root box");
     let mut occluded_rays = 0;
     for order in orders() {
         let prepared =
@@ -145,6 +157,8 @@ where
                 let mut st = TraversalStats::default();
                 let occ = wide.occluded(ray, prepared.view(), k, &mut st);
                 assert_eq!(occ, brute[i].1, "N={N} {order} {k:?}, ray {i}: {ray:?}");
+                let occ = wide.occluded(ray, prepared.view(), k, &mut NoStats);
+                assert_eq!(occ, brute[i].1, "N={N} {order} {k:?} uncounted, ray {i}");
                 work.push(st);
             }
             assert!(

@@ -32,9 +32,13 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
     let t_min = ray.t_min;
     let mut t_max = ray.t_max;
     let mut best: Option<Hit> = None;
-    stats.boxes(1);
-    let r = &bvh.root_bounds;
-    wray.pre.hit(r.min, r.max, t_min, t_max + margin)?;
+    // The root box only when counting (see `any_hit`: the root node's test rejects the same
+    // rays).
+    if C::COUNTING {
+        stats.boxes(1);
+        let r = &bvh.root_bounds;
+        wray.pre.hit(r.min, r.max, t_min, t_max + margin)?;
+    }
     let mut stack = Stack::<Entry>::new();
     let mut current = Entry::default();
     let mut t_near = [0f32; N];
