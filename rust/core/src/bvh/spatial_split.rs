@@ -239,22 +239,29 @@ impl Grid {
         for axis in (0..3).filter(|&a| self.axes[a]) {
             let bins = &mut all[axis * nb..(axis + 1) * nb];
             let lo = self.bounds.lo[axis];
-            let step = (self.bounds.hi[axis] - lo) / nb as f32;
+            let hi = self.bounds.hi[axis];
+            let step = (hi - lo) / nb as f32;
             let bin_of = |x: f32| (((x - lo) / step).max(0.0) as usize).min(nb - 1);
+            // `Grid::plane` with the step computed once per axis (the same arithmetic).
+            let plane = |i: usize| if i == nb { hi } else { lo + step * i as f32 };
             for r in refs {
-                let (b0, b1) = (
-                    bin_of(r.lo[axis]),
-                    bin_of(r.hi[axis]).max(bin_of(r.lo[axis])),
-                );
+                let b0 = bin_of(r.lo[axis]);
+                let b1 = bin_of(r.hi[axis]).max(b0);
                 let visible = vis.of(r) as u32;
                 if b0 == b1 {
                     bins[b0].bounds.grow_box(&r.bounds());
                 } else {
                     let tri = &triangles[r.id() as usize];
-                    let planes = (b0..=b1 + 1).map(|i| self.plane(axis, i));
-                    clipped_strips(tri, axis, planes, &r.bounds(), |j, part| {
-                        bins[b0 + j].bounds.grow_box(&part);
-                    });
+                    let strips = &mut bins[b0..=b1];
+                    clipped_strips(
+                        tri,
+                        axis,
+                        (b0..=b1 + 1).map(plane),
+                        &r.bounds(),
+                        |j, part| {
+                            strips[j].bounds.grow_box(&part);
+                        },
+                    );
                 }
                 bins[b0].enter += 1;
                 bins[b0].vis_enter += visible;
