@@ -166,7 +166,7 @@ impl Box4 {
     }
 }
 
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Bin {
     bounds: Box4,
     count: u32,
@@ -262,7 +262,7 @@ fn build_uncompacted(
         below,
         sizes: sizes_below,
     };
-    root_size[0] = ctx.build(refs, &mut root[0], slots, task, &mut Scratch::new());
+    root_size[0] = with_scratch(|scratch| ctx.build(refs, &mut root[0], slots, task, scratch));
     (nodes, sizes)
 }
 
@@ -341,7 +341,27 @@ type Bins3 = [AxisBins; 3];
 const _: () = assert!(MAX_BINS.is_power_of_two());
 
 fn new_bins() -> Box<Bins3> {
-    Box::new([[EMPTY_BIN; MAX_BINS]; 3])
+    vec![[EMPTY_BIN; MAX_BINS]; 3]
+        .into_boxed_slice()
+        .try_into()
+        .expect("three axes")
+}
+
+thread_local! {
+    /// A thread's spare [`Scratch`]: the split builders hand many small subtrees to this builder,
+    /// and a fresh 37 KB scratch per subtree cost more than the subtrees' binning.
+    static SPARE_SCRATCH: std::cell::Cell<Option<Box<Scratch>>> =
+        const { std::cell::Cell::new(None) };
+}
+
+/// Runs `f` with this thread's spare scratch (a new one if it is in use further up the stack).
+fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
+    let mut scratch = SPARE_SCRATCH
+        .take()
+        .unwrap_or_else(|| Box::new(Scratch::new()));
+    let result = f(&mut scratch);
+    SPARE_SCRATCH.set(Some(scratch));
+    result
 }
 
 /// Per-thread working memory, reused down the recursion so small nodes allocate nothing.
@@ -395,21 +415,28 @@ impl Binner {
     /// Bin indices on x, y, z (lane 3 is meaningless).
     #[inline(always)]
     fn bins(&self, c2: Vec4) -> [u32; 4] {
-        let f = ((c2 - self.lo) * self.scale).max(Vec4::ZERO).min(self.last);
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::*;
-            // SAFETY: SSE2 is part of the x86_64 baseline. Lanes are in [0, bins - 1] (NaN in
-            // the unused lane converts to i32::MIN, which is never read).
-            unsafe {
-                let v: __m128 = f.into();
-                std::mem::transmute::<__m128i, [u32; 4]>(_mm_cvttps_epi32(v))
-            }
+        bin_indices(c2, self.lo, self.scale, self.last)
+    }
+}
+
+/// `min(max((c2 - lo) * scale, 0), last)` truncated to integers, lane by lane: the bin indices
+/// of a doubled centroid `c2` (lanes whose `scale` is 0 get bin 0; lane 3 is meaningless).
+#[inline(always)]
+pub(crate) fn bin_indices(c2: Vec4, lo: Vec4, scale: Vec4, last: Vec4) -> [u32; 4] {
+    let f = ((c2 - lo) * scale).max(Vec4::ZERO).min(last);
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86_64 baseline. Lanes are in [0, last] (NaN in an
+        // unused lane converts to i32::MIN, which is never read).
+        unsafe {
+            let v: __m128 = f.into();
+            std::mem::transmute::<__m128i, [u32; 4]>(_mm_cvttps_epi32(v))
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            f.as_uvec4().to_array()
-        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        f.as_uvec4().to_array()
     }
 }
 
@@ -485,14 +512,9 @@ impl Context<'_> {
             rayon::join(
                 || self.build(left_refs, &mut left_node[0], left_slots, left_task, scratch),
                 || {
-                    let mut own = Scratch::new();
-                    self.build(
-                        right_refs,
-                        &mut right_node[0],
-                        right_slots,
-                        right_task,
-                        &mut own,
-                    )
+                    with_scratch(|own| {
+                        self.build(right_refs, &mut right_node[0], right_slots, right_task, own)
+                    })
                 },
             )
         } else {
