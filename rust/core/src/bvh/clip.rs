@@ -52,22 +52,17 @@ pub(super) fn clipped_strips(
 }
 
 /// A triangle prepared for clipping along one axis: the same arithmetic as [`plane_points`]
-/// and [`cut_back`] lane for lane and in the same order (so the same bits, signed zeros
-/// included), with the three edges' crossing tests and divisions in one 4-lane operation each
-/// and no branches per edge.
+/// and [`cut_back`] lane for lane (so the same bits), without per-plane indexing and 3-lane
+/// scalar code.
 struct Tri4 {
     /// Vertices (lane 3 zero).
     v: [Vec4; 3],
     /// Edge vectors `v[(i + 1) % 3] - v[i]`.
     d: [Vec4; 3],
-    /// Lane i: vertex i's coordinate on the axis (lane 3 zero).
-    ax: Vec4,
-    /// Lane i: vertex (i + 1) % 3's coordinate on the axis (lane 3 zero).
-    ax_next: Vec4,
+    /// Vertex coordinates on the axis.
+    ax: [f32; 3],
     axis: usize,
-    /// Lane `axis`.
-    is_axis: BVec4A,
-    /// Lane `axis` and lane 3 set: the lanes a plane point takes from the plane.
+    /// Lane `axis` and lane 3 set: the lanes a plane point takes from [`Tri4::on_plane`].
     fixed: BVec4A,
     /// The two lanes across the slab (neither `axis` nor lane 3).
     across: BVec4A,
@@ -82,10 +77,8 @@ impl Tri4 {
         Tri4 {
             v,
             d: [t[1] - t[0], t[2] - t[1], t[0] - t[2]].map(|e| e.extend(0.0)),
-            ax: Vec4::new(t[0][axis], t[1][axis], t[2][axis], 0.0),
-            ax_next: Vec4::new(t[1][axis], t[2][axis], t[0][axis], 0.0),
+            ax: [t[0][axis], t[1][axis], t[2][axis]],
             axis,
-            is_axis,
             fixed: is_axis | lane(3),
             across: !(is_axis | lane(3)),
         }
@@ -94,20 +87,19 @@ impl Tri4 {
     /// [`plane_points`].
     #[inline]
     fn plane_points(&self, plane: f32) -> Box4 {
-        let splat = Vec4::splat(plane);
-        let on_plane = Vec4::select(self.is_axis, splat, Vec4::ZERO);
-        let (da, dc) = (self.ax - splat, self.ax_next - splat);
-        let zero = Vec4::ZERO;
-        let crosses = (da.cmplt(zero) & dc.cmpgt(zero)) | (da.cmpgt(zero) & dc.cmplt(zero));
-        let mask = crosses.bitmask();
-        // Lanes of edges that do not cross may divide by zero; they are never used.
-        let t = (da / (da - dc)).to_array();
+        let on_plane = Vec4::select(
+            BVec4A::new(self.axis == 0, self.axis == 1, self.axis == 2, false),
+            Vec4::splat(plane),
+            Vec4::ZERO,
+        );
         let mut b = Box4::EMPTY;
         for i in 0..3 {
-            let p = Vec4::select(self.fixed, on_plane, self.v[i] + self.d[i] * t[i]);
-            let take = BVec4A::splat(mask & (1 << i) != 0);
-            b.lo = Vec4::select(take, b.lo.min(p), b.lo);
-            b.hi = Vec4::select(take, b.hi.max(p), b.hi);
+            let (da, dc) = (self.ax[i] - plane, self.ax[(i + 1) % 3] - plane);
+            if (da < 0.0 && dc > 0.0) || (da > 0.0 && dc < 0.0) {
+                let t = da / (da - dc);
+                let p = Vec4::select(self.fixed, on_plane, self.v[i] + self.d[i] * t);
+                b.grow(p, p);
+            }
         }
         b
     }
@@ -115,11 +107,10 @@ impl Tri4 {
     /// [`cut_back`].
     #[inline]
     fn cut_back(&self, mut b: Box4, lo: f32, hi: f32, within: &Box4) -> Box4 {
-        let inside = (self.ax.cmpge(Vec4::splat(lo)) & self.ax.cmple(Vec4::splat(hi))).bitmask();
         for i in 0..3 {
-            let take = BVec4A::splat(inside & (1 << i) != 0);
-            b.lo = Vec4::select(take, b.lo.min(self.v[i]), b.lo);
-            b.hi = Vec4::select(take, b.hi.max(self.v[i]), b.hi);
+            if (lo..=hi).contains(&self.ax[i]) {
+                b.grow(self.v[i], self.v[i]);
+            }
         }
         if b.lo.x > b.hi.x {
             return Box4::EMPTY;
