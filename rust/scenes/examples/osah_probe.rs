@@ -1,5 +1,5 @@
 //! Build-time probe (not part of the bench): builds one viewpoint's tree with a method, for
-//! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT [SPATIAL_AXES [SPLIT_ALPHA]]`
+//! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT [SPATIAL_AXES [SPLIT_ALPHA [CLIP_MIN_REFS]]]`
 use antumbra_core::bvh::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
 use antumbra_core::render::{visibility_flags, PrimaryPass, PrimaryRays};
 use antumbra_core::scene::{FrameGeometry, Resolution};
@@ -29,6 +29,9 @@ fn main() {
     }
     if let Some(alpha) = a.get(7) {
         settings.spatial.alpha = alpha.parse().unwrap();
+    }
+    if let Some(refs) = a.get(8) {
+        settings.spatial.clip_min_refs = refs.parse().unwrap();
     }
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
     let sah = build_binned_sah(&set.vertices, &settings);

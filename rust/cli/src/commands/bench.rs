@@ -131,6 +131,10 @@ pub struct BenchArgs {
     /// builder's).
     #[arg(long)]
     pub spatial_axes: Option<SpatialAxes>,
+    /// Nodes with fewer references than this bin spatial splits with cut reference boxes
+    /// instead of clipped triangles (with --methods; default: the builder's).
+    #[arg(long)]
+    pub clip_min_refs: Option<usize>,
     /// Spatial splits' overlap threshold alpha (with --methods; default: the builder's).
     #[arg(long)]
     pub split_alpha: Option<f32>,
@@ -227,6 +231,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 };
                 s.spatial.bins = args.spatial_bins.unwrap_or(s.spatial.bins);
                 s.spatial.axes = args.spatial_axes.unwrap_or(s.spatial.axes);
+                s.spatial.clip_min_refs = args.clip_min_refs.unwrap_or(s.spatial.clip_min_refs);
                 s.spatial.alpha = args.split_alpha.unwrap_or(s.spatial.alpha);
                 s.validate()?;
                 s

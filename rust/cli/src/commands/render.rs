@@ -118,6 +118,7 @@ impl MethodArgs {
                     alpha: self.split_alpha,
                     max_growth: self.max_growth,
                     axes: self.spatial_axes,
+                    ..SpatialSettings::default()
                 },
                 ..BuildSettings::default()
             },

@@ -166,7 +166,7 @@ impl Box4 {
     }
 }
 
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Bin {
     bounds: Box4,
     count: u32,
@@ -262,7 +262,7 @@ fn build_uncompacted(
         below,
         sizes: sizes_below,
     };
-    root_size[0] = ctx.build(refs, &mut root[0], slots, task, &mut Scratch::new());
+    root_size[0] = with_scratch(|scratch| ctx.build(refs, &mut root[0], slots, task, scratch));
     (nodes, sizes)
 }
 
@@ -331,16 +331,49 @@ struct Task {
     depth: usize,
 }
 
+/// One axis's bins: `MAX_BINS` of them, so a bin index (at most `MAX_BINS - 1`) masked to
+/// `MAX_BINS - 1` needs no bounds check; a node uses the first `nb`.
+type AxisBins = [Bin; MAX_BINS];
+
+/// The bins of the three axes.
+type Bins3 = [AxisBins; 3];
+
+const _: () = assert!(MAX_BINS.is_power_of_two());
+
+fn new_bins() -> Box<Bins3> {
+    vec![[EMPTY_BIN; MAX_BINS]; 3]
+        .into_boxed_slice()
+        .try_into()
+        .expect("three axes")
+}
+
+thread_local! {
+    /// A thread's spare [`Scratch`]: the split builders hand many small subtrees to this builder,
+    /// and a fresh 37 KB scratch per subtree cost more than the subtrees' binning.
+    static SPARE_SCRATCH: std::cell::Cell<Option<Box<Scratch>>> =
+        const { std::cell::Cell::new(None) };
+}
+
+/// Runs `f` with this thread's spare scratch (a new one if it is in use further up the stack).
+fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
+    let mut scratch = SPARE_SCRATCH
+        .take()
+        .unwrap_or_else(|| Box::new(Scratch::new()));
+    let result = f(&mut scratch);
+    SPARE_SCRATCH.set(Some(scratch));
+    result
+}
+
 /// Per-thread working memory, reused down the recursion so small nodes allocate nothing.
 struct Scratch {
-    bins: Vec<Bin>,
+    bins: Box<Bins3>,
     right_cost: Vec<f32>,
 }
 
 impl Scratch {
     fn new() -> Self {
         Scratch {
-            bins: vec![EMPTY_BIN; 3 * MAX_BINS],
+            bins: new_bins(),
             right_cost: vec![0.0; MAX_BINS],
         }
     }
@@ -382,21 +415,28 @@ impl Binner {
     /// Bin indices on x, y, z (lane 3 is meaningless).
     #[inline(always)]
     fn bins(&self, c2: Vec4) -> [u32; 4] {
-        let f = ((c2 - self.lo) * self.scale).max(Vec4::ZERO).min(self.last);
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::*;
-            // SAFETY: SSE2 is part of the x86_64 baseline. Lanes are in [0, bins - 1] (NaN in
-            // the unused lane converts to i32::MIN, which is never read).
-            unsafe {
-                let v: __m128 = f.into();
-                std::mem::transmute::<__m128i, [u32; 4]>(_mm_cvttps_epi32(v))
-            }
+        bin_indices(c2, self.lo, self.scale, self.last)
+    }
+}
+
+/// `min(max((c2 - lo) * scale, 0), last)` truncated to integers, lane by lane: the bin indices
+/// of a doubled centroid `c2` (lanes whose `scale` is 0 get bin 0; lane 3 is meaningless).
+#[inline(always)]
+pub(crate) fn bin_indices(c2: Vec4, lo: Vec4, scale: Vec4, last: Vec4) -> [u32; 4] {
+    let f = ((c2 - lo) * scale).max(Vec4::ZERO).min(last);
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86_64 baseline. Lanes are in [0, last] (NaN in an
+        // unused lane converts to i32::MIN, which is never read).
+        unsafe {
+            let v: __m128 = f.into();
+            std::mem::transmute::<__m128i, [u32; 4]>(_mm_cvttps_epi32(v))
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            f.as_uvec4().to_array()
-        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        f.as_uvec4().to_array()
     }
 }
 
@@ -472,14 +512,9 @@ impl Context<'_> {
             rayon::join(
                 || self.build(left_refs, &mut left_node[0], left_slots, left_task, scratch),
                 || {
-                    let mut own = Scratch::new();
-                    self.build(
-                        right_refs,
-                        &mut right_node[0],
-                        right_slots,
-                        right_task,
-                        &mut own,
-                    )
+                    with_scratch(|own| {
+                        self.build(right_refs, &mut right_node[0], right_slots, right_task, own)
+                    })
                 },
             )
         } else {
@@ -507,20 +542,19 @@ impl Context<'_> {
         }
         let binner = Binner::new(&task.centroids, nb);
         let Scratch { bins, right_cost } = scratch;
-        let bins = &mut bins[..3 * nb];
+        let bins: &mut Bins3 = bins;
         if refs.len() > PARALLEL_BINNING {
-            let merged = refs
+            *bins = *refs
                 .par_chunks(16384)
                 .map(|c| {
-                    let mut local = vec![EMPTY_BIN; 3 * nb];
-                    bin_refs(c, &binner, nb, &mut local);
+                    let mut local = new_bins();
+                    bin_refs(c, &binner, &mut local);
                     local
                 })
-                .reduce(|| vec![EMPTY_BIN; 3 * nb], merge_bins);
-            bins.copy_from_slice(&merged);
+                .reduce(new_bins, |a, b| merge_bins(a, &b, nb));
         } else {
-            bins.fill(EMPTY_BIN);
-            bin_refs(refs, &binner, nb, bins);
+            clear_bins(bins, nb);
+            bin_refs(refs, &binner, bins);
         }
         let parent_area = task.bounds.half_area().max(f32::MIN_POSITIVE);
         let s = self.settings;
@@ -529,7 +563,8 @@ impl Context<'_> {
             if extent[axis] <= 0.0 {
                 continue;
             }
-            let axis_bins = &bins[axis * nb..(axis + 1) * nb];
+            let axis_bins = &bins[axis][..nb];
+            let right_cost = &mut right_cost[..nb];
             // Sweep from the right: right_cost[i] = area x count of bins i..nb. An empty bin
             // changes nothing, so its value is copied rather than recomputed.
             let mut acc = Box4::EMPTY;
@@ -563,7 +598,7 @@ impl Context<'_> {
             }
         }
         let (axis, bin, cost) = best?;
-        let axis_bins = &bins[axis * nb..(axis + 1) * nb];
+        let axis_bins = &bins[axis][..nb];
         let mut left = Box4::EMPTY;
         let mut right = Box4::EMPTY;
         for (i, b) in axis_bins.iter().enumerate() {
@@ -584,21 +619,33 @@ impl Context<'_> {
     }
 }
 
-fn bin_refs(refs: &[PrimRef], binner: &Binner, nb: usize, bins: &mut [Bin]) {
+/// Empties the first `nb` bins of each axis.
+fn clear_bins(bins: &mut Bins3, nb: usize) {
+    for axis in bins.iter_mut() {
+        axis[..nb].fill(EMPTY_BIN);
+    }
+}
+
+/// Bins `refs` by centroid on all three axes into bins the caller has cleared.
+fn bin_refs(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
+    let [bx, by, bz] = bins;
     for r in refs {
-        let b = binner.bins(r.centroid2());
-        for (axis, &index) in b[..3].iter().enumerate() {
-            let bin = &mut bins[axis * nb + index as usize];
+        let [ix, iy, iz, _] = binner.bins(r.centroid2());
+        // The indices are at most nb - 1 < MAX_BINS: the masks only drop the bounds checks.
+        for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
+            let bin = &mut axis[i as usize & (MAX_BINS - 1)];
             bin.bounds.grow(r.lo, r.hi);
             bin.count += 1;
         }
     }
 }
 
-fn merge_bins(mut a: Vec<Bin>, b: Vec<Bin>) -> Vec<Bin> {
-    for (x, y) in a.iter_mut().zip(&b) {
-        x.bounds.grow_box(&y.bounds);
-        x.count += y.count;
+fn merge_bins(mut a: Box<Bins3>, b: &Bins3, nb: usize) -> Box<Bins3> {
+    for (xa, ya) in a.iter_mut().zip(b) {
+        for (x, y) in xa[..nb].iter_mut().zip(&ya[..nb]) {
+            x.bounds.grow_box(&y.bounds);
+            x.count += y.count;
+        }
     }
     a
 }

@@ -116,3 +116,6 @@ pub fn build_with_visibility(
         },
     }
 }
+
+#[cfg(test)]
+mod fingerprint_tests;

@@ -5,7 +5,7 @@
 use glam::Vec4;
 use rayon::prelude::*;
 
-use super::binned_sah::{Box4, PrimRef};
+use super::binned_sah::{bin_indices, Box4, PrimRef};
 use super::osah_cost::{CostModel, Sides, Visibility};
 
 /// Maps a doubled centroid to its bin on one axis.
@@ -143,16 +143,26 @@ fn bin_all(
     vis: Visibility,
 ) -> Vec<Bin> {
     let mut bins = vec![EMPTY_BIN; 3 * nb];
+    // All three axes' bins from one 4-lane computation (the same arithmetic as
+    // `CentroidBins::bin`); an axis without a mapper gets scale 0, so all its references land in
+    // its bin 0, which the sweep never reads.
+    let lane = |f: fn(&CentroidBins) -> f32| {
+        Vec4::from_array(std::array::from_fn(|a| {
+            mappers.get(a).copied().flatten().map_or(0.0, |m| f(&m))
+        }))
+    };
+    let (lo, scale) = (lane(|m| m.lo), lane(|m| m.scale));
+    let last = Vec4::splat((nb - 1) as f32);
+    let (bx, rest) = bins.split_at_mut(nb);
+    let (by, bz) = rest.split_at_mut(nb);
     for r in refs {
-        let c2 = r.centroid2();
+        let [ix, iy, iz, _] = bin_indices(r.centroid2(), lo, scale, last);
         let visible = vis.of(r) as u32;
-        for (axis, m) in mappers.iter().enumerate() {
-            if let Some(m) = m {
-                let b = &mut bins[axis * nb + m.bin(c2)];
-                b.bounds.grow(r.lo, r.hi);
-                b.count += 1;
-                b.visible += visible;
-            }
+        for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
+            let b = &mut axis[i as usize];
+            b.bounds.grow(r.lo, r.hi);
+            b.count += 1;
+            b.visible += visible;
         }
     }
     bins

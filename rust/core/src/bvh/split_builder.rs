@@ -224,6 +224,7 @@ impl Builder<'_> {
                 area,
                 s.spatial.bins,
                 axes,
+                refs.len() >= s.spatial.clip_min_refs,
                 &self.model,
                 osah,
             )

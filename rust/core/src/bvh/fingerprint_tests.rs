@@ -1,0 +1,115 @@
+//! Fingerprints of whole trees, recorded before the builders' inner loops were rewritten for
+//! speed (BENCHMARKS.md, issue 6, "Build speed, third round"): the rewrites must build the same
+//! trees bit for bit (node boxes, child layout, leaf ranges, triangle order).
+
+use glam::Vec3;
+
+use super::{build_with_visibility, BuildMethod, BuildSettings, SpatialAxes};
+
+/// 150k triangles of mixed sizes and orientations: enough for the parallel binning (more than
+/// 65536 references) and parallel subtrees, with long thin triangles that spatial splits cut.
+fn scene() -> Vec<[Vec3; 3]> {
+    (0..150_000u32)
+        .map(|i| {
+            let h = i.wrapping_mul(2654435761);
+            let g = h.rotate_left(13).wrapping_mul(40503);
+            let p = Vec3::new(
+                (h % 1000) as f32 * 0.37,
+                ((h >> 10) % 1000) as f32 * 0.21,
+                ((h >> 20) % 1000) as f32 * 0.53,
+            );
+            let s = 0.2 + (g % 97) as f32 * if i % 11 == 0 { 2.5 } else { 0.05 };
+            let u = Vec3::new(s, (g >> 8) as f32 % 3.0 - 1.0, ((g >> 16) % 5) as f32 * 0.1);
+            let v = Vec3::new(((g >> 4) % 7) as f32 * 0.1, s * 0.3, s * 0.7);
+            [p, p + u, p + v]
+        })
+        .collect()
+}
+
+/// FNV-1a over every node's bounds bits, first and count, then the triangle ids in leaf order.
+/// Panics unless a split builder's tree holds split (duplicated) references, so the
+/// fingerprints cover spatial binning and clipping.
+fn fingerprint(method: BuildMethod, settings: &BuildSettings) -> u64 {
+    let tris = scene();
+    let visible: Vec<bool> = (0..tris.len())
+        .map(|i| tris[i][0].x < 120.0 && i % 3 != 0)
+        .collect();
+    let bvh = build_with_visibility(method, &tris, Some(&visible), settings);
+    if method != BuildMethod::Sah {
+        assert!(
+            bvh.triangle_ids.len() > tris.len(),
+            "{method:?}: no spatial split"
+        );
+    }
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |x: u32| {
+        for b in x.to_le_bytes() {
+            h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for n in bvh.nodes.iter() {
+        let a = n.bounds();
+        for v in [a.min, a.max] {
+            for c in v.to_array() {
+                eat(c.to_bits());
+            }
+        }
+        eat(n.first);
+        eat(n.count);
+    }
+    for &id in &bvh.triangle_ids {
+        eat(id);
+    }
+    h
+}
+
+#[test]
+fn trees_are_unchanged_by_the_build_speed_rewrites() {
+    // Clipping in every node, as when the fingerprints were taken (`clip_min_refs` came later).
+    let mut s = BuildSettings::default();
+    s.spatial.clip_min_refs = 0;
+    let mut all = s;
+    all.spatial.axes = SpatialAxes::All;
+    let got = [
+        fingerprint(BuildMethod::Sah, &s),
+        fingerprint(BuildMethod::Sbvh, &s),
+        fingerprint(BuildMethod::Osah, &s),
+        fingerprint(BuildMethod::Sbvh, &all),
+    ];
+    assert_eq!(
+        got,
+        [
+            0x4d56_a07a_d1dc_7b32,
+            0x29b0_2e3c_0527_ded2,
+            0x7a76_357f_4083_fae0,
+            0xa7ee_8382_4432_a650,
+        ],
+        "{got:#x?}"
+    );
+}
+
+#[test]
+fn cut_box_binning_below_the_top_nodes_keeps_the_sah_cost() {
+    // The default bins spatial splits with cut reference boxes below 65536 references; on this
+    // scene (150k references, so only the top nodes clip) the trees' SAH cost must stay within
+    // 1% of clipping everywhere, for SBVH and OSAH.
+    let tris = scene();
+    let visible: Vec<bool> = (0..tris.len())
+        .map(|i| tris[i][0].x < 120.0 && i % 3 != 0)
+        .collect();
+    let default = BuildSettings::default();
+    assert!(default.spatial.clip_min_refs > 1000);
+    let mut clip_all = default;
+    clip_all.spatial.clip_min_refs = 0;
+    for method in [BuildMethod::Sbvh, BuildMethod::Osah] {
+        let cost = |s: &BuildSettings| {
+            let bvh = build_with_visibility(method, &tris, Some(&visible), s);
+            bvh.sah_cost(1.0, 1.0)
+        };
+        let (cut, clipped) = (cost(&default), cost(&clip_all));
+        assert!(
+            (cut / clipped - 1.0).abs() < 0.01,
+            "{method:?}: SAH cost {cut} with cut boxes, {clipped} clipping everywhere"
+        );
+    }
+}
