@@ -491,6 +491,7 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
                 alpha: s.build_settings.spatial_alpha,
                 max_growth: s.build_settings.spatial_max_growth,
                 axes: spatial_axes(s.build_settings.spatial_axes),
+                ..SpatialSettings::default()
             },
             osah_weight: s.build_settings.osah_weight,
             osah_strict_viability: s.build_settings.osah_strict_viability,
