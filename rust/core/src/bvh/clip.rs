@@ -120,18 +120,7 @@ impl Tri4 {
             b.lo.abs().max(b.hi.abs()) * (4.0 * f32::EPSILON),
             Vec4::ZERO,
         );
-        let axis = self.axis;
-        let mut lo4 = (b.lo - pad).max(within.lo);
-        let mut hi4 = (b.hi + pad).min(within.hi);
-        lo4[axis] = lo4[axis].max(lo);
-        hi4[axis] = hi4[axis].min(hi);
-        if lo4.truncate().cmpgt(hi4.truncate()).any() {
-            return Box4::EMPTY;
-        }
-        Box4 {
-            lo: lo4 * Vec4::new(1.0, 1.0, 1.0, 0.0),
-            hi: hi4 * Vec4::new(1.0, 1.0, 1.0, 0.0),
-        }
+        padded_within_slab(b, pad, self.axis, lo, hi, within)
     }
 }
 
@@ -178,6 +167,13 @@ fn cut_back(
     let pad = (b.lo.abs().max(b.hi.abs()) * (4.0 * f32::EPSILON)).truncate();
     let mut pad = pad.extend(0.0);
     pad[axis] = 0.0;
+    padded_within_slab(b, pad, axis, lo, hi, within)
+}
+
+/// `b` widened by `pad`, cut back to `within` and to the slab `lo..=hi` on `axis`; empty if
+/// nothing is left. The last lane is zeroed.
+#[inline(always)]
+fn padded_within_slab(b: Box4, pad: Vec4, axis: usize, lo: f32, hi: f32, within: &Box4) -> Box4 {
     let mut lo4 = (b.lo - pad).max(within.lo);
     let mut hi4 = (b.hi + pad).min(within.hi);
     lo4[axis] = lo4[axis].max(lo);

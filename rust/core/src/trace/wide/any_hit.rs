@@ -2,7 +2,7 @@
 
 use super::boxes::{ChildBoxTest, WideRay};
 use super::leaf::{first_hit, LeafLanes};
-use super::order::OrderView;
+use super::order::{OrderView, Permutation};
 use super::stack::Stack;
 use crate::bvh::WideBvh;
 use crate::geometry::{intersect_triangle, Ray, WatertightRay};
@@ -125,22 +125,40 @@ fn second_goes_first<const N: usize>(
     t_near: &[f32; N],
     order: OrderView,
 ) -> bool {
-    let fbto = match order {
-        OrderView::Stored => false,
-        OrderView::FrontToBack => true,
+    match node_order(node, order) {
+        NodeOrder::Permuted(p) => p.rank(b as usize) < p.rank(a as usize),
+        NodeOrder::Slots => false,
+        // Ties by slot: insertion moves `b` ahead only when strictly nearer.
+        NodeOrder::FrontToBack => t_near[a as usize] > t_near[b as usize],
+    }
+}
+
+/// How one node orders the children a ray hits.
+enum NodeOrder {
+    Permuted(Permutation),
+    Slots,
+    FrontToBack,
+}
+
+#[inline(always)]
+fn node_order(node: usize, order: OrderView) -> NodeOrder {
+    match order {
+        OrderView::Stored => NodeOrder::Slots,
+        OrderView::FrontToBack => NodeOrder::FrontToBack,
         OrderView::Permuted {
             perms,
             fallback_fbto,
         } => {
             let p = perms[node];
             if p.is_present() {
-                return p.rank(b as usize) < p.rank(a as usize);
+                NodeOrder::Permuted(p)
+            } else if fallback_fbto {
+                NodeOrder::FrontToBack
+            } else {
+                NodeOrder::Slots
             }
-            fallback_fbto
         }
-    };
-    // Front to back, ties by slot: insertion moves `b` ahead only when strictly nearer.
-    fbto && t_near[a as usize] > t_near[b as usize]
+    }
 }
 
 /// Writes the slots of `mask` in visiting order to `out`; returns how many.
@@ -152,38 +170,31 @@ fn ordered_hits<const N: usize>(
     order: OrderView,
     out: &mut [u8; N],
 ) -> usize {
-    let fbto = match order {
-        OrderView::Stored => false,
-        OrderView::FrontToBack => true,
-        OrderView::Permuted {
-            perms,
-            fallback_fbto,
-        } => {
-            let p = perms[node];
-            if p.is_present() {
-                // Place each hit slot at its rank, then read the ranks in order: work in the
-                // number of children hit, not in N.
-                let mut by_rank = [0u8; 8];
-                let mut ranks = 0u32;
-                let mut m = mask;
-                while m != 0 {
-                    let s = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    let r = p.rank(s);
-                    // Permutations list every used slot, and only used slots are hit.
-                    debug_assert!(ranks & (1 << r) == 0, "slot {s} not in the permutation");
-                    by_rank[r] = s as u8;
-                    ranks |= 1 << r;
-                }
-                let mut n = 0;
-                while ranks != 0 {
-                    out[n] = by_rank[ranks.trailing_zeros() as usize];
-                    ranks &= ranks - 1;
-                    n += 1;
-                }
-                return n;
+    let fbto = match node_order(node, order) {
+        NodeOrder::Slots => false,
+        NodeOrder::FrontToBack => true,
+        NodeOrder::Permuted(p) => {
+            // Place each hit slot at its rank, then read the ranks in order: work in the
+            // number of children hit, not in N.
+            let mut by_rank = [0u8; 8];
+            let mut ranks = 0u32;
+            let mut m = mask;
+            while m != 0 {
+                let s = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let r = p.rank(s);
+                // Permutations list every used slot, and only used slots are hit.
+                debug_assert!(ranks & (1 << r) == 0, "slot {s} not in the permutation");
+                by_rank[r] = s as u8;
+                ranks |= 1 << r;
             }
-            fallback_fbto
+            let mut n = 0;
+            while ranks != 0 {
+                out[n] = by_rank[ranks.trailing_zeros() as usize];
+                ranks &= ranks - 1;
+                n += 1;
+            }
+            return n;
         }
     };
     let mut n = 0;
