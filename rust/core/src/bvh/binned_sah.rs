@@ -113,6 +113,15 @@ impl PrimRef {
             hi: b.hi.truncate().extend(0.0),
         }
     }
+    /// A reference to the whole of triangle `id`.
+    #[inline]
+    pub(crate) fn of_triangle(id: u32, triangle: &[Vec3; 3]) -> Self {
+        let b = Aabb::of_triangle(triangle);
+        PrimRef {
+            lo: b.min.extend(f32::from_bits(id)),
+            hi: b.max.extend(0.0),
+        }
+    }
     #[inline]
     pub(crate) fn id(&self) -> u32 {
         self.lo.w.to_bits()
@@ -193,13 +202,7 @@ pub fn build_binned_sah(triangles: &[[Vec3; 3]], settings: &BuildSettings) -> Bv
     let mut refs: Vec<PrimRef> = triangles
         .par_iter()
         .enumerate()
-        .map(|(i, t)| {
-            let b = Aabb::of_triangle(t);
-            PrimRef {
-                lo: b.min.extend(f32::from_bits(i as u32)),
-                hi: b.max.extend(0.0),
-            }
-        })
+        .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
         .collect();
     let mut bvh = build_from_refs(&mut refs, settings);
     bvh.triangles = refs
@@ -797,16 +800,7 @@ mod tests {
             let mut refs: Vec<PrimRef> = tris
                 .iter()
                 .enumerate()
-                .map(|(i, t)| {
-                    let b = Aabb::of_triangle(t);
-                    PrimRef::new(
-                        i as u32,
-                        Box4 {
-                            lo: b.min.extend(0.0),
-                            hi: b.max.extend(0.0),
-                        },
-                    )
-                })
+                .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
                 .collect();
             let (nodes, sizes) = build_uncompacted(&mut refs, &BuildSettings::default(), 0);
             assert_eq!(compact(&nodes, &sizes), compact_serial(&nodes));

@@ -239,16 +239,7 @@ pub(crate) mod tests {
     pub(crate) fn refs_of(tris: &[[Vec3; 3]]) -> Vec<PrimRef> {
         tris.iter()
             .enumerate()
-            .map(|(i, t)| {
-                let b = crate::geometry::Aabb::of_triangle(t);
-                PrimRef::new(
-                    i as u32,
-                    Box4 {
-                        lo: b.min.extend(0.0),
-                        hi: b.max.extend(0.0),
-                    },
-                )
-            })
+            .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
             .collect()
     }
 

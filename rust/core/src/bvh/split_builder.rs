@@ -17,7 +17,6 @@ use super::node::{Bvh, BvhNode, NodeArray};
 use super::object_split::{best_object_splits, median_split, partition_object};
 use super::osah_cost::{osah_viable, CostModel, Sides, Visibility};
 use super::spatial_split::{best_spatial_splits, partition_spatial, SpatialAxes, Unsplit};
-use crate::geometry::Aabb;
 
 /// Where a builder may use spatial splits and visibility-driven splits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -48,16 +47,7 @@ pub(super) fn build_split_bvh(
     let refs: Vec<PrimRef> = triangles
         .par_iter()
         .enumerate()
-        .map(|(i, t)| {
-            let b = Aabb::of_triangle(t);
-            PrimRef::new(
-                i as u32,
-                Box4 {
-                    lo: b.min.extend(0.0),
-                    hi: b.max.extend(0.0),
-                },
-            )
-        })
+        .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
         .collect();
     let (bounds, _) = bounds_of(&refs);
     let builder = Builder {
