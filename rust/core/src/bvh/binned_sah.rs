@@ -435,12 +435,18 @@ impl Binner {
 /// of a doubled centroid `c2` (lanes whose `scale` is 0 get bin 0; lane 3 is meaningless).
 #[inline(always)]
 pub(crate) fn bin_indices(c2: Vec4, lo: Vec4, scale: Vec4, last: Vec4) -> [u32; 4] {
-    let f = ((c2 - lo) * scale).max(Vec4::ZERO).min(last);
+    truncate_lanes(((c2 - lo) * scale).max(Vec4::ZERO).min(last))
+}
+
+/// `f` truncated to integers lane by lane, for lanes in `[0, 2^31)` (what `as u32` gives
+/// there); other lanes get unspecified values.
+#[inline(always)]
+pub(crate) fn truncate_lanes(f: Vec4) -> [u32; 4] {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::*;
-        // SAFETY: SSE2 is part of the x86_64 baseline. Lanes are in [0, last] (NaN in an
-        // unused lane converts to i32::MIN, which is never read).
+        // SAFETY: SSE2 is part of the x86_64 baseline. Lanes out of range (NaN, or values
+        // past i32::MAX) convert to i32::MIN; callers only read lanes in range.
         unsafe {
             let v: __m128 = f.into();
             std::mem::transmute::<__m128i, [u32; 4]>(_mm_cvttps_epi32(v))

@@ -3,12 +3,12 @@
 //! its clipped part. Candidates are binned on the node's bounds (entry/exit counters per bin);
 //! a straddling reference is "unsplit" into one child when that is cheaper than duplicating it.
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::binned_sah::{Box4, PrimRef};
-use super::clip::{clipped_box, clipped_strips};
+use super::binned_sah::{truncate_lanes, Box4, PrimRef};
+use super::clip::{axis_lane, clipped_box, clipped_strips, cut_to_slab};
 use super::osah_cost::{CostModel, Sides, Visibility};
 
 /// Settings of spatial splits.
@@ -251,27 +251,35 @@ impl Grid {
     fn bin(&self, refs: &[PrimRef], triangles: &[[Vec3; 3]], vis: Visibility) -> Vec<Bin> {
         let nb = self.nb;
         let mut all = vec![EMPTY_BIN; 3 * nb];
-        for axis in (0..3).filter(|&a| self.axes[a]) {
-            let bins = &mut all[axis * nb..(axis + 1) * nb];
-            let lo = self.bounds.lo[axis];
-            let hi = self.bounds.hi[axis];
-            let step = (hi - lo) / nb as f32;
-            let bin_of = |x: f32| (((x - lo) / step).max(0.0) as usize).min(nb - 1);
-            // `Grid::plane` with the step computed once per axis (the same arithmetic).
-            let plane = |i: usize| if i == nb { hi } else { lo + step * i as f32 };
-            for r in refs {
-                let b0 = bin_of(r.lo[axis]);
-                let b1 = bin_of(r.hi[axis]).max(b0);
-                let visible = vis.of(r) as u32;
+        let axes: Vec<usize> = (0..3).filter(|&a| self.axes[a]).collect();
+        // Per axis, the arithmetic of the scalar mapping `((x - lo) / step).max(0)` clamped to
+        // the last bin, and of `Grid::plane`, in 4 lanes (lane 3 is unused): one division
+        // gives a reference's low bins on every axis, one more its high bins.
+        let lo = self.bounds.lo.truncate().extend(0.0);
+        let step = ((self.bounds.hi - self.bounds.lo) / nb as f32)
+            .truncate()
+            .extend(1.0);
+        let last = Vec4::splat((nb - 1) as f32);
+        let planes: Vec<Vec<f32>> = (0..3)
+            .map(|axis| (0..=nb).map(|i| self.plane(axis, i)).collect())
+            .collect();
+        let on_axis = [0, 1, 2].map(axis_lane);
+        for r in refs {
+            let first = truncate_lanes(((r.lo - lo) / step).max(Vec4::ZERO).min(last));
+            let final_ = truncate_lanes(((r.hi - lo) / step).max(Vec4::ZERO).min(last));
+            let visible = vis.of(r) as u32;
+            for &axis in &axes {
+                let bins = &mut all[axis * nb..(axis + 1) * nb];
+                let plane = &planes[axis];
+                let b0 = first[axis] as usize;
+                let b1 = (final_[axis] as usize).max(b0);
                 if b0 == b1 {
                     bins[b0].bounds.grow_box(&r.bounds());
                 } else if !self.clip {
                     let rb = r.bounds();
-                    for (j, bin) in bins[b0..=b1].iter_mut().enumerate() {
-                        let mut part = rb;
-                        part.lo[axis] = part.lo[axis].max(plane(b0 + j));
-                        part.hi[axis] = part.hi[axis].min(plane(b0 + j + 1));
-                        bin.bounds.grow_box(&part);
+                    for (bin, slab) in bins[b0..=b1].iter_mut().zip(plane[b0..=b1 + 1].windows(2)) {
+                        let (lo, hi) = cut_to_slab(rb.lo, rb.hi, on_axis[axis], slab[0], slab[1]);
+                        bin.bounds.grow(lo, hi);
                     }
                 } else {
                     let tri = &triangles[r.id() as usize];
@@ -279,7 +287,7 @@ impl Grid {
                     clipped_strips(
                         tri,
                         axis,
-                        (b0..=b1 + 1).map(plane),
+                        plane[b0..=b1 + 1].iter().copied(),
                         &r.bounds(),
                         |j, part| {
                             strips[j].bounds.grow_box(&part);
