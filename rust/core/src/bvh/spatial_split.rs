@@ -173,32 +173,7 @@ pub(super) fn best_spatial_splits(
     let mut best: [Option<(SpatialSplit, f32)>; 2] = [None, None];
     let mut right = vec![(Box4::EMPTY, 0u32, 0u32); nb];
     for axis in (0..3).filter(|&a| axes[a]) {
-        let bins = &bins[axis * nb..(axis + 1) * nb];
-        let mut acc = (Box4::EMPTY, 0u32, 0u32);
-        for i in (1..nb).rev() {
-            acc.0.grow_box(&bins[i].bounds);
-            acc.1 += bins[i].exit;
-            acc.2 += bins[i].vis_exit;
-            right[i] = acc;
-        }
-        let mut left = (Box4::EMPTY, 0u32, 0u32);
-        for i in 1..nb {
-            let b = &bins[i - 1];
-            left.0.grow_box(&b.bounds);
-            left.1 += b.enter;
-            left.2 += b.vis_enter;
-            let (n_left, n_right) = (left.1, right[i].1);
-            if n_left == 0 || n_right == 0 || n_left >= n || n_right >= n {
-                continue;
-            }
-            let sides = Sides {
-                left: left.0,
-                right: right[i].0,
-                n_left,
-                n_right,
-                vis_left: left.2,
-                vis_right: right[i].2,
-            };
+        grid.sweep(&bins, axis, n, &mut right, |i, sides| {
             let split = SpatialSplit {
                 axis,
                 position: grid.plane(axis, i),
@@ -214,7 +189,7 @@ pub(super) fn best_spatial_splits(
                     best[1] = Some((split, c));
                 }
             }
-        }
+        });
     }
     best
 }
@@ -245,25 +220,86 @@ impl Grid {
         }
     }
 
+    /// Hands `f(i, sides)` the two sides of every plane `i` (1..nb) on `axis` that leaves
+    /// references of the node's `n` on both sides, from `all` as [`Grid::bin`] made it.
+    /// `right` is scratch of `nb` entries.
+    fn sweep(
+        &self,
+        all: &[Bin],
+        axis: usize,
+        n: u32,
+        right: &mut [(Box4, u32, u32)],
+        mut f: impl FnMut(usize, Sides),
+    ) {
+        let nb = self.nb;
+        let bins = &all[axis * nb..(axis + 1) * nb];
+        let on_axis = axis_lane(axis);
+        let mut acc = (Box4::EMPTY, 0u32, 0u32);
+        for i in (1..nb).rev() {
+            acc.0.grow_box(&bins[i].bounds);
+            acc.1 += bins[i].exit;
+            acc.2 += bins[i].vis_exit;
+            right[i] = acc;
+        }
+        let mut left = (Box4::EMPTY, 0u32, 0u32);
+        for i in 1..nb {
+            let b = &bins[i - 1];
+            left.0.grow_box(&b.bounds);
+            left.1 += b.enter;
+            left.2 += b.vis_enter;
+            let (n_left, n_right) = (left.1, right[i].1);
+            if n_left == 0 || n_right == 0 || n_left >= n || n_right >= n {
+                continue;
+            }
+            let (left_box, right_box) = if self.clip {
+                (left.0, right[i].0)
+            } else {
+                // Cut boxes: a straddling reference's whole box sits in its first and last
+                // bin (see `Grid::bin`), so each side is cut at the plane, which leaves on
+                // the side the union of that reference's cuts to the bins it spans there.
+                let p = self.plane(axis, i);
+                let l = cut_to_slab(left.0.lo, left.0.hi, on_axis, f32::NEG_INFINITY, p);
+                let r = cut_to_slab(right[i].0.lo, right[i].0.hi, on_axis, p, f32::INFINITY);
+                (Box4 { lo: l.0, hi: l.1 }, Box4 { lo: r.0, hi: r.1 })
+            };
+            f(
+                i,
+                Sides {
+                    left: left_box,
+                    right: right_box,
+                    n_left,
+                    n_right,
+                    vis_left: left.2,
+                    vis_right: right[i].2,
+                },
+            );
+        }
+    }
+
     /// Bins `refs` on every flagged axis (axis a's bins at `a * nb..`): each reference enters
-    /// the bin of its low end and exits the bin of its high end, and the tight box of its part
-    /// in each bin it spans grows that bin.
+    /// the bin of its low end and exits the bin of its high end. With clipping, the tight box
+    /// of its part in each bin it spans grows that bin; with cut boxes, its whole box grows
+    /// its first and last bin, and [`Grid::sweep`] cuts the sides.
     fn bin(&self, refs: &[PrimRef], triangles: &[[Vec3; 3]], vis: Visibility) -> Vec<Bin> {
         let nb = self.nb;
         let mut all = vec![EMPTY_BIN; 3 * nb];
         let axes: Vec<usize> = (0..3).filter(|&a| self.axes[a]).collect();
-        // Per axis, the arithmetic of the scalar mapping `((x - lo) / step).max(0)` clamped to
-        // the last bin, and of `Grid::plane`, in 4 lanes (lane 3 is unused): one division
-        // gives a reference's low bins on every axis, one more its high bins.
+        // Per axis, the scalar mapping `((x - lo) / step).max(0)` clamped to the last bin, in
+        // 4 lanes (lane 3 is unused) with the same arithmetic: one division gives a
+        // reference's low bins on every axis, one more its high bins.
         let lo = self.bounds.lo.truncate().extend(0.0);
         let step = ((self.bounds.hi - self.bounds.lo) / nb as f32)
             .truncate()
             .extend(1.0);
         let last = Vec4::splat((nb - 1) as f32);
-        let planes: Vec<Vec<f32>> = (0..3)
-            .map(|axis| (0..=nb).map(|i| self.plane(axis, i)).collect())
-            .collect();
-        let on_axis = [0, 1, 2].map(axis_lane);
+        // Clipping's planes on the flagged axes (cut boxes need none).
+        let planes: [Vec<f32>; 3] = std::array::from_fn(|axis| {
+            if self.clip && self.axes[axis] {
+                (0..=nb).map(|i| self.plane(axis, i)).collect()
+            } else {
+                Vec::new()
+            }
+        });
         for r in refs {
             let first = truncate_lanes(((r.lo - lo) / step).max(Vec4::ZERO).min(last));
             let final_ = truncate_lanes(((r.hi - lo) / step).max(Vec4::ZERO).min(last));
@@ -276,11 +312,12 @@ impl Grid {
                 if b0 == b1 {
                     bins[b0].bounds.grow_box(&r.bounds());
                 } else if !self.clip {
-                    let rb = r.bounds();
-                    for (bin, slab) in bins[b0..=b1].iter_mut().zip(plane[b0..=b1 + 1].windows(2)) {
-                        let (lo, hi) = cut_to_slab(rb.lo, rb.hi, on_axis[axis], slab[0], slab[1]);
-                        bin.bounds.grow(lo, hi);
-                    }
+                    // The whole box into its first and last bin only: the sweeps of
+                    // `best_spatial_splits` cut each side at its boundary plane, which gives
+                    // the sides the union of the box's cuts to every bin it spans, in two
+                    // updates instead of one per bin.
+                    bins[b0].bounds.grow_box(&r.bounds());
+                    bins[b1].bounds.grow_box(&r.bounds());
                 } else {
                     let tri = &triangles[r.id() as usize];
                     let strips = &mut bins[b0..=b1];
@@ -426,10 +463,65 @@ mod tests {
         }
     }
 
+    /// The sides of every plane on every axis.
+    fn all_sides(grid: &Grid, refs: &[PrimRef], tris: &[[Vec3; 3]], vis: Visibility) -> Vec<Sides> {
+        let bins = grid.bin(refs, tris, vis);
+        let mut right = vec![(Box4::EMPTY, 0, 0); grid.nb];
+        let mut out = Vec::new();
+        for axis in 0..3 {
+            grid.sweep(&bins, axis, refs.len() as u32, &mut right, |_, s| {
+                out.push(s)
+            });
+        }
+        out
+    }
+
+    /// The cut-box estimate as first written: a straddling reference's box cut to every bin
+    /// it spans, swept without cutting the sides.
+    fn sides_of_cuts_per_bin(grid: &Grid, refs: &[PrimRef], vis: Visibility) -> Vec<Sides> {
+        let nb = grid.nb;
+        let mut bins = vec![EMPTY_BIN; 3 * nb];
+        for axis in 0..3 {
+            let bins = &mut bins[axis * nb..(axis + 1) * nb];
+            let (lo, hi) = (grid.bounds.lo[axis], grid.bounds.hi[axis]);
+            let step = (hi - lo) / nb as f32;
+            let bin_of = |x: f32| (((x - lo) / step).max(0.0) as usize).min(nb - 1);
+            for r in refs {
+                let (b0, b1) = (bin_of(r.lo[axis]), bin_of(r.hi[axis]));
+                let b1 = b1.max(b0);
+                for (j, bin) in bins[b0..=b1].iter_mut().enumerate() {
+                    let mut part = r.bounds();
+                    part.lo[axis] = part.lo[axis].max(grid.plane(axis, b0 + j));
+                    part.hi[axis] = part.hi[axis].min(grid.plane(axis, b0 + j + 1));
+                    bin.bounds.grow_box(&part);
+                }
+                let v = vis.of(r) as u32;
+                bins[b0].enter += 1;
+                bins[b0].vis_enter += v;
+                bins[b1].exit += 1;
+                bins[b1].vis_exit += v;
+            }
+        }
+        let clipped_grid = Grid {
+            clip: true,
+            ..*grid
+        };
+        let mut right = vec![(Box4::EMPTY, 0, 0); nb];
+        let mut out = Vec::new();
+        for axis in 0..3 {
+            // `clip: true` sweeps without cutting the sides, as the first version did.
+            clipped_grid.sweep(&bins, axis, refs.len() as u32, &mut right, |_, s| {
+                out.push(s)
+            });
+        }
+        out
+    }
+
     #[test]
     fn cut_boxes_bound_clipped_boxes_with_the_same_counts() {
         // Binning without clipping (small nodes, `clip_min_refs`) must see the same entries and
-        // exits, and each bin's box must contain the clipped one (it is the looser estimate).
+        // exits on every side, and each side's box must contain the clipped one (it is the
+        // looser estimate); it must equal cutting the box to every bin it spans.
         let tris = scattered(3000);
         let refs = refs_of(&tris);
         let flags: Vec<bool> = (0..tris.len()).map(|i| i % 4 == 0).collect();
@@ -441,16 +533,26 @@ mod tests {
             axes: [true; 3],
             clip,
         };
-        let clipped = grid(true).bin(&refs, &tris, vis);
-        let cut = grid(false).bin(&refs, &tris, vis);
+        let clipped = all_sides(&grid(true), &refs, &tris, vis);
+        let cut = all_sides(&grid(false), &refs, &tris, vis);
+        let per_bin = sides_of_cuts_per_bin(&grid(false), &refs, vis);
+        assert_eq!(clipped.len(), cut.len());
+        assert_eq!(cut.len(), per_bin.len());
+        assert!(
+            cut.len() > 3 * 20,
+            "most planes split the scattered triangles"
+        );
+        let counts = |s: &Sides| (s.n_left, s.n_right, s.vis_left, s.vis_right);
+        let contains = |a: &Box4, b: &Box4| a.lo.cmple(b.lo).all() && a.hi.cmpge(b.hi).all();
         let mut looser = 0;
-        for (c, x) in clipped.iter().zip(&cut) {
-            assert_eq!(
-                (c.enter, c.exit, c.vis_enter, c.vis_exit),
-                (x.enter, x.exit, x.vis_enter, x.vis_exit)
-            );
-            assert!(x.bounds.lo.cmple(c.bounds.lo).all() && x.bounds.hi.cmpge(c.bounds.hi).all());
-            looser += (x.bounds != c.bounds) as usize;
+        for ((c, x), p) in clipped.iter().zip(&cut).zip(&per_bin) {
+            assert_eq!(counts(c), counts(x));
+            assert_eq!(counts(c), counts(p));
+            for (xb, cb, pb) in [(&x.left, &c.left, &p.left), (&x.right, &c.right, &p.right)] {
+                assert!(contains(xb, cb), "cut {xb:?} must contain clipped {cb:?}");
+                assert_eq!(xb, pb, "cut at the plane must equal cuts per bin");
+                looser += (xb != cb) as usize;
+            }
         }
         assert!(looser > 0, "the scattered triangles straddle bins");
     }
