@@ -49,7 +49,7 @@ pub(super) fn build_split_bvh(
         .enumerate()
         .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
         .collect();
-    let (bounds, _) = bounds_of(&refs);
+    let (bounds, centroids) = bounds_of(&refs);
     let builder = Builder {
         triangles,
         settings,
@@ -69,7 +69,7 @@ pub(super) fn build_split_bvh(
     };
     let budget = (settings.spatial.max_growth as f64 * n as f64) as usize;
     let visible = builder.vis.count(&refs);
-    let tree = builder.node(refs, bounds, visible, 0, budget);
+    let tree = builder.node(refs, (bounds, centroids), visible, 0, budget);
     let (nodes, refs) = flatten(tree);
     let mut bvh = Bvh {
         nodes: NodeArray::from_nodes(&nodes),
@@ -109,11 +109,12 @@ enum Choice {
 }
 
 impl Builder<'_> {
-    /// Builds the subtree over `refs` (`visible` of them visible; counted once, by the parent).
+    /// Builds the subtree over `refs` (`visible` of them visible; counted once, by the parent,
+    /// as are their bounds and doubled-centroid bounds, `bounds_of(&refs)`).
     fn node(
         &self,
         mut refs: Vec<PrimRef>,
-        bounds: Box4,
+        (bounds, centroids): (Box4, Box4),
         visible: u32,
         depth: usize,
         budget: usize,
@@ -132,7 +133,6 @@ impl Builder<'_> {
         if n <= 1 {
             return Built::Leaf(bounds, refs);
         }
-        let (_, centroids) = bounds_of(&refs);
         let (choice, cost) = self.choose(&refs, &bounds, &centroids, spatial, osah, budget);
         let leaf_cost = self.settings.intersection_cost * n as f32;
         if n <= self.settings.max_leaf_size && cost.is_none_or(|c| c >= leaf_cost) {
@@ -161,7 +161,7 @@ impl Builder<'_> {
         let remaining = budget.saturating_sub(grown);
         let left_budget = remaining * left.len() / (left.len() + right.len());
         let right_budget = remaining - left_budget;
-        let (lb, rb) = (bounds_of(&left).0, bounds_of(&right).0);
+        let (lb, rb) = (bounds_of(&left), bounds_of(&right));
         let children = if n > PARALLEL_SUBTREE {
             rayon::join(
                 || self.node(left, lb, vis_left, depth + 1, left_budget),
