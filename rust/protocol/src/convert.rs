@@ -418,6 +418,7 @@ impl From<&RenderSettings> for RenderSettingsState {
                     SpatialAxes::Object => SpatialAxesState::Object,
                     SpatialAxes::All => SpatialAxesState::All,
                 },
+                spatial_clip_min_refs: u32_of(s.build_settings.spatial.clip_min_refs),
             },
             collapse: match s.collapse.method {
                 CollapseMethod::Sah => CollapseState::Sah,
@@ -491,7 +492,7 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
                 alpha: s.build_settings.spatial_alpha,
                 max_growth: s.build_settings.spatial_max_growth,
                 axes: spatial_axes(s.build_settings.spatial_axes),
-                ..SpatialSettings::default()
+                clip_min_refs: s.build_settings.spatial_clip_min_refs as usize,
             },
             osah_weight: s.build_settings.osah_weight,
             osah_strict_viability: s.build_settings.osah_strict_viability,

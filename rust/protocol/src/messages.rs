@@ -326,6 +326,10 @@ pub struct BuildSettingsState {
     /// Axes binned for spatial splits: the best object split's (the core default) or all
     /// three (SBVH as Stich et al.). Added later; omitted means `Object`.
     pub spatial_axes: SpatialAxesState,
+    /// Nodes with fewer references than this bin spatial candidates with cut reference boxes
+    /// instead of clipped triangles (0 clips everywhere). Added later; omitted means the core
+    /// default.
+    pub spatial_clip_min_refs: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]

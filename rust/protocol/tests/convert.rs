@@ -224,7 +224,9 @@ fn settings_round_trip_and_validate() {
     let mut other = core.clone();
     other.collapse = CollapseSettings::new(CollapseMethod::Greedy);
     other.build_settings.spatial.axes = SpatialAxes::All;
+    other.build_settings.spatial.clip_min_refs = 0;
     let other_state = RenderSettingsState::from(&other);
+    assert_eq!(other_state.build_settings.spatial_clip_min_refs, 0);
     assert_eq!(other_state.collapse, CollapseState::Greedy);
     assert_eq!(
         other_state.build_settings.spatial_axes,

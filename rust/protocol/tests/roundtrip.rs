@@ -172,6 +172,7 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
                     } else {
                         SpatialAxesState::Object
                     },
+                    spatial_clip_min_refs: b * 1000,
                 },
                 shadow_order: order,
                 stats,
@@ -572,6 +573,11 @@ fn field_order_unknown_fields_and_defaults() {
     );
     assert_eq!(b.spatial_axes, SpatialAxesState::Object);
     assert!(b.spatial_splits && b.spatial_bins == 32);
+    assert_eq!(
+        b.spatial_clip_min_refs as usize,
+        antumbra_core::bvh::SpatialSettings::default().clip_min_refs,
+        "omitted clip threshold is the core default"
+    );
     assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);
     // A field added later (the object-id pass) takes its default when an older peer omits it.
     assert!(!r.passes.object_ids);

@@ -76,6 +76,11 @@ pub struct MethodArgs {
     /// Axes spatial splits are binned on: all, or object (the best object split's axis only).
     #[arg(long, default_value_t = SpatialSettings::default().axes)]
     pub spatial_axes: SpatialAxes,
+    /// Nodes with fewer references than this bin spatial split candidates with each straddling
+    /// reference's box cut at the bin planes instead of its triangle clipped (0 clips
+    /// everywhere, as Stich et al.); the chosen split's partition always clips.
+    #[arg(long, default_value_t = SpatialSettings::default().clip_min_refs)]
+    pub clip_min_refs: usize,
     /// References may grow to (1 + this) x triangles through spatial splits.
     #[arg(long, default_value_t = SpatialSettings::default().max_growth)]
     pub max_growth: f32,
@@ -118,7 +123,7 @@ impl MethodArgs {
                     alpha: self.split_alpha,
                     max_growth: self.max_growth,
                     axes: self.spatial_axes,
-                    ..SpatialSettings::default()
+                    clip_min_refs: self.clip_min_refs,
                 },
                 ..BuildSettings::default()
             },
