@@ -190,8 +190,13 @@ mod simd {
          $or:ident, $zero:ident, $eq:ident, $lt:ident, $gt:ident, $neq:ident, $le:ident,
          $store:ident, $movemask:ident) => {{
             let ray: &WatertightRay = $ray;
-            let o = ray.origin.to_array();
+            // By reference: `to_array` copied the origin to the stack at every leaf.
+            let o: &[f32; 3] = ray.origin.as_ref();
             let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
+            // SAFETY (the callers' unsafe blocks): `WatertightRay::new` is the only writer of
+            // the axes (crate-private fields) and sets each to 0, 1 or 2. Said here because the
+            // compiler does not prove it: a bounds check per row and origin component otherwise.
+            std::hint::assert_unchecked(kx < 3 && ky < 3 && kz < 3);
             // Macros, not closures: a closure is a function of its own, compiled without the
             // caller's target features, so AVX intrinsics inside it would not inline.
             macro_rules! rel {
