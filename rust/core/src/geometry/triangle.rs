@@ -25,8 +25,10 @@ pub struct WatertightRay {
 impl WatertightRay {
     #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.direction;
-        let a = d.abs();
+        // Components by a runtime axis from the ray's own memory: indexing a Vec3 by a runtime
+        // axis compiles to a branchy match, an array index to one load.
+        let d: &[f32; 3] = ray.direction.as_ref();
+        let a = ray.direction.abs();
         let kz = if a.x > a.y {
             if a.x > a.z {
                 0

@@ -33,28 +33,51 @@ pub enum BoxKernel {
 
 /// Per-ray values of the wide box test.
 #[derive(Clone, Copy, Debug)]
-pub struct WideRay {
+pub struct WideRay<const N: usize> {
     pub pre: RayBoxPrecomp,
-    /// Per axis: the bounds row holding the near plane (min row, or max row for a negative
-    /// direction component) and the far plane.
-    pub near_row: [usize; 3],
-    pub far_row: [usize; 3],
+    /// Per axis: the byte offset in a node's `bounds` of the row holding the near plane (the
+    /// min row, or the max row for a direction component with its sign bit set) and of the
+    /// row holding the far plane. Fixed by the ray's octant, so a node test loads each plane
+    /// row at `bounds + offset` without choosing rows per node.
+    pub near: [usize; 3],
+    pub far: [usize; 3],
     pub origin: [f32; 3],
     pub inv_dir: [f32; 3],
 }
 
-impl WideRay {
+impl<const N: usize> WideRay<N> {
+    /// Bytes of one bounds row.
+    const ROW: usize = std::mem::size_of::<[f32; N]>();
+
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
         let pre = RayBoxPrecomp::new(ray);
-        let neg = [pre.neg.x, pre.neg.y, pre.neg.z];
+        let d = ray.direction.to_array();
+        // Sign bit of each component: 1 picks the max row as the near plane (as `pre.neg`).
+        let neg = d.map(|c| (c.to_bits() >> 31) as usize);
         WideRay {
-            near_row: [0, 1, 2].map(|a| if neg[a] { 3 + a } else { a }),
-            far_row: [0, 1, 2].map(|a| if neg[a] { a } else { 3 + a }),
+            near: [0, 1, 2].map(|a| (a + 3 * neg[a]) * Self::ROW),
+            far: [0, 1, 2].map(|a| (a + 3 - 3 * neg[a]) * Self::ROW),
             origin: pre.origin.to_array(),
             inv_dir: pre.inv_dir.to_array(),
             pre,
         }
+    }
+
+    /// The row of `bounds` at byte offset `offset` (one of `near` or `far`), from lane `lane`.
+    ///
+    /// # Safety
+    /// `offset` must be one of this ray's `near` / `far` offsets (a whole row inside the six)
+    /// and `lane < N`.
+    #[inline(always)]
+    unsafe fn row(bounds: &[[f32; N]; 6], offset: usize, lane: usize) -> *const f32 {
+        debug_assert!(offset.is_multiple_of(Self::ROW) && offset < 6 * Self::ROW && lane < N);
+        bounds
+            .as_ptr()
+            .cast::<u8>()
+            .add(offset)
+            .cast::<f32>()
+            .add(lane)
     }
 }
 
@@ -65,7 +88,7 @@ pub trait ChildBoxTest<const N: usize> {
     /// kernels) or one at a time (the scalar reference); all give the same answers.
     const LEAVES: LeafLanes;
     fn test(
-        ray: &WideRay,
+        ray: &WideRay<N>,
         node: &WideNode<N>,
         t_min: f32,
         t_max: f32,
@@ -80,7 +103,7 @@ impl<const N: usize> ChildBoxTest<N> for Scalar {
     const LEAVES: LeafLanes = LeafLanes::Scalar;
     #[inline(always)]
     fn test(
-        ray: &WideRay,
+        ray: &WideRay<N>,
         node: &WideNode<N>,
         t_min: f32,
         t_max: f32,
@@ -128,7 +151,7 @@ mod x86 {
     /// Four lanes starting at `lane` of each row.
     #[inline(always)]
     fn sse4<const N: usize>(
-        ray: &WideRay,
+        ray: &WideRay<N>,
         node: &WideNode<N>,
         lane: usize,
         t_min: f32,
@@ -138,18 +161,18 @@ mod x86 {
         debug_assert!(lane + 4 <= N);
         let b = &node.bounds;
         // SAFETY: SSE/SSE2 are part of the x86_64 baseline; every load reads lanes
-        // `lane..lane + 4` of a row of N >= lane + 4 floats, and the store writes the same lanes
-        // of `out`.
+        // `lane..lane + 4` of a row (at one of the ray's own offsets) of N >= lane + 4 floats,
+        // and the store writes the same lanes of `out`.
         unsafe {
             let tmin = _mm_set1_ps(t_min);
             let tmax = _mm_set1_ps(t_max);
             let scale = _mm_set1_ps(FAR_SCALE);
             // Macros rather than closures so every intrinsic is inlined into the caller.
             macro_rules! axis {
-                ($a:expr, $row:expr) => {
+                ($a:expr, $off:expr) => {
                     _mm_mul_ps(
                         _mm_sub_ps(
-                            _mm_loadu_ps(b[$row].as_ptr().add(lane)),
+                            _mm_loadu_ps(WideRay::<N>::row(b, $off, lane)),
                             _mm_set1_ps(ray.origin[$a]),
                         ),
                         _mm_set1_ps(ray.inv_dir[$a]),
@@ -158,12 +181,12 @@ mod x86 {
             }
             macro_rules! near {
                 ($a:expr) => {
-                    _mm_max_ps(axis!($a, ray.near_row[$a]), tmin)
+                    _mm_max_ps(axis!($a, ray.near[$a]), tmin)
                 };
             }
             macro_rules! far {
                 ($a:expr) => {
-                    _mm_min_ps(_mm_mul_ps(axis!($a, ray.far_row[$a]), scale), tmax)
+                    _mm_min_ps(_mm_mul_ps(axis!($a, ray.far[$a]), scale), tmax)
                 };
             }
             let tn = _mm_max_ps(_mm_max_ps(near!(0), near!(1)), near!(2));
@@ -177,7 +200,7 @@ mod x86 {
         const LEAVES: LeafLanes = LeafLanes::Four;
         #[inline(always)]
         fn test(
-            ray: &WideRay,
+            ray: &WideRay<4>,
             node: &WideNode<4>,
             t_min: f32,
             t_max: f32,
@@ -191,7 +214,7 @@ mod x86 {
         const LEAVES: LeafLanes = LeafLanes::Four;
         #[inline(always)]
         fn test(
-            ray: &WideRay,
+            ray: &WideRay<8>,
             node: &WideNode<8>,
             t_min: f32,
             t_max: f32,
@@ -203,20 +226,25 @@ mod x86 {
 
     /// Entry and exit distances of the eight children (before the hit test).
     #[inline(always)]
-    fn distances8(ray: &WideRay, node: &WideNode<8>, t_min: f32, t_max: f32) -> (__m256, __m256) {
+    fn distances8(
+        ray: &WideRay<8>,
+        node: &WideNode<8>,
+        t_min: f32,
+        t_max: f32,
+    ) -> (__m256, __m256) {
         let b = &node.bounds;
         // SAFETY: only instantiated inside functions compiled with at least
         // `target_feature(enable = "avx2")` and called after runtime detection; loads read
-        // whole 8-float rows.
+        // whole 8-float rows at the ray's own row offsets.
         unsafe {
             let tmin = _mm256_set1_ps(t_min);
             let tmax = _mm256_set1_ps(t_max);
             let scale = _mm256_set1_ps(FAR_SCALE);
             macro_rules! axis {
-                ($a:expr, $row:expr) => {
+                ($a:expr, $off:expr) => {
                     _mm256_mul_ps(
                         _mm256_sub_ps(
-                            _mm256_loadu_ps(b[$row].as_ptr()),
+                            _mm256_loadu_ps(WideRay::<8>::row(b, $off, 0)),
                             _mm256_set1_ps(ray.origin[$a]),
                         ),
                         _mm256_set1_ps(ray.inv_dir[$a]),
@@ -225,12 +253,12 @@ mod x86 {
             }
             macro_rules! near {
                 ($a:expr) => {
-                    _mm256_max_ps(axis!($a, ray.near_row[$a]), tmin)
+                    _mm256_max_ps(axis!($a, ray.near[$a]), tmin)
                 };
             }
             macro_rules! far {
                 ($a:expr) => {
-                    _mm256_min_ps(_mm256_mul_ps(axis!($a, ray.far_row[$a]), scale), tmax)
+                    _mm256_min_ps(_mm256_mul_ps(axis!($a, ray.far[$a]), scale), tmax)
                 };
             }
             let tn = _mm256_max_ps(_mm256_max_ps(near!(0), near!(1)), near!(2));
@@ -243,7 +271,7 @@ mod x86 {
         const LEAVES: LeafLanes = LeafLanes::Eight;
         #[inline(always)]
         fn test(
-            ray: &WideRay,
+            ray: &WideRay<8>,
             node: &WideNode<8>,
             t_min: f32,
             t_max: f32,
@@ -262,7 +290,7 @@ mod x86 {
         const LEAVES: LeafLanes = LeafLanes::Eight;
         #[inline(always)]
         fn test(
-            ray: &WideRay,
+            ray: &WideRay<8>,
             node: &WideNode<8>,
             t_min: f32,
             t_max: f32,
@@ -291,12 +319,12 @@ mod tests {
 
     /// Mask and entry distances of one kernel, compiled with the features it needs.
     #[target_feature(enable = "avx2")]
-    unsafe fn avx2(ray: &WideRay, node: &WideNode<8>, t: &mut [f32; 8]) -> u32 {
+    unsafe fn avx2(ray: &WideRay<8>, node: &WideNode<8>, t: &mut [f32; 8]) -> u32 {
         Avx2::test(ray, node, 0.0, 10.0, t)
     }
 
     #[target_feature(enable = "avx512f,avx512vl")]
-    unsafe fn avx512(ray: &WideRay, node: &WideNode<8>, t: &mut [f32; 8]) -> u32 {
+    unsafe fn avx512(ray: &WideRay<8>, node: &WideNode<8>, t: &mut [f32; 8]) -> u32 {
         Avx512::test(ray, node, 0.0, 10.0, t)
     }
 

@@ -190,13 +190,18 @@ mod simd {
          $or:ident, $zero:ident, $eq:ident, $lt:ident, $gt:ident, $neq:ident, $le:ident,
          $store:ident, $movemask:ident) => {{
             let ray: &WatertightRay = $ray;
-            let o = ray.origin.to_array();
+            // By reference: `to_array` copied the origin to the stack at every leaf.
+            let o: &[f32; 3] = ray.origin.as_ref();
             let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
+            // SAFETY (the callers' unsafe blocks): `WatertightRay::new` is the only writer of
+            // the axes (crate-private fields) and sets each to 0, 1 or 2. Said here because the
+            // compiler does not prove it: a bounds check per row and origin component otherwise.
+            std::hint::assert_unchecked(kx < 3 && ky < 3 && kz < 3);
             // Macros, not closures: a closure is a function of its own, compiled without the
             // caller's target features, so AVX intrinsics inside it would not inline.
             macro_rules! rel {
                 ($v:expr, $axis:expr) => {
-                    $sub($load!(3 * $v + $axis), $set1(o[$axis]))
+                    $sub($load!($axis, 3 * $v), $set1(o[$axis]))
                 };
             }
             let (sx, sy, sz) = ($set1(ray.sx), $set1(ray.sy), $set1(ray.sz));
@@ -247,11 +252,15 @@ mod simd {
     ) -> (u32, u32) {
         let b = &rows.blocks[block];
         // SAFETY: SSE/SSE2 are part of the x86_64 baseline; each load reads one 16-byte row of
-        // a block (bounds-checked above), the store writes the first four of `t`'s eight.
+        // a block (bounds-checked above; row `axis + 3 * v` < 9 as every axis is < 3), the
+        // store writes the first four of `t`'s eight.
         unsafe {
+            // Row `axis + off`: the axis part a per-ray register, `off` (3 per vertex) a
+            // constant displacement (indexing `rows[3 * v + axis]` made the compiler keep nine
+            // per-ray row offsets and shift another at every load).
             macro_rules! load {
-                ($row:expr) => {
-                    _mm_load_ps(b.rows[$row].as_ptr())
+                ($axis:expr, $off:expr) => {
+                    _mm_load_ps(b.rows.as_ptr().add($axis).add($off).cast::<f32>())
                 };
             }
             macro_rules! cmp {
@@ -308,13 +317,14 @@ mod simd {
         let (lo, hi) = (&rows.blocks[block], &rows.blocks[block + 1]);
         // SAFETY: only instantiated inside functions compiled with `target_feature(enable =
         // "avx2")` and called after `is_x86_feature_detected!("avx2")`; each load reads one
-        // 16-byte row of two blocks (bounds-checked above), the store writes all of `t`.
+        // 16-byte row of two blocks (bounds-checked above; row `axis + 3 * v` < 9 as every
+        // axis is < 3), the store writes all of `t`.
         unsafe {
             macro_rules! load {
-                ($row:expr) => {
+                ($axis:expr, $off:expr) => {
                     _mm256_set_m128(
-                        _mm_load_ps(hi.rows[$row].as_ptr()),
-                        _mm_load_ps(lo.rows[$row].as_ptr()),
+                        _mm_load_ps(hi.rows.as_ptr().add($axis).add($off).cast::<f32>()),
+                        _mm_load_ps(lo.rows.as_ptr().add($axis).add($off).cast::<f32>()),
                     )
                 };
             }
