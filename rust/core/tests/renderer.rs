@@ -69,16 +69,62 @@ fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
                 assert_eq!(r.masks, base.masks, "{width} {order}");
                 assert_eq!(r.primary_ids, base.primary_ids, "{width} {order}");
                 let shadow: Vec<_> = r.stats.iter().filter(|s| s.pass == "shadow").collect();
-                assert!(!shadow.is_empty());
-                for row in shadow {
+                assert!(shadow.len() > 1);
+                let per_tree = settings.shadow_order.is_per_tree();
+                for (i, row) in shadow.iter().enumerate() {
                     assert_eq!(
                         row.method,
                         format!("sah/bin{width}/{}", settings.shadow_order)
                     );
-                    assert_eq!(row.sort_ms > 0.0, order.starts_with("sorted"), "{row:?}");
+                    // Sorted orders cost each light; a per-tree order is made once, reported
+                    // on the first row.
+                    let costs = order.starts_with("sorted") || (per_tree && i == 0);
+                    assert_eq!(row.sort_ms > 0.0, costs, "{row:?}");
                 }
             }
         }
+    }
+}
+
+#[test]
+fn a_per_tree_order_is_made_once_per_tree_and_shared_by_lights_and_frames() {
+    let scene = soft_scene();
+    let base = Renderer::new()
+        .render("t", &scene, &RenderSettings::default())
+        .unwrap();
+    let settings = |order: &str| RenderSettings {
+        width: "8".parse().unwrap(),
+        shadow_order: order.parse().unwrap(),
+        ..RenderSettings::default()
+    };
+    let shadow_sort_ms = |r: &antumbra_core::render::FrameResult| -> Vec<f64> {
+        r.stats
+            .iter()
+            .filter(|s| s.pass == "shadow")
+            .map(|s| s.sort_ms)
+            .collect()
+    };
+    let mut renderer = Renderer::new();
+    let first = renderer.render("t", &scene, &settings("sato")).unwrap();
+    let ms = shadow_sort_ms(&first);
+    assert!(
+        ms.len() > 1 && ms[0] > 0.0,
+        "made on the first frame: {ms:?}"
+    );
+    assert!(
+        ms[1..].iter().all(|&m| m == 0.0),
+        "shared by the lights: {ms:?}"
+    );
+    let second = renderer.render("t", &scene, &settings("sato")).unwrap();
+    assert!(
+        shadow_sort_ms(&second).iter().all(|&m| m == 0.0),
+        "reused while the tree is"
+    );
+    // Another per-tree order is made anew, and none changes an answer.
+    let third = renderer.render("t", &scene, &settings("rtsah")).unwrap();
+    assert!(shadow_sort_ms(&third)[0] > 0.0);
+    for r in [&first, &second, &third] {
+        assert_eq!(r.masks, base.masks);
     }
 }
 

@@ -2,6 +2,7 @@
 //! whose geometry (and, for visibility-driven builds, visible-set input) did not change are
 //! reused, and the visible set is kept for the next frame's OSAH/ABVH build.
 
+use std::borrow::Cow;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -16,7 +17,7 @@ use crate::bvh::{build_binned_sah, build_with_visibility, Bvh, BvhWidth, Collaps
 use crate::output::ImagePlane;
 use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::stats::StatsRow;
-use crate::trace::wide::SortTables;
+use crate::trace::wide::{PreparedOrder, SortTables};
 use crate::trace::{AnyHitOrder, BinaryOcclusion, ClosestHitQuery, ShadowOrder, TraversalStats};
 use crate::Result;
 
@@ -101,8 +102,19 @@ struct WideTrees {
     shadow: Option<Arc<WideTree>>,
     /// Made once per tree, on the first frame that sorts per light.
     sort_tables: Option<SortTables>,
+    /// A per-tree order (SATO, RTSAH, random) made once for the shadow tree and shared by the
+    /// lights of every frame that reuses the tree.
+    per_tree_order: Option<PerTreeOrder>,
     /// Collapse time, counted into the build time of the frame that collapsed.
     collapse_ms: Option<f64>,
+}
+
+struct PerTreeOrder {
+    order: ShadowOrder,
+    prepared: PreparedOrder,
+    /// Preparation time, reported (as the first shadow row's `sort_ms`) only by the frame
+    /// that prepared it.
+    ms: Option<f64>,
 }
 
 #[derive(Clone, Copy, Default)]
@@ -223,6 +235,7 @@ impl Renderer {
         let mut masks = Vec::new();
         let mut shadow_work =
             vec![TraversalStats::default(); if counted { primary.surfaces.len() } else { 0 }];
+        let mut per_tree_reported = false;
         for (index, light) in scene.lights.iter().enumerate() {
             if !light.casts_shadow {
                 continue;
@@ -261,7 +274,14 @@ impl Renderer {
                         _ => Vec::new(),
                     };
                     let tables = wide.and_then(|w| w.sort_tables.as_ref());
-                    Some((tree, tree.prepare(order, tables, &representative)))
+                    let per_tree = wide
+                        .and_then(|w| w.per_tree_order.as_ref())
+                        .filter(|p| &p.order == order);
+                    let prepared = match per_tree {
+                        Some(p) => Cow::Borrowed(&p.prepared),
+                        None => Cow::Owned(tree.prepare(order, tables, &representative)),
+                    };
+                    Some((tree, prepared))
                 }
                 _ => None,
             };
@@ -294,6 +314,13 @@ impl Renderer {
                 wide_order.as_ref().map(|(t, _)| *t),
             );
             r.sort_ms = wide_order.as_ref().map_or(0.0, |(_, p)| p.sort_ms());
+            if order.is_per_tree() && !per_tree_reported {
+                // Prepared once for all lights: reported on the first shadow row.
+                r.sort_ms = wide
+                    .and_then(|w| w.per_tree_order.as_ref()?.ms)
+                    .unwrap_or(0.0);
+                per_tree_reported = true;
+            }
             if let Some(l) = &srdh {
                 r.sort_ms = l.ms;
                 if let Some(t) = &l.tree {
@@ -491,6 +518,9 @@ impl Renderer {
         }
         if let Some(w) = &mut c.wide {
             w.collapse_ms = None;
+            if let Some(p) = &mut w.per_tree_order {
+                p.ms = None;
+            }
         }
         if c.wide.as_ref().map(|w| (w.width, w.collapse))
             != Some((settings.width, settings.collapse))
@@ -508,13 +538,24 @@ impl Renderer {
                 camera: Arc::new(camera),
                 shadow: shadow.map(Arc::new),
                 sort_tables: None,
+                per_tree_order: None,
                 collapse_ms: Some(collapse_ms),
             });
         }
         let w = c.wide.as_mut().expect("collapsed above");
+        let tree = w.shadow.as_ref().unwrap_or(&w.camera);
         if matches!(settings.shadow_order, ShadowOrder::Sorted(_)) && w.sort_tables.is_none() {
-            let tree = w.shadow.as_ref().unwrap_or(&w.camera);
             w.sort_tables = Some(tree.sort_tables());
+        }
+        let order = &settings.shadow_order;
+        if order.is_per_tree() && w.per_tree_order.as_ref().map(|p| &p.order) != Some(order) {
+            let start = Instant::now();
+            let prepared = tree.prepare(order, None, &[]);
+            w.per_tree_order = Some(PerTreeOrder {
+                order: *order,
+                prepared,
+                ms: Some(start.elapsed().as_secs_f64() * 1e3),
+            });
         }
     }
 

@@ -35,6 +35,15 @@ pub enum ShadowOrder {
 }
 
 impl ShadowOrder {
+    /// Whether the order is made from the tree alone (SATO, RTSAH, random): the same for every
+    /// light and every frame that reuses the tree, so it is prepared once per tree.
+    pub fn is_per_tree(&self) -> bool {
+        matches!(
+            self,
+            ShadowOrder::Sato | ShadowOrder::Rtsah | ShadowOrder::Random { .. }
+        )
+    }
+
     /// The binary traversal's order when this order is one it has (stored or front to back).
     pub fn binary(&self) -> Option<AnyHitOrder> {
         match self {
