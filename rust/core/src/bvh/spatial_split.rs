@@ -312,10 +312,9 @@ impl Grid {
                 if b0 == b1 {
                     bins[b0].bounds.grow_box(&r.bounds());
                 } else if !self.clip {
-                    // The whole box into its first and last bin only: the sweeps of
-                    // `best_spatial_splits` cut each side at its boundary plane, which gives
-                    // the sides the union of the box's cuts to every bin it spans, in two
-                    // updates instead of one per bin.
+                    // The whole box into its first and last bin only: `Grid::sweep` cuts each
+                    // side at its plane, which gives the sides the union of the box's cuts to
+                    // every bin it spans, in two updates instead of one per bin.
                     bins[b0].bounds.grow_box(&r.bounds());
                     bins[b1].bounds.grow_box(&r.bounds());
                 } else {
