@@ -125,16 +125,18 @@ where
     let mut missed_root = 0;
     for (i, ray) in rays.iter().enumerate() {
         let mut work = Vec::new();
+        // The whole hit, barycentrics included, is the scalar kernel's with every kernel.
+        let scalar = wide.closest_hit(ray, BoxKernel::Scalar, &mut NoStats);
         for k in KERNELS {
             let mut st = TraversalStats::default();
-            let h = wide.closest_hit(ray, k, &mut st).map(|h| (h.triangle, h.t));
+            let hit = wide.closest_hit(ray, k, &mut st);
+            assert_eq!(hit, scalar, "N={N} {k:?} closest hit, ray {i}: {ray:?}");
+            let h = hit.map(|h| (h.triangle, h.t));
             assert_eq!(h, brute[i].0, "N={N} {k:?} closest, ray {i}: {ray:?}");
             // The timed path (no counters) skips the root box test: the same answers.
-            let h = wide
-                .closest_hit(ray, k, &mut NoStats)
-                .map(|h| (h.triangle, h.t));
+            let hit = wide.closest_hit(ray, k, &mut NoStats);
             assert_eq!(
-                h, brute[i].0,
+                hit, scalar,
                 "N={N} {k:?} closest uncounted, ray {i}: {ray:?}"
             );
             work.push(st);
