@@ -148,6 +148,44 @@ mod x86 {
     /// compiled with `avx512f,avx512vl`, after runtime detection.
     pub struct Avx512;
 
+    /// The entry and exit distances `(tn, tf)` of the child boxes in the lanes from `lane` of
+    /// each bounds row, written once for both vector widths with their intrinsics: per axis
+    /// `(plane - origin) * inv_dir` of the ray's near and far rows, the far ones scaled by
+    /// `FAR_SCALE`, clamped to `[t_min, t_max]`. A macro, not a function generic over the
+    /// width, so every intrinsic is inlined into a caller compiled with the features it needs.
+    macro_rules! slab_distances {
+        ($ray:expr, $bounds:expr, $lane:expr, $t_min:expr, $t_max:expr, $n:expr;
+         $load:ident, $set1:ident, $sub:ident, $mul:ident, $max:ident, $min:ident) => {{
+            let (ray, b, lane) = ($ray, $bounds, $lane);
+            let (tmin, tmax, scale) = ($set1($t_min), $set1($t_max), $set1(FAR_SCALE));
+            macro_rules! axis {
+                ($a:expr, $off:expr) => {
+                    $mul(
+                        $sub(
+                            $load(WideRay::<$n>::row(b, $off, lane)),
+                            $set1(ray.origin[$a]),
+                        ),
+                        $set1(ray.inv_dir[$a]),
+                    )
+                };
+            }
+            macro_rules! near {
+                ($a:expr) => {
+                    $max(axis!($a, ray.near[$a]), tmin)
+                };
+            }
+            macro_rules! far {
+                ($a:expr) => {
+                    $min($mul(axis!($a, ray.far[$a]), scale), tmax)
+                };
+            }
+            (
+                $max($max(near!(0), near!(1)), near!(2)),
+                $min($min(far!(0), far!(1)), far!(2)),
+            )
+        }};
+    }
+
     /// Four lanes starting at `lane` of each row.
     #[inline(always)]
     fn sse4<const N: usize>(
@@ -164,33 +202,10 @@ mod x86 {
         // `lane..lane + 4` of a row (at one of the ray's own offsets) of N >= lane + 4 floats,
         // and the store writes the same lanes of `out`.
         unsafe {
-            let tmin = _mm_set1_ps(t_min);
-            let tmax = _mm_set1_ps(t_max);
-            let scale = _mm_set1_ps(FAR_SCALE);
-            // Macros rather than closures so every intrinsic is inlined into the caller.
-            macro_rules! axis {
-                ($a:expr, $off:expr) => {
-                    _mm_mul_ps(
-                        _mm_sub_ps(
-                            _mm_loadu_ps(WideRay::<N>::row(b, $off, lane)),
-                            _mm_set1_ps(ray.origin[$a]),
-                        ),
-                        _mm_set1_ps(ray.inv_dir[$a]),
-                    )
-                };
-            }
-            macro_rules! near {
-                ($a:expr) => {
-                    _mm_max_ps(axis!($a, ray.near[$a]), tmin)
-                };
-            }
-            macro_rules! far {
-                ($a:expr) => {
-                    _mm_min_ps(_mm_mul_ps(axis!($a, ray.far[$a]), scale), tmax)
-                };
-            }
-            let tn = _mm_max_ps(_mm_max_ps(near!(0), near!(1)), near!(2));
-            let tf = _mm_min_ps(_mm_min_ps(far!(0), far!(1)), far!(2));
+            let (tn, tf) = slab_distances!(
+                ray, b, lane, t_min, t_max, N;
+                _mm_loadu_ps, _mm_set1_ps, _mm_sub_ps, _mm_mul_ps, _mm_max_ps, _mm_min_ps
+            );
             _mm_storeu_ps(out.as_mut_ptr().add(lane), tn);
             _mm_movemask_ps(_mm_cmple_ps(tn, tf)) as u32
         }
@@ -237,32 +252,11 @@ mod x86 {
         // `target_feature(enable = "avx2")` and called after runtime detection; loads read
         // whole 8-float rows at the ray's own row offsets.
         unsafe {
-            let tmin = _mm256_set1_ps(t_min);
-            let tmax = _mm256_set1_ps(t_max);
-            let scale = _mm256_set1_ps(FAR_SCALE);
-            macro_rules! axis {
-                ($a:expr, $off:expr) => {
-                    _mm256_mul_ps(
-                        _mm256_sub_ps(
-                            _mm256_loadu_ps(WideRay::<8>::row(b, $off, 0)),
-                            _mm256_set1_ps(ray.origin[$a]),
-                        ),
-                        _mm256_set1_ps(ray.inv_dir[$a]),
-                    )
-                };
-            }
-            macro_rules! near {
-                ($a:expr) => {
-                    _mm256_max_ps(axis!($a, ray.near[$a]), tmin)
-                };
-            }
-            macro_rules! far {
-                ($a:expr) => {
-                    _mm256_min_ps(_mm256_mul_ps(axis!($a, ray.far[$a]), scale), tmax)
-                };
-            }
-            let tn = _mm256_max_ps(_mm256_max_ps(near!(0), near!(1)), near!(2));
-            let tf = _mm256_min_ps(_mm256_min_ps(far!(0), far!(1)), far!(2));
+            let (tn, tf) = slab_distances!(
+                ray, b, 0, t_min, t_max, 8;
+                _mm256_loadu_ps, _mm256_set1_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_max_ps,
+                _mm256_min_ps
+            );
             (tn, tf)
         }
     }
