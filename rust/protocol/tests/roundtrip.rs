@@ -172,7 +172,7 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
                     } else {
                         SpatialAxesState::Object
                     },
-                    spatial_clip_min_refs: b * 1000,
+                    spatial_clip_min_refs: b.wrapping_mul(7919),
                 },
                 shadow_order: order,
                 stats,
