@@ -4,7 +4,7 @@
 //! and the Q/C order minimises the node cost of equation (1) over all permutations.
 
 use antumbra_core::bvh::{
-    build_binned_sah, BuildSettings, Bvh, CollapseMethod, CollapseSettings, WideBvh,
+    build_binned_sah, BuildSettings, Bvh, CollapseMethod, CollapseSettings, WideBvh, MAX_DEPTH,
 };
 use antumbra_core::geometry::Ray;
 use antumbra_core::sampling::{hash_u32, unit_float};
@@ -192,6 +192,57 @@ fn every_width_order_and_kernel_matches_brute_force() {
             occ > rays.len(),
             "too few occluded rays ({occ}) to mean anything"
         );
+    }
+}
+
+/// A deep tree (the builder peels triangles off a geometric sequence a few at a time) collapses
+/// into wide trees no deeper than `MAX_DEPTH`, which the traversal stack is sized for, and
+/// traces correctly at every width with rays that pass every triangle.
+#[test]
+fn deepest_trees_fit_the_traversal_stack() {
+    let tris: Vec<[Vec3; 3]> = (0..2000)
+        .map(|k| {
+            let x = 1e30f32 * 0.9f32.powi(k);
+            [
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x, 1.0, 0.0),
+                Vec3::new(x, 0.0, 1.0),
+            ]
+        })
+        .collect();
+    let bvh = build_binned_sah(
+        &tris,
+        &BuildSettings {
+            max_leaf_size: 1,
+            ..BuildSettings::default()
+        },
+    );
+    assert!(bvh.depth() > 40, "binary depth {}", bvh.depth());
+    // Rays along the sequence (each passes every triangle), across it, and some that miss.
+    let rays: Vec<Ray> = (0..300u32)
+        .map(|i| {
+            let (y, z) = (r(3 * i) * 0.7 - 0.1, r(3 * i + 1) * 0.7 - 0.1);
+            let x = 1e30 * 0.9f32.powi((r(3 * i + 2) * 2000.0) as i32);
+            match i % 3 {
+                0 => Ray::new(Vec3::new(-1.0, y, z), Vec3::X, 0.0, f32::INFINITY),
+                1 => Ray::new(Vec3::new(2e30, y, z), -Vec3::X, 0.0, 2e30 - x),
+                _ => Ray::new(Vec3::new(x, y, -5.0), Vec3::Y, 0.0, 10.0),
+            }
+        })
+        .collect();
+    fn levels<const N: usize>(w: &WideBvh<N>) -> usize {
+        *w.depth.last().unwrap() as usize + 1
+    }
+    for m in CollapseMethod::ALL {
+        let s = CollapseSettings::new(m);
+        let (w4, w8) = (
+            WideBvh::<4>::collapse_with(&bvh, &s),
+            WideBvh::<8>::collapse_with(&bvh, &s),
+        );
+        assert!(levels(&w4) <= MAX_DEPTH && levels(&w8) <= MAX_DEPTH);
+        assert!(levels(&w8) > 12, "8-wide levels {}", levels(&w8));
+        check_tree(&w4, &tris, &rays);
+        check_tree(&w8, &tris, &rays);
     }
 }
 

@@ -1,20 +1,30 @@
-//! The traversal stack of the wide BVH: a small inline array that covers every realistic tree,
-//! spilling into a heap vector only for pathological depths (a wide node pushes up to N - 1
-//! entries, and the collapse does not bound the depth of a degenerate binary tree).
+//! The traversal stack of the wide BVH: a fixed inline array, no heap.
+//!
+//! Everything on the stack is a sibling of a node on the current root-to-leaf path, and a wide
+//! node pushes at most N - 1 of its children, so a tree with D interior levels never holds more
+//! than (N - 1) * D + 1 entries. A wide tree is collapsed from a binary tree, which it is never
+//! deeper than, and every builder bounds the binary depth by `MAX_DEPTH`.
 
 use std::mem::MaybeUninit;
 
-const INLINE: usize = 64;
+use crate::bvh::MAX_DEPTH;
+
+/// Entries of the stack: enough for an 8-wide tree of `MAX_DEPTH` interior levels (673
+/// entries, 5-8 KB of the thread's stack, left uninitialised).
+pub(crate) const CAPACITY: usize = 7 * MAX_DEPTH + 1;
 
 /// Entries below `len` are initialised; the rest are not: zeroing the array was a `memset` per
-/// ray, ~4% of the traversal's instructions in a callgrind profile. `repr(C)` with the array
-/// last: with `len` next to it, LLVM merged the `len = 0` store and the uninitialised array
-/// into one `memset`.
+/// ray, ~4% of the traversal's instructions in a callgrind profile.
+///
+/// No call may stay in the traversal loop, not even one that never runs: every vector register
+/// is caller-saved, so the register allocator keeps the ray's constants on the memory stack
+/// across the whole loop around such a call (it did around the old heap spill). An overflow,
+/// which a tree from the builders cannot cause, ends in a panic: a call that does not return
+/// costs nothing in the loop.
 #[repr(C)]
 pub(crate) struct Stack<T: Copy> {
     len: usize,
-    spill: Vec<T>,
-    inline: MaybeUninit<[T; INLINE]>,
+    items: MaybeUninit<[T; CAPACITY]>,
 }
 
 impl<T: Copy> Stack<T> {
@@ -22,41 +32,60 @@ impl<T: Copy> Stack<T> {
     pub(crate) fn new() -> Self {
         Stack {
             len: 0,
-            spill: Vec::new(),
-            inline: MaybeUninit::uninit(),
+            items: MaybeUninit::uninit(),
         }
     }
 
     #[inline(always)]
     pub(crate) fn push(&mut self, v: T) {
-        if self.len < INLINE {
-            // SAFETY: `len < INLINE`, so the write stays inside the array.
-            unsafe { self.inline.as_mut_ptr().cast::<T>().add(self.len).write(v) };
-            self.len += 1;
-        } else {
-            self.push_spill(v);
+        if self.len >= CAPACITY {
+            overflow();
         }
-    }
-
-    /// Out of line: a call in the traversal loop makes the register allocator keep the ray's
-    /// vector constants on the stack (every vector register is caller-saved), even when the
-    /// call never runs.
-    #[cold]
-    #[inline(never)]
-    fn push_spill(&mut self, v: T) {
-        self.spill.push(v);
+        // SAFETY: `len < CAPACITY`, so the write stays inside the array.
+        unsafe { self.items.as_mut_ptr().cast::<T>().add(self.len).write(v) };
+        self.len += 1;
     }
 
     #[inline(always)]
     pub(crate) fn pop(&mut self) -> Option<T> {
-        if let Some(v) = self.spill.pop() {
-            return Some(v);
-        }
         if self.len == 0 {
             return None;
         }
         self.len -= 1;
         // SAFETY: entries below the old `len` were written by `push` and lie inside the array.
-        Some(unsafe { self.inline.as_ptr().cast::<T>().add(self.len).read() })
+        Some(unsafe { self.items.as_ptr().cast::<T>().add(self.len).read() })
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn overflow() -> ! {
+    panic!("wide BVH traversal stack overflow: the tree is deeper than MAX_DEPTH levels")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn last_in_first_out_up_to_capacity() {
+        let mut s = Stack::<u32>::new();
+        assert_eq!(s.pop(), None);
+        for v in 0..CAPACITY as u32 {
+            s.push(v);
+        }
+        for v in (0..CAPACITY as u32).rev() {
+            assert_eq!(s.pop(), Some(v));
+        }
+        assert_eq!(s.pop(), None);
+    }
+
+    #[test]
+    #[should_panic(expected = "stack overflow")]
+    fn pushing_past_capacity_panics() {
+        let mut s = Stack::<u32>::new();
+        for v in 0..=CAPACITY as u32 {
+            s.push(v);
+        }
     }
 }
