@@ -17,9 +17,10 @@ struct ChildRef {
 }
 
 /// Traces an occlusion ray. Returns the first triangle slot of the leaf that occluded the ray
-/// (the logging pass of per-light sorting attributes the ray to that leaf), or `None`.
+/// (the logging pass of per-light sorting attributes the ray to that leaf), or `None`. `OCT` is
+/// the ray's octant or `ANY_OCTANT` (see [`WideRay::for_octant`]).
 #[inline(always)]
-pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
+pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT: usize>(
     bvh: &WideBvh<N>,
     ray: &Ray,
     order: OrderView,
@@ -28,7 +29,7 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters>(
     if bvh.nodes.is_empty() {
         return None;
     }
-    let wray = WideRay::new(ray);
+    let wray = WideRay::<N>::for_octant::<OCT>(ray);
     let wt = WatertightRay::new(ray);
     let t_min = ray.t_min;
     // Box tests reach a margin past the segment's end; triangle tests do not (see t_margin).

@@ -31,6 +31,9 @@ pub enum BoxKernel {
     Avx2,
 }
 
+/// The octant parameter of [`WideRay::for_octant`] for "read it from the ray".
+pub const ANY_OCTANT: usize = 8;
+
 /// Per-ray values of the wide box test.
 #[derive(Clone, Copy, Debug)]
 pub struct WideRay<const N: usize> {
@@ -51,10 +54,32 @@ impl<const N: usize> WideRay<N> {
 
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
-        let pre = RayBoxPrecomp::new(ray);
+        Self::for_octant::<ANY_OCTANT>(ray)
+    }
+
+    /// The ray's octant: bit a set when direction component a has its sign bit set (-0.0
+    /// included, as the slab test reads it).
+    #[inline(always)]
+    pub fn octant(ray: &Ray) -> usize {
         let d = ray.direction.to_array();
+        (0..3).map(|a| ((d[a].to_bits() >> 31) as usize) << a).sum()
+    }
+
+    /// The values for a ray of octant `OCT` ([`WideRay::octant`]), or of any octant with
+    /// [`ANY_OCTANT`]. With a fixed octant the row offsets are constants, which the compiler
+    /// folds into every node's loads: a traversal instantiated per octant then neither keeps
+    /// six offsets in registers nor reloads them from the stack at every node.
+    #[inline(always)]
+    pub fn for_octant<const OCT: usize>(ray: &Ray) -> Self {
+        let pre = RayBoxPrecomp::new(ray);
         // Sign bit of each component: 1 picks the max row as the near plane (as `pre.neg`).
-        let neg = d.map(|c| (c.to_bits() >> 31) as usize);
+        let neg: [usize; 3] = if OCT == ANY_OCTANT {
+            let d = ray.direction.to_array();
+            d.map(|c| (c.to_bits() >> 31) as usize)
+        } else {
+            debug_assert_eq!(OCT, Self::octant(ray), "ray {ray:?} traced as octant {OCT}");
+            [OCT & 1, (OCT >> 1) & 1, (OCT >> 2) & 1]
+        };
         WideRay {
             near: [0, 1, 2].map(|a| (a + 3 * neg[a]) * Self::ROW),
             far: [0, 1, 2].map(|a| (a + 3 - 3 * neg[a]) * Self::ROW),
@@ -320,6 +345,35 @@ mod tests {
     #[target_feature(enable = "avx512f,avx512vl")]
     unsafe fn avx512(ray: &WideRay<8>, node: &WideNode<8>, t: &mut [f32; 8]) -> u32 {
         Avx512::test(ray, node, 0.0, 10.0, t)
+    }
+
+    /// The row offsets fixed by an octant are those read from the ray, signed zeros included.
+    #[test]
+    fn octant_offsets_equal_the_offsets_read_from_the_ray() {
+        fn fixed<const OCT: usize>(ray: &Ray) -> ([usize; 3], [usize; 3]) {
+            let w = WideRay::<8>::for_octant::<OCT>(ray);
+            (w.near, w.far)
+        }
+        let table: [fn(&Ray) -> ([usize; 3], [usize; 3]); 8] = [
+            fixed::<0>, fixed::<1>, fixed::<2>, fixed::<3>, fixed::<4>, fixed::<5>, fixed::<6>,
+            fixed::<7>,
+        ];
+        let values = [1.0f32, -2.0, 0.0, -0.0];
+        let mut octants_seen = [false; 8];
+        for x in values {
+            for y in values {
+                for z in values {
+                    let ray = Ray::new(Vec3::ZERO, Vec3::new(x, y, z), 0.0, 1.0);
+                    let dynamic = WideRay::<8>::new(&ray);
+                    let oct = WideRay::<8>::octant(&ray);
+                    let neg = [x, y, z].map(|c| c.is_sign_negative() as usize);
+                    assert_eq!(oct, neg[0] | neg[1] << 1 | neg[2] << 2);
+                    assert_eq!(table[oct](&ray), (dynamic.near, dynamic.far), "{ray:?}");
+                    octants_seen[oct] = true;
+                }
+            }
+        }
+        assert!(octants_seen.iter().all(|&s| s));
     }
 
     /// Every 8-lane kernel the CPU has gives the scalar kernel's mask and entry distances bit

@@ -17,8 +17,10 @@ struct Entry {
     t_entry: f32,
 }
 
+/// The closest hit of the ray. `OCT` is the ray's octant or `ANY_OCTANT` (see
+/// [`WideRay::for_octant`]).
 #[inline(always)]
-pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
+pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT: usize>(
     bvh: &WideBvh<N>,
     ray: &Ray,
     stats: &mut C,
@@ -26,7 +28,7 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
     if bvh.nodes.is_empty() {
         return None;
     }
-    let wray = WideRay::new(ray);
+    let wray = WideRay::<N>::for_octant::<OCT>(ray);
     let wt = WatertightRay::new(ray);
     let margin = wray.pre.t_margin;
     let t_min = ray.t_min;

@@ -14,7 +14,7 @@ mod prepared;
 mod stack;
 pub mod static_orders;
 
-pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay};
+pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay, ANY_OCTANT};
 pub use child_sort::{
     sort_for_light, ChildHitModel, LightOrder, LoggingOrder, SortSettings, SortTables,
 };
@@ -59,11 +59,11 @@ impl WideQueries for WideBvh<2> {
         _: BoxKernel,
         stats: &mut C,
     ) -> Option<u32> {
-        any_hit::any_hit::<2, Scalar, C>(self, ray, order, stats)
+        any_hit::any_hit::<2, Scalar, C, ANY_OCTANT>(self, ray, order, stats)
     }
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, _: BoxKernel, stats: &mut C) -> Option<Hit> {
-        closest::closest::<2, Scalar, C>(self, ray, stats)
+        closest::closest::<2, Scalar, C, ANY_OCTANT>(self, ray, stats)
     }
 }
 
@@ -77,11 +77,11 @@ impl WideQueries for WideBvh<4> {
         _: BoxKernel,
         stats: &mut C,
     ) -> Option<u32> {
-        any_hit::any_hit::<4, Scalar, C>(self, ray, order, stats)
+        any_hit::any_hit::<4, Scalar, C, ANY_OCTANT>(self, ray, order, stats)
     }
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, _: BoxKernel, stats: &mut C) -> Option<Hit> {
-        closest::closest::<4, Scalar, C>(self, ray, stats)
+        closest::closest::<4, Scalar, C, ANY_OCTANT>(self, ray, stats)
     }
 }
 
@@ -95,11 +95,11 @@ impl WideQueries for WideBvh<8> {
         _: BoxKernel,
         stats: &mut C,
     ) -> Option<u32> {
-        any_hit::any_hit::<8, Scalar, C>(self, ray, order, stats)
+        any_hit::any_hit::<8, Scalar, C, ANY_OCTANT>(self, ray, order, stats)
     }
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, _: BoxKernel, stats: &mut C) -> Option<Hit> {
-        closest::closest::<8, Scalar, C>(self, ray, stats)
+        closest::closest::<8, Scalar, C, ANY_OCTANT>(self, ray, stats)
     }
 }
 
@@ -131,9 +131,11 @@ mod x86_dispatch {
             stats: &mut C,
         ) -> Option<u32> {
             match kernel {
-                BoxKernel::Scalar => any_hit::any_hit::<4, Scalar, C>(self, ray, order, stats),
+                BoxKernel::Scalar => {
+                    any_hit::any_hit::<4, Scalar, C, ANY_OCTANT>(self, ray, order, stats)
+                }
                 BoxKernel::Auto | BoxKernel::Sse | BoxKernel::Avx2 => {
-                    any_hit::any_hit::<4, Sse, C>(self, ray, order, stats)
+                    any_hit::any_hit::<4, Sse, C, ANY_OCTANT>(self, ray, order, stats)
                 }
             }
         }
@@ -145,12 +147,34 @@ mod x86_dispatch {
             stats: &mut C,
         ) -> Option<Hit> {
             match kernel {
-                BoxKernel::Scalar => closest::closest::<4, Scalar, C>(self, ray, stats),
+                BoxKernel::Scalar => closest::closest::<4, Scalar, C, ANY_OCTANT>(self, ray, stats),
                 BoxKernel::Auto | BoxKernel::Sse | BoxKernel::Avx2 => {
-                    closest::closest::<4, Sse, C>(self, ray, stats)
+                    closest::closest::<4, Sse, C, ANY_OCTANT>(self, ray, stats)
                 }
             }
         }
+    }
+
+    /// Calls `$f::<C, OCT>` with the ray's octant as `OCT`: the 8-wide AVX2 and AVX-512
+    /// traversals are instantiated per octant, so each node's plane rows are loaded at constant
+    /// offsets (see `WideRay::for_octant`). Counting traversals (not timed) take one instance.
+    macro_rules! per_octant {
+        ($ray:expr, $f:ident::<$c:ident>($($arg:expr),*)) => {
+            if $c::COUNTING {
+                $f::<$c, ANY_OCTANT>($($arg),*)
+            } else {
+                match WideRay::<8>::octant($ray) {
+                    0 => $f::<$c, 0>($($arg),*),
+                    1 => $f::<$c, 1>($($arg),*),
+                    2 => $f::<$c, 2>($($arg),*),
+                    3 => $f::<$c, 3>($($arg),*),
+                    4 => $f::<$c, 4>($($arg),*),
+                    5 => $f::<$c, 5>($($arg),*),
+                    6 => $f::<$c, 6>($($arg),*),
+                    _ => $f::<$c, 7>($($arg),*),
+                }
+            }
+        };
     }
 
     impl WideQueries for WideBvh<8> {
@@ -163,16 +187,18 @@ mod x86_dispatch {
             stats: &mut C,
         ) -> Option<u32> {
             match kernel {
-                BoxKernel::Scalar => any_hit::any_hit::<8, Scalar, C>(self, ray, order, stats),
+                BoxKernel::Scalar => {
+                    any_hit::any_hit::<8, Scalar, C, ANY_OCTANT>(self, ray, order, stats)
+                }
                 BoxKernel::Auto if avx512() => {
                     // SAFETY: AVX-512F and VL were detected on this CPU just above.
-                    unsafe { any_hit_avx512(self, ray, order, stats) }
+                    unsafe { per_octant!(ray, any_hit_avx512::<C>(self, ray, order, stats)) }
                 }
                 BoxKernel::Auto | BoxKernel::Avx2 if avx2() => {
                     // SAFETY: AVX2 was detected on this CPU just above.
-                    unsafe { any_hit_avx2(self, ray, order, stats) }
+                    unsafe { per_octant!(ray, any_hit_avx2::<C>(self, ray, order, stats)) }
                 }
-                _ => any_hit::any_hit::<8, Sse, C>(self, ray, order, stats),
+                _ => any_hit::any_hit::<8, Sse, C, ANY_OCTANT>(self, ray, order, stats),
             }
         }
         #[inline]
@@ -183,53 +209,57 @@ mod x86_dispatch {
             stats: &mut C,
         ) -> Option<Hit> {
             match kernel {
-                BoxKernel::Scalar => closest::closest::<8, Scalar, C>(self, ray, stats),
+                BoxKernel::Scalar => closest::closest::<8, Scalar, C, ANY_OCTANT>(self, ray, stats),
                 BoxKernel::Auto if avx512() => {
                     // SAFETY: AVX-512F and VL were detected on this CPU just above.
-                    unsafe { closest_avx512(self, ray, stats) }
+                    unsafe { per_octant!(ray, closest_avx512::<C>(self, ray, stats)) }
                 }
                 BoxKernel::Auto | BoxKernel::Avx2 if avx2() => {
                     // SAFETY: AVX2 was detected on this CPU just above.
-                    unsafe { closest_avx2(self, ray, stats) }
+                    unsafe { per_octant!(ray, closest_avx2::<C>(self, ray, stats)) }
                 }
-                _ => closest::closest::<8, Sse, C>(self, ray, stats),
+                _ => closest::closest::<8, Sse, C, ANY_OCTANT>(self, ray, stats),
             }
         }
     }
 
     /// The whole traversal compiled with AVX2, so the kernel's intrinsics inline into it.
     #[target_feature(enable = "avx2")]
-    unsafe fn any_hit_avx2<C: Counters>(
+    unsafe fn any_hit_avx2<C: Counters, const OCT: usize>(
         bvh: &WideBvh<8>,
         ray: &Ray,
         order: OrderView,
         stats: &mut C,
     ) -> Option<u32> {
-        any_hit::any_hit::<8, Avx2, C>(bvh, ray, order, stats)
+        any_hit::any_hit::<8, Avx2, C, OCT>(bvh, ray, order, stats)
     }
 
     #[target_feature(enable = "avx2")]
-    unsafe fn closest_avx2<C: Counters>(bvh: &WideBvh<8>, ray: &Ray, stats: &mut C) -> Option<Hit> {
-        closest::closest::<8, Avx2, C>(bvh, ray, stats)
-    }
-
-    /// The whole traversal compiled with AVX-512VL (32 vector registers, mask compares).
-    #[target_feature(enable = "avx512f,avx512vl")]
-    unsafe fn any_hit_avx512<C: Counters>(
-        bvh: &WideBvh<8>,
-        ray: &Ray,
-        order: OrderView,
-        stats: &mut C,
-    ) -> Option<u32> {
-        any_hit::any_hit::<8, Avx512, C>(bvh, ray, order, stats)
-    }
-
-    #[target_feature(enable = "avx512f,avx512vl")]
-    unsafe fn closest_avx512<C: Counters>(
+    unsafe fn closest_avx2<C: Counters, const OCT: usize>(
         bvh: &WideBvh<8>,
         ray: &Ray,
         stats: &mut C,
     ) -> Option<Hit> {
-        closest::closest::<8, Avx512, C>(bvh, ray, stats)
+        closest::closest::<8, Avx2, C, OCT>(bvh, ray, stats)
+    }
+
+    /// The whole traversal compiled with AVX-512VL (32 vector registers, mask compares).
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn any_hit_avx512<C: Counters, const OCT: usize>(
+        bvh: &WideBvh<8>,
+        ray: &Ray,
+        order: OrderView,
+        stats: &mut C,
+    ) -> Option<u32> {
+        any_hit::any_hit::<8, Avx512, C, OCT>(bvh, ray, order, stats)
+    }
+
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn closest_avx512<C: Counters, const OCT: usize>(
+        bvh: &WideBvh<8>,
+        ray: &Ray,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        closest::closest::<8, Avx512, C, OCT>(bvh, ray, stats)
     }
 }
