@@ -350,11 +350,12 @@ mod tests {
     /// The row offsets fixed by an octant are those read from the ray, signed zeros included.
     #[test]
     fn octant_offsets_equal_the_offsets_read_from_the_ray() {
-        fn fixed<const OCT: usize>(ray: &Ray) -> ([usize; 3], [usize; 3]) {
+        type Offsets = ([usize; 3], [usize; 3]);
+        fn fixed<const OCT: usize>(ray: &Ray) -> Offsets {
             let w = WideRay::<8>::for_octant::<OCT>(ray);
             (w.near, w.far)
         }
-        let table: [fn(&Ray) -> ([usize; 3], [usize; 3]); 8] = [
+        let table: [fn(&Ray) -> Offsets; 8] = [
             fixed::<0>, fixed::<1>, fixed::<2>, fixed::<3>, fixed::<4>, fixed::<5>, fixed::<6>,
             fixed::<7>,
         ];
