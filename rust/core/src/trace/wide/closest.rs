@@ -62,21 +62,20 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT
                     count,
                     t_min,
                     t_max,
-                    |slot, t| {
+                    |slot, t, [b0, b1, b2]| {
                         let id = ids[slot];
-                        // As the scalar loop, which tests each triangle against the t_max left by
-                        // the ones before it; the winner's barycentrics come from that test.
+                        // The lane's values are the scalar test's, which does not depend on
+                        // t_max except to accept: the scalar loop, testing against the t_max
+                        // left by the triangles before this one, accepts exactly when t <= t_max.
                         if t <= t_max && Hit::closer_than(t, id, &best) {
-                            if let Some(h) = intersect_triangle(&wt, &tris[slot], t_min, t_max) {
-                                t_max = h.t;
-                                best = Some(Hit {
-                                    t: h.t,
-                                    triangle: id,
-                                    b0: h.b0,
-                                    b1: h.b1,
-                                    b2: h.b2,
-                                });
-                            }
+                            t_max = t;
+                            best = Some(Hit {
+                                t,
+                                triangle: id,
+                                b0,
+                                b1,
+                                b2,
+                            });
                         }
                         t_max
                     },

@@ -80,7 +80,8 @@ fn windows(first: usize, count: usize, lanes: usize) -> impl Iterator<Item = (us
 }
 
 /// Slots `4 * block ..` against the ray for t in (`t_min`, `t_max`], lanes of `valid` only:
-/// bit i of the result is set when slot `4 * block + i` is hit, and `t[i]` is its distance.
+/// bit i of the result is set when slot `4 * block + i` is hit, `t[i]` is its distance and
+/// `bary[k][i]` its barycentric k, all bit for bit the scalar test's.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)] // the scalar test's arguments plus the window
 fn test_window(
@@ -93,11 +94,12 @@ fn test_window(
     t_min: f32,
     t_max: f32,
     t: &mut [f32; 8],
+    bary: &mut [[f32; 8]; 3],
 ) -> u32 {
     #[cfg(target_arch = "x86_64")]
     let (hits, zero) = match lanes {
-        LeafLanes::Four => simd::four(rows, ray, block, t_min, t_max, t),
-        LeafLanes::Eight => simd::eight(rows, ray, block, t_min, t_max, t),
+        LeafLanes::Four => simd::four(rows, ray, block, t_min, t_max, t, bary),
+        LeafLanes::Eight => simd::eight(rows, ray, block, t_min, t_max, t, bary),
         LeafLanes::Scalar => (0, u32::MAX),
     };
     #[cfg(not(target_arch = "x86_64"))]
@@ -114,6 +116,7 @@ fn test_window(
         fallback &= fallback - 1;
         if let Some(h) = intersect_triangle(ray, &triangles[4 * block + i], t_min, t_max) {
             t[i] = h.t;
+            [bary[0][i], bary[1][i], bary[2][i]] = [h.b0, h.b1, h.b2];
             hits |= 1 << i;
         }
     }
@@ -134,10 +137,10 @@ pub(crate) fn first_hit(
     t_min: f32,
     t_max: f32,
 ) -> Option<u32> {
-    let mut t = [0f32; 8];
+    let (mut t, mut bary) = ([0f32; 8], [[0f32; 8]; 3]);
     for (block, valid) in windows(first, count, lanes.width()) {
         let hits = test_window(
-            lanes, rows, triangles, ray, block, valid, t_min, t_max, &mut t,
+            lanes, rows, triangles, ray, block, valid, t_min, t_max, &mut t, &mut bary,
         );
         if hits != 0 {
             let slot = 4 * block + hits.trailing_zeros() as usize;
@@ -147,9 +150,9 @@ pub(crate) fn first_hit(
     None
 }
 
-/// For the closest-hit traversal: calls `on_hit(slot, t)` for every slot of the leaf the ray
-/// hits in (`t_min`, `t_max`], in slot order; `on_hit` returns the new `t_max` (a hit never
-/// makes it larger). Lanes are tested against the `t_max` at the start of their window, so
+/// For the closest-hit traversal: calls `on_hit(slot, t, barycentrics)` for every slot of the
+/// leaf the ray hits in (`t_min`, `t_max`], in slot order, with the scalar test's values;
+/// `on_hit` returns the new `t_max` (a hit never makes it larger). Lanes are tested against the `t_max` at the start of their window, so
 /// `on_hit` must re-check against its current `t_max`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)] // the scalar test's arguments plus the leaf's range
@@ -162,17 +165,18 @@ pub(crate) fn each_hit(
     count: usize,
     t_min: f32,
     mut t_max: f32,
-    mut on_hit: impl FnMut(usize, f32) -> f32,
+    mut on_hit: impl FnMut(usize, f32, [f32; 3]) -> f32,
 ) {
-    let mut t = [0f32; 8];
+    let (mut t, mut bary) = ([0f32; 8], [[0f32; 8]; 3]);
     for (block, valid) in windows(first, count, lanes.width()) {
         let mut hits = test_window(
-            lanes, rows, triangles, ray, block, valid, t_min, t_max, &mut t,
+            lanes, rows, triangles, ray, block, valid, t_min, t_max, &mut t, &mut bary,
         );
         while hits != 0 {
             let lane = hits.trailing_zeros() as usize;
             hits &= hits - 1;
-            t_max = on_hit(4 * block + lane, t[lane]);
+            let b = [bary[0][lane], bary[1][lane], bary[2][lane]];
+            t_max = on_hit(4 * block + lane, t[lane], b);
         }
     }
 }
@@ -185,7 +189,7 @@ mod simd {
 
     /// The lane operations of the watertight test, written once for both vector widths.
     macro_rules! watertight_lanes {
-        ($load:ident, $ray:expr, $t_min:expr, $t_max:expr, $t:expr,
+        ($load:ident, $ray:expr, $t_min:expr, $t_max:expr, $t:expr, $bary:expr,
          $set1:ident, $sub:ident, $mul:ident, $add:ident, $div:ident, $and:ident, $andnot:ident,
          $or:ident, $zero:ident, $eq:ident, $lt:ident, $gt:ident, $neq:ident, $le:ident,
          $store:ident, $movemask:ident) => {{
@@ -227,7 +231,9 @@ mod simd {
                 $add($mul(u, $mul(sz, a_z)), $mul(v, $mul(sz, b_z))),
                 $mul(w, $mul(sz, c_z)),
             );
-            let tt = $mul(t_scaled, $div($set1(1.0), det));
+            // The scalar test's `inv`, `t` and barycentrics, the same operations per lane.
+            let inv = $div($set1(1.0), det);
+            let tt = $mul(t_scaled, inv);
             let ok = $andnot(
                 $and(neg, pos),
                 $and(
@@ -236,6 +242,11 @@ mod simd {
                 ),
             );
             $store($t.as_mut_ptr(), tt);
+            // Dead stores (removed by the compiler) where the caller does not read them.
+            let bary: &mut [[f32; 8]; 3] = $bary;
+            $store(bary[0].as_mut_ptr(), $mul(u, inv));
+            $store(bary[1].as_mut_ptr(), $mul(v, inv));
+            $store(bary[2].as_mut_ptr(), $mul(w, inv));
             ($movemask(ok) as u32, $movemask(zero) as u32)
         }};
     }
@@ -249,6 +260,7 @@ mod simd {
         t_min: f32,
         t_max: f32,
         t: &mut [f32; 8],
+        bary: &mut [[f32; 8]; 3],
     ) -> (u32, u32) {
         let b = &rows.blocks[block];
         // SAFETY: SSE/SSE2 are part of the x86_64 baseline; each load reads one 16-byte row of
@@ -283,6 +295,7 @@ mod simd {
                 t_min,
                 t_max,
                 t,
+                bary,
                 _mm_set1_ps,
                 _mm_sub_ps,
                 _mm_mul_ps,
@@ -313,6 +326,7 @@ mod simd {
         t_min: f32,
         t_max: f32,
         t: &mut [f32; 8],
+        bary: &mut [[f32; 8]; 3],
     ) -> (u32, u32) {
         let (lo, hi) = (&rows.blocks[block], &rows.blocks[block + 1]);
         // SAFETY: only instantiated inside functions compiled with `target_feature(enable =
@@ -348,6 +362,7 @@ mod simd {
                 t_min,
                 t_max,
                 t,
+                bary,
                 _mm256_set1_ps,
                 _mm256_sub_ps,
                 _mm256_mul_ps,
@@ -384,12 +399,22 @@ mod tests {
         ray: &WatertightRay,
         first: usize,
         count: usize,
-        seen: &mut Vec<(usize, u32)>,
+        seen: &mut Vec<(usize, [u32; 4])>,
     ) {
-        each_hit(lanes, rows, tris, ray, first, count, 0.0, 1.5, |slot, t| {
-            seen.push((slot, t.to_bits()));
-            1.5
-        });
+        each_hit(
+            lanes,
+            rows,
+            tris,
+            ray,
+            first,
+            count,
+            0.0,
+            1.5,
+            |slot, t, b| {
+                seen.push((slot, [t, b[0], b[1], b[2]].map(f32::to_bits)));
+                1.5
+            },
+        );
     }
 
     #[target_feature(enable = "avx2")]
@@ -408,9 +433,10 @@ mod tests {
         (h >> 8) as f32 / (1u32 << 24) as f32
     }
 
-    /// Every lane of both SIMD widths equals the scalar test (hit and distance) on a fan of
-    /// triangles sharing edges and vertices, for rays through their vertices, edge midpoints
-    /// and random points, for every leaf range (any start, any length, across blocks).
+    /// Every lane of both SIMD widths equals the scalar test (hit, distance and barycentrics,
+    /// bit for bit) on a fan of triangles sharing edges and vertices, for rays through their
+    /// vertices, edge midpoints and random points, for every leaf range (any start, any
+    /// length, across blocks).
     #[test]
     fn simd_lanes_equal_the_scalar_test() {
         let c = Vec3::new(0.1, 0.2, 0.3);
@@ -446,9 +472,12 @@ mod tests {
             for &p in &targets {
                 let ray = Ray::new(o, p - o, 0.0, 1.5);
                 let wt = WatertightRay::new(&ray);
-                let scalar: Vec<Option<f32>> = tris
+                let scalar: Vec<Option<[u32; 4]>> = tris
                     .iter()
-                    .map(|t| intersect_triangle(&wt, t, 0.0, 1.5).map(|h| h.t))
+                    .map(|t| {
+                        intersect_triangle(&wt, t, 0.0, 1.5)
+                            .map(|h| [h.t, h.b0, h.b1, h.b2].map(f32::to_bits))
+                    })
                     .collect();
                 for first in 0..tris.len() {
                     for count in 1..=tris.len() - first {
@@ -459,9 +488,9 @@ mod tests {
                             unsafe {
                                 each_hit_with(lanes, &rows, &tris, &wt, first, count, &mut seen)
                             };
-                            let expected: Vec<(usize, u32)> = range
+                            let expected: Vec<(usize, [u32; 4])> = range
                                 .clone()
-                                .filter_map(|s| scalar[s].map(|t| (s, t.to_bits())))
+                                .filter_map(|s| scalar[s].map(|h| (s, h)))
                                 .collect();
                             assert_eq!(seen, expected, "{lanes:?} {o} {p} {first}+{count}");
                             let first_scalar = range.clone().position(|s| scalar[s].is_some());
