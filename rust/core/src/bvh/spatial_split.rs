@@ -294,9 +294,16 @@ impl Grid {
                     Vec::new()
                 }
             });
-            self.bin_with(refs, vis, &mut all, |bins, b0, b1, r, axis| {
+            // Counts and one-bin boxes first, then the straddling references' clipping in a
+            // loop of its own: one loop doing both spilled the clipper's state on every
+            // reference (the bins are minima, maxima and sums, so the order does not matter).
+            let mut straddling: Vec<(&PrimRef, usize, usize, usize)> = Vec::new();
+            self.bin_with(refs, vis, &mut all, |_, b0, b1, r, axis| {
+                straddling.push((r, axis, b0, b1));
+            });
+            for (r, axis, b0, b1) in straddling {
                 let tri = &triangles[r.id() as usize];
-                let strips = &mut bins[b0..=b1];
+                let strips = &mut all[axis * nb + b0..=axis * nb + b1];
                 clipped_strips(
                     tri,
                     axis,
@@ -304,7 +311,7 @@ impl Grid {
                     &r.bounds(),
                     |j, part| strips[j].bounds.grow_box(&part),
                 );
-            });
+            }
         } else {
             self.bin_with(refs, vis, &mut all, |bins, b0, b1, r, _| {
                 // The whole box into its first and last bin only: `Grid::sweep` cuts each
@@ -321,12 +328,12 @@ impl Grid {
     /// and the box of a reference that stays in one bin; `straddling(bins, b0, b1, r, axis)`
     /// grows the bins `b0 < b1` of a reference that spans several.
     #[inline(always)]
-    fn bin_with(
+    fn bin_with<'r>(
         &self,
-        refs: &[PrimRef],
+        refs: &'r [PrimRef],
         vis: Visibility,
         all: &mut [Bin],
-        mut straddling: impl FnMut(&mut [Bin], usize, usize, &PrimRef, usize),
+        mut straddling: impl FnMut(&mut [Bin], usize, usize, &'r PrimRef, usize),
     ) {
         let nb = self.nb;
         // Per axis, the scalar mapping `((x - lo) / step).max(0)` clamped to the last bin, in
