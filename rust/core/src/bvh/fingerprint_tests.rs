@@ -89,6 +89,22 @@ fn trees_are_unchanged_by_the_build_speed_rewrites() {
 }
 
 #[test]
+fn default_trees_are_unchanged_by_the_build_speed_rewrites() {
+    // The default settings (cut boxes below `clip_min_refs`, so both spatial binning paths),
+    // recorded before the fifth round of build-speed changes (BENCHMARKS.md, issue 6).
+    let s = BuildSettings::default();
+    let got = [
+        fingerprint(BuildMethod::Sbvh, &s),
+        fingerprint(BuildMethod::Osah, &s),
+    ];
+    assert_eq!(
+        got,
+        [0x8182_d66b_1e9a_e569, 0xc035_def0_e209_6397],
+        "{got:#x?}"
+    );
+}
+
+#[test]
 fn cut_box_binning_below_the_top_nodes_keeps_the_sah_cost() {
     // The default bins spatial splits with cut reference boxes below 65536 references; on this
     // scene (150k references, so only the top nodes clip) the trees' SAH cost must stay within

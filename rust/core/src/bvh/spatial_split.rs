@@ -283,7 +283,59 @@ impl Grid {
     fn bin(&self, refs: &[PrimRef], triangles: &[[Vec3; 3]], vis: Visibility) -> Vec<Bin> {
         let nb = self.nb;
         let mut all = vec![EMPTY_BIN; 3 * nb];
-        let axes: Vec<usize> = (0..3).filter(|&a| self.axes[a]).collect();
+        // One loop per path, each a separate instance: sharing one loop made the cut-box
+        // path (most nodes) carry the clipping path's per-reference setup.
+        if self.clip {
+            // Clipping's planes on the flagged axes.
+            let planes: [Vec<f32>; 3] = std::array::from_fn(|axis| {
+                if self.axes[axis] {
+                    (0..=nb).map(|i| self.plane(axis, i)).collect()
+                } else {
+                    Vec::new()
+                }
+            });
+            // Counts and one-bin boxes first, then the straddling references' clipping in a
+            // loop of its own: one loop doing both spilled the clipper's state on every
+            // reference (the bins are minima, maxima and sums, so the order does not matter).
+            let mut straddling: Vec<(&PrimRef, usize, usize, usize)> = Vec::new();
+            self.bin_with(refs, vis, &mut all, |_, b0, b1, r, axis| {
+                straddling.push((r, axis, b0, b1));
+            });
+            for (r, axis, b0, b1) in straddling {
+                let tri = &triangles[r.id() as usize];
+                let strips = &mut all[axis * nb + b0..=axis * nb + b1];
+                clipped_strips(
+                    tri,
+                    axis,
+                    planes[axis][b0..=b1 + 1].iter().copied(),
+                    &r.bounds(),
+                    |j, part| strips[j].bounds.grow_box(&part),
+                );
+            }
+        } else {
+            self.bin_with(refs, vis, &mut all, |bins, b0, b1, r, _| {
+                // The whole box into its first and last bin only: `Grid::sweep` cuts each
+                // side at its plane, which gives the sides the union of the box's cuts to
+                // every bin it spans, in two updates instead of one per bin.
+                bins[b0].bounds.grow_box(&r.bounds());
+                bins[b1].bounds.grow_box(&r.bounds());
+            });
+        }
+        all
+    }
+
+    /// The loop of [`Grid::bin`] into `all` (3 x `nb` empty bins): entry and exit counts,
+    /// and the box of a reference that stays in one bin; `straddling(bins, b0, b1, r, axis)`
+    /// grows the bins `b0 < b1` of a reference that spans several.
+    #[inline(always)]
+    fn bin_with<'r>(
+        &self,
+        refs: &'r [PrimRef],
+        vis: Visibility,
+        all: &mut [Bin],
+        mut straddling: impl FnMut(&mut [Bin], usize, usize, &'r PrimRef, usize),
+    ) {
+        let nb = self.nb;
         // Per axis, the scalar mapping `((x - lo) / step).max(0)` clamped to the last bin, in
         // 4 lanes (lane 3 is unused) with the same arithmetic: one division gives a
         // reference's low bins on every axis, one more its high bins.
@@ -292,43 +344,23 @@ impl Grid {
             .truncate()
             .extend(1.0);
         let last = Vec4::splat((nb - 1) as f32);
-        // Clipping's planes on the flagged axes (cut boxes need none).
-        let planes: [Vec<f32>; 3] = std::array::from_fn(|axis| {
-            if self.clip && self.axes[axis] {
-                (0..=nb).map(|i| self.plane(axis, i)).collect()
-            } else {
-                Vec::new()
-            }
-        });
+        let (bx, rest) = all.split_at_mut(nb);
+        let (by, bz) = rest.split_at_mut(nb);
+        let flags = self.axes;
         for r in refs {
             let first = truncate_lanes(((r.lo - lo) / step).max(Vec4::ZERO).min(last));
             let final_ = truncate_lanes(((r.hi - lo) / step).max(Vec4::ZERO).min(last));
             let visible = vis.of(r) as u32;
-            for &axis in &axes {
-                let bins = &mut all[axis * nb..(axis + 1) * nb];
-                let plane = &planes[axis];
+            for (axis, bins) in [(0, &mut *bx), (1, &mut *by), (2, &mut *bz)] {
+                if !flags[axis] {
+                    continue;
+                }
                 let b0 = first[axis] as usize;
                 let b1 = (final_[axis] as usize).max(b0);
                 if b0 == b1 {
                     bins[b0].bounds.grow_box(&r.bounds());
-                } else if !self.clip {
-                    // The whole box into its first and last bin only: `Grid::sweep` cuts each
-                    // side at its plane, which gives the sides the union of the box's cuts to
-                    // every bin it spans, in two updates instead of one per bin.
-                    bins[b0].bounds.grow_box(&r.bounds());
-                    bins[b1].bounds.grow_box(&r.bounds());
                 } else {
-                    let tri = &triangles[r.id() as usize];
-                    let strips = &mut bins[b0..=b1];
-                    clipped_strips(
-                        tri,
-                        axis,
-                        plane[b0..=b1 + 1].iter().copied(),
-                        &r.bounds(),
-                        |j, part| {
-                            strips[j].bounds.grow_box(&part);
-                        },
-                    );
+                    straddling(bins, b0, b1, r, axis);
                 }
                 bins[b0].enter += 1;
                 bins[b0].vis_enter += visible;
@@ -336,7 +368,6 @@ impl Grid {
                 bins[b1].vis_exit += visible;
             }
         }
-        all
     }
 }
 
