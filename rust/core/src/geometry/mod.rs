@@ -8,7 +8,6 @@ mod triangle;
 
 pub use aabb::Aabb;
 pub use offset::offset_ray_origin;
-pub(crate) use ray::FAR_SCALE;
 pub use ray::{Ray, RayBoxPrecomp};
 pub use triangle::{intersect_triangle, triangle_normal, TriangleHit, WatertightRay};
 

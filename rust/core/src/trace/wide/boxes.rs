@@ -3,12 +3,11 @@
 //! lanes) that give the same answers bit for bit.
 //!
 //! The SIMD kernels do the reference's arithmetic in the reference's order, per lane:
-//! `(plane - origin) * inv_dir` per axis, NaN replaced by `t_min` (near) or `t_max` (far) with
-//! the operand order of `minps`/`maxps` (which return the second operand when either is NaN),
-//! the far distance scaled by `FAR_SCALE` before the clamp. Scaling by a positive constant is
-//! monotone under rounding, so `min(a, b) * s == min(a * s, b * s)` exactly and the per-axis
-//! scaling equals the reference's scaling of the minimum. The hit rule `t_near <= t_far` and the
-//! returned entry distance are the reference's, which keeps `t_margin`'s exact-tie guarantee.
+//! `(plane - origin) * inv_dir` per axis (`inv_dir_far`, the reciprocal scaled by `FAR_SCALE`,
+//! for far planes), NaN replaced by `t_min` (near) or `t_max` (far) with the operand order of
+//! `minps`/`maxps` (which return the second operand when either is NaN). The hit rule
+//! `t_near <= t_far` and the returned entry distance are the reference's, which keeps
+//! `t_margin`'s exact-tie guarantee.
 
 use glam::Vec3;
 
@@ -46,6 +45,7 @@ pub struct WideRay<const N: usize> {
     pub far: [usize; 3],
     pub origin: [f32; 3],
     pub inv_dir: [f32; 3],
+    pub inv_dir_far: [f32; 3],
 }
 
 impl<const N: usize> WideRay<N> {
@@ -85,6 +85,7 @@ impl<const N: usize> WideRay<N> {
             far: [0, 1, 2].map(|a| (a + 3 - 3 * neg[a]) * Self::ROW),
             origin: pre.origin.to_array(),
             inv_dir: pre.inv_dir.to_array(),
+            inv_dir_far: pre.inv_dir_far.to_array(),
             pre,
         }
     }
@@ -157,7 +158,6 @@ mod x86 {
 
     use super::{ChildBoxTest, LeafLanes, WideRay};
     use crate::bvh::WideNode;
-    use crate::geometry::FAR_SCALE;
 
     /// Four lanes with SSE (baseline on x86_64); eight as two halves.
     pub struct Sse;
@@ -175,33 +175,33 @@ mod x86 {
 
     /// The entry and exit distances `(tn, tf)` of the child boxes in the lanes from `lane` of
     /// each bounds row, written once for both vector widths with their intrinsics: per axis
-    /// `(plane - origin) * inv_dir` of the ray's near and far rows, the far ones scaled by
-    /// `FAR_SCALE`, clamped to `[t_min, t_max]`. A macro, not a function generic over the
+    /// `(plane - origin) * inv_dir` of the ray's near rows and `* inv_dir_far` of its far rows,
+    /// clamped to `[t_min, t_max]`. A macro, not a function generic over the
     /// width, so every intrinsic is inlined into a caller compiled with the features it needs.
     macro_rules! slab_distances {
         ($ray:expr, $bounds:expr, $lane:expr, $t_min:expr, $t_max:expr, $n:expr;
          $load:ident, $set1:ident, $sub:ident, $mul:ident, $max:ident, $min:ident) => {{
             let (ray, b, lane) = ($ray, $bounds, $lane);
-            let (tmin, tmax, scale) = ($set1($t_min), $set1($t_max), $set1(FAR_SCALE));
+            let (tmin, tmax) = ($set1($t_min), $set1($t_max));
             macro_rules! axis {
-                ($a:expr, $off:expr) => {
+                ($a:expr, $off:expr, $inv:expr) => {
                     $mul(
                         $sub(
                             $load(WideRay::<$n>::row(b, $off, lane)),
                             $set1(ray.origin[$a]),
                         ),
-                        $set1(ray.inv_dir[$a]),
+                        $set1($inv[$a]),
                     )
                 };
             }
             macro_rules! near {
                 ($a:expr) => {
-                    $max(axis!($a, ray.near[$a]), tmin)
+                    $max(axis!($a, ray.near[$a], ray.inv_dir), tmin)
                 };
             }
             macro_rules! far {
                 ($a:expr) => {
-                    $min($mul(axis!($a, ray.far[$a]), scale), tmax)
+                    $min(axis!($a, ray.far[$a], ray.inv_dir_far), tmax)
                 };
             }
             (
