@@ -12,7 +12,7 @@
 use glam::Vec3;
 
 use super::leaf::LeafLanes;
-use crate::bvh::WideNode;
+use crate::bvh::{WideNode, EMPTY_CHILD};
 use crate::geometry::{Ray, RayBoxPrecomp};
 
 /// Which box-test implementation a traversal uses. All give identical answers.
@@ -46,7 +46,16 @@ pub struct WideRay<const N: usize> {
     pub origin: [f32; 3],
     pub inv_dir: [f32; 3],
     pub inv_dir_far: [f32; 3],
+    /// No slab distance can be NaN: set for rays traced with a fixed octant, which
+    /// [`WideRay::fixed_octant`] only gives rays whose reciprocals are all finite and non-zero.
+    /// The SIMD kernels then combine the axes in a shallower min/max tree (one dependent
+    /// operation less per node on the traversal's critical path).
+    pub no_nan: bool,
 }
+
+/// Smallest direction component magnitude of a ray traced with a fixed octant: its reciprocal
+/// (at most 1e37) and the far reciprocal (times `1 + 2 gamma(3)`) stay finite.
+const MIN_FIXED_OCTANT_COMPONENT: f32 = 1e-37;
 
 impl<const N: usize> WideRay<N> {
     /// Bytes of one bounds row.
@@ -65,7 +74,18 @@ impl<const N: usize> WideRay<N> {
         (0..3).map(|a| ((d[a].to_bits() >> 31) as usize) << a).sum()
     }
 
-    /// The values for a ray of octant `OCT` ([`WideRay::octant`]), or of any octant with
+    /// The octant a traversal may be instantiated for ([`WideRay::for_octant`]): the ray's
+    /// octant when every direction component has a magnitude of at least 1e-37, so that every
+    /// slab distance `(plane - origin) * reciprocal` is a product of finite numbers with a
+    /// non-zero one (never NaN; an empty slot's infinite planes give infinities). `None` for
+    /// rays along an axis plane (a zero component), which take the [`ANY_OCTANT`] instance.
+    #[inline(always)]
+    pub fn fixed_octant(ray: &Ray) -> Option<usize> {
+        let fixed = ray.direction.abs().min_element() >= MIN_FIXED_OCTANT_COMPONENT;
+        fixed.then(|| Self::octant(ray))
+    }
+
+    /// The values for a ray of octant `OCT` ([`WideRay::fixed_octant`]), or of any octant with
     /// [`ANY_OCTANT`]. With a fixed octant the row offsets are constants, which the compiler
     /// folds into every node's loads: a traversal instantiated per octant then neither keeps
     /// six offsets in registers nor reloads them from the stack at every node.
@@ -77,7 +97,11 @@ impl<const N: usize> WideRay<N> {
             let d = ray.direction.to_array();
             d.map(|c| (c.to_bits() >> 31) as usize)
         } else {
-            debug_assert_eq!(OCT, Self::octant(ray), "ray {ray:?} traced as octant {OCT}");
+            debug_assert_eq!(
+                Some(OCT),
+                Self::fixed_octant(ray),
+                "ray {ray:?} traced as octant {OCT}"
+            );
             [OCT & 1, (OCT >> 1) & 1, (OCT >> 2) & 1]
         };
         WideRay {
@@ -86,6 +110,7 @@ impl<const N: usize> WideRay<N> {
             origin: pre.origin.to_array(),
             inv_dir: pre.inv_dir.to_array(),
             inv_dir_far: pre.inv_dir_far.to_array(),
+            no_nan: OCT != ANY_OCTANT,
             pre,
         }
     }
@@ -120,6 +145,19 @@ pub trait ChildBoxTest<const N: usize> {
         t_max: f32,
         t_near: &mut [f32; N],
     ) -> u32;
+
+    /// `node.child` of the lowest and second-lowest slots of `mask` (which has at least one,
+    /// and for `.1` at least two, bits set). Most visited nodes have one or two children hit,
+    /// and the next node's address is on the traversal's critical path: a kernel may read
+    /// both from the child row compressed by the hit mask instead of indexing by bit scans.
+    #[inline(always)]
+    fn lowest_children(node: &WideNode<N>, mask: u32) -> (u32, u32) {
+        let first = mask.trailing_zeros() as usize;
+        let rest = mask & mask.wrapping_sub(1);
+        // Slot N (no second bit) reads nothing: the caller does not use `.1` then.
+        let second = node.child.get(rest.trailing_zeros() as usize);
+        (node.child[first], second.copied().unwrap_or(EMPTY_CHILD))
+    }
 }
 
 /// The reference slab test, one child at a time.
@@ -196,18 +234,35 @@ mod x86 {
             }
             macro_rules! near {
                 ($a:expr) => {
-                    $max(axis!($a, ray.near[$a], ray.inv_dir), tmin)
+                    axis!($a, ray.near[$a], ray.inv_dir)
                 };
             }
             macro_rules! far {
                 ($a:expr) => {
-                    $min(axis!($a, ray.far[$a], ray.inv_dir_far), tmax)
+                    axis!($a, ray.far[$a], ray.inv_dir_far)
                 };
             }
-            (
-                $max($max(near!(0), near!(1)), near!(2)),
-                $min($min(far!(0), far!(1)), far!(2)),
-            )
+            if ray.no_nan {
+                // Two levels: with no NaN, max and min are associative and commutative (up to
+                // the sign of a zero distance, which no comparison sees).
+                (
+                    $max($max(near!(0), near!(1)), $max(near!(2), tmin)),
+                    $min($min(far!(0), far!(1)), $min(far!(2), tmax)),
+                )
+            } else {
+                // A NaN distance (0 * inf) takes t_min or t_max: the second operand of
+                // max/min is returned when either is NaN.
+                (
+                    $max(
+                        $max($max(near!(0), tmin), $max(near!(1), tmin)),
+                        $max(near!(2), tmin),
+                    ),
+                    $min(
+                        $min($min(far!(0), tmax), $min(far!(1), tmax)),
+                        $min(far!(2), tmax),
+                    ),
+                )
+            }
         }};
     }
 
@@ -324,6 +379,23 @@ mod x86 {
                 _mm256_cmp_ps_mask::<_CMP_LE_OQ>(tn, tf) as u32
             }
         }
+
+        /// The hit children's references packed to the low lanes by the hit mask: the next
+        /// node's index is ready a compress and a move after the compare (a mask move, a bit
+        /// scan, an address computation and a load before).
+        #[inline(always)]
+        fn lowest_children(node: &WideNode<8>, mask: u32) -> (u32, u32) {
+            // SAFETY: as in `test`; the load reads the node's eight child references.
+            unsafe {
+                let children = _mm256_loadu_si256(node.child.as_ptr().cast());
+                let packed = _mm256_maskz_compress_epi32(mask as __mmask8, children);
+                let low = _mm256_castsi256_si128(packed);
+                (
+                    _mm_cvtsi128_si32(low) as u32,
+                    _mm_extract_epi32::<1>(low) as u32,
+                )
+            }
+        }
     }
 }
 
@@ -347,30 +419,86 @@ mod tests {
         Avx512::test(ray, node, 0.0, 10.0, t)
     }
 
-    /// The row offsets fixed by an octant are those read from the ray, signed zeros included.
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn avx512_children(node: &WideNode<8>, mask: u32) -> (u32, u32) {
+        Avx512::lowest_children(node, mask)
+    }
+
+    /// The child references of the lowest hit slots are those the mask's bits index, for
+    /// every mask with one or more bits (the second only where there are two or more).
+    #[test]
+    fn lowest_children_are_the_children_of_the_lowest_mask_bits() {
+        let mut node = WideNode::<8>::default();
+        for s in 0..8 {
+            node.child[s] = 1000 + 37 * s as u32;
+        }
+        let has_avx512 = std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl");
+        for mask in 1u32..256 {
+            let bits: Vec<usize> = (0..8).filter(|s| mask & (1 << s) != 0).collect();
+            let check = |(a, b): (u32, u32)| {
+                assert_eq!(a, node.child[bits[0]], "mask {mask:08b}");
+                if bits.len() > 1 {
+                    assert_eq!(b, node.child[bits[1]], "mask {mask:08b}");
+                }
+            };
+            check(<Scalar as ChildBoxTest<8>>::lowest_children(&node, mask));
+            check(<Avx2 as ChildBoxTest<8>>::lowest_children(&node, mask));
+            if has_avx512 {
+                // SAFETY: AVX-512F and VL were detected.
+                check(unsafe { avx512_children(&node, mask) });
+            }
+        }
+    }
+
+    /// The row offsets fixed by an octant are those read from the ray; rays with a zero (of
+    /// either sign) or tiny direction component get no fixed octant, and their reciprocals
+    /// are the only ones that can be infinite.
     #[test]
     fn octant_offsets_equal_the_offsets_read_from_the_ray() {
         type Offsets = ([usize; 3], [usize; 3]);
         fn fixed<const OCT: usize>(ray: &Ray) -> Offsets {
             let w = WideRay::<8>::for_octant::<OCT>(ray);
+            assert!(w.no_nan);
             (w.near, w.far)
         }
         let table: [fn(&Ray) -> Offsets; 8] = [
             fixed::<0>, fixed::<1>, fixed::<2>, fixed::<3>, fixed::<4>, fixed::<5>, fixed::<6>,
             fixed::<7>,
         ];
-        let values = [1.0f32, -2.0, 0.0, -0.0];
+        let values = [
+            1.0f32,
+            -2.0,
+            1e-37,
+            -1e-37,
+            0.0,
+            -0.0,
+            9e-38,
+            f32::MIN_POSITIVE,
+        ];
         let mut octants_seen = [false; 8];
         for x in values {
             for y in values {
                 for z in values {
                     let ray = Ray::new(Vec3::ZERO, Vec3::new(x, y, z), 0.0, 1.0);
                     let dynamic = WideRay::<8>::new(&ray);
+                    assert!(!dynamic.no_nan);
                     let oct = WideRay::<8>::octant(&ray);
                     let neg = [x, y, z].map(|c| c.is_sign_negative() as usize);
                     assert_eq!(oct, neg[0] | neg[1] << 1 | neg[2] << 2);
-                    assert_eq!(table[oct](&ray), (dynamic.near, dynamic.far), "{ray:?}");
-                    octants_seen[oct] = true;
+                    let finite = [dynamic.inv_dir, dynamic.inv_dir_far]
+                        .iter()
+                        .all(|inv| inv.iter().all(|r| r.is_finite() && *r != 0.0));
+                    let tiny = [x, y, z].iter().any(|c| c.abs() < 1e-37);
+                    match WideRay::<8>::fixed_octant(&ray) {
+                        Some(o) => {
+                            assert!(!tiny && finite, "{ray:?}");
+                            assert_eq!(o, oct);
+                            assert_eq!(table[oct](&ray), (dynamic.near, dynamic.far), "{ray:?}");
+                            octants_seen[oct] = true;
+                        }
+                        None => assert!(tiny, "{ray:?}"),
+                    }
                 }
             }
         }
@@ -385,7 +513,7 @@ mod tests {
         let has_avx2 = std::arch::is_x86_feature_detected!("avx2");
         let has_avx512 = std::arch::is_x86_feature_detected!("avx512f")
             && std::arch::is_x86_feature_detected!("avx512vl");
-        let (mut hits, mut compared) = (0, 0);
+        let (mut hits, mut compared, mut fixed) = (0, 0, 0);
         for k in 0..4000u32 {
             let r = |i: u32| unit(hash_combine(k, i));
             let mut node = WideNode::<8>::default();
@@ -431,31 +559,44 @@ mod tests {
             if dir == Vec3::ZERO {
                 dir.x = 1.0;
             }
-            let ray = WideRay::new(&Ray::new(origin, dir, 0.0, 10.0));
+            let plain = Ray::new(origin, dir, 0.0, 10.0);
+            let ray = WideRay::new(&plain);
             let mut want = [0f32; 8];
             let expected = Scalar::test(&ray, &node, 0.0, 10.0, &mut want);
-            let mut check = |mask: u32, got: [f32; 8]| {
-                assert_eq!(mask, expected, "case {k}");
+            let mut check = |mask: u32, got: [f32; 8], no_nan: bool| {
+                assert_eq!(mask, expected, "case {k} no_nan {no_nan}");
                 for s in (0..8).filter(|s| expected & (1 << s) != 0) {
                     assert_eq!(got[s].to_bits(), want[s].to_bits(), "case {k} slot {s}");
                 }
                 compared += 1;
+                fixed += no_nan as u32;
             };
-            let mut t = [0f32; 8];
-            check(Sse::test(&ray, &node, 0.0, 10.0, &mut t), t);
-            if has_avx2 {
-                // SAFETY: AVX2 was detected.
-                check(unsafe { avx2(&ray, &node, &mut t) }, t);
+            // Rays a traversal may trace with a fixed octant also through the shallower
+            // min/max tree of the per-octant instances.
+            let mut variants = vec![ray];
+            if WideRay::<8>::fixed_octant(&plain).is_some() {
+                variants.push(WideRay {
+                    no_nan: true,
+                    ..ray
+                });
             }
-            if has_avx512 {
-                // SAFETY: AVX-512F and VL were detected.
-                check(unsafe { avx512(&ray, &node, &mut t) }, t);
+            for ray in &variants {
+                let mut t = [0f32; 8];
+                check(Sse::test(ray, &node, 0.0, 10.0, &mut t), t, ray.no_nan);
+                if has_avx2 {
+                    // SAFETY: AVX2 was detected.
+                    check(unsafe { avx2(ray, &node, &mut t) }, t, ray.no_nan);
+                }
+                if has_avx512 {
+                    // SAFETY: AVX-512F and VL were detected.
+                    check(unsafe { avx512(ray, &node, &mut t) }, t, ray.no_nan);
+                }
             }
             hits += expected.count_ones();
         }
         assert!(
-            compared >= 4000 && hits > 1000,
-            "{compared} comparisons, {hits} hits"
+            compared >= 4000 && hits > 1000 && fixed > 1000,
+            "{compared} comparisons ({fixed} without NaN), {hits} hits"
         );
     }
 }

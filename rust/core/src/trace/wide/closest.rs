@@ -111,22 +111,29 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT
                     t_entry: t_near[s as usize],
                 };
                 // One or two children hit (most nodes) skip the general ordering loop.
-                let first = mask.trailing_zeros() as u8;
+                let (child_a, child_b) = K::lowest_children(node, mask);
+                let first = mask.trailing_zeros() as usize;
                 let rest = mask & (mask - 1);
+                let entry = |s: usize, child: u32| Entry {
+                    child,
+                    count: node.count[s] as u32,
+                    t_entry: t_near[s],
+                };
                 if rest == 0 {
-                    current = e(first);
+                    current = entry(first, child_a);
                     continue;
                 }
                 if rest & (rest - 1) == 0 {
                     // Two children: the nearer first, the lower slot on a tie (as near_to_far).
-                    let second = rest.trailing_zeros() as u8;
-                    let (near, far) = if t_near[first as usize] > t_near[second as usize] {
-                        (second, first)
+                    let second = rest.trailing_zeros() as usize;
+                    let (a, b) = (entry(first, child_a), entry(second, child_b));
+                    let (near, far) = if a.t_entry > b.t_entry {
+                        (b, a)
                     } else {
-                        (first, second)
+                        (a, b)
                     };
-                    stack.push(e(far));
-                    current = e(near);
+                    stack.push(far);
+                    current = near;
                     continue;
                 }
                 let mut visit = [0u8; N];

@@ -157,22 +157,21 @@ mod x86_dispatch {
 
     /// Calls `$f::<C, OCT>` with the ray's octant as `OCT`: the 8-wide AVX2 and AVX-512
     /// traversals are instantiated per octant, so each node's plane rows are loaded at constant
-    /// offsets (see `WideRay::for_octant`). Counting traversals (not timed) take one instance.
+    /// offsets and no slab distance is NaN (see `WideRay::fixed_octant`). Counting traversals
+    /// (not timed) and rays with a zero direction component take the `ANY_OCTANT` instance.
     macro_rules! per_octant {
         ($ray:expr, $f:ident::<$c:ident>($($arg:expr),*)) => {
-            if $c::COUNTING {
-                $f::<$c, ANY_OCTANT>($($arg),*)
-            } else {
-                match WideRay::<8>::octant($ray) {
-                    0 => $f::<$c, 0>($($arg),*),
-                    1 => $f::<$c, 1>($($arg),*),
-                    2 => $f::<$c, 2>($($arg),*),
-                    3 => $f::<$c, 3>($($arg),*),
-                    4 => $f::<$c, 4>($($arg),*),
-                    5 => $f::<$c, 5>($($arg),*),
-                    6 => $f::<$c, 6>($($arg),*),
-                    _ => $f::<$c, 7>($($arg),*),
-                }
+            match WideRay::<8>::fixed_octant($ray) {
+                _ if $c::COUNTING => $f::<$c, ANY_OCTANT>($($arg),*),
+                Some(0) => $f::<$c, 0>($($arg),*),
+                Some(1) => $f::<$c, 1>($($arg),*),
+                Some(2) => $f::<$c, 2>($($arg),*),
+                Some(3) => $f::<$c, 3>($($arg),*),
+                Some(4) => $f::<$c, 4>($($arg),*),
+                Some(5) => $f::<$c, 5>($($arg),*),
+                Some(6) => $f::<$c, 6>($($arg),*),
+                Some(7) => $f::<$c, 7>($($arg),*),
+                _ => $f::<$c, ANY_OCTANT>($($arg),*),
             }
         };
     }
