@@ -115,3 +115,38 @@ fn occlusion_agrees_with_embree_on_every_builtin_scene() {
     }
     eprintln!("{}", report.join("\n"));
 }
+
+/// `antumbra bench --compare embree` as a user runs it: every row carries Embree's build time
+/// and both of its ray rates, timed in turn with antumbra's, and Embree agrees with antumbra's
+/// shadow answers on (nearly) every ray.
+#[test]
+fn bench_compares_with_embree_on_the_same_rays() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_antumbra"))
+        .args(["bench", "--scene", "bedroom", "--triangles", "4000"])
+        .args(["--size", "48x32", "--width", "8", "--order", "sorted"])
+        .args(["--compare", "embree", "--repeat", "2", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 2, "one row per thread count: {rows:?}");
+    for row in rows {
+        for key in [
+            "primary_mrays",
+            "shadow_mrays",
+            "embree_build_ms",
+            "embree_primary_mrays",
+            "embree_shadow_mrays",
+        ] {
+            let v = row[key].as_f64().unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v > 0.0, "{key} = {} in {row}", row[key]);
+        }
+        let agreement = row["embree_agreement"].as_f64().unwrap();
+        assert!(agreement > 0.999, "agreement {agreement} in {row}");
+    }
+}
