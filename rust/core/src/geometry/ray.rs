@@ -299,15 +299,19 @@ mod tests {
     /// `(p - o) / d` (computed in f64, where the subtraction is exact and the division's error
     /// is far below f32's), over origins, planes and directions from 1e-30 to 1e30. (With the
     /// scale 1 it fails: the bound is what makes the box test conservative.)
-    #[test]
-    fn far_distances_are_never_below_the_exact_ones() {
-        let mut state = 0x2545_f491_u32;
-        let mut next = || {
+    /// A xorshift32 stream from `seed` (non-zero).
+    fn xorshift(mut state: u32) -> impl FnMut() -> u32 {
+        move || {
             state ^= state << 13;
             state ^= state >> 17;
             state ^= state << 5;
             state
-        };
+        }
+    }
+
+    #[test]
+    fn far_distances_are_never_below_the_exact_ones() {
+        let mut next = xorshift(0x2545_f491);
         let value = |next: &mut dyn FnMut() -> u32| {
             let mantissa = 1.0 + (next() >> 8) as f32 / (1u32 << 24) as f32;
             let exponent = (next() % 61) as i32 - 30;
@@ -335,13 +339,8 @@ mod tests {
     /// coordinates' magnitude over the direction's length, and at most sqrt(3) times it.
     #[test]
     fn margin_covers_its_bound_over_the_direction_length() {
-        let mut state = 0x9e37_79b9_u32;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut bits = xorshift(0x9e37_79b9);
+        let mut next = || (bits() >> 8) as f32 / (1u32 << 24) as f32;
         for k in 0..10_000 {
             let mut v = || Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
             let (origin, mut d) = (v() * 40.0, v() * 10f32.powi(k % 7 - 3));

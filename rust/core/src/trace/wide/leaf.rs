@@ -418,6 +418,16 @@ mod tests {
     use crate::geometry::Ray;
     use crate::sampling::hash_combine;
 
+    /// The scalar test's answer per triangle on (0, 1.5]: distance and barycentrics as bits.
+    fn scalar_answers(wt: &WatertightRay, tris: &[[Vec3; 3]]) -> Vec<Option<[u32; 4]>> {
+        tris.iter()
+            .map(|t| {
+                intersect_triangle(wt, t, 0.0, 1.5)
+                    .map(|h| [h.t, h.b0, h.b1, h.b2].map(f32::to_bits))
+            })
+            .collect()
+    }
+
     /// The leaf tests compiled with AVX2, as the wide traversal's AVX2 instantiation is.
     #[target_feature(enable = "avx2")]
     unsafe fn each_hit_with(
@@ -520,13 +530,7 @@ mod tests {
                             .map(|t| t.map(map))
                             .collect();
                         let rows = TriangleRows::new(&tris);
-                        let scalar: Vec<Option<[u32; 4]>> = tris
-                            .iter()
-                            .map(|t| {
-                                intersect_triangle(&wt, t, 0.0, 1.5)
-                                    .map(|h| [h.t, h.b0, h.b1, h.b2].map(f32::to_bits))
-                            })
-                            .collect();
+                        let scalar = scalar_answers(&wt, &tris);
                         // Only the kind's slot can hit: the fillers never do.
                         let expected: Vec<(usize, [u32; 4])> =
                             (0..11).filter_map(|s| scalar[s].map(|h| (s, h))).collect();
@@ -609,13 +613,7 @@ mod tests {
             for &p in &targets {
                 let ray = Ray::new(o, p - o, 0.0, 1.5);
                 let wt = WatertightRay::new(&ray);
-                let scalar: Vec<Option<[u32; 4]>> = tris
-                    .iter()
-                    .map(|t| {
-                        intersect_triangle(&wt, t, 0.0, 1.5)
-                            .map(|h| [h.t, h.b0, h.b1, h.b2].map(f32::to_bits))
-                    })
-                    .collect();
+                let scalar = scalar_answers(&wt, &tris);
                 for first in 0..tris.len() {
                     for count in 1..=tris.len() - first {
                         let range = first..first + count;
