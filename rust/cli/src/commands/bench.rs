@@ -410,7 +410,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             // (antumbra, Embree, antumbra, ...), so the two best times come from the same
             // spells of a noisy machine and their ratio means something.
             let reference = match &args.compare {
-                Some(_) => Some(embree_reference(
+                Some(_) => Some(Reference::build(
                     &args.embree_quality,
                     tris,
                     threads,
@@ -431,7 +431,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                                 primary
                                     .par_iter()
                                     .with_min_len(256)
-                                    .for_each(|ray| (r.intersect)(ray))
+                                    .for_each(|ray| r.intersect(ray))
                             }
                         }),
                     )
@@ -470,7 +470,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     reference.as_ref().map(|r| {
                         || {
                             shadow.par_iter().with_min_len(256).for_each(|ray| {
-                                std::hint::black_box((r.occluded)(ray));
+                                std::hint::black_box(r.occluded(ray));
                             })
                         }
                     }),
@@ -481,7 +481,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     let agree = shadow
                         .par_iter()
                         .zip(&answers)
-                        .filter(|(ray, a)| (r.occluded)(ray) == **a)
+                        .filter(|(ray, a)| r.occluded(ray) == **a)
                         .count();
                     row.embree_build_ms = Some(r.build_ms);
                     row.embree_agreement = Some(agree as f64 / shadow.len().max(1) as f64);
@@ -533,53 +533,69 @@ fn best_of_in_turn(
     (best, best_theirs)
 }
 
-/// The tracer antumbra is compared with: its build time and its two queries (`intersect`
-/// keeps its answer from being optimised away).
+/// Embree on the same triangles, for `--compare embree`: its build time, and its two queries
+/// called directly (no dynamic dispatch in its timed loops either).
+#[cfg(feature = "embree")]
 struct Reference {
     build_ms: f64,
-    intersect: Box<dyn Fn(&Ray) + Sync>,
-    occluded: Box<dyn Fn(&Ray) -> bool + Sync>,
+    scene: antumbra_embree::EmbreeScene,
 }
 
-/// Embree on the same triangles: the best of `repeat` builds (commits) with `threads` threads.
 #[cfg(feature = "embree")]
-fn embree_reference(
-    quality: &str,
-    tris: &[[glam::Vec3; 3]],
-    threads: usize,
-    repeat: u32,
-) -> Result<Reference> {
-    use antumbra_embree::{EmbreeQuality, EmbreeScene};
-    use std::sync::Arc;
-    let quality = match quality {
-        "medium" => EmbreeQuality::Medium,
-        "high" => EmbreeQuality::High,
-        other => anyhow::bail!("--embree-quality: '{other}' is not medium or high"),
-    };
-    let mut build_ms = f64::INFINITY;
-    let mut scene = None;
-    for _ in 0..repeat.max(1) {
-        let s = EmbreeScene::new(tris, quality, Some(threads))
-            .map_err(|e| anyhow::anyhow!("embree: {e}"))?;
-        build_ms = build_ms.min(s.build_ms());
-        scene = Some(s);
+impl Reference {
+    /// The best of `repeat` builds (commits) with `threads` threads.
+    fn build(quality: &str, tris: &[[glam::Vec3; 3]], threads: usize, repeat: u32) -> Result<Self> {
+        use antumbra_embree::{EmbreeQuality, EmbreeScene};
+        let quality = match quality {
+            "medium" => EmbreeQuality::Medium,
+            "high" => EmbreeQuality::High,
+            other => anyhow::bail!("--embree-quality: '{other}' is not medium or high"),
+        };
+        let mut build_ms = f64::INFINITY;
+        let mut scene = None;
+        for _ in 0..repeat.max(1) {
+            let s = EmbreeScene::new(tris, quality, Some(threads))
+                .map_err(|e| anyhow::anyhow!("embree: {e}"))?;
+            build_ms = build_ms.min(s.build_ms());
+            scene = Some(s);
+        }
+        // Embree's TBB workers spin for a moment after a commit; let them settle before timing.
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        Ok(Reference {
+            build_ms,
+            scene: scene.expect("built at least once"),
+        })
     }
-    let scene = Arc::new(scene.expect("built at least once"));
-    // Embree's TBB workers spin for a moment after a commit; let them settle before timing.
-    std::thread::sleep(std::time::Duration::from_millis(300));
-    let for_occluded = Arc::clone(&scene);
-    Ok(Reference {
-        build_ms,
-        intersect: Box::new(move |r| {
-            std::hint::black_box(scene.intersect(r));
-        }),
-        occluded: Box::new(move |r| for_occluded.occluded(r)),
-    })
+
+    #[inline]
+    fn intersect(&self, ray: &Ray) {
+        std::hint::black_box(self.scene.intersect(ray));
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.scene.occluded(ray)
+    }
+}
+
+/// Without the `embree` feature `run` refuses `--compare` before any is built.
+#[cfg(not(feature = "embree"))]
+struct Reference {
+    build_ms: f64,
+    never: std::convert::Infallible,
 }
 
 #[cfg(not(feature = "embree"))]
-fn embree_reference(_: &str, _: &[[glam::Vec3; 3]], _: usize, _: u32) -> Result<Reference> {
-    bail!("built without the 'embree' feature")
+impl Reference {
+    fn build(_: &str, _: &[[glam::Vec3; 3]], _: usize, _: u32) -> Result<Self> {
+        bail!("built without the 'embree' feature")
+    }
+    fn intersect(&self, _: &Ray) {
+        match self.never {}
+    }
+    fn occluded(&self, _: &Ray) -> bool {
+        match self.never {}
+    }
 }
 
 fn print_table(rows: &[BenchRow]) {
