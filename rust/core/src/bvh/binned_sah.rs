@@ -184,16 +184,31 @@ impl Box4 {
     }
 }
 
+/// A bin: the bounds of the references binned into it, the upper corner negated so that one
+/// `min` grows both corners (one 8-lane operation with AVX), and their count.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
 struct Bin {
-    bounds: Box4,
+    lo: Vec4,
+    neg_hi: Vec4,
     count: u32,
 }
 
 const EMPTY_BIN: Bin = Bin {
-    bounds: Box4::EMPTY,
+    lo: Vec4::splat(f32::INFINITY),
+    neg_hi: Vec4::splat(f32::INFINITY),
     count: 0,
 };
+
+impl Bin {
+    #[inline(always)]
+    fn bounds(&self) -> Box4 {
+        Box4 {
+            lo: self.lo,
+            hi: -self.neg_hi,
+        }
+    }
+}
 
 /// Upper bound of `BuildSettings::bins`; bins live in fixed arrays of this size.
 pub const MAX_BINS: usize = 256;
@@ -590,7 +605,7 @@ impl Context<'_> {
             let mut cost = f32::NAN;
             for i in (1..nb).rev() {
                 if axis_bins[i].count > 0 {
-                    acc.grow_box(&axis_bins[i].bounds);
+                    acc.grow_box(&axis_bins[i].bounds());
                     count += axis_bins[i].count;
                     cost = acc.half_area() * count as f32;
                 }
@@ -604,7 +619,7 @@ impl Context<'_> {
                 if b.count == 0 {
                     continue;
                 }
-                acc.grow_box(&b.bounds);
+                acc.grow_box(&b.bounds());
                 count += b.count;
                 // An empty right side has NaN cost and is never chosen.
                 let cost = s.traversal_cost
@@ -621,9 +636,9 @@ impl Context<'_> {
         let mut right = Box4::EMPTY;
         for (i, b) in axis_bins.iter().enumerate() {
             if i < bin {
-                left.grow_box(&b.bounds);
+                left.grow_box(&b.bounds());
             } else {
-                right.grow_box(&b.bounds);
+                right.grow_box(&b.bounds());
             }
         }
         Some(Split {
@@ -646,13 +661,55 @@ fn clear_bins(bins: &mut Bins3, nb: usize) {
 
 /// Bins `refs` by centroid on all three axes into bins the caller has cleared.
 fn bin_refs(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: AVX is present (checked above).
+        unsafe { bin_refs_avx(refs, binner, bins) };
+        return;
+    }
     let [bx, by, bz] = bins;
     for r in refs {
         let [ix, iy, iz, _] = binner.bins(r.centroid2());
+        let neg_hi = -r.hi;
         // The indices are at most nb - 1 < MAX_BINS: the masks only drop the bounds checks.
         for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
             let bin = &mut axis[i as usize & (MAX_BINS - 1)];
-            bin.bounds.grow(r.lo, r.hi);
+            bin.lo = bin.lo.min(r.lo);
+            bin.neg_hi = bin.neg_hi.min(neg_hi);
+            bin.count += 1;
+        }
+    }
+}
+
+/// [`bin_refs`] with each bin's two corners grown by one 8-lane `min`: a third of the
+/// instructions per reference and axis, and one store instead of two on the chain through
+/// a bin that consecutive references hit.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn bin_refs_avx(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
+    use std::arch::x86_64::*;
+    let flip_hi = _mm256_castsi256_ps(_mm256_set_epi32(
+        i32::MIN,
+        i32::MIN,
+        i32::MIN,
+        i32::MIN,
+        0,
+        0,
+        0,
+        0,
+    ));
+    let [bx, by, bz] = bins;
+    for r in refs {
+        let [ix, iy, iz, _] = binner.bins(r.centroid2());
+        let (lo, hi): (__m128, __m128) = (r.lo.into(), r.hi.into());
+        let lo_neg_hi = _mm256_xor_ps(_mm256_set_m128(hi, lo), flip_hi);
+        for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
+            let bin = &mut axis[i as usize & (MAX_BINS - 1)];
+            // `lo` and `neg_hi` are adjacent and 32-byte aligned (`repr(C, align(32))`).
+            let corners = &mut bin.lo as *mut Vec4 as *mut f32;
+            // SAFETY: the 8 floats at `corners` are `bin.lo` and `bin.neg_hi`, in bounds and
+            // aligned; AVX is enabled for this function.
+            unsafe { _mm256_store_ps(corners, _mm256_min_ps(_mm256_load_ps(corners), lo_neg_hi)) };
             bin.count += 1;
         }
     }
@@ -661,7 +718,8 @@ fn bin_refs(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
 fn merge_bins(mut a: Box<Bins3>, b: &Bins3, nb: usize) -> Box<Bins3> {
     for (xa, ya) in a.iter_mut().zip(b) {
         for (x, y) in xa[..nb].iter_mut().zip(&ya[..nb]) {
-            x.bounds.grow_box(&y.bounds);
+            x.lo = x.lo.min(y.lo);
+            x.neg_hi = x.neg_hi.min(y.neg_hi);
             x.count += y.count;
         }
     }
