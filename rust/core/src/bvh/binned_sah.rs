@@ -184,29 +184,83 @@ impl Box4 {
     }
 }
 
-/// A bin: the bounds of the references binned into it, the upper corner negated so that one
-/// `min` grows both corners (one 8-lane operation with AVX), and their count.
-#[derive(Clone, Copy, Debug)]
+/// A bin's bounds: the upper corner negated so that one `min` grows both corners (one 8-lane
+/// operation with AVX, see [`Corners::grow_avx`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(32))]
-struct Bin {
+pub(crate) struct Corners {
     lo: Vec4,
     neg_hi: Vec4,
+}
+
+impl Corners {
+    pub(crate) const EMPTY: Corners = Corners {
+        lo: Vec4::splat(f32::INFINITY),
+        neg_hi: Vec4::splat(f32::INFINITY),
+    };
+    #[inline(always)]
+    pub(crate) fn bounds(&self) -> Box4 {
+        Box4 {
+            lo: self.lo,
+            hi: -self.neg_hi,
+        }
+    }
+    /// Grows by a reference (`neg_hi` is `-r.hi`, computed once for all its bins).
+    #[inline(always)]
+    pub(crate) fn grow(&mut self, r: &PrimRef, neg_hi: Vec4) {
+        self.lo = self.lo.min(r.lo);
+        self.neg_hi = self.neg_hi.min(neg_hi);
+    }
+    #[inline(always)]
+    pub(crate) fn merge(&mut self, other: &Corners) {
+        self.lo = self.lo.min(other.lo);
+        self.neg_hi = self.neg_hi.min(other.neg_hi);
+    }
+    /// A reference's corners in the 8-lane form [`Self::grow_avx`] takes.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    #[inline]
+    pub(crate) fn of_ref_avx(r: &PrimRef) -> std::arch::x86_64::__m256 {
+        use std::arch::x86_64::*;
+        let flip_hi = _mm256_castsi256_ps(_mm256_set_epi32(
+            i32::MIN,
+            i32::MIN,
+            i32::MIN,
+            i32::MIN,
+            0,
+            0,
+            0,
+            0,
+        ));
+        _mm256_xor_ps(_mm256_set_m128(r.hi.into(), r.lo.into()), flip_hi)
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    #[inline]
+    pub(crate) fn grow_avx(&mut self, v: std::arch::x86_64::__m256) {
+        use std::arch::x86_64::*;
+        let p = self as *mut Corners as *mut f32;
+        // SAFETY: `Corners` is 8 floats (`repr(C)`), 32-byte aligned; AVX is enabled here.
+        unsafe { _mm256_store_ps(p, _mm256_min_ps(_mm256_load_ps(p), v)) };
+    }
+}
+
+/// A bin: the bounds of the references binned into it and their count.
+#[derive(Clone, Copy, Debug)]
+struct Bin {
+    corners: Corners,
     count: u32,
 }
 
 const EMPTY_BIN: Bin = Bin {
-    lo: Vec4::splat(f32::INFINITY),
-    neg_hi: Vec4::splat(f32::INFINITY),
+    corners: Corners::EMPTY,
     count: 0,
 };
 
 impl Bin {
     #[inline(always)]
     fn bounds(&self) -> Box4 {
-        Box4 {
-            lo: self.lo,
-            hi: -self.neg_hi,
-        }
+        self.corners.bounds()
     }
 }
 
@@ -674,42 +728,25 @@ fn bin_refs(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
         // The indices are at most nb - 1 < MAX_BINS: the masks only drop the bounds checks.
         for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
             let bin = &mut axis[i as usize & (MAX_BINS - 1)];
-            bin.lo = bin.lo.min(r.lo);
-            bin.neg_hi = bin.neg_hi.min(neg_hi);
+            bin.corners.grow(r, neg_hi);
             bin.count += 1;
         }
     }
 }
 
 /// [`bin_refs`] with each bin's two corners grown by one 8-lane `min`: a third of the
-/// instructions per reference and axis, and one store instead of two on the chain through
-/// a bin that consecutive references hit.
+/// instructions per reference and axis, and one store instead of two on the chain through a
+/// bin that consecutive references hit.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-unsafe fn bin_refs_avx(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
-    use std::arch::x86_64::*;
-    let flip_hi = _mm256_castsi256_ps(_mm256_set_epi32(
-        i32::MIN,
-        i32::MIN,
-        i32::MIN,
-        i32::MIN,
-        0,
-        0,
-        0,
-        0,
-    ));
+fn bin_refs_avx(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
     let [bx, by, bz] = bins;
     for r in refs {
         let [ix, iy, iz, _] = binner.bins(r.centroid2());
-        let (lo, hi): (__m128, __m128) = (r.lo.into(), r.hi.into());
-        let lo_neg_hi = _mm256_xor_ps(_mm256_set_m128(hi, lo), flip_hi);
+        let corners = Corners::of_ref_avx(r);
         for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
             let bin = &mut axis[i as usize & (MAX_BINS - 1)];
-            // `lo` and `neg_hi` are adjacent and 32-byte aligned (`repr(C, align(32))`).
-            let corners = &mut bin.lo as *mut Vec4 as *mut f32;
-            // SAFETY: the 8 floats at `corners` are `bin.lo` and `bin.neg_hi`, in bounds and
-            // aligned; AVX is enabled for this function.
-            unsafe { _mm256_store_ps(corners, _mm256_min_ps(_mm256_load_ps(corners), lo_neg_hi)) };
+            bin.corners.grow_avx(corners);
             bin.count += 1;
         }
     }
@@ -718,8 +755,7 @@ unsafe fn bin_refs_avx(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
 fn merge_bins(mut a: Box<Bins3>, b: &Bins3, nb: usize) -> Box<Bins3> {
     for (xa, ya) in a.iter_mut().zip(b) {
         for (x, y) in xa[..nb].iter_mut().zip(&ya[..nb]) {
-            x.lo = x.lo.min(y.lo);
-            x.neg_hi = x.neg_hi.min(y.neg_hi);
+            x.corners.merge(&y.corners);
             x.count += y.count;
         }
     }
