@@ -150,3 +150,44 @@ fn bench_compares_with_embree_on_the_same_rays() {
         assert!(agreement > 0.999, "agreement {agreement} in {row}");
     }
 }
+
+#[test]
+fn method_bench_times_embree_beside_each_method() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_antumbra"))
+        .args(["bench", "--scene", "bedroom", "--triangles", "4000"])
+        .args(["--size", "32x32", "--methods", "sah,osah", "--repeat", "1"])
+        .args(["--compare", "embree", "--embree-quality", "high", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 8, "two methods on four viewpoints: {rows:?}");
+    for row in rows {
+        for key in ["build_ms", "reference_build_ms"] {
+            let v = row[key].as_f64().unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v > 0.0, "{key} = {} in {row}", row[key]);
+        }
+    }
+    // Without --compare there is no reference time.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_antumbra"))
+        .args(["bench", "--scene", "bedroom", "--triangles", "4000"])
+        .args([
+            "--size",
+            "32x32",
+            "--methods",
+            "sah",
+            "--repeat",
+            "1",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(rows[0]["reference_build_ms"].is_null(), "{}", rows[0]);
+}

@@ -237,6 +237,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 s
             },
         };
+        let threads = rayon::current_num_threads();
+        let embree_build =
+            |tris: &[[glam::Vec3; 3]]| Reference::build_only(&args.embree_quality, tris, threads);
+        let reference: Option<bench_methods::ReferenceBuild> =
+            args.compare.as_ref().map(|_| &embree_build as _);
         let mut rows = Vec::new();
         for name in &scenes {
             rows.extend(bench_methods::method_rows(
@@ -246,6 +251,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 args.spp,
                 args.repeat,
                 &variants,
+                reference,
             )?);
         }
         if args.json {
@@ -542,15 +548,21 @@ struct Reference {
 }
 
 #[cfg(feature = "embree")]
+fn embree_quality(quality: &str) -> Result<antumbra_embree::EmbreeQuality> {
+    use antumbra_embree::EmbreeQuality;
+    match quality {
+        "medium" => Ok(EmbreeQuality::Medium),
+        "high" => Ok(EmbreeQuality::High),
+        other => anyhow::bail!("--embree-quality: '{other}' is not medium or high"),
+    }
+}
+
+#[cfg(feature = "embree")]
 impl Reference {
     /// The best of `repeat` builds (commits) with `threads` threads.
     fn build(quality: &str, tris: &[[glam::Vec3; 3]], threads: usize, repeat: u32) -> Result<Self> {
-        use antumbra_embree::{EmbreeQuality, EmbreeScene};
-        let quality = match quality {
-            "medium" => EmbreeQuality::Medium,
-            "high" => EmbreeQuality::High,
-            other => anyhow::bail!("--embree-quality: '{other}' is not medium or high"),
-        };
+        use antumbra_embree::EmbreeScene;
+        let quality = embree_quality(quality)?;
         let mut build_ms = f64::INFINITY;
         let mut scene = None;
         for _ in 0..repeat.max(1) {
@@ -565,6 +577,14 @@ impl Reference {
             build_ms,
             scene: scene.expect("built at least once"),
         })
+    }
+
+    /// One build (commit) with `threads` threads; its time in ms.
+    fn build_only(quality: &str, tris: &[[glam::Vec3; 3]], threads: usize) -> Result<f64> {
+        let quality = embree_quality(quality)?;
+        antumbra_embree::EmbreeScene::new(tris, quality, Some(threads))
+            .map(|s| s.build_ms())
+            .map_err(|e| anyhow::anyhow!("embree: {e}"))
     }
 
     #[inline]
@@ -588,6 +608,9 @@ struct Reference {
 #[cfg(not(feature = "embree"))]
 impl Reference {
     fn build(_: &str, _: &[[glam::Vec3; 3]], _: usize, _: u32) -> Result<Self> {
+        bail!("built without the 'embree' feature")
+    }
+    fn build_only(_: &str, _: &[[glam::Vec3; 3]], _: usize) -> Result<f64> {
         bail!("built without the 'embree' feature")
     }
     fn intersect(&self, _: &Ray) {

@@ -35,6 +35,9 @@ pub struct MethodRow {
     pub references: usize,
     pub bvh_bytes: usize,
     pub build_ms: f64,
+    /// With a reference builder (`--compare embree`): its best time on the same triangles,
+    /// its builds alternating with this method's.
+    pub reference_build_ms: Option<f64>,
     pub primary_nit: f64,
     pub primary_nts: f64,
     pub primary_mrays: f64,
@@ -79,6 +82,10 @@ impl Variants {
     }
 }
 
+/// A reference builder timed beside each method (`--compare embree`): builds the triangles and
+/// returns its build ms.
+pub type ReferenceBuild<'a> = &'a dyn Fn(&[[glam::Vec3; 3]]) -> Result<f64>;
+
 /// Measures every variant on every viewpoint of `scene_name`.
 pub fn method_rows(
     scene_name: &str,
@@ -87,6 +94,7 @@ pub fn method_rows(
     spp: u32,
     repeat: u32,
     variants: &Variants,
+    reference_builder: Option<ReferenceBuild>,
 ) -> Result<Vec<MethodRow>> {
     let params = antumbra_scenes::SceneParams {
         triangles,
@@ -138,7 +146,23 @@ pub fn method_rows(
                 build_with_visibility(method, tris, Some(f), &settings)
             };
             let mut bvh = Bvh::default();
-            let build_ms = best_of(repeat, || bvh = build(&set.vertices, &flags));
+            let mut reference_build_ms = reference_builder.map(|_| f64::INFINITY);
+            let mut build_ms = f64::INFINITY;
+            // With a reference, its builds alternate with this method's, so both see the same
+            // machine (wall clock drifts by tens of percent within a minute on small VMs).
+            // Each build is followed by a pause: Embree's TBB workers (and rayon's) spin for a
+            // while after a build and would otherwise take cores from the next one.
+            let settle = || std::thread::sleep(std::time::Duration::from_millis(300));
+            for _ in 0..repeat.max(1) {
+                build_ms = build_ms.min(best_of(1, || bvh = build(&set.vertices, &flags)));
+                if let (Some(build_reference), Some(best)) =
+                    (reference_builder, &mut reference_build_ms)
+                {
+                    settle();
+                    *best = best.min(build_reference(&set.vertices)?);
+                    settle();
+                }
+            }
             let counted = PrimaryPass::counted(&rays, &bvh, set);
             if counted.surfaces != reference.surfaces {
                 bail!("{scene_name}/{camera_name}: {method:?} changed primary hits");
@@ -159,6 +183,7 @@ pub fn method_rows(
                 references: bvh.triangles.len(),
                 bvh_bytes: bvh.bytes(),
                 build_ms,
+                reference_build_ms,
                 primary_nit: t.triangles as f64 / n,
                 primary_nts: (t.inner + t.leaves) as f64 / n,
                 primary_mrays: counted.surfaces.len() as f64 / (primary_ms * 1e3),
@@ -307,6 +332,52 @@ pub fn print_ratio_tables(rows: &[MethodRow]) {
             })
             .collect();
         println!("| mean of ratios | {} |", mean.join(" | "));
+    }
+    print_reference_builds(rows, &variants, &views, label);
+}
+
+/// With `--compare embree`: each method's build time as a ratio to the reference build timed in
+/// turn with it (below 1: faster than the reference).
+fn print_reference_builds(
+    rows: &[MethodRow],
+    variants: &[String],
+    views: &[(String, String)],
+    label: impl Fn(&MethodRow) -> String,
+) {
+    if rows.iter().all(|r| r.reference_build_ms.is_none()) {
+        return;
+    }
+    println!("\nbuild ms against the reference build (Embree), timed in turn\n");
+    println!(
+        "| scene / camera | reference ms | {} |",
+        variants
+            .iter()
+            .map(|v| format!("{v} ms | {v} x"))
+            .collect::<Vec<_>>()
+            .join(" | ")
+    );
+    println!("|---|---|{}", "---|---|".repeat(variants.len()));
+    for (scene, camera) in views {
+        let of = |v: &String| {
+            rows.iter()
+                .find(|r| &r.scene == scene && &r.camera == camera && &label(r) == v)
+        };
+        // The reference's best over all the methods' turns on this view.
+        let reference = variants
+            .iter()
+            .filter_map(|v| of(v).and_then(|r| r.reference_build_ms))
+            .fold(f64::INFINITY, f64::min);
+        let cells: Vec<String> = variants
+            .iter()
+            .map(|v| match of(v) {
+                Some(r) => format!("{:.1} | {:.2}", r.build_ms, r.build_ms / reference),
+                None => "- | -".into(),
+            })
+            .collect();
+        println!(
+            "| {scene} / {camera} | {reference:.1} | {} |",
+            cells.join(" | ")
+        );
     }
 }
 
