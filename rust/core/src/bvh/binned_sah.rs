@@ -212,6 +212,11 @@ impl Corners {
         self.neg_hi = self.neg_hi.min(neg_hi);
     }
     #[inline(always)]
+    pub(crate) fn grow_box(&mut self, b: &Box4) {
+        self.lo = self.lo.min(b.lo);
+        self.neg_hi = self.neg_hi.min(-b.hi);
+    }
+    #[inline(always)]
     pub(crate) fn merge(&mut self, other: &Corners) {
         self.lo = self.lo.min(other.lo);
         self.neg_hi = self.neg_hi.min(other.neg_hi);
@@ -221,6 +226,13 @@ impl Corners {
     #[target_feature(enable = "avx")]
     #[inline]
     pub(crate) fn of_ref_avx(r: &PrimRef) -> std::arch::x86_64::__m256 {
+        Self::of_box_avx(&Box4 { lo: r.lo, hi: r.hi })
+    }
+    /// A box's corners in the 8-lane form [`Self::grow_avx`] takes.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    #[inline]
+    pub(crate) fn of_box_avx(r: &Box4) -> std::arch::x86_64::__m256 {
         use std::arch::x86_64::*;
         let flip_hi = _mm256_castsi256_ps(_mm256_set_epi32(
             i32::MIN,
