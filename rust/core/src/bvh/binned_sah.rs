@@ -258,7 +258,7 @@ impl Corners {
 }
 
 /// A bin: the bounds of the references binned into it and their count.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Bin {
     corners: Corners,
     count: u32,
@@ -725,10 +725,48 @@ fn clear_bins(bins: &mut Bins3, nb: usize) {
     }
 }
 
+/// Whether the builders' AVX binning loops run: AVX is present (and a test comparing them with
+/// the portable loops has not turned them off on this thread).
+#[inline]
+pub(crate) fn use_avx() -> bool {
+    #[cfg(test)]
+    if PORTABLE_ONLY.get() {
+        return false;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Set by tests to run the portable binning loops on this thread.
+    pub(crate) static PORTABLE_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with the portable binning loops and with the AVX ones (failing if AVX is absent:
+/// then there is nothing to compare), for tests that the two agree.
+#[cfg(test)]
+pub(crate) fn portable_and_avx<R>(mut f: impl FnMut() -> R) -> (R, R) {
+    assert!(
+        use_avx(),
+        "AVX not detected: the AVX binning loops cannot be compared"
+    );
+    PORTABLE_ONLY.set(true);
+    let portable = f();
+    PORTABLE_ONLY.set(false);
+    (portable, f())
+}
+
 /// Bins `refs` by centroid on all three axes into bins the caller has cleared.
 fn bin_refs(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
+    if use_avx() {
         // SAFETY: AVX is present (checked above).
         unsafe { bin_refs_avx(refs, binner, bins) };
         return;
@@ -877,6 +915,27 @@ mod tests {
             }
         }
         t
+    }
+
+    #[test]
+    fn avx_binning_equals_portable_binning() {
+        let tris = crate::bvh::object_split::tests::scattered(5000);
+        let refs = crate::bvh::object_split::tests::refs_of(&tris);
+        let (_, centroids) = bounds_of(&refs);
+        for nb in [2, 16, 37] {
+            let binner = Binner::new(&centroids, nb);
+            let (portable, avx) = portable_and_avx(|| {
+                let mut bins = new_bins();
+                bin_refs(&refs, &binner, &mut bins);
+                bins
+            });
+            assert!(
+                portable == avx,
+                "{nb} bins: AVX and portable binning differ"
+            );
+            let binned: u32 = portable[0][..nb].iter().map(|b| b.count).sum();
+            assert_eq!(binned as usize, refs.len());
+        }
     }
 
     #[test]

@@ -156,7 +156,7 @@ fn bin_all(
     let (bx, rest) = bins.split_at_mut(nb);
     let (by, bz) = rest.split_at_mut(nb);
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
+    if super::binned_sah::use_avx() {
         // SAFETY: AVX is present (checked above).
         unsafe { bin_refs_avx(refs, [bx, by, bz], (lo, scale, last), vis) };
         return bins;
@@ -274,7 +274,7 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn chunked_binning_merges_to_serial_binning() {
+    fn chunked_and_avx_binning_equal_serial_portable_binning() {
         let tris = scattered(5000);
         let refs = refs_of(&tris);
         let flags: Vec<bool> = (0..tris.len()).map(|i| i % 3 == 0).collect();
@@ -296,5 +296,8 @@ pub(crate) mod tests {
             .fold(vec![EMPTY_BIN; 3 * nb], merge_bins);
         assert_eq!(serial, merged);
         assert_eq!(serial.iter().map(|b| b.count).sum::<u32>(), 3 * 5000);
+        let (portable, avx) =
+            super::super::binned_sah::portable_and_avx(|| bin_all(&refs, &mappers, nb, vis));
+        assert_eq!(portable, avx, "AVX and portable binning differ");
     }
 }

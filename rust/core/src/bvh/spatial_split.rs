@@ -314,7 +314,7 @@ impl Grid {
             }
         } else {
             #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx") {
+            if super::binned_sah::use_avx() {
                 // SAFETY: AVX is present (checked above).
                 unsafe { self.bin_cut_boxes_avx(refs, vis, &mut all) };
                 return all;
@@ -526,7 +526,7 @@ mod tests {
     use crate::bvh::object_split::tests::{refs_of, scattered};
 
     #[test]
-    fn chunked_binning_merges_to_serial_binning() {
+    fn chunked_and_avx_binning_equal_serial_portable_binning() {
         let tris = scattered(5000);
         let refs = refs_of(&tris);
         let flags: Vec<bool> = (0..tris.len()).map(|i| i % 3 == 0).collect();
@@ -547,6 +547,14 @@ mod tests {
             assert_eq!(serial, merged);
             let entered: u32 = serial.iter().map(|b| b.enter).sum();
             assert_eq!(entered as usize, 5000 * axes.iter().filter(|&&a| a).count());
+            // The cut-box path has an AVX loop of its own.
+            let cut = Grid {
+                clip: false,
+                ..grid
+            };
+            let (portable, avx) =
+                crate::bvh::binned_sah::portable_and_avx(|| cut.bin(&refs, &tris, vis));
+            assert_eq!(portable, avx, "AVX and portable cut-box binning differ");
         }
     }
 
