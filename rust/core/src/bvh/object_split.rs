@@ -20,7 +20,17 @@ pub(super) struct CentroidBins {
 impl CentroidBins {
     #[inline]
     fn bin(&self, c2: Vec4) -> usize {
-        let f = (c2[self.axis] - self.lo) * self.scale;
+        self.bin_of(c2[self.axis])
+    }
+    /// [`Self::bin`] of a reference for `AXIS`, this mapper's axis, known at compile time.
+    #[inline(always)]
+    fn bin_on<const AXIS: usize>(&self, r: &PrimRef) -> usize {
+        debug_assert_eq!(AXIS, self.axis);
+        self.bin_of(r.lo[AXIS] + r.hi[AXIS])
+    }
+    #[inline(always)]
+    fn bin_of(&self, c2: f32) -> usize {
+        let f = (c2 - self.lo) * self.scale;
         (f.max(0.0) as usize).min(self.count - 1)
     }
 }
@@ -207,21 +217,76 @@ fn merge_bins(mut a: Vec<Bin>, b: Vec<Bin>) -> Vec<Bin> {
     a
 }
 
-/// Splits `refs` by `split` into (left, right), each allocated once at its known size.
+/// Splits `refs` by `split` into (left, right), each allocated once at its known size, both in
+/// the order of `refs`.
 pub(super) fn partition_object(
     refs: Vec<PrimRef>,
     split: &ObjectSplit,
 ) -> (Vec<PrimRef>, Vec<PrimRef>) {
-    let mut left = Vec::with_capacity(split.sides.n_left as usize);
-    let mut right = Vec::with_capacity(split.sides.n_right as usize);
+    let goes_left = |r: &PrimRef| split.bins.bin(r.centroid2()) < split.bin;
+    let (n_left, n_right) = (split.sides.n_left as usize, split.sides.n_right as usize);
+    if n_left > 0 && n_right > 0 && n_left + n_right == refs.len() {
+        let parts = match split.axis() {
+            0 => scatter::<0>(&refs, split, n_left, n_right),
+            1 => scatter::<1>(&refs, split, n_left, n_right),
+            _ => scatter::<2>(&refs, split, n_left, n_right),
+        };
+        if let Some(parts) = parts {
+            return parts;
+        }
+    }
+    let mut left = Vec::with_capacity(n_left);
+    let mut right = Vec::with_capacity(n_right);
     for r in refs {
-        if split.bins.bin(r.centroid2()) < split.bin {
+        if goes_left(&r) {
             left.push(r);
         } else {
             right.push(r);
         }
     }
     (left, right)
+}
+
+/// [`partition_object`] without a branch per reference (its side is as good as random to the
+/// branch predictor): each reference is written to the next slot of the side it goes to, for
+/// the binned counts `n_left` and `n_right` (both non-zero). `None` if the counts do not match
+/// the references.
+#[inline(always)]
+fn scatter<const AXIS: usize>(
+    refs: &[PrimRef],
+    split: &ObjectSplit,
+    n_left: usize,
+    n_right: usize,
+) -> Option<(Vec<PrimRef>, Vec<PrimRef>)> {
+    let mut left: Vec<PrimRef> = Vec::with_capacity(n_left);
+    let mut right: Vec<PrimRef> = Vec::with_capacity(n_right);
+    let sides = [
+        left.spare_capacity_mut().as_mut_ptr(),
+        right.spare_capacity_mut().as_mut_ptr(),
+    ];
+    let last = [n_left - 1, n_right - 1];
+    let mut next = [0usize; 2];
+    for r in refs {
+        let side = (split.bins.bin_on::<AXIS>(r) >= split.bin) as usize;
+        // SAFETY: the slot index is clamped to the side's capacity; a count that would pass it
+        // makes the sums below disagree and the result is discarded (never set_len).
+        unsafe {
+            sides[side]
+                .add(next[side].min(last[side]))
+                .write(std::mem::MaybeUninit::new(*r))
+        };
+        next[side] += 1;
+    }
+    if next != [n_left, n_right] {
+        return None;
+    }
+    // SAFETY: each side's slots 0..count were written exactly once (indices below the count
+    // never clamp).
+    unsafe {
+        left.set_len(n_left);
+        right.set_len(n_right);
+    }
+    Some((left, right))
 }
 
 /// Splits at the middle reference along the widest centroid axis: the fallback when no binned
@@ -299,5 +364,40 @@ pub(crate) mod tests {
         let (portable, avx) =
             super::super::binned_sah::portable_and_avx(|| bin_all(&refs, &mappers, nb, vis));
         assert_eq!(portable, avx, "AVX and portable binning differ");
+    }
+
+    #[test]
+    fn partition_keeps_order_and_survives_wrong_counts() {
+        let tris = scattered(3000);
+        let refs = refs_of(&tris);
+        let (bounds, centroids) = super::super::binned_sah::bounds_of(&refs);
+        let model = CostModel {
+            traversal: 1.0,
+            intersection: 1.0,
+            weight: 0.9,
+        };
+        let [best, _] = best_object_splits(
+            &refs,
+            Visibility(None),
+            &centroids,
+            bounds.half_area(),
+            16,
+            &model,
+            false,
+        );
+        let (split, _) = best.expect("a split");
+        let ids = |v: &[PrimRef]| v.iter().map(|r| r.id()).collect::<Vec<_>>();
+        let (want_left, want_right): (Vec<PrimRef>, Vec<PrimRef>) = refs
+            .iter()
+            .partition(|r| split.bins.bin(r.centroid2()) < split.bin);
+        assert!(!want_left.is_empty() && !want_right.is_empty());
+        let mut wrong = split;
+        wrong.sides.n_left += 1;
+        wrong.sides.n_right -= 1;
+        for s in [split, wrong] {
+            let (left, right) = partition_object(refs.clone(), &s);
+            assert_eq!(ids(&left), ids(&want_left));
+            assert_eq!(ids(&right), ids(&want_right));
+        }
     }
 }
