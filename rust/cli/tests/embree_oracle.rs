@@ -116,78 +116,85 @@ fn occlusion_agrees_with_embree_on_every_builtin_scene() {
     eprintln!("{}", report.join("\n"));
 }
 
+/// Runs `antumbra bench` on 4000 bedroom triangles with `args` and `--json`; its rows.
+fn bench_rows(args: &[&str]) -> Vec<serde_json::Value> {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_antumbra"))
+        .args([
+            "bench",
+            "--scene",
+            "bedroom",
+            "--triangles",
+            "4000",
+            "--json",
+        ])
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    rows.as_array().unwrap().clone()
+}
+
+/// Fails unless every row has a finite, positive number under each key.
+fn assert_positive(rows: &[serde_json::Value], keys: &[&str]) {
+    for row in rows {
+        for key in keys {
+            let v = row[key].as_f64().unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v > 0.0, "{key} = {} in {row}", row[key]);
+        }
+    }
+}
+
 /// `antumbra bench --compare embree` as a user runs it: every row carries Embree's build time
 /// and both of its ray rates, timed in turn with antumbra's, and Embree agrees with antumbra's
 /// shadow answers on (nearly) every ray.
 #[test]
 fn bench_compares_with_embree_on_the_same_rays() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_antumbra"))
-        .args(["bench", "--scene", "bedroom", "--triangles", "4000"])
-        .args(["--size", "48x32", "--width", "8", "--order", "sorted"])
-        .args(["--compare", "embree", "--repeat", "2", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let rows = bench_rows(
+        &["--size", "48x32", "--width", "8", "--order", "sorted"]
+            .into_iter()
+            .chain(["--compare", "embree", "--repeat", "2"])
+            .collect::<Vec<_>>(),
     );
-    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let rows = rows.as_array().unwrap();
     assert_eq!(rows.len(), 2, "one row per thread count: {rows:?}");
-    for row in rows {
-        for key in [
+    assert_positive(
+        &rows,
+        &[
             "primary_mrays",
             "shadow_mrays",
             "embree_build_ms",
             "embree_primary_mrays",
             "embree_shadow_mrays",
-        ] {
-            let v = row[key].as_f64().unwrap_or(f64::NAN);
-            assert!(v.is_finite() && v > 0.0, "{key} = {} in {row}", row[key]);
-        }
+        ],
+    );
+    for row in &rows {
         let agreement = row["embree_agreement"].as_f64().unwrap();
         assert!(agreement > 0.999, "agreement {agreement} in {row}");
     }
 }
 
+/// `bench --methods ... --compare embree`: each method's row carries Embree's build time,
+/// timed in turn with it; without `--compare` there is none.
 #[test]
 fn method_bench_times_embree_beside_each_method() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_antumbra"))
-        .args(["bench", "--scene", "bedroom", "--triangles", "4000"])
-        .args(["--size", "32x32", "--methods", "sah,osah", "--repeat", "1"])
-        .args(["--compare", "embree", "--embree-quality", "high", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let rows = rows.as_array().unwrap();
+    let rows = bench_rows(&[
+        "--size",
+        "32x32",
+        "--methods",
+        "sah,osah",
+        "--repeat",
+        "1",
+        "--compare",
+        "embree",
+        "--embree-quality",
+        "high",
+    ]);
     assert_eq!(rows.len(), 8, "two methods on four viewpoints: {rows:?}");
-    for row in rows {
-        for key in ["build_ms", "reference_build_ms"] {
-            let v = row[key].as_f64().unwrap_or(f64::NAN);
-            assert!(v.is_finite() && v > 0.0, "{key} = {} in {row}", row[key]);
-        }
-    }
-    // Without --compare there is no reference time.
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_antumbra"))
-        .args(["bench", "--scene", "bedroom", "--triangles", "4000"])
-        .args([
-            "--size",
-            "32x32",
-            "--methods",
-            "sah",
-            "--repeat",
-            "1",
-            "--json",
-        ])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_positive(&rows, &["build_ms", "reference_build_ms"]);
+    let rows = bench_rows(&["--size", "32x32", "--methods", "sah", "--repeat", "1"]);
     assert!(rows[0]["reference_build_ms"].is_null(), "{}", rows[0]);
 }
