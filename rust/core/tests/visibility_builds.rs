@@ -65,6 +65,7 @@ fn eager_splits() -> BuildSettings {
     BuildSettings {
         spatial: SpatialSettings {
             alpha: 0.0,
+            node_overlap: 0.0,
             ..SpatialSettings::default()
         },
         ..BuildSettings::default()
@@ -118,6 +119,52 @@ fn spatial_splits_duplicate_references_but_lose_no_triangle() {
             );
         }
     }
+}
+
+#[test]
+fn spatial_split_gates_trade_references_for_nothing_else() {
+    // `min_refs` above the triangle count keeps spatial splits out of every node, so SBVH is the
+    // SAH tree; `node_overlap` 1 admits almost no node, and growth falls monotonically with it.
+    // Every gated tree keeps every triangle and answers as brute force.
+    let tris = soup(4000, 7_000);
+    let rays = rays(1500, 77);
+    let vis = every_third(tris.len());
+    let eager = eager_splits();
+    let sah = build(BuildMethod::Sah, &tris, &eager);
+    let mut none = eager;
+    none.spatial.min_refs = tris.len() + 1;
+    assert!(same_tree(&build(BuildMethod::Sbvh, &tris, &none), &sah));
+    let mut some = eager;
+    some.spatial.min_refs = 64;
+    let refs = |s: &BuildSettings, method| {
+        let bvh = build_with_visibility(method, &tris, Some(&vis), s);
+        check_references(&bvh, &tris, 1e-5).unwrap_or_else(|e| panic!("{method:?}: {e}"));
+        assert_same_answers(&tris, &bvh, &rays, &format!("{method:?} gated"));
+        bvh.triangles.len()
+    };
+    for method in [BuildMethod::Sbvh, BuildMethod::Osah] {
+        let all = refs(&eager, method);
+        assert!(all > tris.len(), "{method:?} made no spatial split");
+        let big_nodes = refs(&some, method);
+        assert!(
+            big_nodes < all,
+            "{method:?}: min_refs 64 kept {big_nodes} of {all}"
+        );
+        let mut grown = Vec::new();
+        for node_overlap in [0.0, 0.05, 0.3, 1.0] {
+            let mut s = eager;
+            s.spatial.node_overlap = node_overlap;
+            grown.push(refs(&s, method) - tris.len());
+        }
+        assert!(
+            grown.windows(2).all(|w| w[1] <= w[0]) && grown[3] < grown[0],
+            "{method:?}: references grown by node_overlap 0, 0.05, 0.3, 1: {grown:?}"
+        );
+    }
+    let mut bad = eager;
+    bad.spatial.node_overlap = 1.5;
+    let err = bad.validate().unwrap_err().to_string();
+    assert!(err.contains("build.spatial.node_overlap"), "{err}");
 }
 
 #[test]

@@ -419,6 +419,8 @@ impl From<&RenderSettings> for RenderSettingsState {
                     SpatialAxes::All => SpatialAxesState::All,
                 },
                 spatial_clip_min_refs: u32_of(s.build_settings.spatial.clip_min_refs),
+                spatial_node_overlap: s.build_settings.spatial.node_overlap,
+                spatial_min_refs: u32_of(s.build_settings.spatial.min_refs),
             },
             collapse: match s.collapse.method {
                 CollapseMethod::Sah => CollapseState::Sah,
@@ -493,6 +495,8 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
                 max_growth: s.build_settings.spatial_max_growth,
                 axes: spatial_axes(s.build_settings.spatial_axes),
                 clip_min_refs: s.build_settings.spatial_clip_min_refs as usize,
+                node_overlap: s.build_settings.spatial_node_overlap,
+                min_refs: s.build_settings.spatial_min_refs as usize,
             },
             osah_weight: s.build_settings.osah_weight,
             osah_strict_viability: s.build_settings.osah_strict_viability,

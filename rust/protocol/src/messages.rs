@@ -330,6 +330,13 @@ pub struct BuildSettingsState {
     /// instead of clipped triangles (0 clips everywhere). Added later; omitted means the core
     /// default.
     pub spatial_clip_min_refs: u32,
+    /// Spatial splits only where the best object split's children overlap by at least this
+    /// fraction of the node's area (0 tries every node). Added later; omitted means the core
+    /// default.
+    pub spatial_node_overlap: f32,
+    /// Nodes with fewer references than this never try spatial splits (0 tries every node).
+    /// Added later; omitted means the core default.
+    pub spatial_min_refs: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]

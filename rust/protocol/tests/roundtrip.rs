@@ -173,6 +173,8 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
                         SpatialAxesState::Object
                     },
                     spatial_clip_min_refs: b.wrapping_mul(7919),
+                    spatial_node_overlap: ic,
+                    spatial_min_refs: l.wrapping_mul(31),
                 },
                 shadow_order: order,
                 stats,
@@ -577,6 +579,16 @@ fn field_order_unknown_fields_and_defaults() {
         b.spatial_clip_min_refs as usize,
         antumbra_core::bvh::SpatialSettings::default().clip_min_refs,
         "omitted clip threshold is the core default"
+    );
+    assert_eq!(
+        b.spatial_node_overlap,
+        antumbra_core::bvh::SpatialSettings::default().node_overlap,
+        "omitted node overlap gate is the core default"
+    );
+    assert_eq!(
+        b.spatial_min_refs as usize,
+        antumbra_core::bvh::SpatialSettings::default().min_refs,
+        "omitted spatial node size is the core default"
     );
     assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);
     // A field added later (the object-id pass) takes its default when an older peer omits it.

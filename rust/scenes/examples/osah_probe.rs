@@ -1,5 +1,5 @@
 //! Build-time probe (not part of the bench): builds one viewpoint's tree with a method, for
-//! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT [SPATIAL_AXES [SPLIT_ALPHA [CLIP_MIN_REFS]]]`
+//! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT [SPATIAL_AXES [SPLIT_ALPHA [CLIP_MIN_REFS [NODE_OVERLAP [MIN_REFS]]]]]`
 use antumbra_core::bvh::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
 use antumbra_core::render::{visibility_flags, PrimaryPass, PrimaryRays};
 use antumbra_core::scene::{FrameGeometry, Resolution};
@@ -32,6 +32,12 @@ fn main() {
     }
     if let Some(refs) = a.get(8) {
         settings.spatial.clip_min_refs = refs.parse().unwrap();
+    }
+    if let Some(o) = a.get(9) {
+        settings.spatial.node_overlap = o.parse().unwrap();
+    }
+    if let Some(m) = a.get(10) {
+        settings.spatial.min_refs = m.parse().unwrap();
     }
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
     let sah = build_binned_sah(&set.vertices, &settings);

@@ -138,6 +138,14 @@ pub struct BenchArgs {
     /// Spatial splits' overlap threshold alpha (with --methods; default: the builder's).
     #[arg(long)]
     pub split_alpha: Option<f32>,
+    /// Spatial splits only where object-split children overlap by at least this fraction of
+    /// the node's own area (with --methods; default: the builder's).
+    #[arg(long)]
+    pub split_node_overlap: Option<f32>,
+    /// Nodes with fewer references than this never try spatial splits (with --methods;
+    /// default: the builder's).
+    #[arg(long)]
+    pub split_min_refs: Option<usize>,
     /// Render this many frames with SAH, SBVH, OSAH-exact and OSAH-previous and write the
     /// per-frame curve (animation.csv, animation.png) into --out.
     #[arg(long)]
@@ -233,6 +241,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 s.spatial.axes = args.spatial_axes.unwrap_or(s.spatial.axes);
                 s.spatial.clip_min_refs = args.clip_min_refs.unwrap_or(s.spatial.clip_min_refs);
                 s.spatial.alpha = args.split_alpha.unwrap_or(s.spatial.alpha);
+                s.spatial.node_overlap = args.split_node_overlap.unwrap_or(s.spatial.node_overlap);
+                s.spatial.min_refs = args.split_min_refs.unwrap_or(s.spatial.min_refs);
                 s.validate()?;
                 s
             },

@@ -73,6 +73,13 @@ pub struct MethodArgs {
     /// the root's area.
     #[arg(long, default_value_t = SpatialSettings::default().alpha)]
     pub split_alpha: f32,
+    /// Spatial splits only where object-split children overlap by at least this fraction of
+    /// the node's own area (Embree's gate; 0 tries every node that passes --split-alpha).
+    #[arg(long, default_value_t = SpatialSettings::default().node_overlap)]
+    pub split_node_overlap: f32,
+    /// Nodes with fewer references than this never try spatial splits (0 tries every node).
+    #[arg(long, default_value_t = SpatialSettings::default().min_refs)]
+    pub split_min_refs: usize,
     /// Axes spatial splits are binned on: all, or object (the best object split's axis only).
     #[arg(long, default_value_t = SpatialSettings::default().axes)]
     pub spatial_axes: SpatialAxes,
@@ -121,6 +128,8 @@ impl MethodArgs {
                     enabled: !self.no_spatial_splits,
                     bins: self.spatial_bins,
                     alpha: self.split_alpha,
+                    node_overlap: self.split_node_overlap,
+                    min_refs: self.split_min_refs,
                     max_growth: self.max_growth,
                     axes: self.spatial_axes,
                     clip_min_refs: self.clip_min_refs,

@@ -22,6 +22,15 @@ pub struct SpatialSettings {
     /// Spatial splits are tried only in nodes whose best object split's children overlap by
     /// more than this fraction of the root's surface area (Stich et al.'s alpha; 1 disables).
     pub alpha: f32,
+    /// Spatial splits are tried only in nodes whose best object split's children overlap by
+    /// at least this fraction of the node's own surface area (Embree's spatial-split gate;
+    /// 0 tries every node that passes `alpha`, as Stich et al.).
+    #[serde(default)]
+    pub node_overlap: f32,
+    /// Nodes with fewer references than this never try spatial splits (outside OSAH's depth
+    /// they are built by the binned SAH builder); 0 tries every node.
+    #[serde(default)]
+    pub min_refs: usize,
     /// References may grow to at most (1 + max_growth) x triangles; the budget is handed down
     /// the tree in proportion to child sizes, so the build stays deterministic.
     pub max_growth: f32,
@@ -34,14 +43,19 @@ pub struct SpatialSettings {
     pub axes: SpatialAxes,
     /// Nodes with fewer references than this bin spatial candidates with each straddling
     /// reference's box cut at the bin planes instead of its triangle clipped to each bin (the
-    /// partition of the chosen split still clips). 0 clips everywhere, as Stich et al.;
-    /// the default clips only in the top nodes, where it matters most and most references
-    /// straddle: cut boxes elsewhere left every N_IT/N_TS of the bench views unchanged to the
-    /// percent and took ~30% off OSAH builds (BENCHMARKS.md, issue 6, "Build speed, third
-    /// round").
+    /// partition of the chosen split always clips, so children get the clipped triangles' tight
+    /// boxes). 0 clips everywhere, as Stich et al. The default never clips in binning: cut boxes
+    /// below 65536 references left every N_IT/N_TS of the bench views unchanged to the percent
+    /// (BENCHMARKS.md, issue 6, "Build speed, third round"), and cut boxes in the top nodes too
+    /// left every figure and reference count of the eight views unchanged while taking 13% of
+    /// an OSAH build's instructions ("seventh round").
     #[serde(default)]
     pub clip_min_refs: usize,
 }
+
+/// The default [`SpatialSettings::clip_min_refs`]: no node is that large (it also fits the
+/// protocol's 32-bit field, so the default survives a round trip).
+const CLIP_NEVER: usize = u32::MAX as usize;
 
 /// The axes a node bins spatial split candidates on (see [`SpatialSettings::axes`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -79,9 +93,11 @@ impl Default for SpatialSettings {
             enabled: true,
             bins: 32,
             alpha: 1e-5,
+            node_overlap: 0.0,
+            min_refs: 0,
             max_growth: 0.5,
             axes: SpatialAxes::Object,
-            clip_min_refs: 65536,
+            clip_min_refs: CLIP_NEVER,
         }
     }
 }
@@ -98,6 +114,12 @@ impl SpatialSettings {
             return Err(crate::Error::invalid(
                 "build.spatial.alpha",
                 format!("must be in 0..=1, got {}", self.alpha),
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.node_overlap) {
+            return Err(crate::Error::invalid(
+                "build.spatial.node_overlap",
+                format!("must be in 0..=1, got {}", self.node_overlap),
             ));
         }
         if !(0.0..=16.0).contains(&self.max_growth) {

@@ -122,6 +122,7 @@ impl Builder<'_> {
         let n = refs.len();
         let spatial = self.settings.spatial.enabled
             && depth < MEDIAN_DEPTH
+            && n >= self.settings.spatial.min_refs
             && (self.policy == SplitPolicy::Sbvh || visible > 0);
         let mixed = visible > 0 && (visible as usize) < n;
         let osah =
@@ -196,7 +197,9 @@ impl Builder<'_> {
             .filter_map(|o| o.as_ref().map(|(x, _)| x.sides.overlap_half_area()))
             .fold(0.0f32, f32::max);
         let try_spatial = spatial
-            && (obj_sah.is_none() || overlap / self.root_area > s.spatial.alpha)
+            && (obj_sah.is_none()
+                || (overlap / self.root_area > s.spatial.alpha
+                    && overlap >= s.spatial.node_overlap * area))
             && budget > 0;
         let [sp_sah, sp_osah] = if try_spatial {
             let mut axes = [true; 3];
