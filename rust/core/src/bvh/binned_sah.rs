@@ -316,14 +316,46 @@ pub(crate) fn build_sah_subtree(
     settings: &BuildSettings,
     depth: usize,
 ) -> Bvh {
-    if refs.is_empty() {
-        return Bvh::default();
-    }
-    let (nodes, sizes) = build_uncompacted(refs, settings, depth);
     Bvh {
-        nodes: NodeArray::from_nodes(&compact(&nodes, &sizes)),
+        nodes: NodeArray::from_nodes(&build_sah_nodes(refs, settings, depth)),
         ..Bvh::default()
     }
+}
+
+/// The nodes of [`build_sah_subtree`] as a plain vector in the same layout (root, pad, sibling
+/// pairs depth-first; empty for no references), for builders that graft the subtree into a tree
+/// of their own.
+pub(crate) fn build_sah_nodes(
+    refs: &mut [PrimRef],
+    settings: &BuildSettings,
+    depth: usize,
+) -> Vec<BvhNode> {
+    let n = refs.len();
+    if n == 0 {
+        return Vec::new();
+    }
+    if n > PARALLEL_SUBTREE {
+        let (nodes, sizes) = build_uncompacted(refs, settings, depth);
+        return compact(&nodes, &sizes);
+    }
+    // The split builders hand over thousands of small subtrees: these build on one thread into
+    // its spare arrays (stale slots are never read: only the nodes the build writes are
+    // reachable) and are compacted by a depth-first walk, so no zeroed arrays are allocated.
+    let (mut nodes, mut sizes) = SPARE_NODES.take().unwrap_or_default();
+    if nodes.len() < 2 * n - 1 {
+        nodes.resize(2 * n - 1, BvhNode::default());
+        sizes.resize(2 * n - 1, 0);
+    }
+    let total = build_into(refs, settings, depth, &mut nodes, &mut sizes);
+    let out = compact_depth_first(&nodes, total as usize + 1);
+    SPARE_NODES.set(Some((nodes, sizes)));
+    out
+}
+
+thread_local! {
+    /// A thread's spare uncompacted node and size arrays for small subtrees.
+    static SPARE_NODES: std::cell::Cell<Option<(Vec<BvhNode>, Vec<u32>)>> =
+        const { std::cell::Cell::new(None) };
 }
 
 /// The nodes of a build (non-empty `refs`) before compaction, with their subtree sizes.
@@ -333,11 +365,23 @@ fn build_uncompacted(
     depth: usize,
 ) -> (Vec<BvhNode>, Vec<u32>) {
     let n = refs.len();
-    let (bounds, centroids) = bounds_of(refs);
-    // A subtree over k references uses at most 2k - 2 nodes below its root. Each node's
-    // subtree size goes to the same index of `sizes`, for the parallel compaction.
+    // A subtree over k references uses at most 2k - 2 nodes below its root.
     let mut nodes = zeroed_nodes(2 * n - 1);
     let mut sizes = vec![0u32; 2 * n - 1];
+    build_into(refs, settings, depth, &mut nodes, &mut sizes);
+    (nodes, sizes)
+}
+
+/// Builds over non-empty `refs` into `nodes` (root first; at least 2n - 1 of them), each node's
+/// subtree size at the same index of `sizes` (for the parallel compaction); returns the root's.
+fn build_into(
+    refs: &mut [PrimRef],
+    settings: &BuildSettings,
+    depth: usize,
+    nodes: &mut [BvhNode],
+    sizes: &mut [u32],
+) -> u32 {
+    let (bounds, centroids) = bounds_of(refs);
     let (root, below) = nodes.split_at_mut(1);
     let (root_size, sizes_below) = sizes.split_at_mut(1);
     let ctx = Context {
@@ -356,7 +400,7 @@ fn build_uncompacted(
         sizes: sizes_below,
     };
     root_size[0] = with_scratch(|scratch| ctx.build(refs, &mut root[0], slots, task, scratch));
-    (nodes, sizes)
+    root_size[0]
 }
 
 /// `count` default nodes from zeroed memory: the allocator hands out untouched pages, so they
@@ -899,6 +943,28 @@ fn place_below(nodes: &[BvhNode], sizes: &[u32], out: &mut [BvhNode], at: usize,
     }
 }
 
+/// The serial form of [`compact`]: the same layout from one depth-first walk that visits left
+/// children first; `total` is the compacted length (the root's subtree size plus the pad).
+fn compact_depth_first(nodes: &[BvhNode], total: usize) -> Vec<BvhNode> {
+    let mut out = Vec::with_capacity(total);
+    out.extend([nodes[0], BvhNode::default()]);
+    // A pending right child per level at most, so the stack stays within the depth bound.
+    let mut stack = Vec::with_capacity(MAX_DEPTH + 2);
+    stack.push(0usize);
+    while let Some(i) = stack.pop() {
+        if out[i].is_leaf() {
+            continue;
+        }
+        let old = out[i].first as usize;
+        let k = out.len();
+        out.extend([nodes[old], nodes[old + 1]]);
+        out[i].first = k as u32;
+        stack.push(k + 1);
+        stack.push(k);
+    }
+    out
+}
+
 /// Subtrees with more nodes than this are compacted in parallel.
 const PARALLEL_COMPACT: usize = 8192;
 
@@ -979,25 +1045,6 @@ mod tests {
         }
     }
 
-    /// The serial depth-first renumbering the parallel compaction replaced.
-    fn compact_serial(nodes: &[BvhNode]) -> Vec<BvhNode> {
-        let mut out = vec![nodes[0], BvhNode::default()];
-        let mut stack = vec![0usize];
-        while let Some(i) = stack.pop() {
-            if out[i].is_leaf() {
-                continue;
-            }
-            let old = out[i].first as usize;
-            let k = out.len();
-            out.push(nodes[old]);
-            out.push(nodes[old + 1]);
-            out[i].first = k as u32;
-            stack.push(k + 1);
-            stack.push(k);
-        }
-        out
-    }
-
     #[test]
     fn parallel_compaction_equals_serial_renumbering() {
         // 200^2 triangles: subtrees above PARALLEL_COMPACT nodes take the parallel path.
@@ -1009,7 +1056,30 @@ mod tests {
                 .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
                 .collect();
             let (nodes, sizes) = build_uncompacted(&mut refs, &BuildSettings::default(), 0);
-            assert_eq!(compact(&nodes, &sizes), compact_serial(&nodes));
+            let serial = compact_depth_first(&nodes, sizes[0] as usize + 1);
+            assert_eq!(compact(&nodes, &sizes), serial);
+        }
+    }
+
+    #[test]
+    fn small_subtrees_built_over_stale_spare_arrays_equal_fresh_builds() {
+        // A larger subtree first leaves its nodes in this thread's spare arrays; the smaller
+        // builds after it must not see them.
+        let settings = BuildSettings::default();
+        for n in [40, 3, 12, 1] {
+            let tris = grid(n);
+            let refs: Vec<PrimRef> = tris
+                .iter()
+                .enumerate()
+                .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
+                .collect();
+            assert!(2 * refs.len() <= PARALLEL_SUBTREE, "the spare-array path");
+            let (mut a, mut b) = (refs.clone(), refs);
+            let spare = build_sah_nodes(&mut a, &settings, 3);
+            let (nodes, sizes) = build_uncompacted(&mut b, &settings, 3);
+            assert_eq!(spare, compact(&nodes, &sizes), "grid({n})");
+            let ids = |r: &[PrimRef]| r.iter().map(|r| r.id()).collect::<Vec<_>>();
+            assert_eq!(ids(&a), ids(&b), "leaf order of grid({n})");
         }
     }
 

@@ -16,7 +16,7 @@ mod wide;
 mod wide_collapse;
 
 pub use binned_sah::{build_binned_sah, BuildSettings};
-pub(crate) use binned_sah::{build_sah_subtree, Box4, PrimRef, MEDIAN_DEPTH};
+pub(crate) use binned_sah::{build_sah_nodes, Box4, PrimRef, MEDIAN_DEPTH};
 pub use coverage::check_references;
 pub use node::{Bvh, BvhNode, NodeArray, MAX_DEPTH};
 pub use spatial_split::{SpatialAxes, SpatialSettings};

@@ -11,7 +11,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::binned_sah::{
-    bounds_of, build_sah_subtree, Box4, BuildSettings, PrimRef, MEDIAN_DEPTH, PARALLEL_SUBTREE,
+    bounds_of, build_sah_nodes, Box4, BuildSettings, PrimRef, MEDIAN_DEPTH, PARALLEL_SUBTREE,
 };
 use super::node::{Bvh, BvhNode, NodeArray};
 use super::object_split::{best_object_splits, median_split, partition_object};
@@ -89,7 +89,7 @@ enum Built {
     Leaf(Box4, Vec<PrimRef>),
     Inner(Box4, Box<[Built; 2]>),
     /// A binned SAH subtree: its compacted nodes, leaf ranges indexing its references.
-    Sah(Bvh, Vec<PrimRef>),
+    Sah(Vec<BvhNode>, Vec<PrimRef>),
 }
 
 struct Builder<'a> {
@@ -128,8 +128,8 @@ impl Builder<'_> {
         let osah =
             self.policy == SplitPolicy::Osah && mixed && (depth as f32) <= self.osah_max_depth;
         if !spatial && !osah {
-            let bvh = build_sah_subtree(&mut refs, self.settings, depth);
-            return Built::Sah(bvh, refs);
+            let nodes = build_sah_nodes(&mut refs, self.settings, depth);
+            return Built::Sah(nodes, refs);
         }
         if n <= 1 {
             return Built::Leaf(bounds, refs);
@@ -282,8 +282,8 @@ impl Builder<'_> {
 /// Lays the tree out as [`NodeArray`] needs (root, pad, then sibling pairs depth-first) and
 /// returns its nodes and its references in leaf order.
 fn flatten(tree: Built) -> (Vec<BvhNode>, Vec<PrimRef>) {
-    if let Built::Sah(bvh, refs) = tree {
-        return (bvh.nodes.to_vec(), refs);
+    if let Built::Sah(nodes, refs) = tree {
+        return (nodes, refs);
     }
     let mut nodes = vec![BvhNode::default(); 2];
     let mut refs = Vec::new();
@@ -307,10 +307,10 @@ fn flatten(tree: Built) -> (Vec<BvhNode>, Vec<PrimRef>) {
                 stack.push((r, k + 1));
                 stack.push((l, k));
             }
-            Built::Sah(bvh, mut sub_refs) => {
+            Built::Sah(sub, mut sub_refs) => {
                 let base = refs.len() as u32;
                 refs.append(&mut sub_refs);
-                graft(&bvh.nodes, &mut nodes, at, base);
+                graft(&sub, &mut nodes, at, base);
             }
         }
     }

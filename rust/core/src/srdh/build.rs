@@ -14,7 +14,7 @@ use super::kernel::{Kernel, PackedKernels};
 use super::ray_set::RaySet;
 use super::SrdhSettings;
 use crate::bvh::{
-    build_sah_subtree, Box4, BuildSettings, Bvh, BvhNode, NodeArray, PrimRef, MEDIAN_DEPTH,
+    build_sah_nodes, Box4, BuildSettings, Bvh, BvhNode, NodeArray, PrimRef, MEDIAN_DEPTH,
 };
 use crate::geometry::{Aabb, RayBoxPrecomp};
 
@@ -112,7 +112,7 @@ enum Built {
     Leaf(Aabb, Vec<u32>),
     Inner(Aabb, Kernel, Box<[Built; 2]>),
     /// A binned SAH subtree (compacted nodes, leaf ranges indexing its ids).
-    Sah(Bvh, Vec<u32>),
+    Sah(Vec<BvhNode>, Vec<u32>),
 }
 
 struct Builder<'a> {
@@ -284,8 +284,8 @@ impl<'a> Builder<'a> {
                 )
             })
             .collect();
-        let bvh = build_sah_subtree(&mut refs, self.sah, depth);
-        Built::Sah(bvh, refs.iter().map(|r| r.id()).collect())
+        let nodes = build_sah_nodes(&mut refs, self.sah, depth);
+        Built::Sah(nodes, refs.iter().map(|r| r.id()).collect())
     }
 
     /// Scores every usable plane of every axis with every allowed kernel, in the order axis,
@@ -419,9 +419,9 @@ impl<'a> Builder<'a> {
 /// Lays the tree out as [`NodeArray`] needs (root, pad, sibling pairs depth-first): nodes, one
 /// kernel per node, triangle ids in leaf order.
 fn flatten(tree: Built) -> (Vec<BvhNode>, Vec<Kernel>, Vec<u32>) {
-    if let Built::Sah(bvh, ids) = tree {
-        let kernels = vec![DEFAULT_KERNEL; bvh.nodes.len()];
-        return (bvh.nodes.to_vec(), kernels, ids);
+    if let Built::Sah(nodes, ids) = tree {
+        let kernels = vec![DEFAULT_KERNEL; nodes.len()];
+        return (nodes, kernels, ids);
     }
     let mut nodes = vec![BvhNode::default(); 2];
     let mut kernels = vec![DEFAULT_KERNEL; 2];
@@ -450,7 +450,7 @@ fn flatten(tree: Built) -> (Vec<BvhNode>, Vec<Kernel>, Vec<u32>) {
             Built::Sah(sub, mut sub_ids) => {
                 let base = ids.len() as u32;
                 ids.append(&mut sub_ids);
-                graft(&sub.nodes, &mut nodes, &mut kernels, at, base);
+                graft(&sub, &mut nodes, &mut kernels, at, base);
             }
         }
     }
