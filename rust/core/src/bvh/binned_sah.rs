@@ -143,6 +143,28 @@ impl PrimRef {
             hi: self.hi,
         }
     }
+    /// Whether the reference's triangle is in the visible set the build was given: carried in
+    /// the upper corner's fourth lane (1.0 visible, 0.0 not), so the visibility-driven builders
+    /// count visible references from the reference itself, not from a table indexed by id.
+    #[inline]
+    pub(crate) fn visible(&self) -> bool {
+        self.hi.w != 0.0
+    }
+    /// The reference marked visible or not.
+    #[inline]
+    pub(crate) fn with_visibility(mut self, visible: bool) -> Self {
+        self.hi.w = if visible { 1.0 } else { 0.0 };
+        self
+    }
+    /// A reference to the same triangle, visible or not as this one, with box `b` (a part cut
+    /// from this one by a spatial split).
+    #[inline]
+    pub(crate) fn with_bounds(&self, b: Box4) -> Self {
+        PrimRef {
+            lo: b.lo.truncate().extend(self.lo.w),
+            hi: b.hi.truncate().extend(self.hi.w),
+        }
+    }
     /// Twice the centroid (the factor cancels in binning and saves a multiply).
     #[inline]
     pub(crate) fn centroid2(&self) -> Vec4 {
@@ -150,7 +172,8 @@ impl PrimRef {
     }
 }
 
-/// A box in the builder's 4-lane form; the fourth lane carries nothing meaningful.
+/// A box in the builder's 4-lane form; the fourth lane carries nothing meaningful (a box made
+/// from references may hold their id and visibility lanes there).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Box4 {
     pub(crate) lo: Vec4,

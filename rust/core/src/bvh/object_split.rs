@@ -6,7 +6,7 @@ use glam::Vec4;
 use rayon::prelude::*;
 
 use super::binned_sah::{bin_indices, Box4, Corners, PrimRef};
-use super::osah_cost::{CostModel, Sides, Visibility};
+use super::osah_cost::{CostModel, Sides};
 
 /// Maps a doubled centroid to its bin on one axis.
 #[derive(Clone, Copy, Debug)]
@@ -70,7 +70,6 @@ const BINNING_CHUNK: usize = 16384;
 /// The best object split by SAH and (if `osah`) by OSAH cost, each with its cost.
 pub(super) fn best_object_splits(
     refs: &[PrimRef],
-    vis: Visibility,
     centroids: &Box4,
     parent_area: f32,
     bin_count: usize,
@@ -89,10 +88,10 @@ pub(super) fn best_object_splits(
     });
     let all = if refs.len() > PARALLEL_BINNING {
         refs.par_chunks(BINNING_CHUNK)
-            .map(|c| bin_all(c, &mappers, nb, vis))
+            .map(|c| bin_all(c, &mappers, nb))
             .reduce(|| vec![EMPTY_BIN; 3 * nb], merge_bins)
     } else {
-        bin_all(refs, &mappers, nb, vis)
+        bin_all(refs, &mappers, nb)
     };
     let mut best: [Option<(ObjectSplit, f32)>; 2] = [None, None];
     let mut right: Vec<(Box4, u32, u32)> = vec![(Box4::EMPTY, 0, 0); nb];
@@ -146,12 +145,7 @@ pub(super) fn best_object_splits(
 }
 
 /// Bins `refs` on every axis with a mapper in one pass (axis a's bins at `a * nb..`).
-fn bin_all(
-    refs: &[PrimRef],
-    mappers: &[Option<CentroidBins>; 3],
-    nb: usize,
-    vis: Visibility,
-) -> Vec<Bin> {
+fn bin_all(refs: &[PrimRef], mappers: &[Option<CentroidBins>; 3], nb: usize) -> Vec<Bin> {
     let mut bins = vec![EMPTY_BIN; 3 * nb];
     // All three axes' bins from one 4-lane computation (the same arithmetic as
     // `CentroidBins::bin`); an axis without a mapper gets scale 0, so all its references land in
@@ -168,12 +162,12 @@ fn bin_all(
     #[cfg(target_arch = "x86_64")]
     if super::binned_sah::use_avx() {
         // SAFETY: AVX is present (checked above).
-        unsafe { bin_refs_avx(refs, [bx, by, bz], (lo, scale, last), vis) };
+        unsafe { bin_refs_avx(refs, [bx, by, bz], (lo, scale, last)) };
         return bins;
     }
     for r in refs {
         let [ix, iy, iz, _] = bin_indices(r.centroid2(), lo, scale, last);
-        let visible = vis.of(r) as u32;
+        let visible = r.visible() as u32;
         let neg_hi = -r.hi;
         for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
             let b = &mut axis[i as usize];
@@ -193,11 +187,10 @@ fn bin_refs_avx(
     refs: &[PrimRef],
     [bx, by, bz]: [&mut [Bin]; 3],
     (lo, scale, last): (Vec4, Vec4, Vec4),
-    vis: Visibility,
 ) {
     for r in refs {
         let [ix, iy, iz, _] = bin_indices(r.centroid2(), lo, scale, last);
-        let visible = vis.of(r) as u32;
+        let visible = r.visible() as u32;
         let corners = Corners::of_ref_avx(r);
         for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
             let b = &mut axis[i as usize];
@@ -309,6 +302,7 @@ pub(super) fn median_split(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::bvh::osah_cost::count_visible;
     use glam::Vec3;
 
     /// Boxes of scattered triangles (a hash of the index), every third visible.
@@ -338,12 +332,21 @@ pub(crate) mod tests {
             .collect()
     }
 
+    /// The references of `tris`, every `k`-th marked visible.
+    pub(crate) fn refs_visible_every(tris: &[[Vec3; 3]], k: usize) -> Vec<PrimRef> {
+        let refs: Vec<PrimRef> = refs_of(tris)
+            .into_iter()
+            .enumerate()
+            .map(|(i, r)| r.with_visibility(i % k == 0))
+            .collect();
+        assert_eq!(count_visible(&refs) as usize, tris.len().div_ceil(k));
+        refs
+    }
+
     #[test]
     fn chunked_and_avx_binning_equal_serial_portable_binning() {
         let tris = scattered(5000);
-        let refs = refs_of(&tris);
-        let flags: Vec<bool> = (0..tris.len()).map(|i| i % 3 == 0).collect();
-        let vis = Visibility(Some(&flags));
+        let refs = refs_visible_every(&tris, 3);
         let (_, c) = super::super::binned_sah::bounds_of(&refs);
         let nb = 16;
         let mappers: [Option<CentroidBins>; 3] = std::array::from_fn(|axis| {
@@ -354,15 +357,15 @@ pub(crate) mod tests {
                 count: nb,
             })
         });
-        let serial = bin_all(&refs, &mappers, nb, vis);
+        let serial = bin_all(&refs, &mappers, nb);
         let merged = refs
             .chunks(777)
-            .map(|c| bin_all(c, &mappers, nb, vis))
+            .map(|c| bin_all(c, &mappers, nb))
             .fold(vec![EMPTY_BIN; 3 * nb], merge_bins);
         assert_eq!(serial, merged);
         assert_eq!(serial.iter().map(|b| b.count).sum::<u32>(), 3 * 5000);
         let (portable, avx) =
-            super::super::binned_sah::portable_and_avx(|| bin_all(&refs, &mappers, nb, vis));
+            super::super::binned_sah::portable_and_avx(|| bin_all(&refs, &mappers, nb));
         assert_eq!(portable, avx, "AVX and portable binning differ");
     }
 
@@ -376,15 +379,8 @@ pub(crate) mod tests {
             intersection: 1.0,
             weight: 0.9,
         };
-        let [best, _] = best_object_splits(
-            &refs,
-            Visibility(None),
-            &centroids,
-            bounds.half_area(),
-            16,
-            &model,
-            false,
-        );
+        let [best, _] =
+            best_object_splits(&refs, &centroids, bounds.half_area(), 16, &model, false);
         let (split, _) = best.expect("a split");
         let ids = |v: &[PrimRef]| v.iter().map(|r| r.id()).collect::<Vec<_>>();
         let (want_left, want_right): (Vec<PrimRef>, Vec<PrimRef>) = refs

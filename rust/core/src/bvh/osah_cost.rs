@@ -6,21 +6,9 @@
 
 use super::binned_sah::{Box4, PrimRef};
 
-/// Which triangles a build treats as visible (indexed by triangle id); `None`: no input.
-#[derive(Clone, Copy)]
-pub(super) struct Visibility<'a>(pub(super) Option<&'a [bool]>);
-
-impl Visibility<'_> {
-    #[inline]
-    pub(super) fn of(&self, r: &PrimRef) -> bool {
-        self.0.is_some_and(|v| v[r.id() as usize])
-    }
-    pub(super) fn count(&self, refs: &[PrimRef]) -> u32 {
-        match self.0 {
-            None => 0,
-            Some(_) => refs.iter().filter(|r| self.of(r)).count() as u32,
-        }
-    }
+/// How many of `refs` are visible ([`PrimRef::visible`]).
+pub(super) fn count_visible(refs: &[PrimRef]) -> u32 {
+    refs.iter().filter(|r| r.visible()).count() as u32
 }
 
 /// The two sides of a candidate split: boxes, reference counts and visible-reference counts.

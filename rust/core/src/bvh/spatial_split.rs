@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::binned_sah::{truncate_lanes, Box4, Corners, PrimRef};
 use super::clip::{axis_lane, clipped_box, clipped_strips, cut_to_slab};
-use super::osah_cost::{CostModel, Sides, Visibility};
+use super::osah_cost::{CostModel, Sides};
 
 /// Settings of spatial splits.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -164,7 +164,6 @@ const EMPTY_BIN: Bin = Bin {
 pub(super) fn best_spatial_splits(
     refs: &[PrimRef],
     triangles: &[[Vec3; 3]],
-    vis: Visibility,
     bounds: &Box4,
     parent_area: f32,
     bin_count: usize,
@@ -187,10 +186,10 @@ pub(super) fn best_spatial_splits(
     // integer sums, so the merged bins equal serial binning's exactly.
     let bins = if refs.len() > PARALLEL_BINNING {
         refs.par_chunks(BINNING_CHUNK)
-            .map(|c| grid.bin(c, triangles, vis))
+            .map(|c| grid.bin(c, triangles))
             .reduce(|| vec![EMPTY_BIN; 3 * nb], merge_bins)
     } else {
-        grid.bin(refs, triangles, vis)
+        grid.bin(refs, triangles)
     };
     let mut best: [Option<(SpatialSplit, f32)>; 2] = [None, None];
     let mut right = vec![(Box4::EMPTY, 0u32, 0u32); nb];
@@ -302,7 +301,7 @@ impl Grid {
     /// the bin of its low end and exits the bin of its high end. With clipping, the tight box
     /// of its part in each bin it spans grows that bin; with cut boxes, its whole box grows
     /// its first and last bin, and [`Grid::sweep`] cuts the sides.
-    fn bin(&self, refs: &[PrimRef], triangles: &[[Vec3; 3]], vis: Visibility) -> Vec<Bin> {
+    fn bin(&self, refs: &[PrimRef], triangles: &[[Vec3; 3]]) -> Vec<Bin> {
         let nb = self.nb;
         let mut all = vec![EMPTY_BIN; 3 * nb];
         // One loop per path, each a separate instance: sharing one loop made the cut-box
@@ -320,7 +319,7 @@ impl Grid {
             // loop of its own: one loop doing both spilled the clipper's state on every
             // reference (the bins are minima, maxima and sums, so the order does not matter).
             let mut straddling: Vec<(&PrimRef, usize, usize, usize)> = Vec::new();
-            self.bin_with(refs, vis, &mut all, |_, b0, b1, r, axis| {
+            self.bin_with(refs, &mut all, |_, b0, b1, r, axis| {
                 straddling.push((r, axis, b0, b1));
             });
             for (r, axis, b0, b1) in straddling {
@@ -338,10 +337,10 @@ impl Grid {
             #[cfg(target_arch = "x86_64")]
             if super::binned_sah::use_avx() {
                 // SAFETY: AVX is present (checked above).
-                unsafe { self.bin_cut_boxes_avx(refs, vis, &mut all) };
+                unsafe { self.bin_cut_boxes_avx(refs, &mut all) };
                 return all;
             }
-            self.bin_with(refs, vis, &mut all, |bins, b0, b1, r, _| {
+            self.bin_with(refs, &mut all, |bins, b0, b1, r, _| {
                 // The whole box into its first and last bin only: `Grid::sweep` cuts each
                 // side at its plane, which gives the sides the union of the box's cuts to
                 // every bin it spans, in two updates instead of one per bin.
@@ -358,13 +357,13 @@ impl Grid {
     /// branch is as good as random, and mispredicted it cost more than the second update.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    fn bin_cut_boxes_avx(&self, refs: &[PrimRef], vis: Visibility, all: &mut [Bin]) {
+    fn bin_cut_boxes_avx(&self, refs: &[PrimRef], all: &mut [Bin]) {
         let map = self.bin_map();
         let (bx, rest) = all.split_at_mut(self.nb);
         let (by, bz) = rest.split_at_mut(self.nb);
         for r in refs {
             let (first, final_) = map.range(r);
-            let visible = vis.of(r) as u32;
+            let visible = r.visible() as u32;
             let corners = Corners::of_box_avx(&r.bounds());
             for (axis, bins) in [(0, &mut *bx), (1, &mut *by), (2, &mut *bz)] {
                 if !self.axes[axis] {
@@ -399,7 +398,6 @@ impl Grid {
     fn bin_with<'r>(
         &self,
         refs: &'r [PrimRef],
-        vis: Visibility,
         all: &mut [Bin],
         mut straddling: impl FnMut(&mut [Bin], usize, usize, &'r PrimRef, usize),
     ) {
@@ -410,7 +408,7 @@ impl Grid {
         let flags = self.axes;
         for r in refs {
             let (first, final_) = map.range(r);
-            let visible = vis.of(r) as u32;
+            let visible = r.visible() as u32;
             for (axis, bins) in [(0, &mut *bx), (1, &mut *by), (2, &mut *bz)] {
                 if !flags[axis] {
                     continue;
@@ -534,8 +532,8 @@ pub(super) fn partition_spatial(
         } else {
             left_box.grow_box(&lpart);
             right_box.grow_box(&rpart);
-            left.push(PrimRef::new(r.id(), lpart));
-            right.push(PrimRef::new(r.id(), rpart));
+            left.push(r.with_bounds(lpart));
+            right.push(r.with_bounds(rpart));
         }
     }
     (left, right)
@@ -545,14 +543,12 @@ pub(super) fn partition_spatial(
 mod tests {
     use super::*;
     use crate::bvh::binned_sah::bounds_of;
-    use crate::bvh::object_split::tests::{refs_of, scattered};
+    use crate::bvh::object_split::tests::{refs_visible_every, scattered};
 
     #[test]
     fn chunked_and_avx_binning_equal_serial_portable_binning() {
         let tris = scattered(5000);
-        let refs = refs_of(&tris);
-        let flags: Vec<bool> = (0..tris.len()).map(|i| i % 3 == 0).collect();
-        let vis = Visibility(Some(&flags));
+        let refs = refs_visible_every(&tris, 3);
         let (bounds, _) = bounds_of(&refs);
         for axes in [[true; 3], [false, true, false]] {
             let grid = Grid {
@@ -561,10 +557,10 @@ mod tests {
                 axes,
                 clip: true,
             };
-            let serial = grid.bin(&refs, &tris, vis);
+            let serial = grid.bin(&refs, &tris);
             let merged = refs
                 .chunks(613)
-                .map(|c| grid.bin(c, &tris, vis))
+                .map(|c| grid.bin(c, &tris))
                 .fold(vec![EMPTY_BIN; 3 * 32], merge_bins);
             assert_eq!(serial, merged);
             let entered: u32 = serial.iter().map(|b| b.enter).sum();
@@ -575,14 +571,14 @@ mod tests {
                 ..grid
             };
             let (portable, avx) =
-                crate::bvh::binned_sah::portable_and_avx(|| cut.bin(&refs, &tris, vis));
+                crate::bvh::binned_sah::portable_and_avx(|| cut.bin(&refs, &tris));
             assert_eq!(portable, avx, "AVX and portable cut-box binning differ");
         }
     }
 
     /// The sides of every plane on every axis.
-    fn all_sides(grid: &Grid, refs: &[PrimRef], tris: &[[Vec3; 3]], vis: Visibility) -> Vec<Sides> {
-        let bins = grid.bin(refs, tris, vis);
+    fn all_sides(grid: &Grid, refs: &[PrimRef], tris: &[[Vec3; 3]]) -> Vec<Sides> {
+        let bins = grid.bin(refs, tris);
         let mut right = vec![(Box4::EMPTY, 0, 0); grid.nb];
         let mut out = Vec::new();
         for axis in 0..3 {
@@ -595,7 +591,7 @@ mod tests {
 
     /// The cut-box estimate as first written: a straddling reference's box cut to every bin
     /// it spans, swept without cutting the sides.
-    fn sides_of_cuts_per_bin(grid: &Grid, refs: &[PrimRef], vis: Visibility) -> Vec<Sides> {
+    fn sides_of_cuts_per_bin(grid: &Grid, refs: &[PrimRef]) -> Vec<Sides> {
         let nb = grid.nb;
         let mut bins = vec![EMPTY_BIN; 3 * nb];
         for axis in 0..3 {
@@ -612,7 +608,7 @@ mod tests {
                     part.hi[axis] = part.hi[axis].min(grid.plane(axis, b0 + j + 1));
                     bin.corners.grow_box(&part);
                 }
-                let v = vis.of(r) as u32;
+                let v = r.visible() as u32;
                 bins[b0].enter += 1;
                 bins[b0].vis_enter += v;
                 bins[b1].exit += 1;
@@ -640,9 +636,7 @@ mod tests {
         // exits on every side, and each side's box must contain the clipped one (it is the
         // looser estimate); it must equal cutting the box to every bin it spans.
         let tris = scattered(3000);
-        let refs = refs_of(&tris);
-        let flags: Vec<bool> = (0..tris.len()).map(|i| i % 4 == 0).collect();
-        let vis = Visibility(Some(&flags));
+        let refs = refs_visible_every(&tris, 4);
         let (bounds, _) = bounds_of(&refs);
         let grid = |clip| Grid {
             bounds,
@@ -650,9 +644,9 @@ mod tests {
             axes: [true; 3],
             clip,
         };
-        let clipped = all_sides(&grid(true), &refs, &tris, vis);
-        let cut = all_sides(&grid(false), &refs, &tris, vis);
-        let per_bin = sides_of_cuts_per_bin(&grid(false), &refs, vis);
+        let clipped = all_sides(&grid(true), &refs, &tris);
+        let cut = all_sides(&grid(false), &refs, &tris);
+        let per_bin = sides_of_cuts_per_bin(&grid(false), &refs);
         assert_eq!(clipped.len(), cut.len());
         assert_eq!(cut.len(), per_bin.len());
         assert!(

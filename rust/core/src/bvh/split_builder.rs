@@ -15,7 +15,7 @@ use super::binned_sah::{
 };
 use super::node::{Bvh, BvhNode, NodeArray};
 use super::object_split::{best_object_splits, median_split, partition_object};
-use super::osah_cost::{osah_viable, CostModel, Sides, Visibility};
+use super::osah_cost::{count_visible, osah_viable, CostModel, Sides};
 use super::spatial_split::{best_spatial_splits, partition_spatial, SpatialAxes, Unsplit};
 
 /// Where a builder may use spatial splits and visibility-driven splits.
@@ -44,21 +44,20 @@ pub(super) fn build_split_bvh(
     if let Some(v) = visible {
         assert_eq!(v.len(), n, "one visibility flag per triangle");
     }
+    // SBVH ignores visibility: its references are all unmarked, so every count is 0.
+    let flags = visible.filter(|_| policy != SplitPolicy::Sbvh);
     let refs: Vec<PrimRef> = triangles
         .par_iter()
         .enumerate()
-        .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
+        .map(|(i, t)| {
+            PrimRef::of_triangle(i as u32, t).with_visibility(flags.is_some_and(|v| v[i]))
+        })
         .collect();
     let (bounds, centroids) = bounds_of(&refs);
     let builder = Builder {
         triangles,
         settings,
         policy,
-        vis: Visibility(if policy == SplitPolicy::Sbvh {
-            None
-        } else {
-            visible
-        }),
         model: CostModel {
             traversal: settings.traversal_cost,
             intersection: settings.intersection_cost,
@@ -68,7 +67,7 @@ pub(super) fn build_split_bvh(
         osah_max_depth: 0.5 * (n as f32).log2(),
     };
     let budget = (settings.spatial.max_growth as f64 * n as f64) as usize;
-    let visible = builder.vis.count(&refs);
+    let visible = count_visible(&refs);
     let tree = builder.node(refs, (bounds, centroids), visible, 0, budget);
     let (nodes, refs) = flatten(tree);
     let mut bvh = Bvh {
@@ -96,7 +95,6 @@ struct Builder<'a> {
     triangles: &'a [[Vec3; 3]],
     settings: &'a BuildSettings,
     policy: SplitPolicy,
-    vis: Visibility<'a>,
     model: CostModel,
     root_area: f32,
     osah_max_depth: f32,
@@ -151,7 +149,7 @@ impl Builder<'_> {
             all.append(&mut right);
             (left, right) = median_split(all, &centroids);
         }
-        let (mut vis_left, mut vis_right) = (self.vis.count(&left), self.vis.count(&right));
+        let (mut vis_left, mut vis_right) = (count_visible(&left), count_visible(&right));
         // OSAH: the child with more visible references first, so that a traversal that takes
         // the left child on equal entry distances reaches visible triangles first.
         if self.policy == SplitPolicy::Osah && mixed && vis_right > vis_left {
@@ -191,7 +189,7 @@ impl Builder<'_> {
         let area = bounds.half_area().max(f32::MIN_POSITIVE);
         let s = self.settings;
         let [obj_sah, obj_osah] =
-            best_object_splits(refs, self.vis, centroids, area, s.bins, &self.model, osah);
+            best_object_splits(refs, centroids, area, s.bins, &self.model, osah);
         let overlap = [&obj_sah, &obj_osah]
             .iter()
             .filter_map(|o| o.as_ref().map(|(x, _)| x.sides.overlap_half_area()))
@@ -212,7 +210,6 @@ impl Builder<'_> {
             best_spatial_splits(
                 refs,
                 self.triangles,
-                self.vis,
                 bounds,
                 area,
                 s.spatial.bins,
