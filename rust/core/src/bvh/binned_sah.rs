@@ -357,26 +357,36 @@ pub(crate) fn build_sah_nodes(
     if n == 0 {
         return Vec::new();
     }
-    if n > PARALLEL_SUBTREE {
+    if 2 * n - 1 > SPARE_NODES_MAX {
         let (nodes, sizes) = build_uncompacted(refs, settings, depth);
         return compact(&nodes, &sizes);
     }
-    // The split builders hand over thousands of small subtrees: these build on one thread into
-    // its spare arrays (stale slots are never read: only the nodes the build writes are
-    // reachable) and are compacted by a depth-first walk, so no zeroed arrays are allocated.
+    // The split builders hand over thousands of subtrees: these build into the thread's spare
+    // arrays (stale slots are never read: only the nodes the build writes are reachable), so
+    // no zeroed arrays are allocated per subtree; small ones compact by a depth-first walk.
+    // A build that runs while the spares are taken further up this thread's stack (rayon may
+    // run another subtree inside a join) allocates its own.
     let (mut nodes, mut sizes) = SPARE_NODES.take().unwrap_or_default();
     if nodes.len() < 2 * n - 1 {
         nodes.resize(2 * n - 1, BvhNode::default());
         sizes.resize(2 * n - 1, 0);
     }
     let total = build_into(refs, settings, depth, &mut nodes, &mut sizes);
-    let out = compact_depth_first(&nodes, total as usize + 1);
+    let out = if n > PARALLEL_SUBTREE {
+        compact(&nodes, &sizes)
+    } else {
+        compact_depth_first(&nodes, total as usize + 1)
+    };
     SPARE_NODES.set(Some((nodes, sizes)));
     out
 }
 
+/// The most uncompacted nodes a thread keeps spare (4 MiB of nodes, 0.5 MiB of sizes): larger
+/// subtrees allocate zeroed arrays of their own.
+const SPARE_NODES_MAX: usize = 1 << 17;
+
 thread_local! {
-    /// A thread's spare uncompacted node and size arrays for small subtrees.
+    /// A thread's spare uncompacted node and size arrays (see [`build_sah_nodes`]).
     static SPARE_NODES: std::cell::Cell<Option<(Vec<BvhNode>, Vec<u32>)>> =
         const { std::cell::Cell::new(None) };
 }
@@ -1085,18 +1095,19 @@ mod tests {
     }
 
     #[test]
-    fn small_subtrees_built_over_stale_spare_arrays_equal_fresh_builds() {
-        // A larger subtree first leaves its nodes in this thread's spare arrays; the smaller
-        // builds after it must not see them.
+    fn subtrees_built_over_stale_spare_arrays_equal_fresh_builds() {
+        // Larger subtrees first leave their nodes in this thread's spare arrays; the smaller
+        // builds after them must not see them. 260^2 references take the zeroed arrays of
+        // their own, 80^2 the spares and the parallel compaction, the rest the depth-first one.
         let settings = BuildSettings::default();
-        for n in [40, 3, 12, 1] {
+        const { assert!(2 * 260 * 260 > SPARE_NODES_MAX && 2 * 80 * 80 > PARALLEL_SUBTREE) };
+        for n in [260, 80, 40, 3, 12, 1] {
             let tris = grid(n);
             let refs: Vec<PrimRef> = tris
                 .iter()
                 .enumerate()
                 .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
                 .collect();
-            assert!(2 * refs.len() <= PARALLEL_SUBTREE, "the spare-array path");
             let (mut a, mut b) = (refs.clone(), refs);
             let spare = build_sah_nodes(&mut a, &settings, 3);
             let (nodes, sizes) = build_uncompacted(&mut b, &settings, 3);
