@@ -31,7 +31,11 @@ impl CentroidBins {
     #[inline(always)]
     fn bin_of(&self, c2: f32) -> usize {
         let f = (c2 - self.lo) * self.scale;
-        (f.max(0.0) as usize).min(self.count - 1)
+        // Clamped as floats (`max` drops a NaN), so the conversion needs none of the
+        // saturating `as` checks: the same bin as `(f.max(0.0) as usize).min(count - 1)`.
+        let f = f.max(0.0).min((self.count - 1) as f32);
+        // SAFETY: `f` is finite and in [0, count - 1] (count <= MAX_BINS), so it fits a u32.
+        unsafe { f.to_int_unchecked::<u32>() as usize }
     }
 }
 
@@ -367,6 +371,30 @@ pub(crate) mod tests {
         let (portable, avx) =
             super::super::binned_sah::portable_and_avx(|| bin_all(&refs, &mappers, nb));
         assert_eq!(portable, avx, "AVX and portable binning differ");
+    }
+
+    #[test]
+    fn centroid_bins_clamp_as_the_saturating_cast_did() {
+        let bins = CentroidBins {
+            axis: 0,
+            lo: -1.5,
+            scale: 3.25,
+            count: 16,
+        };
+        let odd = [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MAX,
+            -f32::MAX,
+            -0.0,
+        ];
+        let values = (-400..400).map(|i| i as f32 * 0.037).chain(odd);
+        for c2 in values {
+            let f = (c2 - bins.lo) * bins.scale;
+            let want = (f.max(0.0) as usize).min(bins.count - 1);
+            assert_eq!(bins.bin_of(c2), want, "centroid {c2}");
+        }
     }
 
     #[test]
