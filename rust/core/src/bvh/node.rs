@@ -80,6 +80,35 @@ impl NodeArray {
     }
 }
 
+impl NodeArray {
+    /// `len` default nodes from zeroed memory, for builders that write every node in place (in
+    /// parallel: the pages fault in on the threads that write them).
+    pub(crate) fn zeroed(len: usize) -> Self {
+        let count = len.div_ceil(2);
+        let layout = std::alloc::Layout::array::<NodePair>(count).expect("node array size");
+        if layout.size() == 0 {
+            return NodeArray::default();
+        }
+        // SAFETY: the layout is non-empty and is the one `Vec<NodePair>` frees with (same
+        // element type and capacity); every field of a `NodePair` is an f32 or u32, for which
+        // all-zero bits are the value 0, i.e. `NodePair::default()`.
+        let pairs = unsafe {
+            let ptr = std::alloc::alloc_zeroed(layout) as *mut NodePair;
+            if ptr.is_null() {
+                std::alloc::handle_alloc_error(layout);
+            }
+            Vec::from_raw_parts(ptr, count, count)
+        };
+        NodeArray { pairs, len }
+    }
+
+    /// The nodes, to write in place.
+    pub(crate) fn as_mut_slice(&mut self) -> &mut [BvhNode] {
+        // SAFETY: as in `Deref`, with the unique borrow of the pairs.
+        unsafe { std::slice::from_raw_parts_mut(self.pairs.as_mut_ptr() as *mut BvhNode, self.len) }
+    }
+}
+
 impl std::ops::Deref for NodeArray {
     type Target = [BvhNode];
     fn deref(&self) -> &[BvhNode] {

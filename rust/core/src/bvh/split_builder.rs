@@ -69,14 +69,11 @@ pub(super) fn build_split_bvh(
     let budget = (settings.spatial.max_growth as f64 * n as f64) as usize;
     let visible = count_visible(&refs);
     let tree = builder.node(refs, (bounds, centroids), visible, 0, budget);
-    let (nodes, refs) = flatten(tree);
+    let (nodes, ids) = flatten(tree);
     let mut bvh = Bvh {
-        nodes: NodeArray::from_nodes(&nodes),
-        triangles: refs
-            .par_iter()
-            .map(|r| triangles[r.id() as usize])
-            .collect(),
-        triangle_ids: refs.iter().map(|r| r.id()).collect(),
+        nodes,
+        triangles: ids.par_iter().map(|&id| triangles[id as usize]).collect(),
+        triangle_ids: ids,
         build_ms: 0.0,
     };
     bvh.build_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -86,9 +83,34 @@ pub(super) fn build_split_bvh(
 /// A subtree under construction.
 enum Built {
     Leaf(Box4, Vec<PrimRef>),
-    Inner(Box4, Box<[Built; 2]>),
+    Inner(Box4, Box<[Built; 2]>, Size),
     /// A binned SAH subtree: its compacted nodes, leaf ranges indexing its references.
     Sah(Vec<BvhNode>, Vec<PrimRef>),
+}
+
+/// The nodes below a subtree's root and the references under it, which place it in the
+/// final arrays.
+#[derive(Clone, Copy)]
+struct Size {
+    below: usize,
+    refs: usize,
+}
+
+impl Built {
+    fn size(&self) -> Size {
+        match self {
+            Built::Leaf(_, refs) => Size {
+                below: 0,
+                refs: refs.len(),
+            },
+            Built::Inner(_, _, size) => *size,
+            // Root, pad, then the descendants.
+            Built::Sah(nodes, refs) => Size {
+                below: nodes.len().saturating_sub(2),
+                refs: refs.len(),
+            },
+        }
+    }
 }
 
 struct Builder<'a> {
@@ -172,7 +194,12 @@ impl Builder<'_> {
                 self.node(right, rb, vis_right, depth + 1, right_budget),
             )
         };
-        Built::Inner(bounds, Box::new([children.0, children.1]))
+        let (l, r) = (children.0.size(), children.1.size());
+        let size = Size {
+            below: 2 + l.below + r.below,
+            refs: l.refs + r.refs,
+        };
+        Built::Inner(bounds, Box::new([children.0, children.1]), size)
     }
 
     /// The best split and its cost: the best SAH split (object or spatial), replaced by the best
@@ -276,62 +303,79 @@ impl Builder<'_> {
     }
 }
 
-/// Lays the tree out as [`NodeArray`] needs (root, pad, then sibling pairs depth-first) and
-/// returns its nodes and its references in leaf order.
-fn flatten(tree: Built) -> (Vec<BvhNode>, Vec<PrimRef>) {
-    if let Built::Sah(nodes, refs) = tree {
-        return (nodes, refs);
-    }
-    let mut nodes = vec![BvhNode::default(); 2];
-    let mut refs = Vec::new();
-    let mut stack: Vec<(Built, usize)> = vec![(tree, 0)];
-    while let Some((built, at)) = stack.pop() {
-        match built {
-            Built::Leaf(bounds, mut leaf) => {
-                nodes[at].set_bounds(&bounds.to_aabb());
-                nodes[at].first = refs.len() as u32;
-                nodes[at].count = leaf.len() as u32;
-                refs.append(&mut leaf);
-            }
-            Built::Inner(bounds, children) => {
-                nodes[at].set_bounds(&bounds.to_aabb());
-                nodes[at].count = 0;
-                let k = nodes.len();
-                nodes[at].first = k as u32;
-                nodes.push(BvhNode::default());
-                nodes.push(BvhNode::default());
-                let [l, r] = *children;
-                stack.push((r, k + 1));
-                stack.push((l, k));
-            }
-            Built::Sah(sub, mut sub_refs) => {
-                let base = refs.len() as u32;
-                refs.append(&mut sub_refs);
-                graft(&sub, &mut nodes, at, base);
-            }
-        }
-    }
-    (nodes, refs)
+/// Lays the tree out as [`NodeArray`] needs (root, pad, then sibling pairs depth-first, left
+/// subtree before right) and returns it with its references' triangle ids in leaf order. Each
+/// subtree's place follows from the sizes below it, so subtrees are written in parallel, and a
+/// grafted SAH subtree (already in that layout) is one linear copy with its indices offset.
+fn flatten(tree: Built) -> (NodeArray, Vec<u32>) {
+    let size = tree.size();
+    let mut nodes = NodeArray::zeroed(2 + size.below);
+    let mut ids = vec![0u32; size.refs];
+    let (root, rest) = nodes.as_mut_slice().split_at_mut(2);
+    place(tree, &mut root[0], rest, 2, &mut ids, 0);
+    (nodes, ids)
 }
 
-/// Copies a compacted SAH subtree into `out` with its root at `at`, offsetting leaf ranges by
-/// `base`.
-fn graft(sub: &[BvhNode], out: &mut Vec<BvhNode>, at: usize, base: u32) {
-    let mut stack = vec![(0usize, at)];
-    while let Some((i, o)) = stack.pop() {
-        let mut node = sub[i];
-        if node.is_leaf() {
-            node.first += base;
-            out[o] = node;
-            continue;
+/// Subtrees with more nodes than this are placed in parallel.
+const PARALLEL_FLATTEN: usize = 4096;
+
+/// Writes `built` into `slot`, its descendants into `below` (whose first node has index `at`
+/// in the final array) and its references' ids into `ids` (whose first slot is reference
+/// `base`).
+fn place(
+    built: Built,
+    slot: &mut BvhNode,
+    below: &mut [BvhNode],
+    at: usize,
+    ids: &mut [u32],
+    base: usize,
+) {
+    match built {
+        Built::Leaf(bounds, refs) => {
+            slot.set_bounds(&bounds.to_aabb());
+            slot.first = base as u32;
+            slot.count = refs.len() as u32;
+            for (id, r) in ids.iter_mut().zip(&refs) {
+                *id = r.id();
+            }
         }
-        let k = out.len();
-        out.push(BvhNode::default());
-        out.push(BvhNode::default());
-        let child = node.first as usize;
-        node.first = k as u32;
-        out[o] = node;
-        stack.push((child + 1, k + 1));
-        stack.push((child, k));
+        Built::Inner(bounds, children, size) => {
+            slot.set_bounds(&bounds.to_aabb());
+            slot.count = 0;
+            slot.first = at as u32;
+            let [l, r] = *children;
+            let ls = l.size();
+            let (pair, rest) = below.split_at_mut(2);
+            let (l_slot, r_slot) = pair.split_at_mut(1);
+            let (l_below, r_below) = rest.split_at_mut(ls.below);
+            let (l_ids, r_ids) = ids.split_at_mut(ls.refs);
+            let (l_at, r_at) = (at + 2, at + 2 + ls.below);
+            let left = move || place(l, &mut l_slot[0], l_below, l_at, l_ids, base);
+            let right = move || place(r, &mut r_slot[0], r_below, r_at, r_ids, base + ls.refs);
+            if size.below > PARALLEL_FLATTEN {
+                rayon::join(left, right);
+            } else {
+                left();
+                right();
+            }
+        }
+        Built::Sah(sub, refs) => {
+            // The subtree's descendants start at its index 2; here they start at `at`.
+            let offset = |mut node: BvhNode| {
+                if node.is_leaf() {
+                    node.first += base as u32;
+                } else {
+                    node.first = (at + node.first as usize - 2) as u32;
+                }
+                node
+            };
+            *slot = offset(sub[0]);
+            for (out, node) in below.iter_mut().zip(&sub[2..]) {
+                *out = offset(*node);
+            }
+            for (id, r) in ids.iter_mut().zip(&refs) {
+                *id = r.id();
+            }
+        }
     }
 }
