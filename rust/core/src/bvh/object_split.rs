@@ -214,12 +214,24 @@ fn merge_bins(mut a: Vec<Bin>, b: Vec<Bin>) -> Vec<Bin> {
     a
 }
 
+/// What the split builder needs of a child besides its references: its bounds, the bounds of
+/// its doubled centroids (as [`bounds_of`](super::binned_sah::bounds_of) gives them) and its
+/// visible references.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct ChildSummary {
+    pub(super) bounds: Box4,
+    pub(super) centroids: Box4,
+    pub(super) visible: u32,
+}
+
 /// Splits `refs` by `split` into (left, right), each allocated once at its known size, both in
-/// the order of `refs`.
+/// the order of `refs`. The branch-free path also returns both children's summaries: boxes and
+/// visible counts from the binned sides (exact when the counts matched), centroid bounds from
+/// one pass over each child.
 pub(super) fn partition_object(
     refs: Vec<PrimRef>,
     split: &ObjectSplit,
-) -> (Vec<PrimRef>, Vec<PrimRef>) {
+) -> (Vec<PrimRef>, Vec<PrimRef>, Option<[ChildSummary; 2]>) {
     let goes_left = |r: &PrimRef| split.bins.bin(r.centroid2()) < split.bin;
     let (n_left, n_right) = (split.sides.n_left as usize, split.sides.n_right as usize);
     if n_left > 0 && n_right > 0 && n_left + n_right == refs.len() {
@@ -228,8 +240,22 @@ pub(super) fn partition_object(
             1 => scatter::<1>(&refs, split, n_left, n_right),
             _ => scatter::<2>(&refs, split, n_left, n_right),
         };
-        if let Some(parts) = parts {
-            return parts;
+        if let Some((left, right)) = parts {
+            // The binned sides are exact for an object split whose counts matched.
+            let sides = &split.sides;
+            let summaries = [
+                ChildSummary {
+                    bounds: sides.left,
+                    centroids: centroid_bounds(&left),
+                    visible: sides.vis_left,
+                },
+                ChildSummary {
+                    bounds: sides.right,
+                    centroids: centroid_bounds(&right),
+                    visible: sides.vis_right,
+                },
+            ];
+            return (left, right, Some(summaries));
         }
     }
     let mut left = Vec::with_capacity(n_left);
@@ -241,7 +267,7 @@ pub(super) fn partition_object(
             right.push(r);
         }
     }
-    (left, right)
+    (left, right, None)
 }
 
 /// [`partition_object`] without a branch per reference (its side is as good as random to the
@@ -284,6 +310,29 @@ fn scatter<const AXIS: usize>(
         right.set_len(n_right);
     }
     Some((left, right))
+}
+
+/// The bounds of `refs`' doubled centroids (the second half of
+/// [`bounds_of`](super::binned_sah::bounds_of)).
+fn centroid_bounds(refs: &[PrimRef]) -> Box4 {
+    let fold = |mut c: Box4, r: &PrimRef| {
+        let c2 = r.centroid2();
+        c.grow(c2, c2);
+        c
+    };
+    if refs.len() > PARALLEL_BINNING {
+        refs.par_chunks(BINNING_CHUNK)
+            .map(|chunk| chunk.iter().fold(Box4::EMPTY, fold))
+            .reduce(
+                || Box4::EMPTY,
+                |mut a, b| {
+                    a.grow_box(&b);
+                    a
+                },
+            )
+    } else {
+        refs.iter().fold(Box4::EMPTY, fold)
+    }
 }
 
 /// Splits at the middle reference along the widest centroid axis: the fallback when no binned
@@ -400,7 +449,7 @@ pub(crate) mod tests {
     #[test]
     fn partition_keeps_order_and_survives_wrong_counts() {
         let tris = scattered(3000);
-        let refs = refs_of(&tris);
+        let refs = refs_visible_every(&tris, 3);
         let (bounds, centroids) = super::super::binned_sah::bounds_of(&refs);
         let model = CostModel {
             traversal: 1.0,
@@ -419,9 +468,26 @@ pub(crate) mod tests {
         wrong.sides.n_left += 1;
         wrong.sides.n_right -= 1;
         for s in [split, wrong] {
-            let (left, right) = partition_object(refs.clone(), &s);
+            let (left, right, summaries) = partition_object(refs.clone(), &s);
             assert_eq!(ids(&left), ids(&want_left));
             assert_eq!(ids(&right), ids(&want_right));
+            // With the right counts, the summaries gathered on the way equal counting afresh
+            // (boxes compared on x, y, z: the fourth lane carries nothing).
+            let Some(summaries) = summaries else {
+                assert_eq!(
+                    s.sides.n_left, wrong.sides.n_left,
+                    "the right counts summarise"
+                );
+                continue;
+            };
+            for (got, side) in summaries.iter().zip([&left, &right]) {
+                let (bounds, centroids) = super::super::binned_sah::bounds_of(side);
+                let xyz = |b: &Box4| (b.lo.truncate(), b.hi.truncate());
+                assert_eq!(xyz(&got.bounds), xyz(&bounds));
+                assert_eq!(xyz(&got.centroids), xyz(&centroids));
+                assert_eq!(got.visible, count_visible(side));
+                assert!(got.visible > 0);
+            }
         }
     }
 }

@@ -14,7 +14,7 @@ use super::binned_sah::{
     bounds_of, build_sah_nodes, Box4, BuildSettings, PrimRef, MEDIAN_DEPTH, PARALLEL_SUBTREE,
 };
 use super::node::{Bvh, BvhNode, NodeArray};
-use super::object_split::{best_object_splits, median_split, partition_object};
+use super::object_split::{best_object_splits, median_split, partition_object, ChildSummary};
 use super::osah_cost::{count_visible, osah_viable, CostModel, Sides};
 use super::spatial_split::{best_spatial_splits, partition_spatial, SpatialAxes, Unsplit};
 
@@ -159,30 +159,39 @@ impl Builder<'_> {
         if n <= self.settings.max_leaf_size && cost.is_none_or(|c| c >= leaf_cost) {
             return Built::Leaf(bounds, refs);
         }
-        let (mut left, mut right) = match choice {
+        let (mut left, mut right, mut known) = match choice {
             Some(Choice::Spatial(s, unsplit)) => {
-                partition_spatial(refs, self.triangles, &s, unsplit)
+                let (left, right) = partition_spatial(refs, self.triangles, &s, unsplit);
+                (left, right, None)
             }
             Some(Choice::Object(s)) => partition_object(refs, &s),
-            None => median_split(refs, &centroids),
+            None => {
+                let (left, right) = median_split(refs, &centroids);
+                (left, right, None)
+            }
         };
         if left.is_empty() || right.is_empty() {
             let mut all = left;
             all.append(&mut right);
             (left, right) = median_split(all, &centroids);
+            known = None;
         }
-        let (mut vis_left, mut vis_right) = (count_visible(&left), count_visible(&right));
+        let [mut l_sum, mut r_sum] = known.unwrap_or_else(|| [summary(&left), summary(&right)]);
         // OSAH: the child with more visible references first, so that a traversal that takes
         // the left child on equal entry distances reaches visible triangles first.
-        if self.policy == SplitPolicy::Osah && mixed && vis_right > vis_left {
+        if self.policy == SplitPolicy::Osah && mixed && r_sum.visible > l_sum.visible {
             std::mem::swap(&mut left, &mut right);
-            std::mem::swap(&mut vis_left, &mut vis_right);
+            std::mem::swap(&mut l_sum, &mut r_sum);
         }
         let grown = (left.len() + right.len()).saturating_sub(n);
         let remaining = budget.saturating_sub(grown);
         let left_budget = remaining * left.len() / (left.len() + right.len());
         let right_budget = remaining - left_budget;
-        let (lb, rb) = (bounds_of(&left), bounds_of(&right));
+        let (lb, rb) = (
+            (l_sum.bounds, l_sum.centroids),
+            (r_sum.bounds, r_sum.centroids),
+        );
+        let (vis_left, vis_right) = (l_sum.visible, r_sum.visible);
         let children = if n > PARALLEL_SUBTREE {
             rayon::join(
                 || self.node(left, lb, vis_left, depth + 1, left_budget),
@@ -300,6 +309,16 @@ impl Builder<'_> {
             Some((choice, cost, _)) => (Some(choice), Some(cost)),
             None => (None, None),
         }
+    }
+}
+
+/// A child's summary counted from its references.
+fn summary(refs: &[PrimRef]) -> ChildSummary {
+    let (bounds, centroids) = bounds_of(refs);
+    ChildSummary {
+        bounds,
+        centroids,
+        visible: count_visible(refs),
     }
 }
 
