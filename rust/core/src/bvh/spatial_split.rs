@@ -367,14 +367,7 @@ impl Grid {
                 let (first, final_) = map.range(r);
                 let visible = r.visible() as u32;
                 let corners = Corners::of_box_avx(&r.bounds());
-                let b0 = first[axis] as usize;
-                let b1 = (final_[axis] as usize).max(b0);
-                bins[b0].corners.grow_avx(corners);
-                bins[b1].corners.grow_avx(corners);
-                bins[b0].enter += 1;
-                bins[b0].vis_enter += visible;
-                bins[b1].exit += 1;
-                bins[b1].vis_exit += visible;
+                bin_cut_box_avx(bins, (first[axis], final_[axis]), corners, visible);
             }
             return;
         }
@@ -385,17 +378,9 @@ impl Grid {
             let visible = r.visible() as u32;
             let corners = Corners::of_box_avx(&r.bounds());
             for (axis, bins) in [(0, &mut *bx), (1, &mut *by), (2, &mut *bz)] {
-                if !self.axes[axis] {
-                    continue;
+                if self.axes[axis] {
+                    bin_cut_box_avx(bins, (first[axis], final_[axis]), corners, visible);
                 }
-                let b0 = first[axis] as usize;
-                let b1 = (final_[axis] as usize).max(b0);
-                bins[b0].corners.grow_avx(corners);
-                bins[b1].corners.grow_avx(corners);
-                bins[b0].enter += 1;
-                bins[b0].vis_enter += visible;
-                bins[b1].exit += 1;
-                bins[b1].vis_exit += visible;
             }
         }
     }
@@ -456,6 +441,27 @@ impl Grid {
             }
         }
     }
+}
+
+/// One reference's box into the cut-box bins of one axis: it grows its first and its last bin
+/// (the same bin for a reference inside one; a min is idempotent) and enters and exits there.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+fn bin_cut_box_avx(
+    bins: &mut [Bin],
+    (first, last): (u32, u32),
+    corners: std::arch::x86_64::__m256,
+    visible: u32,
+) {
+    let b0 = first as usize;
+    let b1 = (last as usize).max(b0);
+    bins[b0].corners.grow_avx(corners);
+    bins[b1].corners.grow_avx(corners);
+    bins[b0].enter += 1;
+    bins[b0].vis_enter += visible;
+    bins[b1].exit += 1;
+    bins[b1].vis_exit += visible;
 }
 
 /// Per axis, the scalar mapping `((x - lo) / step).max(0)` clamped to the last bin, in 4 lanes
