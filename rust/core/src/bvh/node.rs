@@ -78,27 +78,13 @@ impl NodeArray {
             len: nodes.len(),
         }
     }
-}
 
-impl NodeArray {
     /// `len` default nodes from zeroed memory, for builders that write every node in place (in
     /// parallel: the pages fault in on the threads that write them).
     pub(crate) fn zeroed(len: usize) -> Self {
-        let count = len.div_ceil(2);
-        let layout = std::alloc::Layout::array::<NodePair>(count).expect("node array size");
-        if layout.size() == 0 {
-            return NodeArray::default();
-        }
-        // SAFETY: the layout is non-empty and is the one `Vec<NodePair>` frees with (same
-        // element type and capacity); every field of a `NodePair` is an f32 or u32, for which
-        // all-zero bits are the value 0, i.e. `NodePair::default()`.
-        let pairs = unsafe {
-            let ptr = std::alloc::alloc_zeroed(layout) as *mut NodePair;
-            if ptr.is_null() {
-                std::alloc::handle_alloc_error(layout);
-            }
-            Vec::from_raw_parts(ptr, count, count)
-        };
+        // SAFETY: every field of a `NodePair` is an f32 or u32, for which all-zero bits are the
+        // value 0, i.e. `NodePair::default()`.
+        let pairs = unsafe { zeroed_vec::<NodePair>(len.div_ceil(2)) };
         NodeArray { pairs, len }
     }
 
@@ -106,6 +92,27 @@ impl NodeArray {
     pub(crate) fn as_mut_slice(&mut self) -> &mut [BvhNode] {
         // SAFETY: as in `Deref`, with the unique borrow of the pairs.
         unsafe { std::slice::from_raw_parts_mut(self.pairs.as_mut_ptr() as *mut BvhNode, self.len) }
+    }
+}
+
+/// `count` values from zeroed memory: the allocator hands out untouched pages, so they are
+/// faulted in by the (parallel) builders that write them instead of filled on one thread.
+///
+/// # Safety
+/// All-zero bits must be a valid `T`.
+pub(crate) unsafe fn zeroed_vec<T>(count: usize) -> Vec<T> {
+    let layout = std::alloc::Layout::array::<T>(count).expect("array size");
+    if layout.size() == 0 {
+        return Vec::new();
+    }
+    // SAFETY: the layout is non-empty and is the one `Vec<T>` frees with (same element type and
+    // capacity); the caller vouches for the zeroed values.
+    unsafe {
+        let ptr = std::alloc::alloc_zeroed(layout) as *mut T;
+        if ptr.is_null() {
+            std::alloc::handle_alloc_error(layout);
+        }
+        Vec::from_raw_parts(ptr, count, count)
     }
 }
 

@@ -5,7 +5,7 @@
 use glam::Vec4;
 use rayon::prelude::*;
 
-use super::binned_sah::{bin_indices, Box4, Corners, PrimRef};
+use super::binned_sah::{bin_indices, centroid_bounds_of, Box4, Corners, PrimRef};
 use super::osah_cost::{CostModel, Sides};
 
 /// Maps a doubled centroid to its bin on one axis.
@@ -246,12 +246,12 @@ pub(super) fn partition_object(
             let summaries = [
                 ChildSummary {
                     bounds: sides.left,
-                    centroids: centroid_bounds(&left),
+                    centroids: centroid_bounds_of(&left),
                     visible: sides.vis_left,
                 },
                 ChildSummary {
                     bounds: sides.right,
-                    centroids: centroid_bounds(&right),
+                    centroids: centroid_bounds_of(&right),
                     visible: sides.vis_right,
                 },
             ];
@@ -310,29 +310,6 @@ fn scatter<const AXIS: usize>(
         right.set_len(n_right);
     }
     Some((left, right))
-}
-
-/// The bounds of `refs`' doubled centroids (the second half of
-/// [`bounds_of`](super::binned_sah::bounds_of)).
-fn centroid_bounds(refs: &[PrimRef]) -> Box4 {
-    let fold = |mut c: Box4, r: &PrimRef| {
-        let c2 = r.centroid2();
-        c.grow(c2, c2);
-        c
-    };
-    if refs.len() > PARALLEL_BINNING {
-        refs.par_chunks(BINNING_CHUNK)
-            .map(|chunk| chunk.iter().fold(Box4::EMPTY, fold))
-            .reduce(
-                || Box4::EMPTY,
-                |mut a, b| {
-                    a.grow_box(&b);
-                    a
-                },
-            )
-    } else {
-        refs.iter().fold(Box4::EMPTY, fold)
-    }
 }
 
 /// Splits at the middle reference along the widest centroid axis: the fallback when no binned
