@@ -17,8 +17,10 @@
 //! Measured on Embree 3.13.5 (Debian, AVX-512 kernels): in robust mode (which runs the
 //! Pluecker triangle test, `TriangleMvIntersector1Pluecker`) the segment really is closed at
 //! both ends, [tnear, tfar]; without robust mode a hit at exactly tnear is rejected, i.e.
-//! (tnear, tfar] like antumbra. Either way t is Embree's own f32 estimate,
-//! which need not equal antumbra's bit for bit.
+//! (tnear, tfar] like antumbra. Either way t is Embree's own f32 estimate, which need not
+//! equal antumbra's bit for bit: on AMD EPYC a hit at exact t = 1 reports 1 - 2^-24, and
+//! robust mode decides the ends on that estimate, the default mode on the exact t
+//! (`segment_ends_exactly_at_a_hit`).
 //!
 //! Embree requires 0 <= tnear, non-NaN tfar and |origin|, |direction| components <= 1.844e18
 //! (`FLT_LARGE`); Debian's build keeps its internal asserts, so such a ray would abort the
