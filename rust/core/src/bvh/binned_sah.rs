@@ -517,7 +517,7 @@ type AxisBins = [Bin; MAX_BINS];
 /// The bins of the three axes.
 type Bins3 = [AxisBins; 3];
 
-const _: () = assert!(MAX_BINS.is_power_of_two());
+const _: () = assert!(MAX_BINS.is_power_of_two() && LANE_BINS.is_power_of_two());
 
 fn new_bins() -> Box<Bins3> {
     vec![[EMPTY_BIN; MAX_BINS]; 3]
@@ -546,6 +546,7 @@ fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
 /// Per-thread working memory, reused down the recursion so small nodes allocate nothing.
 struct Scratch {
     bins: Box<Bins3>,
+    lanes: Box<BinLanes>,
     right_cost: Vec<f32>,
 }
 
@@ -553,8 +554,46 @@ impl Scratch {
     fn new() -> Self {
         Scratch {
             bins: new_bins(),
+            lanes: new_lanes(),
             right_cost: vec![0.0; MAX_BINS],
         }
+    }
+}
+
+/// Consecutive references often fall into the same bin, and each then waits for the previous
+/// one's update of that bin to be stored and loaded again. Nodes of [`LANES_MIN_REFS`] or more
+/// references (with at most [`LANE_BINS`] bins) therefore bin in turn into [`BIN_LANES`]
+/// copies of the bins, merged after: the merged bins equal one copy's exactly (minima, maxima
+/// and integer sums), and the chains through a bin are a quarter as long.
+pub(crate) const BIN_LANES: usize = 4;
+const LANE_BINS: usize = 32;
+pub(crate) const LANES_MIN_REFS: usize = 128;
+
+/// The bins of the three axes in one lane.
+type LaneBins3 = [[Bin; LANE_BINS]; 3];
+type BinLanes = [LaneBins3; BIN_LANES];
+
+fn new_lanes() -> Box<BinLanes> {
+    Box::new([[[EMPTY_BIN; LANE_BINS]; 3]; BIN_LANES])
+}
+
+/// Hands `items` to `one(item, lane)` with consecutive items in consecutive lanes.
+#[inline(always)]
+pub(crate) fn in_lanes<T, L>(
+    items: &[T],
+    [a, b, c, d]: [&mut L; BIN_LANES],
+    mut one: impl FnMut(&T, &mut L),
+) {
+    let quads = items.chunks_exact(BIN_LANES);
+    let rest = quads.remainder();
+    for q in quads {
+        one(&q[0], a);
+        one(&q[1], b);
+        one(&q[2], c);
+        one(&q[3], d);
+    }
+    for r in rest {
+        one(r, a);
     }
 }
 
@@ -726,20 +765,24 @@ impl Context<'_> {
             return None;
         }
         let binner = Binner::new(&task.centroids, nb);
-        let Scratch { bins, right_cost } = scratch;
+        let Scratch {
+            bins,
+            lanes,
+            right_cost,
+        } = scratch;
         let bins: &mut Bins3 = bins;
         if refs.len() > PARALLEL_BINNING {
             *bins = *refs
                 .par_chunks(16384)
                 .map(|c| {
                     let mut local = new_bins();
-                    bin_refs(c, &binner, &mut local);
+                    bin_refs(c, &binner, nb, &mut local, &mut new_lanes());
                     local
                 })
                 .reduce(new_bins, |a, b| merge_bins(a, &b, nb));
         } else {
             clear_bins(bins, nb);
-            bin_refs(refs, &binner, bins);
+            bin_refs(refs, &binner, nb, bins, lanes);
         }
         let parent_area = task.bounds.half_area().max(f32::MIN_POSITIVE);
         let s = self.settings;
@@ -849,43 +892,93 @@ pub(crate) fn portable_and_avx<R>(mut f: impl FnMut() -> R) -> (R, R) {
     (portable, f())
 }
 
-/// Bins `refs` by centroid on all three axes into bins the caller has cleared.
-fn bin_refs(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
+/// Bins `refs` by centroid on all three axes into `bins` (`nb` per axis), which the caller has
+/// cleared; `lanes` is scratch for nodes that bin in lanes.
+fn bin_refs(refs: &[PrimRef], binner: &Binner, nb: usize, bins: &mut Bins3, lanes: &mut BinLanes) {
+    if refs.len() < LANES_MIN_REFS || nb > LANE_BINS {
+        bin_refs_into(refs, binner, bins);
+        return;
+    }
+    for lane in lanes.iter_mut() {
+        for axis in lane.iter_mut() {
+            axis[..nb].fill(EMPTY_BIN);
+        }
+    }
+    let [a, b, c, d] = lanes;
+    #[cfg(target_arch = "x86_64")]
+    if use_avx() {
+        // SAFETY: AVX is present (checked above).
+        unsafe { bin_lanes_avx(refs, binner, [a, b, c, d]) };
+    } else {
+        in_lanes(refs, [a, b, c, d], |r, lane| bin_ref(r, binner, lane));
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    in_lanes(refs, [a, b, c, d], |r, lane| bin_ref(r, binner, lane));
+    for lane in lanes.iter() {
+        for (into, from) in bins.iter_mut().zip(lane) {
+            for (x, y) in into[..nb].iter_mut().zip(&from[..nb]) {
+                x.corners.merge(&y.corners);
+                x.count += y.count;
+            }
+        }
+    }
+}
+
+/// [`bin_refs`] in one lane: straight into `bins`.
+fn bin_refs_into(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
     #[cfg(target_arch = "x86_64")]
     if use_avx() {
         // SAFETY: AVX is present (checked above).
         unsafe { bin_refs_avx(refs, binner, bins) };
         return;
     }
-    let [bx, by, bz] = bins;
     for r in refs {
-        let [ix, iy, iz, _] = binner.bins(r.centroid2());
-        let neg_hi = -r.hi;
-        // The indices are at most nb - 1 < MAX_BINS: the masks only drop the bounds checks.
-        for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
-            let bin = &mut axis[i as usize & (MAX_BINS - 1)];
-            bin.corners.grow(r, neg_hi);
-            bin.count += 1;
-        }
+        bin_ref(r, binner, bins);
     }
 }
 
-/// [`bin_refs`] with each bin's two corners grown by one 8-lane `min`: a third of the
+/// Bins one reference on all three axes.
+#[inline(always)]
+fn bin_ref<const N: usize>(r: &PrimRef, binner: &Binner, [bx, by, bz]: &mut [[Bin; N]; 3]) {
+    let [ix, iy, iz, _] = binner.bins(r.centroid2());
+    let neg_hi = -r.hi;
+    // The indices are below nb <= N, a power of two: the masks only drop the bounds checks.
+    for (axis, i) in [(bx, ix), (by, iy), (bz, iz)] {
+        let bin = &mut axis[i as usize & (N - 1)];
+        bin.corners.grow(r, neg_hi);
+        bin.count += 1;
+    }
+}
+
+/// [`bin_ref`] with each bin's two corners grown by one 8-lane `min`: a third of the
 /// instructions per reference and axis, and one store instead of two on the chain through a
 /// bin that consecutive references hit.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-fn bin_refs_avx(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
-    let [bx, by, bz] = bins;
-    for r in refs {
-        let [ix, iy, iz, _] = binner.bins(r.centroid2());
-        let corners = Corners::of_ref_avx(r);
-        for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
-            let bin = &mut axis[i as usize & (MAX_BINS - 1)];
-            bin.corners.grow_avx(corners);
-            bin.count += 1;
-        }
+#[inline]
+fn bin_ref_avx<const N: usize>(r: &PrimRef, binner: &Binner, [bx, by, bz]: &mut [[Bin; N]; 3]) {
+    let [ix, iy, iz, _] = binner.bins(r.centroid2());
+    let corners = Corners::of_ref_avx(r);
+    for (axis, i) in [(bx, ix), (by, iy), (bz, iz)] {
+        let bin = &mut axis[i as usize & (N - 1)];
+        bin.corners.grow_avx(corners);
+        bin.count += 1;
     }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn bin_refs_avx(refs: &[PrimRef], binner: &Binner, bins: &mut Bins3) {
+    for r in refs {
+        bin_ref_avx(r, binner, bins);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn bin_lanes_avx(refs: &[PrimRef], binner: &Binner, lanes: [&mut LaneBins3; BIN_LANES]) {
+    // The closure has this function's target features.
+    in_lanes(refs, lanes, |r, lane| bin_ref_avx(r, binner, lane));
 }
 
 fn merge_bins(mut a: Box<Bins3>, b: &Bins3, nb: usize) -> Box<Bins3> {
@@ -1034,12 +1127,22 @@ mod tests {
             let binner = Binner::new(&centroids, nb);
             let (portable, avx) = portable_and_avx(|| {
                 let mut bins = new_bins();
-                bin_refs(&refs, &binner, &mut bins);
+                bin_refs(&refs, &binner, nb, &mut bins, &mut new_lanes());
                 bins
             });
             assert!(
                 portable == avx,
                 "{nb} bins: AVX and portable binning differ"
+            );
+            // The lanes (2 and 16 bins) merge to what one lane bins, on both paths.
+            let (one_portable, one_avx) = portable_and_avx(|| {
+                let mut bins = new_bins();
+                bin_refs_into(&refs, &binner, &mut bins);
+                bins
+            });
+            assert!(
+                portable == one_portable && avx == one_avx,
+                "{nb} bins: lanes differ"
             );
             let binned: u32 = portable[0][..nb].iter().map(|b| b.count).sum();
             assert_eq!(binned as usize, refs.len());

@@ -5,7 +5,9 @@
 use glam::Vec4;
 use rayon::prelude::*;
 
-use super::binned_sah::{bin_indices, centroid_bounds_of, Box4, Corners, PrimRef};
+use super::binned_sah::{
+    bin_indices, centroid_bounds_of, in_lanes, Box4, Corners, PrimRef, BIN_LANES, LANES_MIN_REFS,
+};
 use super::osah_cost::{CostModel, Sides};
 
 /// Maps a doubled centroid to its bin on one axis.
@@ -148,9 +150,9 @@ pub(super) fn best_object_splits(
     best
 }
 
-/// Bins `refs` on every axis with a mapper in one pass (axis a's bins at `a * nb..`).
+/// Bins `refs` on every axis with a mapper in one pass (axis a's bins at `a * nb..`); nodes of
+/// [`LANES_MIN_REFS`] or more references bin in lanes, as the SAH builder does.
 fn bin_all(refs: &[PrimRef], mappers: &[Option<CentroidBins>; 3], nb: usize) -> Vec<Bin> {
-    let mut bins = vec![EMPTY_BIN; 3 * nb];
     // All three axes' bins from one 4-lane computation (the same arithmetic as
     // `CentroidBins::bin`); an axis without a mapper gets scale 0, so all its references land in
     // its bin 0, which the sweep never reads.
@@ -159,58 +161,120 @@ fn bin_all(refs: &[PrimRef], mappers: &[Option<CentroidBins>; 3], nb: usize) -> 
             mappers.get(a).copied().flatten().map_or(0.0, |m| f(&m))
         }))
     };
-    let (lo, scale) = (lane(|m| m.lo), lane(|m| m.scale));
-    let last = Vec4::splat((nb - 1) as f32);
-    let (bx, rest) = bins.split_at_mut(nb);
-    let (by, bz) = rest.split_at_mut(nb);
-    #[cfg(target_arch = "x86_64")]
-    if super::binned_sah::use_avx() {
-        // SAFETY: AVX is present (checked above).
-        unsafe { bin_refs_avx(refs, [bx, by, bz], (lo, scale, last)) };
-        return bins;
-    }
-    for r in refs {
-        let [ix, iy, iz, _] = bin_indices(r.centroid2(), lo, scale, last);
-        let visible = r.visible() as u32;
-        let neg_hi = -r.hi;
-        for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
-            let b = &mut axis[i as usize];
-            b.corners.grow(r, neg_hi);
-            b.count += 1;
-            b.visible += visible;
+    let map = (
+        lane(|m| m.lo),
+        lane(|m| m.scale),
+        Vec4::splat((nb - 1) as f32),
+    );
+    let lanes = if refs.len() >= LANES_MIN_REFS {
+        BIN_LANES
+    } else {
+        1
+    };
+    let mut bins = vec![EMPTY_BIN; lanes * 3 * nb];
+    {
+        let mut axes = bins.chunks_exact_mut(nb);
+        let mut next = || -> [&mut [Bin]; 3] { std::array::from_fn(|_| axes.next().unwrap()) };
+        #[cfg(target_arch = "x86_64")]
+        let avx = super::binned_sah::use_avx();
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx = false;
+        if lanes == 1 {
+            let mut one = next();
+            #[cfg(target_arch = "x86_64")]
+            if avx {
+                // SAFETY: AVX is present (checked above).
+                unsafe { bin_one_lane_avx(refs, &mut one, map) };
+                return merged(bins, nb);
+            }
+            for r in refs {
+                bin_ref(r, &mut one, map);
+            }
+        } else {
+            let [mut a, mut b, mut c, mut d] = std::array::from_fn(|_| next());
+            let lanes = [&mut a, &mut b, &mut c, &mut d];
+            #[cfg(target_arch = "x86_64")]
+            if avx {
+                // SAFETY: AVX is present (checked above).
+                unsafe { bin_lanes_avx(refs, lanes, map) };
+            } else {
+                in_lanes(refs, lanes, |r, lane| bin_ref(r, lane, map));
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            in_lanes(refs, lanes, |r, lane| bin_ref(r, lane, map));
         }
     }
+    merged(bins, nb)
+}
+
+/// The first lane of `bins` (lanes of `3 * nb` bins each) with the others merged into it.
+fn merged(mut bins: Vec<Bin>, nb: usize) -> Vec<Bin> {
+    let (first, rest) = bins.split_at_mut(3 * nb);
+    for lane in rest.chunks_exact(3 * nb) {
+        merge_into(first, lane);
+    }
+    bins.truncate(3 * nb);
     bins
 }
 
-/// The loop of [`bin_all`] with each bin's corners grown by one 8-lane `min` (as
-/// `binned_sah`'s binning does).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-fn bin_refs_avx(
-    refs: &[PrimRef],
-    [bx, by, bz]: [&mut [Bin]; 3],
-    (lo, scale, last): (Vec4, Vec4, Vec4),
-) {
-    for r in refs {
-        let [ix, iy, iz, _] = bin_indices(r.centroid2(), lo, scale, last);
-        let visible = r.visible() as u32;
-        let corners = Corners::of_ref_avx(r);
-        for (axis, i) in [(&mut *bx, ix), (&mut *by, iy), (&mut *bz, iz)] {
-            let b = &mut axis[i as usize];
-            b.corners.grow_avx(corners);
-            b.count += 1;
-            b.visible += visible;
-        }
+/// The bin indices' mapping: low corner, scale and last bin per axis.
+type BinMapping = (Vec4, Vec4, Vec4);
+
+#[inline(always)]
+fn bin_ref(r: &PrimRef, [bx, by, bz]: &mut [&mut [Bin]; 3], (lo, scale, last): BinMapping) {
+    let [ix, iy, iz, _] = bin_indices(r.centroid2(), lo, scale, last);
+    let visible = r.visible() as u32;
+    let neg_hi = -r.hi;
+    for (axis, i) in [(&mut **bx, ix), (&mut **by, iy), (&mut **bz, iz)] {
+        let b = &mut axis[i as usize];
+        b.corners.grow(r, neg_hi);
+        b.count += 1;
+        b.visible += visible;
     }
 }
 
-fn merge_bins(mut a: Vec<Bin>, b: Vec<Bin>) -> Vec<Bin> {
-    for (x, y) in a.iter_mut().zip(&b) {
+/// [`bin_ref`] with each bin's corners grown by one 8-lane `min` (as `binned_sah`'s binning
+/// does).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+fn bin_ref_avx(r: &PrimRef, [bx, by, bz]: &mut [&mut [Bin]; 3], (lo, scale, last): BinMapping) {
+    let [ix, iy, iz, _] = bin_indices(r.centroid2(), lo, scale, last);
+    let visible = r.visible() as u32;
+    let corners = Corners::of_ref_avx(r);
+    for (axis, i) in [(&mut **bx, ix), (&mut **by, iy), (&mut **bz, iz)] {
+        let b = &mut axis[i as usize];
+        b.corners.grow_avx(corners);
+        b.count += 1;
+        b.visible += visible;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn bin_one_lane_avx(refs: &[PrimRef], lane: &mut [&mut [Bin]; 3], map: BinMapping) {
+    for r in refs {
+        bin_ref_avx(r, lane, map);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn bin_lanes_avx(refs: &[PrimRef], lanes: [&mut [&mut [Bin]; 3]; BIN_LANES], map: BinMapping) {
+    // The closure has this function's target features.
+    in_lanes(refs, lanes, |r, lane| bin_ref_avx(r, lane, map));
+}
+
+fn merge_into(a: &mut [Bin], b: &[Bin]) {
+    for (x, y) in a.iter_mut().zip(b) {
         x.corners.merge(&y.corners);
         x.count += y.count;
         x.visible += y.visible;
     }
+}
+
+fn merge_bins(mut a: Vec<Bin>, b: Vec<Bin>) -> Vec<Bin> {
+    merge_into(&mut a, &b);
     a
 }
 
@@ -397,6 +461,15 @@ pub(crate) mod tests {
         let (portable, avx) =
             super::super::binned_sah::portable_and_avx(|| bin_all(&refs, &mappers, nb));
         assert_eq!(portable, avx, "AVX and portable binning differ");
+        // Chunks under LANES_MIN_REFS bin in one lane, the whole in lanes: the same bins.
+        let one_lane = || {
+            refs.chunks(LANES_MIN_REFS - 1)
+                .map(|c| bin_all(c, &mappers, nb))
+                .fold(vec![EMPTY_BIN; 3 * nb], merge_bins)
+        };
+        let (portable_one, avx_one) = super::super::binned_sah::portable_and_avx(one_lane);
+        assert_eq!(portable_one, serial, "portable: one lane and lanes differ");
+        assert_eq!(avx_one, serial, "AVX: one lane and lanes differ");
     }
 
     #[test]

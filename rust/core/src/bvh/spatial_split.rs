@@ -7,7 +7,9 @@ use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::binned_sah::{truncate_lanes, Box4, Corners, PrimRef};
+use super::binned_sah::{
+    in_lanes, truncate_lanes, Box4, Corners, PrimRef, BIN_LANES, LANES_MIN_REFS,
+};
 use super::clip::{axis_lane, clipped_box, clipped_strips, cut_to_slab};
 use super::osah_cost::{CostModel, Sides};
 
@@ -336,8 +338,20 @@ impl Grid {
         } else {
             #[cfg(target_arch = "x86_64")]
             if super::binned_sah::use_avx() {
+                if refs.len() < LANES_MIN_REFS {
+                    // SAFETY: AVX is present (checked above).
+                    unsafe { self.bin_cut_boxes_avx(refs, &mut [&mut all]) };
+                    return all;
+                }
+                // In lanes, as the SAH builder bins, merged into the first.
+                let mut lanes = vec![EMPTY_BIN; BIN_LANES * 3 * nb];
+                let mut it = lanes.chunks_exact_mut(3 * nb);
+                let [a, b, c, d] = std::array::from_fn(|_| it.next().unwrap());
                 // SAFETY: AVX is present (checked above).
-                unsafe { self.bin_cut_boxes_avx(refs, &mut all) };
+                unsafe { self.bin_cut_boxes_avx(refs, &mut [a, b, c, d]) };
+                for lane in lanes.chunks_exact(3 * nb) {
+                    merge_into(&mut all, lane);
+                }
                 return all;
             }
             self.bin_with(refs, &mut all, |bins, b0, b1, r, _| {
@@ -355,33 +369,49 @@ impl Grid {
     /// and without a branch on whether a reference straddles a plane: its box grows its first
     /// and its last bin, the same bin for a reference inside one (a min is idempotent). That
     /// branch is as good as random, and mispredicted it cost more than the second update.
+    /// `lanes` holds one or [`BIN_LANES`] sets of bins (3 x `nb` each), which consecutive
+    /// references take in turn.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    fn bin_cut_boxes_avx(&self, refs: &[PrimRef], all: &mut [Bin]) {
+    fn bin_cut_boxes_avx(&self, refs: &[PrimRef], lanes: &mut [&mut [Bin]]) {
         let map = self.bin_map();
+        let nb = self.nb;
+        let one = |r: &PrimRef, bins: &mut &mut [Bin], axis: usize| {
+            let (first, final_) = map.range(r);
+            let corners = Corners::of_box_avx(&r.bounds());
+            let bins = &mut bins[axis * nb..(axis + 1) * nb];
+            bin_cut_box_avx(
+                bins,
+                (first[axis], final_[axis]),
+                corners,
+                r.visible() as u32,
+            );
+        };
         // Most nodes bin one axis (the best object split's): a loop of its own skips the
         // per-reference walk over the other two.
         if let [Some(axis), None, None] = self.flagged_axes() {
-            let bins = &mut all[axis * self.nb..(axis + 1) * self.nb];
-            for r in refs {
-                let (first, final_) = map.range(r);
-                let visible = r.visible() as u32;
-                let corners = Corners::of_box_avx(&r.bounds());
-                bin_cut_box_avx(bins, (first[axis], final_[axis]), corners, visible);
+            match lanes {
+                [bins] => refs.iter().for_each(|r| one(r, bins, axis)),
+                [a, b, c, d] => in_lanes(refs, [a, b, c, d], |r, bins| one(r, bins, axis)),
+                _ => unreachable!("one lane or BIN_LANES"),
             }
             return;
         }
-        let (bx, rest) = all.split_at_mut(self.nb);
-        let (by, bz) = rest.split_at_mut(self.nb);
-        for r in refs {
+        let every = |r: &PrimRef, bins: &mut &mut [Bin]| {
             let (first, final_) = map.range(r);
             let visible = r.visible() as u32;
             let corners = Corners::of_box_avx(&r.bounds());
-            for (axis, bins) in [(0, &mut *bx), (1, &mut *by), (2, &mut *bz)] {
+            for (axis, axis_bins) in bins.chunks_exact_mut(nb).enumerate() {
                 if self.axes[axis] {
-                    bin_cut_box_avx(bins, (first[axis], final_[axis]), corners, visible);
+                    let range = (first[axis], final_[axis]);
+                    bin_cut_box_avx(axis_bins, range, corners, visible);
                 }
             }
+        };
+        match lanes {
+            [bins] => refs.iter().for_each(|r| every(r, bins)),
+            [a, b, c, d] => in_lanes(refs, [a, b, c, d], every),
+            _ => unreachable!("one lane or BIN_LANES"),
         }
     }
 
@@ -484,14 +514,18 @@ impl BinMap {
 }
 
 fn merge_bins(mut a: Vec<Bin>, b: Vec<Bin>) -> Vec<Bin> {
-    for (x, y) in a.iter_mut().zip(&b) {
+    merge_into(&mut a, &b);
+    a
+}
+
+fn merge_into(a: &mut [Bin], b: &[Bin]) {
+    for (x, y) in a.iter_mut().zip(b) {
         x.corners.merge(&y.corners);
         x.enter += y.enter;
         x.exit += y.exit;
         x.vis_enter += y.vis_enter;
         x.vis_exit += y.vis_exit;
     }
-    a
 }
 
 /// Where a straddling reference may go whole instead of being duplicated.
@@ -608,6 +642,13 @@ mod tests {
             let (portable, avx) =
                 crate::bvh::binned_sah::portable_and_avx(|| cut.bin(&refs, &tris));
             assert_eq!(portable, avx, "AVX and portable cut-box binning differ");
+            // Chunks under LANES_MIN_REFS bin in one lane, the whole in lanes: the same bins.
+            let (_, one_lane) = crate::bvh::binned_sah::portable_and_avx(|| {
+                refs.chunks(LANES_MIN_REFS - 1)
+                    .map(|c| cut.bin(c, &tris))
+                    .fold(vec![EMPTY_BIN; 3 * 32], merge_bins)
+            });
+            assert_eq!(one_lane, avx, "AVX: one lane and lanes differ");
         }
     }
 
