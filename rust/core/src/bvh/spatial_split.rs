@@ -376,41 +376,48 @@ impl Grid {
     fn bin_cut_boxes_avx(&self, refs: &[PrimRef], lanes: &mut [&mut [Bin]]) {
         let map = self.bin_map();
         let nb = self.nb;
-        let one = |r: &PrimRef, bins: &mut &mut [Bin], axis: usize| {
-            let (first, final_) = map.range(r);
-            let corners = Corners::of_box_avx(&r.bounds());
-            let bins = &mut bins[axis * nb..(axis + 1) * nb];
-            bin_cut_box_avx(
-                bins,
-                (first[axis], final_[axis]),
-                corners,
-                r.visible() as u32,
-            );
-        };
+        let count = lanes.len();
         // Most nodes bin one axis (the best object split's): a loop of its own skips the
         // per-reference walk over the other two.
         if let [Some(axis), None, None] = self.flagged_axes() {
-            match lanes {
-                [bins] => refs.iter().for_each(|r| one(r, bins, axis)),
-                [a, b, c, d] => in_lanes(refs, [a, b, c, d], |r, bins| one(r, bins, axis)),
+            let mut on_axis = lanes.iter_mut().map(|l| &mut l[axis * nb..(axis + 1) * nb]);
+            match count {
+                1 => {
+                    let bins = on_axis.next().expect("one lane");
+                    refs.iter()
+                        .for_each(|r| cut_box_on_axis(&map, r, bins, axis));
+                }
+                BIN_LANES => {
+                    let mut l: [&mut [Bin]; BIN_LANES] =
+                        std::array::from_fn(|_| on_axis.next().expect("BIN_LANES lanes"));
+                    let [a, b, c, d] = &mut l;
+                    in_lanes(refs, [a, b, c, d], |r, bins| {
+                        cut_box_on_axis(&map, r, bins, axis)
+                    });
+                }
                 _ => unreachable!("one lane or BIN_LANES"),
             }
             return;
         }
-        let every = |r: &PrimRef, bins: &mut &mut [Bin]| {
-            let (first, final_) = map.range(r);
-            let visible = r.visible() as u32;
-            let corners = Corners::of_box_avx(&r.bounds());
-            for (axis, axis_bins) in bins.chunks_exact_mut(nb).enumerate() {
-                if self.axes[axis] {
-                    let range = (first[axis], final_[axis]);
-                    bin_cut_box_avx(axis_bins, range, corners, visible);
-                }
+        let axes = self.axes;
+        let mut split = lanes.iter_mut().map(|l| {
+            let mut it = l.chunks_exact_mut(nb);
+            std::array::from_fn::<_, 3, _>(|_| it.next().expect("three axes"))
+        });
+        match count {
+            1 => {
+                let mut bins = split.next().expect("one lane");
+                refs.iter()
+                    .for_each(|r| cut_box_on_axes(&map, r, &mut bins, axes));
             }
-        };
-        match lanes {
-            [bins] => refs.iter().for_each(|r| every(r, bins)),
-            [a, b, c, d] => in_lanes(refs, [a, b, c, d], every),
+            BIN_LANES => {
+                let mut l: [[&mut [Bin]; 3]; BIN_LANES] =
+                    std::array::from_fn(|_| split.next().expect("BIN_LANES lanes"));
+                let [a, b, c, d] = &mut l;
+                in_lanes(refs, [a, b, c, d], |r, bins| {
+                    cut_box_on_axes(&map, r, bins, axes)
+                });
+            }
             _ => unreachable!("one lane or BIN_LANES"),
         }
     }
@@ -492,6 +499,33 @@ fn bin_cut_box_avx(
     bins[b0].vis_enter += visible;
     bins[b1].exit += 1;
     bins[b1].vis_exit += visible;
+}
+
+/// One reference's cut box into the bins of `axis`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+fn cut_box_on_axis(map: &BinMap, r: &PrimRef, bins: &mut [Bin], axis: usize) {
+    let (first, final_) = map.range(r);
+    let corners = Corners::of_box_avx(&r.bounds());
+    let range = (first[axis], final_[axis]);
+    bin_cut_box_avx(bins, range, corners, r.visible() as u32);
+}
+
+/// One reference's cut box into the bins of each flagged axis.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+fn cut_box_on_axes(map: &BinMap, r: &PrimRef, bins: &mut [&mut [Bin]; 3], axes: [bool; 3]) {
+    let (first, final_) = map.range(r);
+    let visible = r.visible() as u32;
+    let corners = Corners::of_box_avx(&r.bounds());
+    for (axis, axis_bins) in bins.iter_mut().enumerate() {
+        if axes[axis] {
+            let range = (first[axis], final_[axis]);
+            bin_cut_box_avx(axis_bins, range, corners, visible);
+        }
+    }
 }
 
 /// Per axis, the scalar mapping `((x - lo) / step).max(0)` clamped to the last bin, in 4 lanes
