@@ -548,6 +548,8 @@ struct Scratch {
     bins: Box<Bins3>,
     lanes: Box<BinLanes>,
     right_cost: Vec<f32>,
+    /// The partition's out-of-place buffer, as long as the largest node partitioned so far.
+    refs: Vec<PrimRef>,
 }
 
 impl Scratch {
@@ -556,6 +558,7 @@ impl Scratch {
             bins: new_bins(),
             lanes: new_lanes(),
             right_cost: vec![0.0; MAX_BINS],
+            refs: Vec::new(),
         }
     }
 }
@@ -696,7 +699,11 @@ impl Context<'_> {
         }
         let parts = split.and_then(|sp| {
             let binner = Binner::new(&task.centroids, sp.nb);
-            let (mid, lc, rc) = partition(refs, sp.axis, sp.bin as u32, &binner);
+            let (mid, lc, rc) = match sp.axis {
+                0 => partition::<0>(refs, sp.bin as u32, &binner, &mut scratch.refs),
+                1 => partition::<1>(refs, sp.bin as u32, &binner, &mut scratch.refs),
+                _ => partition::<2>(refs, sp.bin as u32, &binner, &mut scratch.refs),
+            };
             (mid > 0 && mid < n).then_some((mid, (sp.left, lc), (sp.right, rc)))
         });
         let (mid, left, right) = parts.unwrap_or_else(|| median_split(refs));
@@ -769,6 +776,7 @@ impl Context<'_> {
             bins,
             lanes,
             right_cost,
+            ..
         } = scratch;
         let bins: &mut Bins3 = bins;
         if refs.len() > PARALLEL_BINNING {
@@ -991,26 +999,40 @@ fn merge_bins(mut a: Box<Bins3>, b: &Bins3, nb: usize) -> Box<Bins3> {
     a
 }
 
-/// Moves references whose bin on `axis` is below `bin` to the front. Returns how many there
-/// are and the (doubled) centroid bounds of each side.
-fn partition(refs: &mut [PrimRef], axis: usize, bin: u32, binner: &Binner) -> (usize, Box4, Box4) {
-    let goes_left = |r: &PrimRef| binner.bins(r.centroid2())[axis] < bin;
+/// Moves references whose bin on `AXIS` is below `bin` to the front. Returns how many there
+/// are and the (doubled) centroid bounds of each side. Branch-free: each reference is written
+/// to both ends of `spare` and the side it belongs to advances, then `spare` is copied back
+/// (the side a reference takes is as good as random, and a branch on it mispredicted half the
+/// time). The left side keeps the references' order, the right side reverses it.
+fn partition<const AXIS: usize>(
+    refs: &mut [PrimRef],
+    bin: u32,
+    binner: &Binner,
+    spare: &mut Vec<PrimRef>,
+) -> (usize, Box4, Box4) {
+    let n = refs.len();
+    if spare.len() < n {
+        spare.resize(n, refs[0]);
+    }
+    let out = &mut spare[..n];
     let mut lc = Box4::EMPTY;
     let mut rc = Box4::EMPTY;
-    let mut i = 0;
-    let mut j = refs.len();
-    while i < j {
-        let c = refs[i].centroid2();
-        if goes_left(&refs[i]) {
-            lc.grow(c, c);
-            i += 1;
-        } else {
-            rc.grow(c, c);
-            j -= 1;
-            refs.swap(i, j);
-        }
+    let (mut left, mut right) = (0, n);
+    for r in refs.iter() {
+        let c = r.centroid2();
+        let goes_left = binner.bins(c)[AXIS] < bin;
+        // Before this reference, left + (n - right) references were placed, fewer than n, so
+        // both slots are in `out`; the one of the other side is overwritten later.
+        out[left] = *r;
+        out[right - 1] = *r;
+        left += goes_left as usize;
+        right -= !goes_left as usize;
+        let mask = glam::BVec4A::splat(goes_left);
+        lc.grow(Vec4::select(mask, c, lc.lo), Vec4::select(mask, c, lc.hi));
+        rc.grow(Vec4::select(mask, rc.lo, c), Vec4::select(mask, rc.hi, c));
     }
-    (i, lc, rc)
+    refs.copy_from_slice(out);
+    (left, lc, rc)
 }
 
 /// Splits at the middle reference along the widest centroid axis (used when the SAH finds no
@@ -1116,6 +1138,41 @@ mod tests {
             }
         }
         t
+    }
+
+    #[test]
+    fn partition_splits_by_bin_and_bounds_each_side() {
+        let tris = crate::bvh::object_split::tests::scattered(3000);
+        let refs = crate::bvh::object_split::tests::refs_of(&tris);
+        let (_, centroids) = bounds_of(&refs);
+        let binner = Binner::new(&centroids, 16);
+        // A spare buffer longer than the node, as a thread's scratch often is.
+        let mut spare = vec![refs[7]; 5000];
+        for (axis, bin) in [(0, 5u32), (1, 1), (2, 15), (0, 0)] {
+            let mut parted = refs.clone();
+            let (mid, lc, rc) = match axis {
+                0 => partition::<0>(&mut parted, bin, &binner, &mut spare),
+                1 => partition::<1>(&mut parted, bin, &binner, &mut spare),
+                _ => partition::<2>(&mut parted, bin, &binner, &mut spare),
+            };
+            let goes_left = |r: &PrimRef| binner.bins(r.centroid2())[axis] < bin;
+            let ids = |rs: &[PrimRef]| {
+                let mut v: Vec<u32> = rs.iter().map(|r| r.id()).collect();
+                v.sort_unstable();
+                v
+            };
+            let want_left: Vec<PrimRef> = refs.iter().copied().filter(goes_left).collect();
+            let want_right: Vec<PrimRef> = refs.iter().copied().filter(|r| !goes_left(r)).collect();
+            assert_eq!(mid, want_left.len(), "axis {axis} bin {bin}");
+            assert_eq!(ids(&parted[..mid]), ids(&want_left));
+            assert_eq!(ids(&parted[mid..]), ids(&want_right));
+            if !want_left.is_empty() {
+                assert_eq!(lc, centroid_bounds_of(&want_left));
+            }
+            if !want_right.is_empty() {
+                assert_eq!(rc, centroid_bounds_of(&want_right));
+            }
+        }
     }
 
     #[test]
