@@ -68,6 +68,12 @@ const EMPTY_BIN: Bin = Bin {
     visible: 0,
 };
 
+thread_local! {
+    /// A thread's spare bins: [`bin_all`] takes them and [`best_object_splits`] gives them
+    /// back, so the split builder's nodes do not allocate bins each.
+    static SPARE_BINS: std::cell::Cell<Vec<Bin>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
 /// Nodes with more references than this bin in parallel chunks (merged bins equal serial
 /// binning's exactly: min/max and integer sums).
 const PARALLEL_BINNING: usize = 65536;
@@ -147,6 +153,7 @@ pub(super) fn best_object_splits(
             }
         }
     }
+    SPARE_BINS.set(all);
     best
 }
 
@@ -171,7 +178,9 @@ fn bin_all(refs: &[PrimRef], mappers: &[Option<CentroidBins>; 3], nb: usize) -> 
     } else {
         1
     };
-    let mut bins = vec![EMPTY_BIN; lanes * 3 * nb];
+    let mut bins = SPARE_BINS.take();
+    bins.clear();
+    bins.resize(lanes * 3 * nb, EMPTY_BIN);
     {
         let mut axes = bins.chunks_exact_mut(nb);
         let mut next = || -> [&mut [Bin]; 3] { std::array::from_fn(|_| axes.next().unwrap()) };

@@ -214,7 +214,14 @@ pub(super) fn best_spatial_splits(
             }
         });
     }
+    SPARE_BINS.set(bins);
     best
+}
+
+thread_local! {
+    /// A thread's spare bins: [`Grid::bin`] takes them and [`best_spatial_splits`] gives them
+    /// back, so the split builder's nodes do not allocate bins each.
+    static SPARE_BINS: std::cell::Cell<Vec<Bin>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 /// Nodes with more references than this bin spatial candidates in parallel chunks.
@@ -305,7 +312,9 @@ impl Grid {
     /// its first and last bin, and [`Grid::sweep`] cuts the sides.
     fn bin(&self, refs: &[PrimRef], triangles: &[[Vec3; 3]]) -> Vec<Bin> {
         let nb = self.nb;
-        let mut all = vec![EMPTY_BIN; 3 * nb];
+        let mut all = SPARE_BINS.take();
+        all.clear();
+        all.resize(3 * nb, EMPTY_BIN);
         // One loop per path, each a separate instance: sharing one loop made the cut-box
         // path (most nodes) carry the clipping path's per-reference setup.
         if self.clip {
@@ -344,14 +353,16 @@ impl Grid {
                     return all;
                 }
                 // In lanes, as the SAH builder bins, merged into the first.
-                let mut lanes = vec![EMPTY_BIN; BIN_LANES * 3 * nb];
-                let mut it = lanes.chunks_exact_mut(3 * nb);
+                all.resize(BIN_LANES * 3 * nb, EMPTY_BIN);
+                let mut it = all.chunks_exact_mut(3 * nb);
                 let [a, b, c, d] = std::array::from_fn(|_| it.next().unwrap());
                 // SAFETY: AVX is present (checked above).
                 unsafe { self.bin_cut_boxes_avx(refs, &mut [a, b, c, d]) };
-                for lane in lanes.chunks_exact(3 * nb) {
-                    merge_into(&mut all, lane);
+                let (first, rest) = all.split_at_mut(3 * nb);
+                for lane in rest.chunks_exact(3 * nb) {
+                    merge_into(first, lane);
                 }
+                all.truncate(3 * nb);
                 return all;
             }
             self.bin_with(refs, &mut all, |bins, b0, b1, r, _| {
