@@ -23,7 +23,7 @@ use clap::Args;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::bench_methods;
+use super::bench_methods::{self, best_of};
 use crate::frames::parse_size;
 use crate::scene_source::open_scene;
 
@@ -435,9 +435,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 None => None,
             };
             pool.install(|| {
-                row.build_ms = best_of(args.repeat, || {
-                    build_binned_sah(tris, &settings);
-                });
+                row.build_ms = best_of(args.repeat, || build_binned_sah(tris, &settings));
                 let closest = |tree: &(dyn Fn(&Ray) + Sync)| {
                     best_of_in_turn(
                         args.repeat,
@@ -512,16 +510,6 @@ pub fn run(args: BenchArgs) -> Result<()> {
         print_table(&rows);
     }
     Ok(())
-}
-
-fn best_of(repeat: u32, mut f: impl FnMut()) -> f64 {
-    (0..repeat.max(1))
-        .map(|_| {
-            let t = Instant::now();
-            f();
-            t.elapsed().as_secs_f64() * 1e3
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 fn mrays(n: usize, ms: f64) -> f64 {
