@@ -539,9 +539,17 @@ fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
         .take()
         .unwrap_or_else(|| Box::new(Scratch::new()));
     let result = f(&mut scratch);
+    // A thread keeps its partition buffer only up to a bound: the root of a large scene
+    // would otherwise leave one as large as the scene on every thread that built one.
+    if scratch.refs.capacity() > SPARE_REFS_MAX {
+        scratch.refs = Vec::new();
+    }
     SPARE_SCRATCH.set(Some(scratch));
     result
 }
+
+/// The most references a thread's spare partition buffer keeps between builds (4 MiB).
+const SPARE_REFS_MAX: usize = 1 << 17;
 
 /// Per-thread working memory, reused down the recursion so small nodes allocate nothing.
 struct Scratch {
@@ -1283,6 +1291,29 @@ mod tests {
             assert_eq!(spare, compact(&nodes, &sizes), "grid({n})");
             let ids = |r: &[PrimRef]| r.iter().map(|r| r.id()).collect::<Vec<_>>();
             assert_eq!(ids(&a), ids(&b), "leaf order of grid({n})");
+        }
+    }
+
+    #[test]
+    fn a_thread_keeps_its_partition_buffer_only_up_to_the_bound() {
+        // The root is binned and partitioned on the calling thread, with its spare scratch.
+        let settings = BuildSettings::default();
+        for (n, kept) in [(60, true), (400, false)] {
+            let tris = grid(n);
+            let mut refs: Vec<PrimRef> = tris
+                .iter()
+                .enumerate()
+                .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
+                .collect();
+            build_sah_nodes(&mut refs, &settings, 0);
+            let scratch = SPARE_SCRATCH.take().expect("the build left its scratch");
+            let capacity = scratch.refs.capacity();
+            assert!(
+                capacity <= SPARE_REFS_MAX,
+                "grid({n}) kept {capacity} references"
+            );
+            assert_eq!(capacity >= refs.len(), kept, "grid({n}) kept {capacity}");
+            SPARE_SCRATCH.set(Some(scratch));
         }
     }
 
