@@ -1148,6 +1148,15 @@ mod tests {
         t
     }
 
+    /// The references of [`grid`]`(n)`, ids in order.
+    fn grid_refs(n: usize) -> Vec<PrimRef> {
+        grid(n)
+            .iter()
+            .enumerate()
+            .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
+            .collect()
+    }
+
     #[test]
     fn partition_splits_by_bin_and_bounds_each_side() {
         let tris = crate::bvh::object_split::tests::scattered(3000);
@@ -1259,12 +1268,7 @@ mod tests {
     fn parallel_compaction_equals_serial_renumbering() {
         // 200^2 triangles: subtrees above PARALLEL_COMPACT nodes take the parallel path.
         for n in [1, 3, 200] {
-            let tris = grid(n);
-            let mut refs: Vec<PrimRef> = tris
-                .iter()
-                .enumerate()
-                .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
-                .collect();
+            let mut refs = grid_refs(n);
             let (nodes, sizes) = build_uncompacted(&mut refs, &BuildSettings::default(), 0);
             let serial = compact_depth_first(&nodes, sizes[0] as usize + 1);
             assert_eq!(compact(&nodes, &sizes), serial);
@@ -1279,12 +1283,7 @@ mod tests {
         let settings = BuildSettings::default();
         const { assert!(2 * 260 * 260 > SPARE_NODES_MAX && 2 * 80 * 80 > PARALLEL_SUBTREE) };
         for n in [260, 80, 40, 3, 12, 1] {
-            let tris = grid(n);
-            let refs: Vec<PrimRef> = tris
-                .iter()
-                .enumerate()
-                .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
-                .collect();
+            let refs = grid_refs(n);
             let (mut a, mut b) = (refs.clone(), refs);
             let spare = build_sah_nodes(&mut a, &settings, 3);
             let (nodes, sizes) = build_uncompacted(&mut b, &settings, 3);
@@ -1299,12 +1298,7 @@ mod tests {
         // The root is binned and partitioned on the calling thread, with its spare scratch.
         let settings = BuildSettings::default();
         for (n, kept) in [(60, true), (400, false)] {
-            let tris = grid(n);
-            let mut refs: Vec<PrimRef> = tris
-                .iter()
-                .enumerate()
-                .map(|(i, t)| PrimRef::of_triangle(i as u32, t))
-                .collect();
+            let mut refs = grid_refs(n);
             build_sah_nodes(&mut refs, &settings, 0);
             let scratch = SPARE_SCRATCH.take().expect("the build left its scratch");
             let capacity = scratch.refs.capacity();
