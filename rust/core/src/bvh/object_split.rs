@@ -186,8 +186,6 @@ fn bin_all(refs: &[PrimRef], mappers: &[Option<CentroidBins>; 3], nb: usize) -> 
         let mut next = || -> [&mut [Bin]; 3] { std::array::from_fn(|_| axes.next().unwrap()) };
         #[cfg(target_arch = "x86_64")]
         let avx = super::binned_sah::use_avx();
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx = false;
         if lanes == 1 {
             let mut one = next();
             #[cfg(target_arch = "x86_64")]
