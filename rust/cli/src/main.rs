@@ -1,6 +1,7 @@
 //! `antumbra`: render shadow passes and traversal-work heat maps of animated scenes, and
 //! benchmark the structures that trace them.
 
+mod allocator;
 mod commands;
 mod frames;
 mod scene_args;
@@ -36,6 +37,7 @@ enum Command {
 }
 
 fn main() {
+    allocator::keep_freed_memory();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(a) => commands::demo::run(a),

@@ -5,6 +5,10 @@ use antumbra_core::render::{visibility_flags, PrimaryPass, PrimaryRays};
 use antumbra_core::scene::{FrameGeometry, Resolution};
 use std::time::Instant;
 
+// The allocator of the `antumbra` binary, so that builds here cost what they cost there.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     let params = antumbra_scenes::SceneParams {
@@ -20,7 +24,7 @@ fn main() {
         .unwrap();
     let mut scene = anim.frame(*anim.frame_range().start());
     scene.camera = camera;
-    scene.resolution = Resolution::new(128, 128);
+    scene.resolution = Resolution::new(256, 256);
     let geometry = FrameGeometry::from_scene(&scene).unwrap();
     let set = &geometry.camera;
     let mut settings = BuildSettings::default();

@@ -432,8 +432,69 @@ fn build_into(
         below,
         sizes: sizes_below,
     };
-    root_size[0] = with_scratch(|scratch| ctx.build(refs, &mut root[0], slots, task, scratch));
+    root_size[0] = with_other_buffer(refs.len(), |other| {
+        let refs = Refs {
+            cur: refs,
+            other,
+            in_place: true,
+        };
+        with_scratch(|scratch| ctx.build(refs, &mut root[0], slots, task, scratch))
+    });
     root_size[0]
+}
+
+/// A node's references (`cur`) and the same range of the other buffer (`other`). A partition
+/// moves the references from one buffer to the other rather than copying them back, so the two
+/// swap roles from level to level; `in_place` says whether `cur` is the caller's array, where
+/// a leaf's references must end up.
+struct Refs<'a> {
+    cur: &'a mut [PrimRef],
+    other: &'a mut [PrimRef],
+    in_place: bool,
+}
+
+impl<'a> Refs<'a> {
+    /// The two sides of the references, split after the first `mid`.
+    fn split_at(self, mid: usize) -> (Refs<'a>, Refs<'a>) {
+        let (cur_l, cur_r) = self.cur.split_at_mut(mid);
+        let (other_l, other_r) = self.other.split_at_mut(mid);
+        let side = |cur, other| Refs {
+            cur,
+            other,
+            in_place: self.in_place,
+        };
+        (side(cur_l, other_l), side(cur_r, other_r))
+    }
+
+    /// The same references after a partition moved them into `other`.
+    fn swapped(self) -> Refs<'a> {
+        Refs {
+            cur: self.other,
+            other: self.cur,
+            in_place: !self.in_place,
+        }
+    }
+}
+
+/// Runs `f` with a buffer of `n` references: this thread's spare one, or for more than
+/// [`SPARE_REFS_MAX`] references (the root of a large scene) one of its own. (Not from zeroed
+/// memory: the allocator maps fresh pages for that on every build, and their faults cost more
+/// than filling reused ones.)
+fn with_other_buffer<R>(n: usize, f: impl FnOnce(&mut [PrimRef]) -> R) -> R {
+    const STALE: PrimRef = PrimRef {
+        lo: Vec4::ZERO,
+        hi: Vec4::ZERO,
+    };
+    if n > SPARE_REFS_MAX {
+        return f(&mut vec![STALE; n]);
+    }
+    let mut spare = SPARE_REFS.take();
+    if spare.len() < n {
+        spare.resize(n, STALE);
+    }
+    let result = f(&mut spare[..n]);
+    SPARE_REFS.set(spare);
+    result
 }
 
 /// `count` default nodes from zeroed memory (see [`zeroed_vec`]). Nodes the build never writes
@@ -539,25 +600,24 @@ fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
         .take()
         .unwrap_or_else(|| Box::new(Scratch::new()));
     let result = f(&mut scratch);
-    // A thread keeps its partition buffer only up to a bound: the root of a large scene
-    // would otherwise leave one as large as the scene on every thread that built one.
-    if scratch.refs.capacity() > SPARE_REFS_MAX {
-        scratch.refs = Vec::new();
-    }
     SPARE_SCRATCH.set(Some(scratch));
     result
 }
 
-/// The most references a thread's spare partition buffer keeps between builds (4 MiB).
+/// The most references a thread's spare partition buffer holds (4 MiB): a thread keeps one
+/// only this large, or the root of a large scene would leave one its size on every thread.
 const SPARE_REFS_MAX: usize = 1 << 17;
+
+thread_local! {
+    /// A thread's spare partition buffer (see [`with_other_buffer`]).
+    static SPARE_REFS: std::cell::Cell<Vec<PrimRef>> = const { std::cell::Cell::new(Vec::new()) };
+}
 
 /// Per-thread working memory, reused down the recursion so small nodes allocate nothing.
 struct Scratch {
     bins: Box<Bins3>,
     lanes: Box<BinLanes>,
     right_cost: Vec<f32>,
-    /// The partition's out-of-place buffer, as long as the largest node partitioned so far.
-    refs: Vec<PrimRef>,
 }
 
 impl Scratch {
@@ -566,7 +626,6 @@ impl Scratch {
             bins: new_bins(),
             lanes: new_lanes(),
             right_cost: vec![0.0; MAX_BINS],
-            refs: Vec::new(),
         }
     }
 }
@@ -680,19 +739,19 @@ impl Context<'_> {
     /// count.
     fn build(
         &self,
-        refs: &mut [PrimRef],
+        refs: Refs,
         node: &mut BvhNode,
         slots: Slots,
         task: Task,
         scratch: &mut Scratch,
     ) -> u32 {
         node.set_bounds(&task.bounds.to_aabb());
-        let n = refs.len();
+        let n = refs.cur.len();
         let s = self.settings;
         let split = if n <= 1 || task.depth >= MEDIAN_DEPTH {
             None
         } else {
-            self.find_split(refs, &task, scratch)
+            self.find_split(refs.cur, &task, scratch)
         };
         let leaf_cost = s.intersection_cost * n as f32;
         let make_leaf = n <= 1
@@ -701,20 +760,31 @@ impl Context<'_> {
                 None => n <= s.max_leaf_size,
             };
         if make_leaf {
+            if !refs.in_place {
+                refs.other.copy_from_slice(refs.cur);
+            }
             node.first = task.first as u32;
             node.count = n as u32;
             return 1;
         }
         let parts = split.and_then(|sp| {
             let binner = Binner::new(&task.centroids, sp.nb);
+            let (src, dst) = (&*refs.cur, &mut *refs.other);
             let (mid, lc, rc) = match sp.axis {
-                0 => partition::<0>(refs, sp.bin as u32, &binner, &mut scratch.refs),
-                1 => partition::<1>(refs, sp.bin as u32, &binner, &mut scratch.refs),
-                _ => partition::<2>(refs, sp.bin as u32, &binner, &mut scratch.refs),
+                0 => partition::<0>(src, dst, sp.bin as u32, &binner),
+                1 => partition::<1>(src, dst, sp.bin as u32, &binner),
+                _ => partition::<2>(src, dst, sp.bin as u32, &binner),
             };
             (mid > 0 && mid < n).then_some((mid, (sp.left, lc), (sp.right, rc)))
         });
-        let (mid, left, right) = parts.unwrap_or_else(|| median_split(refs));
+        let (refs, (mid, left, right)) = match parts {
+            Some(parts) => (refs.swapped(), parts),
+            // A partition that left one side empty wrote nothing `cur` still needs.
+            None => {
+                let median = median_split(refs.cur);
+                (refs, median)
+            }
+        };
 
         let (pair, rest) = slots.below.split_at_mut(2);
         let (left_node, right_node) = pair.split_at_mut(1);
@@ -732,7 +802,7 @@ impl Context<'_> {
         };
         node.first = task.below_start as u32;
         node.count = 0;
-        let (left_refs, right_refs) = refs.split_at_mut(mid);
+        let (left_refs, right_refs) = refs.split_at(mid);
         let left_task = Task {
             first: task.first,
             below_start: task.below_start + 2,
@@ -1007,26 +1077,24 @@ fn merge_bins(mut a: Box<Bins3>, b: &Bins3, nb: usize) -> Box<Bins3> {
     a
 }
 
-/// Moves references whose bin on `AXIS` is below `bin` to the front. Returns how many there
-/// are and the (doubled) centroid bounds of each side. Branch-free: each reference is written
-/// to both ends of `spare` and the side it belongs to advances, then `spare` is copied back
-/// (the side a reference takes is as good as random, and a branch on it mispredicted half the
-/// time). The left side keeps the references' order, the right side reverses it.
+/// Moves the references of `src` into `out` (as long), those whose bin on `AXIS` is below
+/// `bin` to the front. Returns how many there are and the (doubled) centroid bounds of each
+/// side. Branch-free: each reference is written to both ends of `out` and the side it belongs
+/// to advances (the side a reference takes is as good as random, and a branch on it
+/// mispredicted half the time). The left side keeps the references' order, the right side
+/// reverses it.
 fn partition<const AXIS: usize>(
-    refs: &mut [PrimRef],
+    src: &[PrimRef],
+    out: &mut [PrimRef],
     bin: u32,
     binner: &Binner,
-    spare: &mut Vec<PrimRef>,
 ) -> (usize, Box4, Box4) {
-    let n = refs.len();
-    if spare.len() < n {
-        spare.resize(n, refs[0]);
-    }
-    let out = &mut spare[..n];
+    let n = src.len();
+    assert_eq!(out.len(), n, "one slot per reference");
     let mut lc = Box4::EMPTY;
     let mut rc = Box4::EMPTY;
     let (mut left, mut right) = (0, n);
-    for r in refs.iter() {
+    for r in src {
         let c = r.centroid2();
         let goes_left = binner.bins(c)[AXIS] < bin;
         // Before this reference, left + (n - right) references were placed, fewer than n, so
@@ -1039,7 +1107,6 @@ fn partition<const AXIS: usize>(
         lc.grow(Vec4::select(mask, c, lc.lo), Vec4::select(mask, c, lc.hi));
         rc.grow(Vec4::select(mask, rc.lo, c), Vec4::select(mask, rc.hi, c));
     }
-    refs.copy_from_slice(out);
     (left, lc, rc)
 }
 
@@ -1163,14 +1230,13 @@ mod tests {
         let refs = crate::bvh::object_split::tests::refs_of(&tris);
         let (_, centroids) = bounds_of(&refs);
         let binner = Binner::new(&centroids, 16);
-        // A spare buffer longer than the node, as a thread's scratch often is.
-        let mut spare = vec![refs[7]; 5000];
         for (axis, bin) in [(0, 5u32), (1, 1), (2, 15), (0, 0)] {
-            let mut parted = refs.clone();
+            // Stale references in the output, as a thread's spare buffer holds.
+            let mut parted = vec![refs[7]; refs.len()];
             let (mid, lc, rc) = match axis {
-                0 => partition::<0>(&mut parted, bin, &binner, &mut spare),
-                1 => partition::<1>(&mut parted, bin, &binner, &mut spare),
-                _ => partition::<2>(&mut parted, bin, &binner, &mut spare),
+                0 => partition::<0>(&refs, &mut parted, bin, &binner),
+                1 => partition::<1>(&refs, &mut parted, bin, &binner),
+                _ => partition::<2>(&refs, &mut parted, bin, &binner),
             };
             let goes_left = |r: &PrimRef| binner.bins(r.centroid2())[axis] < bin;
             let ids = |rs: &[PrimRef]| {
@@ -1299,15 +1365,15 @@ mod tests {
         let settings = BuildSettings::default();
         for (n, kept) in [(60, true), (400, false)] {
             let mut refs = grid_refs(n);
+            SPARE_REFS.take();
             build_sah_nodes(&mut refs, &settings, 0);
-            let scratch = SPARE_SCRATCH.take().expect("the build left its scratch");
-            let capacity = scratch.refs.capacity();
+            let spare = SPARE_REFS.take();
+            let capacity = spare.capacity();
             assert!(
                 capacity <= SPARE_REFS_MAX,
                 "grid({n}) kept {capacity} references"
             );
             assert_eq!(capacity >= refs.len(), kept, "grid({n}) kept {capacity}");
-            SPARE_SCRATCH.set(Some(scratch));
         }
     }
 
