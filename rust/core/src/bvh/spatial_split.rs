@@ -313,8 +313,7 @@ impl Grid {
     fn bin(&self, refs: &[PrimRef], triangles: &[[Vec3; 3]]) -> Vec<Bin> {
         let nb = self.nb;
         let mut all = SPARE_BINS.take();
-        all.clear();
-        all.resize(3 * nb, EMPTY_BIN);
+        self.clear_flagged(&mut all, 1);
         // One loop per path, each a separate instance: sharing one loop made the cut-box
         // path (most nodes) carry the clipping path's per-reference setup.
         if self.clip {
@@ -353,14 +352,17 @@ impl Grid {
                     return all;
                 }
                 // In lanes, as the SAH builder bins, merged into the first.
-                all.resize(BIN_LANES * 3 * nb, EMPTY_BIN);
+                self.clear_flagged(&mut all, BIN_LANES);
                 let mut it = all.chunks_exact_mut(3 * nb);
                 let [a, b, c, d] = std::array::from_fn(|_| it.next().unwrap());
                 // SAFETY: AVX is present (checked above).
                 unsafe { self.bin_cut_boxes_avx(refs, &mut [a, b, c, d]) };
                 let (first, rest) = all.split_at_mut(3 * nb);
-                for lane in rest.chunks_exact(3 * nb) {
-                    merge_into(first, lane);
+                for lane in rest.chunks_exact(3 * nb).take(BIN_LANES - 1) {
+                    for axis in self.flagged_axes().into_iter().flatten() {
+                        let on_axis = axis * nb..(axis + 1) * nb;
+                        merge_into(&mut first[on_axis.clone()], &lane[on_axis]);
+                    }
                 }
                 all.truncate(3 * nb);
                 return all;
@@ -430,6 +432,22 @@ impl Grid {
                 });
             }
             _ => unreachable!("one lane or BIN_LANES"),
+        }
+    }
+
+    /// Makes `all` hold `lanes` sets of 3 x `nb` bins with the flagged axes' bins empty. The
+    /// other axes' bins keep whatever an earlier node left: nothing reads them, and a node
+    /// usually bins one axis, so clearing all three (and merging them) was most of the work
+    /// around the binning loop.
+    fn clear_flagged(&self, all: &mut Vec<Bin>, lanes: usize) {
+        let nb = self.nb;
+        if all.len() < lanes * 3 * nb {
+            all.resize(lanes * 3 * nb, EMPTY_BIN);
+        }
+        for lane in all.chunks_exact_mut(3 * nb).take(lanes) {
+            for axis in self.flagged_axes().into_iter().flatten() {
+                lane[axis * nb..(axis + 1) * nb].fill(EMPTY_BIN);
+            }
         }
     }
 
@@ -694,6 +712,41 @@ mod tests {
                     .fold(vec![EMPTY_BIN; 3 * 32], merge_bins)
             });
             assert_eq!(one_lane, avx, "AVX: one lane and lanes differ");
+        }
+    }
+
+    #[test]
+    fn bins_left_by_an_earlier_node_do_not_change_the_best_splits() {
+        // A thread's spare bins keep an earlier node's bins on the axes a node does not bin;
+        // the axes it bins must start empty whatever was there (other bin counts, lanes).
+        let tris = scattered(3000);
+        let refs = refs_visible_every(&tris, 3);
+        let model = CostModel {
+            traversal: 1.0,
+            intersection: 1.0,
+            weight: 0.9,
+        };
+        let best = |refs: &[PrimRef], nb: usize, axes: [bool; 3]| {
+            let (bounds, _) = bounds_of(refs);
+            let area = bounds.half_area();
+            let found =
+                best_spatial_splits(refs, &tris, &bounds, area, nb, axes, false, &model, true);
+            format!("{found:?}")
+        };
+        let on_own_thread =
+            |f: &(dyn Fn() -> String + Sync)| std::thread::scope(|s| s.spawn(f).join().unwrap());
+        // 1000 references bin in lanes, 100 in one.
+        for (n, nb, axes) in [
+            (1000, 16, [false, true, false]),
+            (100, 8, [false, false, true]),
+        ] {
+            let fresh = on_own_thread(&|| best(&refs[..n], nb, axes));
+            let after = on_own_thread(&|| {
+                best(&refs, 32, [true; 3]);
+                best(&refs[n..], 24, [true, false, true]);
+                best(&refs[..n], nb, axes)
+            });
+            assert_eq!(after, fresh, "{n} references, {nb} bins, axes {axes:?}");
         }
     }
 
