@@ -181,6 +181,21 @@ def test_passes_and_settings(scene):
     assert r.planes[0][0] == "primary.N_B"
 
 
+def test_smallest_leaf_changes_work_not_masks(scene):
+    session, _ = scene
+    base = session.render(1, passes=["masks", "heat_maps"], build="osah", visibility="exact")
+    r = session.render(
+        1, passes=["masks", "heat_maps"], build="osah", visibility="exact", min_leaf_size=8
+    )
+    planes = dict(r.planes)
+    for name, mask in base.planes:
+        if name.startswith("shadow.") and not name.startswith("shadow.N_"):
+            assert np.array_equal(mask, planes[name]), name
+    # Leaves of up to 8 triangles: no more nodes entered, at least as many triangle tests.
+    assert planes["primary.N_T"].sum() >= dict(base.planes)["primary.N_T"].sum()
+    assert planes["primary.N_B"].sum() < dict(base.planes)["primary.N_B"].sum()
+
+
 def test_width_and_order_change_work_not_masks(scene):
     session, _ = scene
     base = session.render(1, passes=["masks"])
@@ -535,6 +550,11 @@ def test_bad_containers(scene):
         ({"spp": True}, r"spp: expected an integer, got bool"),
         ({"bins": 1}, r"bins"),
         ({"leaf_size": 0}, r"leaf_size|max_leaf_size"),
+        (
+            {"leaf_size": 4, "min_leaf_size": 5},
+            r"build.min_leaf_size: must be in 1..=max_leaf_size \(4\), got 5",
+        ),
+        ({"min_leaf_size": -1}, r"min_leaf_size: -1 is out of range"),
         ({"order": "far"}, r"order: .*unknown order 'far'"),
         ({"order": "sorted:budget=2"}, r"order: .*budget must be in \(0, 1\]"),
         ({"width": 3}, r"width: must be 2, 4 or 8, got 3"),

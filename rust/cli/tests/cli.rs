@@ -120,6 +120,19 @@ fn bad_arguments_fail_with_a_clear_message() {
             vec!["render", "--scene", "city", "--build", "kd", "--out"],
             "unknown build method 'kd'",
         ),
+        (
+            vec![
+                "render",
+                "--scene",
+                "city",
+                "--leaf-size",
+                "4",
+                "--min-leaf-size",
+                "6",
+                "--out",
+            ],
+            "build.min_leaf_size: must be in 1..=max_leaf_size (4), got 6",
+        ),
     ] {
         let o = antumbra().args(&args).arg(&out).output().unwrap();
         assert!(!o.status.success(), "{args:?} succeeded");

@@ -327,3 +327,82 @@ fn osah_saves_work_for_rays_that_hit_visible_triangles() {
         "SAH {w_sah:?} OSAH {w_osah:?}"
     );
 }
+
+/// References in the subtree of node `i`.
+fn refs_below(bvh: &Bvh, i: usize) -> usize {
+    let n = &bvh.nodes[i];
+    if n.is_leaf() {
+        n.count as usize
+    } else {
+        refs_below(bvh, n.first as usize) + refs_below(bvh, n.first as usize + 1)
+    }
+}
+
+#[test]
+fn smallest_leaf_stops_splits_and_changes_no_answer() {
+    let tris = soup(3000, 21_000);
+    let rays = rays(2000, 4_000_000);
+    let vis = every_third(tris.len());
+    for min in [4usize, 8] {
+        let settings = BuildSettings {
+            min_leaf_size: min,
+            ..eager_splits()
+        };
+        settings.validate().unwrap();
+        for method in [
+            BuildMethod::Sah,
+            BuildMethod::Sbvh,
+            BuildMethod::Abvh,
+            BuildMethod::Osah,
+        ] {
+            let what = format!("{method:?}, smallest leaf {min}");
+            let bvh = build_with_visibility(method, &tris, Some(&vis), &settings);
+            check_references(&bvh, &tris, 1e-5).unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_same_answers(&tris, &bvh, &rays, &what);
+            for i in (0..bvh.nodes.len()).filter(|&i| i != 1) {
+                let n = &bvh.nodes[i];
+                if n.is_leaf() {
+                    assert!(
+                        n.count as usize <= settings.max_leaf_size,
+                        "{what}: leaf {i}"
+                    );
+                } else {
+                    let below = refs_below(&bvh, i);
+                    assert!(below > min, "{what}: node {i} split {below} references");
+                }
+            }
+            let finest = build_with_visibility(method, &tris, Some(&vis), &eager_splits());
+            assert!(
+                bvh.nodes.len() < finest.nodes.len(),
+                "{what}: {} nodes, {} with the smallest leaf 1",
+                bvh.nodes.len(),
+                finest.nodes.len()
+            );
+        }
+        // The split builder leaves small nodes as the SAH builder does: OSAH without visible
+        // triangles is still the SAH tree, with all of them the SBVH tree.
+        let none = vec![false; tris.len()];
+        let all = vec![true; tris.len()];
+        let osah = |v: &[bool]| build_with_visibility(BuildMethod::Osah, &tris, Some(v), &settings);
+        assert!(same_tree(
+            &osah(&none),
+            &build(BuildMethod::Sah, &tris, &settings)
+        ));
+        assert!(same_tree(
+            &osah(&all),
+            &build(BuildMethod::Sbvh, &tris, &settings)
+        ));
+    }
+    for (min, max) in [(0, 8), (9, 8), (5, 4)] {
+        let bad = BuildSettings {
+            min_leaf_size: min,
+            max_leaf_size: max,
+            ..BuildSettings::default()
+        };
+        let err = bad.validate().unwrap_err().to_string();
+        assert!(
+            err.contains("build.min_leaf_size") && err.contains(&format!("got {min}")),
+            "{err}"
+        );
+    }
+}

@@ -421,6 +421,7 @@ impl From<&RenderSettings> for RenderSettingsState {
                 spatial_clip_min_refs: u32_of(s.build_settings.spatial.clip_min_refs),
                 spatial_node_overlap: s.build_settings.spatial.node_overlap,
                 spatial_min_refs: u32_of(s.build_settings.spatial.min_refs),
+                min_leaf_size: u32_of(s.build_settings.min_leaf_size),
             },
             collapse: match s.collapse.method {
                 CollapseMethod::Sah => CollapseState::Sah,
@@ -486,6 +487,7 @@ pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, Protoc
         build_settings: BuildSettings {
             bins: s.build_settings.bins as usize,
             max_leaf_size: s.build_settings.max_leaf_size as usize,
+            min_leaf_size: s.build_settings.min_leaf_size as usize,
             traversal_cost: s.build_settings.traversal_cost,
             intersection_cost: s.build_settings.intersection_cost,
             spatial: SpatialSettings {

@@ -337,6 +337,9 @@ pub struct BuildSettingsState {
     /// Nodes with fewer references than this never try spatial splits (0 tries every node).
     /// Added later; omitted means the core default.
     pub spatial_min_refs: u32,
+    /// Nodes of at most this many references become leaves without a split search
+    /// (1..=max_leaf_size). Added later; omitted means the core default (1).
+    pub min_leaf_size: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]

@@ -175,6 +175,7 @@ fn settings() -> impl Strategy<Value = RenderSettingsState> {
                     spatial_clip_min_refs: b.wrapping_mul(7919),
                     spatial_node_overlap: ic,
                     spatial_min_refs: l.wrapping_mul(31),
+                    min_leaf_size: b.wrapping_mul(3),
                 },
                 shadow_order: order,
                 stats,
@@ -589,6 +590,11 @@ fn field_order_unknown_fields_and_defaults() {
         b.spatial_min_refs as usize,
         antumbra_core::bvh::SpatialSettings::default().min_refs,
         "omitted spatial node size is the core default"
+    );
+    assert_eq!(
+        b.min_leaf_size as usize,
+        antumbra_core::bvh::BuildSettings::default().min_leaf_size,
+        "omitted smallest leaf is the core default"
     );
     assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);
     // A field added later (the object-id pass) takes its default when an older peer omits it.

@@ -583,6 +583,7 @@ pub fn render_settings_state(
     osah_viability: Option<&str>,
     collapse: Option<&str>,
     spatial_axes: Option<&str>,
+    min_leaf_size: Option<&Bound<'_, PyAny>>,
 ) -> ClientResult<RenderSettingsState> {
     let timing = if let Ok(b) = timing.cast::<PyBool>() {
         if b.is_true() {
@@ -633,6 +634,10 @@ pub fn render_settings_state(
         build_settings: BuildSettingsState {
             bins: integer::<u32>(bins, "bins", "2 to 256")?,
             max_leaf_size: integer::<u32>(leaf_size, "leaf_size", "1 to 64")?,
+            min_leaf_size: match min_leaf_size {
+                None => BuildSettingsState::default().min_leaf_size,
+                Some(v) => integer::<u32>(v, "min_leaf_size", "1 to leaf_size")?,
+            },
             traversal_cost: traversal_cost as f32,
             intersection_cost: intersection_cost as f32,
             osah_weight: osah_w.map_or(BuildSettingsState::default().osah_weight, |w| w as f32),

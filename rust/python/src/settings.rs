@@ -20,7 +20,7 @@ impl RenderSettings {
     #[new]
     #[pyo3(signature = (spp, seed, build, order, leaf_size, bins, traversal_cost,
         intersection_cost, timing, width, visibility, osah_w = None, osah_viability = None,
-        collapse = None, spatial_axes = None))]
+        collapse = None, spatial_axes = None, min_leaf_size = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -39,6 +39,7 @@ impl RenderSettings {
         osah_viability: Option<&str>,
         collapse: Option<&str>,
         spatial_axes: Option<&str>,
+        min_leaf_size: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         scene::render_settings_state(
             spp,
@@ -56,6 +57,7 @@ impl RenderSettings {
             osah_viability,
             collapse,
             spatial_axes,
+            min_leaf_size,
         )
         .map(|state| RenderSettings { state })
         .py_result(py)

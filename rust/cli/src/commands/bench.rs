@@ -146,6 +146,10 @@ pub struct BenchArgs {
     /// default: the builder's).
     #[arg(long)]
     pub split_min_refs: Option<usize>,
+    /// Nodes of at most this many triangles become leaves without a split search, in every
+    /// build (default: the builder's, 1; see `antumbra render --help`).
+    #[arg(long)]
+    pub min_leaf_size: Option<usize>,
     /// Render this many frames with SAH, SBVH, OSAH-exact and OSAH-previous and write the
     /// per-frame curve (animation.csv, animation.png) into --out.
     #[arg(long)]
@@ -153,6 +157,24 @@ pub struct BenchArgs {
     /// Output folder of --animation.
     #[arg(long, default_value = "bench-out")]
     pub out: std::path::PathBuf,
+}
+
+/// The build settings of every tree the bench makes: the builder's defaults with the
+/// command line's overrides, checked.
+fn build_settings(args: &BenchArgs) -> Result<BuildSettings> {
+    let mut s = BuildSettings {
+        osah_strict_viability: !args.osah_paper_viability,
+        ..BuildSettings::default()
+    };
+    s.spatial.bins = args.spatial_bins.unwrap_or(s.spatial.bins);
+    s.spatial.axes = args.spatial_axes.unwrap_or(s.spatial.axes);
+    s.spatial.clip_min_refs = args.clip_min_refs.unwrap_or(s.spatial.clip_min_refs);
+    s.spatial.alpha = args.split_alpha.unwrap_or(s.spatial.alpha);
+    s.spatial.node_overlap = args.split_node_overlap.unwrap_or(s.spatial.node_overlap);
+    s.spatial.min_refs = args.split_min_refs.unwrap_or(s.spatial.min_refs);
+    s.min_leaf_size = args.min_leaf_size.unwrap_or(s.min_leaf_size);
+    s.validate()?;
+    Ok(s)
 }
 
 #[derive(Debug, Default, Serialize)]
@@ -202,17 +224,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
     } else {
         args.scene.clone()
     };
+    let settings = build_settings(&args)?;
     if let Some(frames) = args.animation {
         for name in &scenes {
             let out = args.out.join(name);
-            bench_methods::animation_curve(
-                name,
-                args.triangles,
-                (w, h),
-                frames,
-                &BuildSettings::default(),
-                &out,
-            )?;
+            bench_methods::animation_curve(name, args.triangles, (w, h), frames, &settings, &out)?;
         }
         return Ok(());
     }
@@ -232,20 +248,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             methods: args.methods.clone(),
             weights: args.osah_w.clone(),
             spatial,
-            settings: {
-                let mut s = BuildSettings {
-                    osah_strict_viability: !args.osah_paper_viability,
-                    ..BuildSettings::default()
-                };
-                s.spatial.bins = args.spatial_bins.unwrap_or(s.spatial.bins);
-                s.spatial.axes = args.spatial_axes.unwrap_or(s.spatial.axes);
-                s.spatial.clip_min_refs = args.clip_min_refs.unwrap_or(s.spatial.clip_min_refs);
-                s.spatial.alpha = args.split_alpha.unwrap_or(s.spatial.alpha);
-                s.spatial.node_overlap = args.split_node_overlap.unwrap_or(s.spatial.node_overlap);
-                s.spatial.min_refs = args.split_min_refs.unwrap_or(s.spatial.min_refs);
-                s.validate()?;
-                s
-            },
+            settings,
         };
         let threads = rayon::current_num_threads();
         let embree_build =
@@ -280,7 +283,6 @@ pub fn run(args: BenchArgs) -> Result<()> {
         scene.resolution = antumbra_core::scene::Resolution::new(w, h);
         let geometry = FrameGeometry::from_scene(&scene)?;
         let tris = &geometry.camera.vertices;
-        let settings = BuildSettings::default();
         let bvh = build_binned_sah(tris, &settings);
         let primary_gen = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
         let primary: Vec<Ray> = (0..h)

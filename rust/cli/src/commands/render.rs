@@ -94,6 +94,10 @@ pub struct MethodArgs {
     /// Largest leaf of the BVH.
     #[arg(long, default_value_t = BuildSettings::default().max_leaf_size)]
     pub leaf_size: usize,
+    /// Nodes of at most this many triangles become leaves without a split search (1 to
+    /// --leaf-size): a faster build for larger leaves (Embree's minimum leaf size is 4).
+    #[arg(long, default_value_t = BuildSettings::default().min_leaf_size)]
+    pub min_leaf_size: usize,
     /// SAH bins per axis.
     #[arg(long, default_value_t = BuildSettings::default().bins)]
     pub bins: usize,
@@ -121,6 +125,7 @@ impl MethodArgs {
             build,
             build_settings: BuildSettings {
                 max_leaf_size: self.leaf_size,
+                min_leaf_size: self.min_leaf_size,
                 bins: self.bins,
                 osah_weight: self.osah_w,
                 osah_strict_viability: !self.osah_paper_viability,

@@ -20,6 +20,13 @@ pub struct BuildSettings {
     pub bins: usize,
     /// Leaves never hold more triangles than this (1..=64).
     pub max_leaf_size: usize,
+    /// Nodes of at most this many references become leaves without a split search
+    /// (1..=`max_leaf_size`; Embree's `minLeafSize`). 1, the default, lets the SAH decide
+    /// every leaf; larger values skip the bottom levels' binning (a faster build) for leaves
+    /// of more triangles (more triangle tests, fewer nodes entered: BENCHMARKS.md, issue 6,
+    /// "Smallest leaf").
+    #[serde(default = "default_min_leaf_size")]
+    pub min_leaf_size: usize,
     /// SAH cost of one traversal step, relative to `intersection_cost`.
     pub traversal_cost: f32,
     /// SAH cost of one ray/triangle test.
@@ -37,6 +44,10 @@ pub struct BuildSettings {
     pub osah_strict_viability: bool,
 }
 
+fn default_min_leaf_size() -> usize {
+    1
+}
+
 fn default_osah_strict() -> bool {
     true
 }
@@ -50,6 +61,7 @@ impl Default for BuildSettings {
         BuildSettings {
             bins: 16,
             max_leaf_size: 8,
+            min_leaf_size: default_min_leaf_size(),
             traversal_cost: 1.0,
             intersection_cost: 1.0,
             spatial: SpatialSettings::default(),
@@ -71,6 +83,15 @@ impl BuildSettings {
             return Err(crate::Error::invalid(
                 "build.max_leaf_size",
                 format!("must be in 1..=64, got {}", self.max_leaf_size),
+            ));
+        }
+        if !(1..=self.max_leaf_size).contains(&self.min_leaf_size) {
+            return Err(crate::Error::invalid(
+                "build.min_leaf_size",
+                format!(
+                    "must be in 1..=max_leaf_size ({}), got {}",
+                    self.max_leaf_size, self.min_leaf_size
+                ),
             ));
         }
         for (f, v) in [
@@ -748,13 +769,13 @@ impl Context<'_> {
         node.set_bounds(&task.bounds.to_aabb());
         let n = refs.cur.len();
         let s = self.settings;
-        let split = if n <= 1 || task.depth >= MEDIAN_DEPTH {
+        let split = if n <= s.min_leaf_size.max(1) || task.depth >= MEDIAN_DEPTH {
             None
         } else {
             self.find_split(refs.cur, &task, scratch)
         };
         let leaf_cost = s.intersection_cost * n as f32;
-        let make_leaf = n <= 1
+        let make_leaf = n <= s.min_leaf_size.max(1)
             || match &split {
                 Some(sp) => n <= s.max_leaf_size && sp.cost >= leaf_cost,
                 None => n <= s.max_leaf_size,

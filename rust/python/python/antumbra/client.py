@@ -112,6 +112,7 @@ def render_settings(
     osah_viability: str | None = None,
     collapse: str | None = None,
     spatial_axes: str | None = None,
+    min_leaf_size: int | None = None,
     traversal_cost: float = 1.0,
     intersection_cost: float = 1.0,
 ) -> dict[str, Any]:
@@ -134,6 +135,7 @@ def render_settings(
             osah_viability,
             collapse,
             spatial_axes,
+            min_leaf_size,
         ).json()
     )
 
@@ -314,6 +316,7 @@ class _Session:
         osah_viability: str | None = None,
         collapse: str | None = None,
         spatial_axes: str | None = None,
+        min_leaf_size: int | None = None,
         traversal_cost: float = 1.0,
         intersection_cost: float = 1.0,
         timeout: float | None = None,
@@ -344,6 +347,8 @@ class _Session:
             spatial_axes: axes binned for spatial splits: 'object' (None; the best object
                 split's axis) or 'all' (SBVH as Stich et al.).
             leaf_size: most triangles per BVH leaf (1 to 64); bins: SAH bins (2 to 256).
+            min_leaf_size: nodes of at most this many triangles become leaves without a split
+                search (1 to ``leaf_size``; None: 1): a faster build for larger leaves.
             timing: False (exact work counters and heat maps), True (counters, then each pass
                 again without counters for Mrays/s) or 'only' (timings, no heat maps).
             passes: any of 'masks', 'combined', 'heat_maps', 'visible', 'object_ids'.
@@ -370,6 +375,7 @@ class _Session:
             osah_viability,
             collapse,
             spatial_axes,
+            min_leaf_size,
         )
         raw = self._native.render(frame, settings, passes, progress, timeout)
         return Result._from_native(dict(raw), passes)
