@@ -1,5 +1,5 @@
 //! Build-time probe (not part of the bench): builds one viewpoint's tree with a method, for
-//! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT [SPATIAL_AXES [SPLIT_ALPHA [CLIP_MIN_REFS [NODE_OVERLAP [MIN_REFS]]]]]`
+//! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT [SPATIAL_AXES [SPLIT_ALPHA [CLIP_MIN_REFS [NODE_OVERLAP [MIN_REFS [MIN_LEAF_SIZE]]]]]]`
 use antumbra_core::bvh::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
 use antumbra_core::render::{visibility_flags, PrimaryPass, PrimaryRays};
 use antumbra_core::scene::{FrameGeometry, Resolution};
@@ -42,6 +42,9 @@ fn main() {
     }
     if let Some(m) = a.get(10) {
         settings.spatial.min_refs = m.parse().unwrap();
+    }
+    if let Some(m) = a.get(11) {
+        settings.min_leaf_size = m.parse().unwrap();
     }
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
     let sah = build_binned_sah(&set.vertices, &settings);
