@@ -66,6 +66,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     parser.add_argument("--budget", type=float, default=0.05, help="sorted order's ray share")
     parser.add_argument("--visibility", default="previous", choices=VISIBILITIES)
+    parser.add_argument(
+        "--min-leaf-size",
+        type=int,
+        default=1,
+        help="nodes of at most this many triangles become leaves unsplit (1 to 8)",
+    )
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--scale", type=float, default=1.0, help="resolution scale")
@@ -82,6 +88,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         parser.error("--spp must be in 1..4096")
     if not 0.0 < args.scale <= 1.0:
         parser.error("--scale must be in (0, 1]")
+    if not 1 <= args.min_leaf_size <= 8:
+        parser.error("--min-leaf-size must be in 1..8")
     return args
 
 
@@ -95,6 +103,7 @@ def run(argv: list[str]) -> int:
         order=args.order,
         sample_budget=args.budget,
         visibility=args.visibility,
+        min_leaf_size=args.min_leaf_size,
         spp=args.spp,
         seed=args.seed,
         resolution_scale=args.scale,

@@ -69,6 +69,7 @@ def draw_panel(layout, context):
     col.prop(settings, "build")
     if settings.build in {"abvh", "osah", "vsah"}:
         col.prop(settings, "visibility")
+    col.prop(settings, "min_leaf_size")
     col.prop(settings, "width")
     col.prop(settings, "order")
     if settings.order == "sorted":

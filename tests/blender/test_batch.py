@@ -171,6 +171,9 @@ def test_bad_arguments_exit_non_zero(scene_blend, short_tmp):
     done = batch(scene_blend, short_tmp / "out", short_tmp / "home", "--frames", "9-3")
     assert done.returncode == 2, done.stdout + done.stderr
     assert "--frames: the range 9-3 is empty" in done.stderr
+    done = batch(scene_blend, short_tmp / "out", short_tmp / "home", "--min-leaf-size", "9")
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert "--min-leaf-size must be in 1..8" in done.stderr
 
 
 def test_spool_batch_equals_socket_batch_and_resumes(scene_blend, antumbra_bin, short_tmp):
@@ -179,6 +182,7 @@ def test_spool_batch_equals_socket_batch_and_resumes(scene_blend, antumbra_bin, 
     running it again follows the same job."""
     env = blender_env(short_tmp / "home", ANTUMBRA_BIN=str(antumbra_bin))
     frames = ["--frames", "2-4", "--build", "osah", "--width", "8", "--order", "sorted"]
+    frames += ["--min-leaf-size", "4"]
     direct = batch(
         scene_blend,
         short_tmp / "direct",
@@ -220,4 +224,4 @@ def test_spool_batch_equals_socket_batch_and_resumes(scene_blend, antumbra_bin, 
     for folder in ("direct", "spooled"):
         with open(short_tmp / folder / "stats.csv") as f:
             methods = {row["method"] for row in csv.DictReader(f)}
-        assert methods == {"osah-previous/bin8/sorted:logging=sato:p=1:budget=0.05"}, methods
+        assert methods == {"osah-previous:leaf4/bin8/sorted:logging=sato:p=1:budget=0.05"}, methods

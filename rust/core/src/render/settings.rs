@@ -105,13 +105,17 @@ impl RenderSettings {
     }
 
     /// The method's name as it appears in statistics: builder, BVH width and shadow-ray child
-    /// order, e.g. `sah/bin8/sorted:logging=sato:p=1:budget=0.05`.
+    /// order, e.g. `sah/bin8/sorted:logging=sato:p=1:budget=0.05`; a smallest leaf other than 1
+    /// is named with the builder (`osah-previous:leaf8/bin2/fbto`).
     pub fn method_name(&self) -> String {
-        let build = if self.build.uses_visibility() {
+        let mut build = if self.build.uses_visibility() {
             format!("{}-{}", self.build.name(), self.visibility.name())
         } else {
             self.build.name().to_string()
         };
+        if self.build_settings.min_leaf_size > 1 {
+            build += &format!(":leaf{}", self.build_settings.min_leaf_size);
+        }
         // A non-default collapse of a wide tree is named, as `bench` does: sah/bin8:greedy/sato.
         let collapse = if self.width.get() > 2 && self.collapse.method != CollapseMethod::default()
         {
@@ -147,6 +151,12 @@ mod tests {
         s.width = BvhWidth::Two;
         assert!(
             s.method_name().starts_with("sah/bin2/"),
+            "{}",
+            s.method_name()
+        );
+        s.build_settings.min_leaf_size = 4;
+        assert!(
+            s.method_name().starts_with("sah:leaf4/bin2/"),
             "{}",
             s.method_name()
         );
