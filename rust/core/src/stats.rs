@@ -4,7 +4,7 @@
 //! | column | meaning |
 //! |---|---|
 //! | scene, frame | what was rendered |
-//! | method | builder / BVH width / shadow-ray child order, e.g. `sah/bin8/sato` |
+//! | method | builder (with `:leafK` for a smallest leaf K > 1) / BVH width / shadow-ray child order, e.g. `sah/bin8/sato`, `osah-previous:leaf8/bin2/fbto` |
 //! | pass | `primary` (closest hit) or `shadow` (any hit) |
 //! | light | the light's name (empty for the primary pass) |
 //! | rebuilt | whether this frame built its BVH (false: the geometry did not change) |
