@@ -72,6 +72,12 @@ impl Default for BuildSettings {
 }
 
 impl BuildSettings {
+    /// Nodes of at most this many references are leaves without a split search: the
+    /// smallest leaf, never below 1 even in settings that were not validated.
+    pub(crate) fn unsplit_refs(&self) -> usize {
+        self.min_leaf_size.max(1)
+    }
+
     pub fn validate(&self) -> crate::Result<()> {
         if !(2..=MAX_BINS).contains(&self.bins) {
             return Err(crate::Error::invalid(
@@ -769,13 +775,13 @@ impl Context<'_> {
         node.set_bounds(&task.bounds.to_aabb());
         let n = refs.cur.len();
         let s = self.settings;
-        let split = if n <= s.min_leaf_size.max(1) || task.depth >= MEDIAN_DEPTH {
+        let split = if n <= s.unsplit_refs() || task.depth >= MEDIAN_DEPTH {
             None
         } else {
             self.find_split(refs.cur, &task, scratch)
         };
         let leaf_cost = s.intersection_cost * n as f32;
-        let make_leaf = n <= s.min_leaf_size.max(1)
+        let make_leaf = n <= s.unsplit_refs()
             || match &split {
                 Some(sp) => n <= s.max_leaf_size && sp.cost >= leaf_cost,
                 None => n <= s.max_leaf_size,

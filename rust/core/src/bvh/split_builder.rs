@@ -151,7 +151,7 @@ impl Builder<'_> {
             let nodes = build_sah_nodes(&mut refs, self.settings, depth);
             return Built::Sah(nodes, refs);
         }
-        if n <= self.settings.min_leaf_size.max(1) {
+        if n <= self.settings.unsplit_refs() {
             return Built::Leaf(bounds, refs);
         }
         let (choice, cost) = self.choose(&refs, &bounds, &centroids, spatial, osah, budget);
