@@ -4,6 +4,7 @@
 mod allocator;
 mod commands;
 mod frames;
+mod method_args;
 mod scene_args;
 mod scene_source;
 mod write;

@@ -17,8 +17,8 @@ use antumbra_core::scene::{Resolution, Scene};
 use antumbra_daemon::client::Client;
 use antumbra_daemon::spool::{submit_job, JobSpec, Manifest, DONE_FILE, MANIFEST_FILE};
 use antumbra_protocol::{
-    planes_from_reply, stats_from_reply, FrameResultReply, Passes, RecordingWriter,
-    RenderSettingsState, Reply, Request,
+    planes_from_reply, stats_from_reply, FrameResultReply, NamedSettings, Passes, RecordingWriter,
+    Reply, Request,
 };
 use antumbra_scenes::{builtin, SceneParams};
 
@@ -227,7 +227,7 @@ fn assert_same_result(reply: &FrameResultReply, expected: &FrameResult) {
 }
 
 fn render(c: &mut Client, frame: i32, id: u64) -> FrameResultReply {
-    c.render(frame, RenderSettingsState::default(), Passes::default(), id)
+    c.render(frame, NamedSettings::default(), Passes::default(), id)
         .expect("render")
         .result
 }

@@ -13,6 +13,7 @@ pub mod output;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod settings;
 pub mod srdh;
 pub mod stats;
 pub mod trace;

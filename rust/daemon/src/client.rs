@@ -11,8 +11,8 @@ use std::time::Duration;
 use antumbra_core::scene::Scene;
 use antumbra_protocol::{
     encode_message, frame_update_from_scene, read_message, upload_from_mesh, ErrorCode, FrameError,
-    FrameResultReply, Limits, Passes, ProtocolError, RenderRequest, RenderSettingsState, Reply,
-    Request, PROTOCOL_VERSION,
+    FrameResultReply, Limits, NamedSettings, Passes, ProtocolError, RenderRequest, Reply, Request,
+    PROTOCOL_VERSION,
 };
 use thiserror::Error;
 
@@ -212,7 +212,7 @@ impl Client {
     pub fn render(
         &mut self,
         frame: i32,
-        settings: RenderSettingsState,
+        settings: NamedSettings,
         passes: Passes,
         request_id: u64,
     ) -> Result<Rendered, ClientError> {

@@ -29,7 +29,7 @@ use antumbra_core::output::write_bytes_atomic;
 use antumbra_core::render::Renderer;
 use antumbra_core::scene::Animation;
 use antumbra_protocol::{
-    check_limits, frame_update_from_scene, render_settings, RecordedAnimation, RenderSettingsState,
+    check_limits, frame_update_from_scene, render_settings, NamedSettings, RecordedAnimation,
     Request,
 };
 use notify::Watcher;
@@ -61,7 +61,7 @@ pub struct JobSpec {
     /// The frames to render, in this order; default: every frame in the recording.
     pub frames: Option<Vec<i32>>,
     /// Render settings as in the protocol's `Render` request.
-    pub settings: RenderSettingsState,
+    pub settings: NamedSettings,
     /// Which files each frame gets.
     pub outputs: Outputs,
 }

@@ -11,7 +11,7 @@ use antumbra_daemon::client::Client;
 use antumbra_daemon::{Daemon, DaemonConfig, DaemonError};
 use antumbra_protocol::{
     encode_message, frame_update_from_scene, replay_scenes, upload_from_mesh, ErrorCode,
-    LightKindState, LightState, Passes, RenderRequest, RenderSettingsState, Reply, Request,
+    LightKindState, LightState, NamedSettings, Passes, RenderRequest, Reply, Request,
     PROTOCOL_VERSION,
 };
 use common::*;
@@ -31,7 +31,7 @@ fn three_city_frames_match_in_process_render_bit_for_bit() {
         let r = c
             .render(
                 s.frame,
-                RenderSettingsState::default(),
+                NamedSettings::default(),
                 Passes::default(),
                 i as u64,
             )
@@ -263,7 +263,7 @@ fn render_with_an_unknown_mesh_hash_names_the_object() {
     }
     c.send(&Request::Render(RenderRequest {
         frame: 1,
-        settings: RenderSettingsState::default(),
+        settings: NamedSettings::default(),
         passes: Passes::default(),
         request_id: 77,
     }))
@@ -279,7 +279,7 @@ fn render_with_an_unknown_mesh_hash_names_the_object() {
     // A render of a frame never sent is refused too.
     c.send(&Request::Render(RenderRequest {
         frame: 99,
-        settings: RenderSettingsState::default(),
+        settings: NamedSettings::default(),
         passes: Passes::default(),
         request_id: 78,
     }))
@@ -334,10 +334,7 @@ fn too_many_lights_and_bad_settings_are_refused() {
     );
     assert!(usable);
     c.send_scene(&tiny_scene(1, 16, 12)).unwrap();
-    let settings = RenderSettingsState {
-        spp: 100_000,
-        ..Default::default()
-    };
+    let settings = NamedSettings::new().with("spp", 100000_i64);
     c.send(&Request::Render(RenderRequest {
         frame: 1,
         settings,
@@ -359,10 +356,7 @@ fn client_disconnecting_mid_render_does_not_disturb_others() {
     let mut c = d.client("leaver");
     let scenes = city_frames(60_000, 1, 480, 300);
     c.send_scene(&scenes[0]).unwrap();
-    let settings = RenderSettingsState {
-        spp: 16,
-        ..Default::default()
-    };
+    let settings = NamedSettings::new().with("spp", 16_i64);
     c.send(&Request::Render(RenderRequest {
         frame: scenes[0].frame,
         settings,
@@ -391,10 +385,7 @@ fn queued_render_can_be_cancelled() {
     let mut busy = d.client("busy");
     let scenes = city_frames(60_000, 1, 480, 300);
     busy.send_scene(&scenes[0]).unwrap();
-    let settings = RenderSettingsState {
-        spp: 16,
-        ..Default::default()
-    };
+    let settings = NamedSettings::new().with("spp", 16_i64);
     busy.send(&Request::Render(RenderRequest {
         frame: scenes[0].frame,
         settings,
@@ -407,7 +398,7 @@ fn queued_render_can_be_cancelled() {
     c.send_scene(&tiny_scene(1, 16, 12)).unwrap();
     c.send(&Request::Render(RenderRequest {
         frame: 1,
-        settings: RenderSettingsState::default(),
+        settings: NamedSettings::default(),
         passes: Passes::default(),
         request_id: 9,
     }))

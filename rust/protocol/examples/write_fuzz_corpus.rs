@@ -41,7 +41,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (uploads, frame) = scene_to_messages(&scene())?;
     let render = Request::Render(RenderRequest {
         frame: 1,
-        settings: RenderSettingsState::default(),
+        settings: NamedSettings::new()
+            .with("spp", 8i64)
+            .with("build", "osah")
+            .with("osah_w", 0.5)
+            .with("spatial_splits", false),
         passes: Passes::default(),
         request_id: 7,
     });

@@ -8,17 +8,13 @@ use std::collections::HashMap;
 use std::hash::BuildHasher;
 use std::sync::Arc;
 
-use antumbra_core::bvh::{
-    BuildMethod, BuildSettings, BvhWidth, CollapseMethod, CollapseSettings, SpatialAxes,
-    SpatialSettings,
-};
 use antumbra_core::output::ImagePlane;
-use antumbra_core::render::{FrameResult, RenderSettings, StatsMode, VisibilitySource};
+use antumbra_core::render::{FrameResult, RenderSettings};
 use antumbra_core::scene::{
     AreaShape, Camera, Light, LightKind, Mesh, Object, Resolution, Scene, SensorFit, TriangleRef,
 };
+use antumbra_core::settings::NamedSettings;
 use antumbra_core::stats::StatsRow;
-use antumbra_core::trace::{AnyHitOrder, ShadowOrder};
 use glam::DMat4;
 
 use crate::bytes::{
@@ -390,154 +386,9 @@ pub fn scene_to_messages(scene: &Scene) -> Result<(Vec<Request>, Request), Proto
 // ---------------------------------------------------------------------------------------------
 // Settings
 
-impl From<&RenderSettings> for RenderSettingsState {
-    fn from(s: &RenderSettings) -> Self {
-        let u32_of = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
-        RenderSettingsState {
-            spp: s.spp,
-            seed: s.seed,
-            build: match s.build {
-                BuildMethod::Sah => BuildMethodState::Sah,
-                BuildMethod::Sbvh => BuildMethodState::Sbvh,
-                BuildMethod::Abvh => BuildMethodState::Abvh,
-                BuildMethod::Osah => BuildMethodState::Osah,
-                BuildMethod::Vsah => BuildMethodState::Vsah,
-            },
-            build_settings: BuildSettingsState {
-                bins: u32_of(s.build_settings.bins),
-                max_leaf_size: u32_of(s.build_settings.max_leaf_size),
-                traversal_cost: s.build_settings.traversal_cost,
-                intersection_cost: s.build_settings.intersection_cost,
-                spatial_splits: s.build_settings.spatial.enabled,
-                spatial_bins: u32_of(s.build_settings.spatial.bins),
-                spatial_alpha: s.build_settings.spatial.alpha,
-                spatial_max_growth: s.build_settings.spatial.max_growth,
-                osah_weight: s.build_settings.osah_weight,
-                osah_strict_viability: s.build_settings.osah_strict_viability,
-                spatial_axes: match s.build_settings.spatial.axes {
-                    SpatialAxes::Object => SpatialAxesState::Object,
-                    SpatialAxes::All => SpatialAxesState::All,
-                },
-                spatial_clip_min_refs: u32_of(s.build_settings.spatial.clip_min_refs),
-                spatial_node_overlap: s.build_settings.spatial.node_overlap,
-                spatial_min_refs: u32_of(s.build_settings.spatial.min_refs),
-                min_leaf_size: u32_of(s.build_settings.min_leaf_size),
-            },
-            collapse: match s.collapse.method {
-                CollapseMethod::Sah => CollapseState::Sah,
-                CollapseMethod::Greedy => CollapseState::Greedy,
-            },
-            shadow_order: match s.shadow_order.binary() {
-                Some(AnyHitOrder::Stored) => ShadowOrderState::Stored,
-                Some(AnyHitOrder::NearFirst) | None => ShadowOrderState::NearFirst,
-            },
-            width: s.width.get(),
-            order: s
-                .shadow_order
-                .binary()
-                .is_none()
-                .then(|| s.shadow_order.to_string()),
-            stats: match s.stats {
-                StatsMode::Counts => StatsModeState::Counts,
-                StatsMode::CountsAndTiming => StatsModeState::CountsAndTiming,
-                StatsMode::TimingOnly => StatsModeState::TimingOnly,
-            },
-            visibility: match s.visibility {
-                VisibilitySource::Previous => VisibilitySourceState::Previous,
-                VisibilitySource::Exact => VisibilitySourceState::Exact,
-                VisibilitySource::Prepass { width, height } => {
-                    VisibilitySourceState::Prepass { width, height }
-                }
-            },
-        }
-    }
-}
-
-impl Default for RenderSettingsState {
-    fn default() -> Self {
-        (&RenderSettings::default()).into()
-    }
-}
-
-impl Default for BuildSettingsState {
-    fn default() -> Self {
-        RenderSettingsState::default().build_settings
-    }
-}
-
-fn spatial_axes(axes: SpatialAxesState) -> SpatialAxes {
-    match axes {
-        SpatialAxesState::Object => SpatialAxes::Object,
-        SpatialAxesState::All => SpatialAxes::All,
-    }
-}
-
-/// The core settings of a request, validated by [`RenderSettings::validate`].
-pub fn render_settings(s: &RenderSettingsState) -> Result<RenderSettings, ProtocolError> {
-    let settings = RenderSettings {
-        spp: s.spp,
-        seed: s.seed,
-        build: match s.build {
-            BuildMethodState::Sah => BuildMethod::Sah,
-            BuildMethodState::Sbvh => BuildMethod::Sbvh,
-            BuildMethodState::Abvh => BuildMethod::Abvh,
-            BuildMethodState::Osah => BuildMethod::Osah,
-            BuildMethodState::Vsah => BuildMethod::Vsah,
-        },
-        build_settings: BuildSettings {
-            bins: s.build_settings.bins as usize,
-            max_leaf_size: s.build_settings.max_leaf_size as usize,
-            min_leaf_size: s.build_settings.min_leaf_size as usize,
-            traversal_cost: s.build_settings.traversal_cost,
-            intersection_cost: s.build_settings.intersection_cost,
-            spatial: SpatialSettings {
-                enabled: s.build_settings.spatial_splits,
-                bins: s.build_settings.spatial_bins as usize,
-                alpha: s.build_settings.spatial_alpha,
-                max_growth: s.build_settings.spatial_max_growth,
-                axes: spatial_axes(s.build_settings.spatial_axes),
-                clip_min_refs: s.build_settings.spatial_clip_min_refs as usize,
-                node_overlap: s.build_settings.spatial_node_overlap,
-                min_refs: s.build_settings.spatial_min_refs as usize,
-            },
-            osah_weight: s.build_settings.osah_weight,
-            osah_strict_viability: s.build_settings.osah_strict_viability,
-        },
-        shadow_order: match &s.order {
-            Some(text) => text.parse::<ShadowOrder>()?,
-            None => match s.shadow_order {
-                ShadowOrderState::Stored => AnyHitOrder::Stored,
-                ShadowOrderState::NearFirst => AnyHitOrder::NearFirst,
-            }
-            .into(),
-        },
-        width: BvhWidth::try_from(s.width)?,
-        collapse: CollapseSettings::new(match s.collapse {
-            CollapseState::Sah => CollapseMethod::Sah,
-            CollapseState::Greedy => CollapseMethod::Greedy,
-        }),
-        stats: match s.stats {
-            StatsModeState::Counts => StatsMode::Counts,
-            StatsModeState::CountsAndTiming => StatsMode::CountsAndTiming,
-            StatsModeState::TimingOnly => StatsMode::TimingOnly,
-        },
-        visibility: match s.visibility {
-            VisibilitySourceState::Previous => VisibilitySource::Previous,
-            VisibilitySourceState::Exact => VisibilitySource::Exact,
-            VisibilitySourceState::Prepass { width, height } => {
-                VisibilitySource::Prepass { width, height }
-            }
-        },
-    };
-    settings.validate()?;
-    Ok(settings)
-}
-
-impl TryFrom<&RenderSettingsState> for RenderSettings {
-    type Error = ProtocolError;
-    fn try_from(s: &RenderSettingsState) -> Result<Self, ProtocolError> {
-        render_settings(s)
-    }
+/// The core settings of a request: [`NamedSettings::resolve`], every error naming its setting.
+pub fn render_settings(s: &NamedSettings) -> Result<RenderSettings, ProtocolError> {
+    Ok(s.resolve()?)
 }
 
 // ---------------------------------------------------------------------------------------------

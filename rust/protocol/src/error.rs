@@ -87,7 +87,7 @@ impl FrameError {
 /// Errors in the content of a well-framed message.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum ProtocolError {
-    #[error("protocol version mismatch: the client speaks version {client}, this daemon speaks version {server}")]
+    #[error("protocol version mismatch: the client speaks version {client}, this daemon speaks version {server}{}", if client < server { " (update the antumbra add-on or Python client to this daemon's version)" } else { " (update the antumbra daemon)" })]
     VersionMismatch { client: u32, server: u32 },
     /// A field with a value outside its valid range; `field` names the mesh/object/frame too.
     #[error("{field}: {message}")]

@@ -123,7 +123,11 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
         }
         Request::Render(render) => check(
             || format!("Render frame {}: settings.spp", render.frame),
-            render.settings.spp as u64,
+            // A wrong type passes here and is named when the settings are resolved.
+            render.settings.get("spp").map_or(
+                antumbra_core::render::RenderSettings::default().spp as u64,
+                |v| v.as_int().max(0) as u64,
+            ),
             limits.max_spp as u64,
             "max_spp",
         ),

@@ -12,6 +12,7 @@
 //! - Matrices are 16 f64 in column-major order (Blender's `matrix_world` transposed: element
 //!   `4*col + row`).
 
+pub use antumbra_core::settings::NamedSettings;
 use serde::{Deserialize, Serialize};
 use serde_bytes::ByteBuf;
 
@@ -19,7 +20,7 @@ use crate::error::ErrorCode;
 use crate::limits::Limits;
 
 /// The protocol version this crate speaks; `Hello` must carry it.
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// A message from the client to the daemon.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -207,8 +208,10 @@ pub struct ResolutionState {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RenderRequest {
     pub frame: i32,
+    /// Settings by name (`docs/protocol.md` lists them, `antumbra_core::settings::SCHEMA` defines
+    /// them): a missing one takes its default; an unknown name or a wrong type is an error.
     #[serde(default)]
-    pub settings: RenderSettingsState,
+    pub settings: NamedSettings,
     #[serde(default)]
     pub passes: Passes,
     /// Chosen by the client; echoed in `Progress` and `FrameResult`, named by `Cancel`.
@@ -244,117 +247,6 @@ impl Default for Passes {
             object_ids: false,
         }
     }
-}
-
-/// Mirrors [`antumbra_core::render::RenderSettings`]; omitted fields take the core defaults.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct RenderSettingsState {
-    pub spp: u32,
-    pub seed: u32,
-    pub build: BuildMethodState,
-    pub build_settings: BuildSettingsState,
-    pub shadow_order: ShadowOrderState,
-    pub stats: StatsModeState,
-    /// Children per BVH node: 2, 4 or 8.
-    pub width: u32,
-    /// The shadow order in the command-line syntax (`sato`, `sorted:budget=0.05`, ...) when it
-    /// is not one `shadow_order` can say; it then takes precedence.
-    pub order: Option<String>,
-    /// Added with the visibility-driven builds; older messages get `Previous`.
-    pub visibility: VisibilitySourceState,
-    /// How widths 4 and 8 collapse the binary tree. Added later; omitted means the core
-    /// default (`Sah`). The cost model is the core's default.
-    pub collapse: CollapseState,
-}
-
-/// Mirrors [`antumbra_core::bvh::CollapseMethod`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-pub enum CollapseState {
-    #[default]
-    Sah,
-    Greedy,
-}
-
-/// Mirrors [`antumbra_core::bvh::SpatialAxes`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-pub enum SpatialAxesState {
-    #[default]
-    Object,
-    All,
-}
-
-/// Mirrors [`antumbra_core::render::VisibilitySource`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-pub enum VisibilitySourceState {
-    #[default]
-    Previous,
-    Exact,
-    Prepass {
-        width: u32,
-        height: u32,
-    },
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-pub enum BuildMethodState {
-    #[default]
-    Sah,
-    Sbvh,
-    Abvh,
-    Osah,
-    Vsah,
-}
-
-/// Mirrors [`antumbra_core::bvh::BuildSettings`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct BuildSettingsState {
-    pub bins: u32,
-    pub max_leaf_size: u32,
-    pub traversal_cost: f32,
-    pub intersection_cost: f32,
-    /// Spatial splits and OSAH (added later; omitted fields take the core defaults).
-    pub spatial_splits: bool,
-    pub spatial_bins: u32,
-    pub spatial_alpha: f32,
-    pub spatial_max_growth: f32,
-    pub osah_weight: f32,
-    /// OSAH's viability rule: the hidden child must hold no visible reference (true, the core
-    /// default) or the paper's condition (5) alone (false). Added later; omitted means true.
-    pub osah_strict_viability: bool,
-    /// Axes binned for spatial splits: the best object split's (the core default) or all
-    /// three (SBVH as Stich et al.). Added later; omitted means `Object`.
-    pub spatial_axes: SpatialAxesState,
-    /// Nodes with fewer references than this bin spatial candidates with cut reference boxes
-    /// instead of clipped triangles (0 clips everywhere). Added later; omitted means the core
-    /// default.
-    pub spatial_clip_min_refs: u32,
-    /// Spatial splits only where the best object split's children overlap by at least this
-    /// fraction of the node's area (0 tries every node). Added later; omitted means the core
-    /// default.
-    pub spatial_node_overlap: f32,
-    /// Nodes with fewer references than this never try spatial splits (0 tries every node).
-    /// Added later; omitted means the core default.
-    pub spatial_min_refs: u32,
-    /// Nodes of at most this many references become leaves without a split search
-    /// (1..=max_leaf_size). Added later; omitted means the core default (1).
-    pub min_leaf_size: u32,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-pub enum ShadowOrderState {
-    Stored,
-    #[default]
-    NearFirst,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-pub enum StatsModeState {
-    #[default]
-    Counts,
-    CountsAndTiming,
-    TimingOnly,
 }
 
 /// The outputs of one rendered frame.

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use antumbra_core::bvh::{CollapseMethod, CollapseSettings, SpatialAxes};
 use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
 use antumbra_core::scene::{Mesh, Scene};
+use antumbra_core::settings::SettingValue;
 use antumbra_protocol::bytes::{f32s_to_bytes, triangles_to_bytes, vec3s_to_bytes};
 use antumbra_protocol::*;
 use glam::Vec3;
@@ -212,48 +213,36 @@ fn settings_round_trip_and_validate() {
         stats: StatsMode::CountsAndTiming,
         ..RenderSettings::default()
     };
-    let state = RenderSettingsState::from(&core);
+    let state = core.to_named();
     assert_eq!(render_settings(&state).unwrap(), core);
-    // The OSAH viability rule travels both ways (the paper's rule is not the default).
-    let mut paper = core.clone();
-    paper.build_settings.osah_strict_viability = false;
-    let paper_state = RenderSettingsState::from(&paper);
-    assert!(!paper_state.build_settings.osah_strict_viability);
-    assert_eq!(render_settings(&paper_state).unwrap(), paper);
-    // So do the collapse and the spatial-split axes (neither the default here).
+    // Non-default settings of every kind travel both ways, through MessagePack too.
     let mut other = core.clone();
+    other.build_settings.osah_strict_viability = false;
     other.collapse = CollapseSettings::new(CollapseMethod::Greedy);
     other.build_settings.spatial.axes = SpatialAxes::All;
     other.build_settings.spatial.clip_min_refs = 0;
-    let other_state = RenderSettingsState::from(&other);
-    assert_eq!(other_state.build_settings.spatial_clip_min_refs, 0);
-    assert_eq!(other_state.collapse, CollapseState::Greedy);
+    other.shadow_order = "sorted:logging=fbto:p=area:depth=3:budget=0.1"
+        .parse()
+        .unwrap();
+    let wire: NamedSettings = decode_body(&encode_body(&other.to_named()).unwrap()).unwrap();
     assert_eq!(
-        other_state.build_settings.spatial_axes,
-        SpatialAxesState::All
+        wire.get("osah_viability"),
+        Some(&SettingValue::from("paper"))
     );
-    assert_eq!(render_settings(&other_state).unwrap(), other);
-    // An older client's settings (no collapse field) get the core default collapse.
+    assert_eq!(wire.get("clip_min_refs"), Some(&SettingValue::Int(0)));
+    assert_eq!(render_settings(&wire).unwrap(), other);
+    // An empty map is the core defaults.
     assert_eq!(
-        RenderSettingsState::default().collapse,
-        CollapseState::Sah,
-        "the default collapse is SAH"
-    );
-    assert_eq!(
-        RenderSettings::try_from(&RenderSettingsState::default()).unwrap(),
+        render_settings(&NamedSettings::default()).unwrap(),
         RenderSettings::default()
     );
 
-    let bad = RenderSettingsState {
-        spp: 0,
-        ..state.clone()
-    };
+    let bad = state.clone().with("spp", 0i64);
     let e = render_settings(&bad).unwrap_err();
     assert_eq!(e.code(), ErrorCode::InvalidInput);
     assert!(message(&e).contains("spp"), "{e}");
-    let mut bad = state;
-    bad.build_settings.bins = 1;
-    assert!(message(&render_settings(&bad).unwrap_err()).contains("build.bins"));
+    let bad = state.with("bins", 1i64);
+    assert!(message(&render_settings(&bad).unwrap_err()).contains("bins"));
 }
 
 #[test]

@@ -229,14 +229,33 @@ fn decode_errors_name_the_problem() {
 fn hello_checks() {
     assert!(check_hello(&hello()).is_ok());
     let err = check_hello(&Request::Hello {
-        version: 2,
+        version: PROTOCOL_VERSION + 1,
         client: "future".into(),
         token: None,
     })
     .unwrap_err();
     assert_eq!(err.code(), ErrorCode::VersionMismatch);
-    assert!(err.to_string().contains("version 2"), "{err}");
-    assert!(err.to_string().contains("version 1"), "{err}");
+    let (ours, theirs) = (
+        format!("version {PROTOCOL_VERSION}"),
+        format!("version {}", PROTOCOL_VERSION + 1),
+    );
+    assert!(err.to_string().contains(&ours), "{err}");
+    assert!(err.to_string().contains(&theirs), "{err}");
+    assert!(
+        err.to_string().contains("update the antumbra daemon"),
+        "{err}"
+    );
+    // A client from before version 2 (older settings and mesh hashes) is told to update.
+    let err = check_hello(&Request::Hello {
+        version: 1,
+        client: "add-on 0.1".into(),
+        token: None,
+    })
+    .unwrap_err();
+    assert!(
+        err.to_string().contains("update the antumbra add-on"),
+        "{err}"
+    );
     let Reply::Error {
         code,
         session_usable,
@@ -320,10 +339,7 @@ fn limits_are_checked_and_named() {
 
     let render = Request::Render(RenderRequest {
         frame: 9,
-        settings: RenderSettingsState {
-            spp: 9,
-            ..Default::default()
-        },
+        settings: NamedSettings::new().with("spp", 9i64),
         passes: Passes::default(),
         request_id: 1,
     });

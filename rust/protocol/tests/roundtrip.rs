@@ -1,5 +1,6 @@
 //! Every message type survives encode → frame → decode unchanged.
 
+use antumbra_core::settings::SettingValue;
 use antumbra_protocol::*;
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -14,10 +15,6 @@ fn f64s() -> impl Strategy<Value = f64> {
         Just(f64::MIN_POSITIVE),
         Just(1e-300),
     ]
-}
-
-fn f32s() -> impl Strategy<Value = f32> {
-    prop_oneof![-1e9f32..1e9, Just(-0.0f32), Just(f32::MAX)]
 }
 
 fn matrix() -> impl Strategy<Value = [f64; 16]> {
@@ -117,85 +114,26 @@ fn resolution() -> impl Strategy<Value = ResolutionState> {
     })
 }
 
-fn settings() -> impl Strategy<Value = RenderSettingsState> {
-    (
-        any::<u32>(),
-        any::<u32>(),
-        (any::<u32>(), any::<u32>(), f32s(), f32s()),
-        prop_oneof![
-            Just(ShadowOrderState::Stored),
-            Just(ShadowOrderState::NearFirst)
-        ],
-        prop_oneof![
-            Just(StatsModeState::Counts),
-            Just(StatsModeState::CountsAndTiming),
-            Just(StatsModeState::TimingOnly)
-        ],
-        (
-            prop_oneof![Just(2u32), Just(4), Just(8)],
-            prop_oneof![
-                Just(None),
-                Just(Some("sato".to_string())),
-                Just(Some(
-                    "sorted:logging=fbto:p=area:depth=3:budget=0.1".to_string()
-                )),
-                Just(Some(
-                    "srdh:rays=32x32:bins=16:leaf=2:kernels=constant:min_occluded=0.25".to_string()
-                ))
-            ],
-        ),
+/// Settings maps as any peer may send them: any subset of the schema's names, each with a value
+/// of any of the four wire types (the wire carries them; `resolve` judges them).
+fn settings() -> impl Strategy<Value = NamedSettings> {
+    let value = prop_oneof![
+        any::<bool>().prop_map(SettingValue::Bool),
+        any::<i64>().prop_map(SettingValue::Int),
+        (-1e9f64..1e9).prop_map(SettingValue::Float),
+        "[a-z0-9:=.]{0,12}".prop_map(SettingValue::Text),
+    ];
+    proptest::collection::vec(
+        (0..antumbra_core::settings::SCHEMA.len(), value),
+        0..antumbra_core::settings::SCHEMA.len(),
     )
-        .prop_map(|(spp, seed, (b, l, tc, ic), order, stats, (width, text))| {
-            RenderSettingsState {
-                spp,
-                seed,
-                build: [
-                    BuildMethodState::Sah,
-                    BuildMethodState::Sbvh,
-                    BuildMethodState::Abvh,
-                    BuildMethodState::Osah,
-                    BuildMethodState::Vsah,
-                ][(b % 5) as usize],
-                build_settings: BuildSettingsState {
-                    bins: b,
-                    max_leaf_size: l,
-                    traversal_cost: tc,
-                    intersection_cost: ic,
-                    spatial_splits: l % 2 == 0,
-                    spatial_bins: b,
-                    spatial_alpha: tc,
-                    spatial_max_growth: ic,
-                    osah_weight: tc,
-                    osah_strict_viability: b % 2 == 1,
-                    spatial_axes: if l % 2 == 1 {
-                        SpatialAxesState::All
-                    } else {
-                        SpatialAxesState::Object
-                    },
-                    spatial_clip_min_refs: b.wrapping_mul(7919),
-                    spatial_node_overlap: ic,
-                    spatial_min_refs: l.wrapping_mul(31),
-                    min_leaf_size: b.wrapping_mul(3),
-                },
-                shadow_order: order,
-                stats,
-                width,
-                order: text,
-                collapse: if b % 3 == 0 {
-                    CollapseState::Greedy
-                } else {
-                    CollapseState::Sah
-                },
-                visibility: match l % 3 {
-                    0 => VisibilitySourceState::Previous,
-                    1 => VisibilitySourceState::Exact,
-                    _ => VisibilitySourceState::Prepass {
-                        width: b,
-                        height: l,
-                    },
-                },
-            }
-        })
+    .prop_map(|pairs| {
+        let mut n = NamedSettings::new();
+        for (i, v) in pairs {
+            n.insert(antumbra_core::settings::SCHEMA[i].name, v);
+        }
+        n
+    })
 }
 
 fn limits() -> impl Strategy<Value = Limits> {
@@ -536,65 +474,40 @@ fn field_order_unknown_fields_and_defaults() {
         r,
         Request::Render(RenderRequest {
             frame: 5,
-            settings: RenderSettingsState::default(),
+            settings: NamedSettings::default(),
             passes: Passes::default(),
             request_id: 7,
         })
     );
-    assert_eq!(RenderSettingsState::default().spp, 4);
+    assert_eq!(
+        render_settings(&NamedSettings::default()).unwrap(),
+        Default::default()
+    );
 
     // Partial nested defaults, and integers where floats are expected (as Python may send).
     let body = b"\x81\xa6Render\x84\xa5frame\x01\xaarequest_id\x02\xa8settings\x81\xa3spp\x10\xa6passes\x81\xabvisible_set\xc3";
     let Request::Render(r) = decode_body::<Request>(body).unwrap() else {
         panic!()
     };
-    assert_eq!(r.settings.spp, 16);
-    assert_eq!(r.settings.build_settings, BuildSettingsState::default());
-    assert_eq!(r.settings.build, BuildMethodState::Sah);
-    assert_eq!(r.settings.visibility, VisibilitySourceState::Previous);
-    // Build settings from before spatial splits and OSAH take the core defaults for them.
-    #[derive(serde::Serialize)]
-    struct OldBuildSettings {
-        bins: u32,
-        max_leaf_size: u32,
-        traversal_cost: f32,
-        intersection_cost: f32,
-    }
-    let old = rmp_serde::to_vec_named(&OldBuildSettings {
-        bins: 8,
-        max_leaf_size: 2,
-        traversal_cost: 1.0,
-        intersection_cost: 1.0,
-    })
-    .unwrap();
-    let b: BuildSettingsState = decode_body(&old).unwrap();
-    assert_eq!((b.bins, b.max_leaf_size), (8, 2));
-    assert_eq!(b.osah_weight, 0.9);
+    assert_eq!(r.settings.get("spp"), Some(&SettingValue::Int(16)));
+    let resolved = render_settings(&r.settings).unwrap();
+    assert_eq!(
+        resolved,
+        antumbra_core::render::RenderSettings {
+            spp: 16,
+            ..Default::default()
+        },
+        "every setting left out takes the core default"
+    );
+    // A wrong type decodes (the map holds any value) and is named when resolved.
+    let body = b"\x81\xa6Render\x83\xa5frame\x01\xaarequest_id\x02\xa8settings\x81\xa3spp\xc3";
+    let Request::Render(r) = decode_body::<Request>(body).unwrap() else {
+        panic!()
+    };
+    let e = render_settings(&r.settings).unwrap_err().to_string();
     assert!(
-        b.osah_strict_viability,
-        "omitted viability rule is the core default"
-    );
-    assert_eq!(b.spatial_axes, SpatialAxesState::Object);
-    assert!(b.spatial_splits && b.spatial_bins == 32);
-    assert_eq!(
-        b.spatial_clip_min_refs as usize,
-        antumbra_core::bvh::SpatialSettings::default().clip_min_refs,
-        "omitted clip threshold is the core default"
-    );
-    assert_eq!(
-        b.spatial_node_overlap,
-        antumbra_core::bvh::SpatialSettings::default().node_overlap,
-        "omitted node overlap gate is the core default"
-    );
-    assert_eq!(
-        b.spatial_min_refs as usize,
-        antumbra_core::bvh::SpatialSettings::default().min_refs,
-        "omitted spatial node size is the core default"
-    );
-    assert_eq!(
-        b.min_leaf_size as usize,
-        antumbra_core::bvh::BuildSettings::default().min_leaf_size,
-        "omitted smallest leaf is the core default"
+        e.contains("spp") && e.contains("integer") && e.contains("boolean"),
+        "{e}"
     );
     assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);
     // A field added later (the object-id pass) takes its default when an older peer omits it.

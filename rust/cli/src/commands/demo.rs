@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::Args;
 
-use super::render::{render_frames, MethodArgs};
+use super::render::render_frames;
+use crate::method_args::MethodArgs;
 use crate::scene_source::open_scene;
 
 #[derive(Args, Debug)]

@@ -16,7 +16,7 @@ pub use camera_rays::PrimaryRays;
 pub use lights::{LightSample, LightSampler};
 pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, OBJECT_PLANE};
-pub use settings::{build_and_order, RenderSettings, StatsMode, MAX_SPP};
+pub use settings::{RenderSettings, StatsMode, MAX_SPP};
 pub use shadow::{
     representative_rays, samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome,
 };

@@ -3,7 +3,6 @@ use serde::{Deserialize, Serialize};
 use super::VisibilitySource;
 use crate::bvh::{BuildMethod, BuildSettings, BvhWidth, CollapseMethod, CollapseSettings};
 use crate::trace::ShadowOrder;
-use crate::{Error, Result};
 
 /// What the passes measure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -57,53 +56,10 @@ impl Default for RenderSettings {
     }
 }
 
-/// `--build` as users spell it: a builder of the binary BVH, or `srdh`, which keeps the SAH tree
-/// for camera rays and gives each light its SRDH tree for shadow rays (the same as
-/// `--order srdh`). `order` is the order given, if any; with `srdh` it may only be an
-/// `srdh[:...]` order (its options) or absent.
-pub fn build_and_order(
-    build: &str,
-    order: Option<ShadowOrder>,
-) -> Result<(BuildMethod, ShadowOrder)> {
-    if build == "srdh" {
-        return match order {
-            None => Ok((BuildMethod::Sah, ShadowOrder::Srdh(Default::default()))),
-            Some(o @ ShadowOrder::Srdh(_)) => Ok((BuildMethod::Sah, o)),
-            Some(o) => Err(Error::invalid(
-                "build",
-                format!(
-                    "'srdh' traces shadow rays with an SRDH tree per light, so the order cannot \
-                     also be '{o}' (leave it out, or give srdh[:...] options)"
-                ),
-            )),
-        };
-    }
-    let method = build.parse::<BuildMethod>().map_err(|_| {
-        Error::invalid(
-            "build",
-            format!("unknown build method '{build}' (known: sah, sbvh, abvh, osah, vsah, srdh)"),
-        )
-    })?;
-    Ok((method, order.unwrap_or_default()))
-}
-
 /// Upper bound on shadow samples per pixel; more gives no visible gain and risks runaway work.
 pub const MAX_SPP: u32 = 4096;
 
 impl RenderSettings {
-    pub fn validate(&self) -> Result<()> {
-        if self.spp == 0 || self.spp > MAX_SPP {
-            return Err(Error::invalid(
-                "spp",
-                format!("must be in 1..={MAX_SPP}, got {}", self.spp),
-            ));
-        }
-        self.shadow_order.validate()?;
-        self.visibility.validate()?;
-        self.collapse.cost.validate()?;
-        self.build_settings.validate()
-    }
-
     /// The method's name as it appears in statistics: builder, BVH width and shadow-ray child
     /// order, e.g. `sah/bin8/sorted:logging=sato:p=1:budget=0.05`; a smallest leaf other than 1
     /// is named with the builder (`osah-previous:leaf8/bin2/fbto`).
@@ -160,33 +116,5 @@ mod tests {
             "{}",
             s.method_name()
         );
-    }
-
-    #[test]
-    fn build_srdh_is_sah_with_the_srdh_order() {
-        let srdh: ShadowOrder = "srdh:rays=32x32".parse().unwrap();
-        assert_eq!(
-            build_and_order("srdh", None).unwrap(),
-            (BuildMethod::Sah, ShadowOrder::Srdh(Default::default()))
-        );
-        assert_eq!(
-            build_and_order("srdh", Some(srdh)).unwrap(),
-            (BuildMethod::Sah, srdh)
-        );
-        let err = build_and_order("srdh", Some(ShadowOrder::Sato)).unwrap_err();
-        assert!(
-            err.to_string().contains("build") && err.to_string().contains("sato"),
-            "{err}"
-        );
-        assert_eq!(
-            build_and_order("osah", None).unwrap(),
-            (BuildMethod::Osah, ShadowOrder::Fbto)
-        );
-        assert_eq!(
-            build_and_order("sbvh", Some(srdh)).unwrap(),
-            (BuildMethod::Sbvh, srdh)
-        );
-        let err = build_and_order("kd", None).unwrap_err();
-        assert!(err.to_string().contains("'kd'"), "{err}");
     }
 }

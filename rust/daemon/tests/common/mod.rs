@@ -12,7 +12,7 @@ use antumbra_core::scene::{Camera, Light, LightKind, Mesh, Object, Resolution, S
 use antumbra_daemon::client::Client;
 use antumbra_daemon::{Daemon, DaemonConfig, DaemonError, DaemonHandle};
 use antumbra_protocol::{
-    planes_from_reply, DaemonStats, FrameResultReply, Passes, RenderSettingsState, Reply, Request,
+    planes_from_reply, DaemonStats, FrameResultReply, NamedSettings, Passes, Reply, Request,
 };
 use antumbra_scenes::{builtin, SceneParams};
 use glam::{DMat4, DVec3, Vec3};
@@ -270,7 +270,7 @@ pub fn assert_same_result(reply: &FrameResultReply, expected: &FrameResult) {
 pub fn render_reply(c: &mut Client, frame: i32, request_id: u64) -> FrameResultReply {
     c.render(
         frame,
-        RenderSettingsState::default(),
+        NamedSettings::default(),
         Passes::default(),
         request_id,
     )
