@@ -241,8 +241,8 @@ def test_osah_viability_rule_changes_work_not_masks(scene):
             np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True)
         )
     settings = antumbra.render_settings(build="osah", osah_viability="paper")
-    assert settings["build_settings"]["osah_strict_viability"] is False
-    assert antumbra.render_settings()["build_settings"]["osah_strict_viability"] is True
+    assert settings["osah_viability"] == "paper"
+    assert antumbra.render_settings()["osah_viability"] == "strict"
 
 
 def test_collapse_and_spatial_axes_change_work_not_masks(scene):
@@ -260,10 +260,9 @@ def test_collapse_and_spatial_axes_change_work_not_masks(scene):
     r = session.render(1, passes=["masks"], build="sbvh", spatial_axes="all")
     assert all(np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True))
     settings = antumbra.render_settings(collapse="greedy", spatial_axes="all")
-    assert settings["collapse"] == "Greedy"
-    assert settings["build_settings"]["spatial_axes"] == "All"
+    assert (settings["collapse"], settings["spatial_axes"]) == ("greedy", "all")
     default = antumbra.render_settings()
-    assert (default["collapse"], default["build_settings"]["spatial_axes"]) == ("Sah", "Object")
+    assert (default["collapse"], default["spatial_axes"]) == ("sah", "object")
 
 
 def test_render_is_deterministic_and_reuses_bvhs(scene):
@@ -544,29 +543,34 @@ def test_bad_containers(scene):
 @pytest.mark.parametrize(
     ("kwargs", "pattern"),
     [
-        ({"spp": 0}, r"spp: must be in 1..=4096, got 0"),
+        ({"spp": 0}, r"spp: expected an integer in 1..=4096, got an integer \(0\)"),
         ({"spp": 5000}, r"spp"),
-        ({"spp": 2.5}, r"spp: expected an integer, got float"),
-        ({"spp": True}, r"spp: expected an integer, got bool"),
+        ({"spp": 2.5}, r"spp: expected an integer in 1..=4096, got a number \(2.5\)"),
+        ({"spp": True}, r"spp: expected an integer in 1..=4096, got a boolean \(true\)"),
+        ({"spd": 4}, r"spd: unknown setting \(known: spp, seed, "),
+        ({"osah_w": [0.5]}, r"osah_w: expected a boolean, an integer, a number or text, got list"),
         ({"bins": 1}, r"bins"),
         ({"leaf_size": 0}, r"leaf_size|max_leaf_size"),
         (
             {"leaf_size": 4, "min_leaf_size": 5},
-            r"build.min_leaf_size: must be in 1..=max_leaf_size \(4\), got 5",
+            r"min_leaf_size: must be at most leaf_size \(4\), got 5",
         ),
-        ({"min_leaf_size": -1}, r"min_leaf_size: -1 is out of range"),
+        (
+            {"min_leaf_size": -1},
+            r"min_leaf_size: expected an integer in 1..=64, got an integer \(-1\)",
+        ),
         ({"order": "far"}, r"order: .*unknown order 'far'"),
         ({"order": "sorted:budget=2"}, r"order: .*budget must be in \(0, 1\]"),
-        ({"width": 3}, r"width: must be 2, 4 or 8, got 3"),
+        ({"width": 3}, r"width: expected one of 2, 4, 8, got an integer \(3\)"),
         (
             {"build": "lbvh"},
-            r"build: unknown build method 'lbvh' \(known: sah, sbvh, abvh, osah, vsah, srdh\)",
+            r"build: expected one of sah, sbvh, abvh, osah, vsah, srdh, got text \('lbvh'\)",
         ),
         ({"timing": "always"}, r"timing: expected one of"),
-        ({"osah_viability": "loose"}, r"osah_viability: expected one of 'strict', 'paper'"),
-        ({"collapse": "lazy"}, r"collapse: expected one of 'sah', 'greedy'"),
-        ({"spatial_axes": "xy"}, r"spatial_axes: expected one of 'object', 'all'"),
-        ({"timing": 1}, r"timing: expected True, False or 'only'"),
+        ({"osah_viability": "loose"}, r"osah_viability: expected one of strict, paper"),
+        ({"collapse": "lazy"}, r"collapse: expected one of sah, greedy"),
+        ({"spatial_axes": "xy"}, r"spatial_axes: expected one of object, all"),
+        ({"timing": 1}, r"timing: expected one of off, on, only, got an integer \(1\)"),
         ({"passes": ["masks", "shadows"]}, r"passes: unknown pass 'shadows'"),
         ({"progress": 3}, r"progress: expected a callable"),
         ({"frame": "1"}, r"frame: expected an integer, got str"),
@@ -629,3 +633,36 @@ def test_object_ids_pass(scene):
     hidden = session.render(3, passes=["object_ids"]).object_ids
     assert not (hidden == 1.0).any()
     assert np.array_equal(hidden[ids != 1.0], ids[ids != 1.0])
+
+
+def test_settings_schema_describes_every_setting_render_takes():
+    schema = antumbra.settings_schema()
+    names = [s["name"] for s in schema]
+    assert len(names) == len(set(names))
+    assert {"spp", "build", "order", "leaf_size", "min_leaf_size", "osah_w", "width"} <= set(names)
+    defaults = antumbra.render_settings()
+    assert sorted(defaults) == sorted(names)
+    for s in schema:
+        assert s["default"] == defaults[s["name"]], s["name"]
+        assert s["help"] and s["group_title"], s["name"]
+        assert s["type"] in ("bool", "int", "float", "choice", "text"), s
+        if s["type"] in ("int", "float"):
+            assert s["min"] <= s["default"] <= s["max"], s
+        if s["type"] == "choice":
+            assert s["default"] in s["choices"], s
+    # Each setting reaches the render: a non-default value of each comes back as given.
+    for s in schema:
+        if s["type"] == "choice":
+            other = next(c for c in s["choices"] if c != s["default"])
+        elif s["type"] == "bool":
+            other = not s["default"]
+        elif s["type"] == "int":
+            other = s["min"] if s["default"] != s["min"] else s["min"] + 1
+        else:
+            continue
+        given = {s["name"]: other}
+        if s["name"] == "min_leaf_size":
+            given["leaf_size"] = 64
+        if s["name"] == "build" and other == "srdh":
+            continue
+        assert antumbra.render_settings(**given)[s["name"]] == other, s["name"]

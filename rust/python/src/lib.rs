@@ -100,6 +100,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(colorize_heat, m)?)?;
     m.add_class::<settings::RenderSettings>()?;
+    m.add_function(wrap_pyfunction!(settings::settings_schema, m)?)?;
     m.add_class::<connection::Connection>()?;
     m.add_class::<local::LocalSession>()?;
     m.add("PROTOCOL_VERSION", antumbra_protocol::PROTOCOL_VERSION)?;

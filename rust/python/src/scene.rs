@@ -2,13 +2,10 @@
 //! name the field at fault. Both sessions build their requests here, so the socket and the
 //! in-process paths see the same messages.
 
-use antumbra_core::render::VisibilitySource;
 use antumbra_core::scene::{Camera, Light, Resolution};
 use antumbra_protocol::{
-    check_limits, render_settings, AreaShapeState, BuildMethodState, BuildSettingsState,
-    CameraState, CollapseState, FrameUpdate, LightKindState, LightState, Limits, ObjectState,
-    Passes, RenderSettingsState, Request, ResolutionState, SensorFitState, ShadowOrderState,
-    SpatialAxesState, StatsModeState, VisibilitySourceState,
+    check_limits, AreaShapeState, CameraState, FrameUpdate, LightKindState, LightState, Limits,
+    ObjectState, Passes, Request, ResolutionState, SensorFitState,
 };
 use numpy::{PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyOverflowError;
@@ -562,137 +559,9 @@ pub fn camera_path(v: &Bound<'_, PyAny>) -> ClientResult<Vec<(i32, CameraState)>
 }
 
 // ---------------------------------------------------------------------------------------------
-// Render settings
+// Passes
 
 pub const PASS_NAMES: &[&str] = &["masks", "combined", "heat_maps", "visible", "object_ids"];
-
-#[allow(clippy::too_many_arguments)]
-pub fn render_settings_state(
-    spp: &Bound<'_, PyAny>,
-    seed: &Bound<'_, PyAny>,
-    build: &str,
-    order: Option<&str>,
-    leaf_size: &Bound<'_, PyAny>,
-    bins: &Bound<'_, PyAny>,
-    traversal_cost: f64,
-    intersection_cost: f64,
-    timing: &Bound<'_, PyAny>,
-    width: &Bound<'_, PyAny>,
-    visibility: &str,
-    osah_w: Option<f64>,
-    osah_viability: Option<&str>,
-    collapse: Option<&str>,
-    spatial_axes: Option<&str>,
-    min_leaf_size: Option<&Bound<'_, PyAny>>,
-) -> ClientResult<RenderSettingsState> {
-    let timing = if let Ok(b) = timing.cast::<PyBool>() {
-        if b.is_true() {
-            StatsModeState::CountsAndTiming
-        } else {
-            StatsModeState::Counts
-        }
-    } else if let Ok(s) = timing.cast::<PyString>() {
-        choice(
-            &s.to_string(),
-            "timing",
-            &[
-                ("counts", StatsModeState::Counts),
-                ("counts_and_timing", StatsModeState::CountsAndTiming),
-                ("only", StatsModeState::TimingOnly),
-            ],
-        )?
-    } else {
-        return Err(ClientError::invalid(format!(
-            "timing: expected True, False or 'only', got {}",
-            describe(timing)
-        )));
-    };
-    // Parsed here too so a bad build or order is named before anything is sent; `build='srdh'`
-    // is the SAH tree with the srdh order, as `antumbra render --build srdh` is.
-    let given_order = order
-        .map(|o| o.parse::<antumbra_core::trace::ShadowOrder>())
-        .transpose()
-        .map_err(|e| ClientError::invalid(e.to_string()))?;
-    let (build, shadow_order) = antumbra_core::render::build_and_order(build, given_order)
-        .map_err(|e| ClientError::invalid(e.to_string()))?;
-    let order_text = order.map_or_else(|| shadow_order.to_string(), str::to_string);
-    let order = order_text.as_str();
-    let state = RenderSettingsState {
-        spp: integer::<u32>(spp, "spp", "1 to 4096")?,
-        seed: integer::<u32>(seed, "seed", "an unsigned 32-bit integer")?,
-        build: choice(
-            build.name(),
-            "build",
-            &[
-                ("sah", BuildMethodState::Sah),
-                ("sbvh", BuildMethodState::Sbvh),
-                ("abvh", BuildMethodState::Abvh),
-                ("osah", BuildMethodState::Osah),
-                ("vsah", BuildMethodState::Vsah),
-            ],
-        )?,
-        build_settings: BuildSettingsState {
-            bins: integer::<u32>(bins, "bins", "2 to 256")?,
-            max_leaf_size: integer::<u32>(leaf_size, "leaf_size", "1 to 64")?,
-            min_leaf_size: match min_leaf_size {
-                None => BuildSettingsState::default().min_leaf_size,
-                Some(v) => integer::<u32>(v, "min_leaf_size", "1 to leaf_size")?,
-            },
-            traversal_cost: traversal_cost as f32,
-            intersection_cost: intersection_cost as f32,
-            osah_weight: osah_w.map_or(BuildSettingsState::default().osah_weight, |w| w as f32),
-            osah_strict_viability: match osah_viability {
-                None => BuildSettingsState::default().osah_strict_viability,
-                Some(v) => choice(v, "osah_viability", &[("strict", true), ("paper", false)])?,
-            },
-            spatial_axes: match spatial_axes {
-                None => BuildSettingsState::default().spatial_axes,
-                Some(v) => choice(
-                    v,
-                    "spatial_axes",
-                    &[
-                        ("object", SpatialAxesState::Object),
-                        ("all", SpatialAxesState::All),
-                    ],
-                )?,
-            },
-            ..BuildSettingsState::default()
-        },
-        collapse: match collapse {
-            None => RenderSettingsState::default().collapse,
-            Some(v) => choice(
-                v,
-                "collapse",
-                &[
-                    ("sah", CollapseState::Sah),
-                    ("greedy", CollapseState::Greedy),
-                ],
-            )?,
-        },
-        // The two orders older daemons know travel as `shadow_order`; every other order (the
-        // `antumbra render --order` syntax) as text, checked by `render_settings` below.
-        shadow_order: match order {
-            "stored" => ShadowOrderState::Stored,
-            _ => ShadowOrderState::NearFirst,
-        },
-        order: (!matches!(order, "near" | "fbto" | "stored")).then(|| order.to_string()),
-        width: integer::<u32>(width, "width", "2, 4 or 8")?,
-        stats: timing,
-        visibility: match visibility
-            .parse::<antumbra_core::render::VisibilitySource>()
-            .map_err(|e| ClientError::invalid(e.to_string()))?
-        {
-            VisibilitySource::Previous => VisibilitySourceState::Previous,
-            VisibilitySource::Exact => VisibilitySourceState::Exact,
-            VisibilitySource::Prepass { width, height } => {
-                VisibilitySourceState::Prepass { width, height }
-            }
-        },
-    };
-    // The daemon's own check, made here so a bad setting fails before the request is sent.
-    render_settings(&state).map_err(|e| ClientError::invalid(e.to_string()))?;
-    Ok(state)
-}
 
 pub fn passes(v: &Bound<'_, PyAny>) -> ClientResult<Passes> {
     let mut p = Passes {

@@ -26,6 +26,7 @@ from .client import (
     read_exr,
     read_recording,
     render_settings,
+    settings_schema,
 )
 from .errors import (
     AntumbraError,
@@ -63,4 +64,5 @@ __all__ = [
     "read_exr",
     "read_recording",
     "render_settings",
+    "settings_schema",
 ]

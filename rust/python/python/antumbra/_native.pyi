@@ -53,26 +53,17 @@ def colorize_heat(
 ) -> tuple[npt.NDArray[np.uint8], float]:
     """A heat map through the turbo colour map (sRGB uint8 (h, w, 3)) and the max it used."""
 
-class RenderSettings:
-    """Render settings, checked when made (InvalidInput names a bad field)."""
+def settings_schema() -> list[dict[str, Any]]:
+    """One dict per render setting: name, type, default, group, group_title, help, expected,
+    and min/max/open, choices or syntax by type."""
 
-    def __init__(
-        self,
-        spp: int,
-        seed: int,
-        build: str,
-        order: str | None,
-        leaf_size: int,
-        bins: int,
-        traversal_cost: float,
-        intersection_cost: float,
-        timing: bool | str,
-        width: int,
-        visibility: str,
-        osah_w: float | None = None,
-    ) -> None: ...
+class RenderSettings:
+    """Render settings by name (settings_schema()), checked when made (InvalidInput names a
+    bad setting); the rest take their defaults."""
+
+    def __init__(self, **settings: Any) -> None: ...
     def json(self) -> str:
-        """RenderSettingsState as JSON (a spool job's settings)."""
+        """Every setting by name as JSON (a render request's and a spool job's settings)."""
 
 class _SessionMethods:
     @property

@@ -41,6 +41,7 @@ __all__ = [
     "read_exr",
     "read_recording",
     "render_settings",
+    "settings_schema",
 ]
 
 PROTOCOL_VERSION: int = _native.PROTOCOL_VERSION
@@ -97,47 +98,21 @@ def colorize_heat(array: np.ndarray, max: float | None = None) -> tuple[np.ndarr
     return _native.colorize_heat(array, max)
 
 
-def render_settings(
-    spp: int = 4,
-    seed: int = 0,
-    build: str = "sah",
-    order: str | None = None,
-    leaf_size: int = 8,
-    bins: int = 16,
-    timing: bool | str = False,
-    *,
-    width: int = 2,
-    visibility: str = "previous",
-    osah_w: float | None = None,
-    osah_viability: str | None = None,
-    collapse: str | None = None,
-    spatial_axes: str | None = None,
-    min_leaf_size: int | None = None,
-    traversal_cost: float = 1.0,
-    intersection_cost: float = 1.0,
-) -> dict[str, Any]:
-    """The settings :meth:`render` takes, checked as it checks them, as the protocol spells
-    them (``RenderSettingsState``): the ``settings`` of a spool job's ``job.json``."""
-    return json.loads(
-        _native.RenderSettings(
-            spp,
-            seed,
-            build,
-            order,
-            leaf_size,
-            bins,
-            traversal_cost,
-            intersection_cost,
-            timing,
-            width,
-            visibility,
-            osah_w,
-            osah_viability,
-            collapse,
-            spatial_axes,
-            min_leaf_size,
-        ).json()
-    )
+def settings_schema() -> list[dict[str, Any]]:
+    """Every render setting, as the core defines them once: one dict per setting with ``name``,
+    ``type`` ('bool', 'int', 'float', 'choice' or 'text'), ``default``, ``group`` and
+    ``group_title`` (the panel's sections), ``help``, ``expected`` (what it takes, in words)
+    and, by type, ``min``/``max`` (``open``: bounds excluded), ``choices`` or ``syntax``.
+    :meth:`Client.render` and :func:`render_settings` take these names as keywords."""
+    return _native.settings_schema()
+
+
+def render_settings(**settings: Any) -> dict[str, Any]:
+    """Every render setting by name, with the given ones (named as :func:`settings_schema`
+    names them) checked as the daemon checks them and the rest at their defaults: the
+    ``settings`` of a render request and of a spool job's ``job.json``. A setting left as None
+    takes its default; an unknown name or a bad value raises :class:`InvalidInput` naming it."""
+    return json.loads(_native.RenderSettings(**settings).json())
 
 
 def read_exr(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
@@ -300,57 +275,22 @@ class _Session:
     def render(
         self,
         frame: int,
-        spp: int = 4,
-        seed: int = 0,
-        build: str = "sah",
-        order: str | None = None,
-        leaf_size: int = 8,
-        bins: int = 16,
-        timing: bool | str = False,
+        *,
         passes: Iterable[str] = DEFAULT_PASSES,
         progress: ProgressCallback | None = None,
-        *,
-        width: int = 2,
-        visibility: str = "previous",
-        osah_w: float | None = None,
-        osah_viability: str | None = None,
-        collapse: str | None = None,
-        spatial_axes: str | None = None,
-        min_leaf_size: int | None = None,
-        traversal_cost: float = 1.0,
-        intersection_cost: float = 1.0,
         timeout: float | None = None,
+        **settings: Any,
     ) -> Result:
         """Renders a frame sent with :meth:`frame_update`.
 
         Args:
-            spp: shadow samples per pixel for soft lights (1 to 4096).
-            seed: seed of the light-sample patterns.
-            build: the BVH builder: 'sah', 'sbvh' (spatial splits), 'abvh', 'osah' (built from
-                the visible triangles, see ``visibility``), 'vsah' (a reference) or 'srdh'
-                (SAH for camera rays, an SRDH tree per light for shadow rays: order 'srdh').
-            order: child order of shadow rays, as ``antumbra render --order`` takes it:
-                'stored', 'fbto' (or 'near'), 'sato', 'rtsah', 'random[:seed=S]' or
-                'sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]' (per light) or
-                'srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional]
-                [:min_occluded=F]' (a shadow-ray BVH per mostly-occluded light). None: 'fbto',
-                or 'srdh' with ``build='srdh'``.
-            width: children per BVH node (2, 4 or 8).
-            visibility: where 'abvh', 'osah' and 'vsah' builds take the visible triangles
-                from: 'previous' (the session's last frame), 'exact' (this frame, two passes)
-                or 'prepass:WxH' (previous; a WxH primary prepass on the first frame).
-            osah_w: OSAH's weight of visible triangles, in (0, 1) (None: 0.9).
-            osah_viability: which OSAH splits are taken: 'strict' (None; the hidden child holds
-                no visible triangle, measured better) or 'paper' (the paper's condition alone).
-            collapse: how widths 4 and 8 collapse the binary tree: 'sah' (None; SAH-optimal
-                slots and leaves) or 'greedy' (the largest child opened first).
-            spatial_axes: axes binned for spatial splits: 'object' (None; the best object
-                split's axis) or 'all' (SBVH as Stich et al.).
-            leaf_size: most triangles per BVH leaf (1 to 64); bins: SAH bins (2 to 256).
-            min_leaf_size: nodes of at most this many triangles become leaves without a split
-                search (1 to ``leaf_size``; None: 1): a faster build for larger leaves.
-            timing: False (exact work counters and heat maps), True (counters, then each pass
-                again without counters for Mrays/s) or 'only' (timings, no heat maps).
+            settings: the render settings by name, as :func:`settings_schema` lists them
+                (``antumbra render --help`` shows the same with dashes): for example
+                ``spp=16``, ``build='osah'``, ``visibility='exact'``, ``width=8``,
+                ``order='sorted:budget=0.1'``, ``leaf_size=4``, ``osah_w=0.5``,
+                ``timing=True`` (or 'on', 'off', 'only'). Those left out, or None, take their
+                defaults; an unknown name or a bad value raises :class:`InvalidInput` naming it
+                before anything is sent.
             passes: any of 'masks', 'combined', 'heat_maps', 'visible', 'object_ids'.
             progress: ``progress(stage, done, total)``, called for each progress report (with
                 the GIL); returning False cancels the render (it then raises a
@@ -359,25 +299,8 @@ class _Session:
             timeout: seconds to wait between two replies of the daemon (None: no limit).
         """
         passes = tuple(passes) if not isinstance(passes, str) else (passes,)
-        settings = _native.RenderSettings(
-            spp,
-            seed,
-            build,
-            order,
-            leaf_size,
-            bins,
-            traversal_cost,
-            intersection_cost,
-            timing,
-            width,
-            visibility,
-            osah_w,
-            osah_viability,
-            collapse,
-            spatial_axes,
-            min_leaf_size,
-        )
-        raw = self._native.render(frame, settings, passes, progress, timeout)
+        checked = _native.RenderSettings(**settings)
+        raw = self._native.render(frame, checked, passes, progress, timeout)
         return Result._from_native(dict(raw), passes)
 
     def cancel(self, request_id: int | None = None) -> bool:
