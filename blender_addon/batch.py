@@ -1,8 +1,8 @@
 """Headless shadow-pass batches of a .blend's frames.
 
     blender -b scene.blend -P blender_addon/batch.py -- --frames 1-100 --out DIR
-        [--build sah|sbvh|abvh|osah|vsah] [--width 2|4|8] [--order fbto|stored|sato|rtsah|
-        random|sorted] [--budget 0.05] [--visibility previous|exact|prepass] [--spp 4]
+        [--build osah] [--width 8] [--order sorted:budget=0.05] [--spp 4] ... (every render
+        setting, named as ``antumbra render`` names it: ``--help`` lists them)
         [--scale 1.0] [--no-heat-maps]
         [--socket PATH] [--binary PATH] [--spool DIR] [--restart]
 
@@ -34,9 +34,9 @@ from pathlib import Path
 import bpy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from antumbra import client_loader, daemon, results, spool
+from antumbra import client_loader, daemon, results, settings_ui, spool
 from antumbra.jobs import RenderJob
-from antumbra.options import BUILDS, ORDERS, VISIBILITIES, WIDTHS, RenderOptions
+from antumbra.options import RenderOptions
 
 
 def parse_frames(text: str, scene) -> list[int]:
@@ -57,23 +57,6 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="batch.py", description=__doc__.splitlines()[0])
     parser.add_argument("--frames", default="", help="A-B or N (default: the scene's range)")
     parser.add_argument("--out", type=Path, required=True, help="output folder")
-    parser.add_argument("--build", default="sah", choices=BUILDS)
-    parser.add_argument("--width", type=int, default=2, choices=WIDTHS)
-    parser.add_argument(
-        "--order",
-        default="fbto",
-        help=f"{' | '.join(ORDERS)} (sorted: per light, from --budget of its shadow rays)",
-    )
-    parser.add_argument("--budget", type=float, default=0.05, help="sorted order's ray share")
-    parser.add_argument("--visibility", default="previous", choices=VISIBILITIES)
-    parser.add_argument(
-        "--min-leaf-size",
-        type=int,
-        default=1,
-        help="nodes of at most this many triangles become leaves unsplit (1 to 8)",
-    )
-    parser.add_argument("--spp", type=int, default=4)
-    parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--scale", type=float, default=1.0, help="resolution scale")
     parser.add_argument("--no-heat-maps", action="store_true")
     parser.add_argument("--no-png", action="store_true")
@@ -81,15 +64,13 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--binary", default="", help="the antumbra executable")
     parser.add_argument("--spool", type=Path, help="render through this spool folder")
     parser.add_argument("--restart", action="store_true", help="render finished frames again")
+    settings_ui.add_arguments(parser)
     args = parser.parse_args(argv)
-    if args.order.split(":")[0] not in ORDERS:
-        parser.error(f"--order: '{args.order}' is not one of {', '.join(ORDERS)}")
-    if not 1 <= args.spp <= 4096:
-        parser.error("--spp must be in 1..4096")
     if not 0.0 < args.scale <= 1.0:
         parser.error("--scale must be in (0, 1]")
-    if not 1 <= args.min_leaf_size <= 8:
-        parser.error("--min-leaf-size must be in 1..8")
+    problem = settings_ui.check(settings_ui.from_arguments(args))
+    if problem:
+        parser.error(problem)
     return args
 
 
@@ -98,14 +79,7 @@ def run(argv: list[str]) -> int:
     scene = bpy.context.scene
     frames = parse_frames(args.frames, scene)
     options = RenderOptions(
-        build=args.build,
-        width=args.width,
-        order=args.order,
-        sample_budget=args.budget,
-        visibility=args.visibility,
-        min_leaf_size=args.min_leaf_size,
-        spp=args.spp,
-        seed=args.seed,
+        settings=settings_ui.from_arguments(args),
         resolution_scale=args.scale,
         heat_maps=not args.no_heat_maps,
         save_png=not args.no_png,
@@ -152,7 +126,8 @@ def run(argv: list[str]) -> int:
                 flush=True,
             )
     name = Path(bpy.data.filepath).name or "(unsaved scene)"
-    print(f"antumbra: {name}: {len(job.pending)} frame(s) to render, {options.describe()}")
+    what = options.describe(settings_ui.defaults())
+    print(f"antumbra: {name}: {len(job.pending)} frame(s) to render, {what}")
     start = time.perf_counter()
     try:
         job.run()

@@ -54,9 +54,9 @@ def setup():
     scene = bpy.context.scene
     scene.render.engine = "BLENDER_WORKBENCH"  # fewer render panels above ours
     scene.antumbra.resolution_scale = 1.0
-    scene.antumbra.spp = 4
-    scene.antumbra.width = "8"
-    scene.antumbra.order = "sorted"
+    scene.antumbra.method.spp = 4
+    scene.antumbra.method.width = "8"
+    scene.antumbra.method.order = "sorted:budget=0.05"
     window, screen = main_window()
     view = largest(screen, "VIEW_3D")
     with bpy.context.temp_override(window=window, screen=screen, area=view):

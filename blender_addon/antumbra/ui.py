@@ -7,7 +7,7 @@ import json
 
 import bpy
 
-from . import client_loader, operators, results
+from . import client_loader, operators, results, settings_ui
 
 
 def _daemon_box(layout):
@@ -65,16 +65,9 @@ def _stats_box(layout, settings):
 def draw_panel(layout, context):
     settings = context.scene.antumbra
     _daemon_box(layout)
+    if getattr(settings, "method", None) is not None:
+        settings_ui.draw(layout, settings.method)
     col = layout.column(align=True)
-    col.prop(settings, "build")
-    if settings.build in {"abvh", "osah", "vsah"}:
-        col.prop(settings, "visibility")
-    col.prop(settings, "min_leaf_size")
-    col.prop(settings, "width")
-    col.prop(settings, "order")
-    if settings.order == "sorted":
-        col.prop(settings, "sample_budget")
-    col.prop(settings, "spp")
     col.prop(settings, "resolution_scale")
     col.prop(settings, "heat_maps")
     col = layout.column(align=True)

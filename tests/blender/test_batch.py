@@ -173,7 +173,10 @@ def test_bad_arguments_exit_non_zero(scene_blend, short_tmp):
     assert "--frames: the range 9-3 is empty" in done.stderr
     done = batch(scene_blend, short_tmp / "out", short_tmp / "home", "--min-leaf-size", "9")
     assert done.returncode == 2, done.stdout + done.stderr
-    assert "--min-leaf-size must be in 1..8" in done.stderr
+    assert "min_leaf_size: must be at most leaf_size (8), got 9" in done.stderr
+    done = batch(scene_blend, short_tmp / "out", short_tmp / "home", "--osah-w", "2")
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert "osah_w: expected a number in (0, 1), got a number (2)" in done.stderr
 
 
 def test_spool_batch_equals_socket_batch_and_resumes(scene_blend, antumbra_bin, short_tmp):

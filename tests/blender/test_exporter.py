@@ -16,10 +16,12 @@ from pathlib import Path
 # Blender writes into $HOME: keep it out of the real one. Set before bpy is imported.
 os.environ["HOME"] = tempfile.mkdtemp(prefix="antumbra-bpy-home-")
 
+import subprocess
+
 import bpy
 import numpy as np
 import pytest
-from conftest import ADDON
+from conftest import ADDON, blender_env
 
 
 def _load_addon():
@@ -36,7 +38,15 @@ def _load_addon():
 
 
 addon = _load_addon()
-from antumbra_addon import daemon, export, jobs, options, preferences  # noqa: E402
+from antumbra_addon import (  # noqa: E402
+    client_loader,
+    daemon,
+    export,
+    jobs,
+    options,
+    preferences,
+    settings_ui,
+)
 
 client = addon.client_loader.load()
 
@@ -256,7 +266,7 @@ def test_cancelled_job_keeps_complete_frames_only(link, short_tmp):
     job = jobs.RenderJob(
         scene=scene,
         frames=[1, 2, 3, 4],
-        options=options.RenderOptions(spp=1),
+        options=options.RenderOptions(settings={"spp": 1}),
         link=link,
         out_dir=out,
         on_frame=cancel_after_first,
@@ -283,7 +293,7 @@ def test_job_reconnects_after_the_daemon_dies(link, short_tmp):
     job = jobs.RenderJob(
         scene=scene,
         frames=[1, 2, 3],
-        options=options.RenderOptions(spp=1, heat_maps=False),
+        options=options.RenderOptions(settings={"spp": 1}, heat_maps=False),
         link=link,
         out_dir=short_tmp / "out",
         on_frame=kill_after_first,
@@ -359,3 +369,61 @@ def test_triangles_equal_blenders_loop_triangles():
             plain = got[1::2, 0] == got[0::2, 0]
             concave = int((~plain).sum())
     assert concave > 0
+
+
+def test_panel_properties_follow_the_settings_schema(registered):
+    """Every setting of the client's schema is a property of the panel's method settings, with
+    the schema's default and range, and the panel's values are the settings a render takes."""
+    client = client_loader.load()
+    schema = client.settings_schema()
+    method = bpy.context.scene.antumbra.method
+    props = method.bl_rna.properties
+    for s in schema:
+        assert s["name"] in props, s["name"]
+        prop = props[s["name"]]
+        if s["type"] == "choice":
+            assert [i.identifier for i in prop.enum_items] == [str(c) for c in s["choices"]]
+            assert prop.default == str(s["default"]), s["name"]
+        elif s["type"] in ("int", "float"):
+            default = min(s["default"], settings_ui.INT_MAX)  # Blender's ints are 32-bit
+            assert prop.default == pytest.approx(default), s["name"]
+            assert prop.hard_min == pytest.approx(max(s["min"], -(2**31))), s["name"]
+        else:
+            assert prop.default == s["default"], s["name"]
+    # The panel's untouched values are the defaults; a change reaches the render's settings.
+    assert client.render_settings(**settings_ui.values(method)) == client.render_settings()
+    method.leaf_size = 4
+    method.osah_w = 0.5
+    got = bpy.context.scene.antumbra.options().settings_kwargs()
+    assert (got["leaf_size"], got["osah_w"]) == (4, pytest.approx(0.5))
+
+
+def test_panel_in_a_real_window_draws_every_setting(addon_zips, short_tmp):
+    """Debian's Blender with a real window (Xvfb): the panel, every group unfolded, draws one
+    property per setting of the schema."""
+    out = short_tmp / "panel.json"
+    done = subprocess.run(
+        [
+            "xvfb-run",
+            "-a",
+            "-s",
+            "-screen 0 1280x1024x24",
+            "blender",
+            "--factory-startup",
+            "-noaudio",
+            "-P",
+            str(Path(__file__).parent / "scripts" / "panel_settings.py"),
+            "--",
+            "--zip",
+            str(addon_zips["legacy"]),
+            "--out",
+            str(out),
+        ],
+        env=blender_env(short_tmp / "home"),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.exists(), done.stdout[-3000:] + done.stderr[-3000:]
+    report = json.loads(out.read_text())
+    assert report["schema"] and sorted(report["drawn"]) == sorted(report["schema"])

@@ -45,7 +45,7 @@ def setup():
     prefs.binary_path, prefs.socket_path = ARGS.binary, ARGS.socket
     scene = bpy.context.scene
     scene.antumbra.output_dir = os.path.join(ARGS.out, "files")
-    scene.antumbra.spp = 1
+    scene.antumbra.method.spp = 1
     # Start mid-range: the job steps through the range and must put the frame back.
     scene.frame_set(scene.frame_start + 4)
     STATE["start_frame"] = scene.frame_current
