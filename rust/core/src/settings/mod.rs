@@ -168,6 +168,36 @@ fn join<T: std::fmt::Display>(items: impl Iterator<Item = T>) -> String {
     items.map(|i| i.to_string()).collect::<Vec<_>>().join(", ")
 }
 
+/// The schema as a Markdown table per group (docs/settings.md is this text, checked by a test).
+pub fn markdown() -> String {
+    let mut out = String::from(
+        "# Render settings\n\nGenerated from `antumbra_core::settings::SCHEMA` (a test checks that \
+         this file equals it; `UPDATE_DOCS=1 cargo test -p antumbra-core --lib settings` \
+         rewrites it). The same names everywhere: `antumbra render --leaf-size 4`, the \
+         protocol's and a spool job's `settings` map (`{\"leaf_size\": 4}`), Python's \
+         `render(..., leaf_size=4)`, the batch's `--leaf-size 4` and the add-on panel's \
+         property. A setting left out takes its default.\n",
+    );
+    let mut group = None;
+    for s in SCHEMA {
+        if group != Some(s.group) {
+            group = Some(s.group);
+            out += &format!(
+                "\n## {}\n\n| setting | takes | default | what it does |\n|---|---|---|---|\n",
+                s.group.title()
+            );
+        }
+        out += &format!(
+            "| `{}` | {} | `{}` | {} |\n",
+            s.name,
+            s.expected().replace('|', "\\|"),
+            s.default_value(),
+            s.help.replace('|', "\\|")
+        );
+    }
+    out
+}
+
 /// The setting called `name`.
 pub fn setting(name: &str) -> Option<&'static Setting> {
     SCHEMA.iter().find(|s| s.name == name)

@@ -224,3 +224,16 @@ fn a_value_of_no_setting_type_is_refused_naming_its_setting() {
         .to_string();
     assert!(e.contains("setting 'seed'"), "{e}");
 }
+
+#[test]
+fn docs_settings_md_is_the_schema() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/settings.md");
+    if std::env::var_os("UPDATE_DOCS").is_some() {
+        std::fs::write(&path, markdown()).unwrap();
+    }
+    let text = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        text == markdown(),
+        "docs/settings.md differs from the schema: run UPDATE_DOCS=1 cargo test -p antumbra-core --lib settings"
+    );
+}
