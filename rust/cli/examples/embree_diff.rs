@@ -1,6 +1,6 @@
 //! Lists the shadow rays on which antumbra and Embree disagree for one built-in scene, with
 //! both tracers' hits and the watertight test's verdict on Embree's triangle, so that every
-//! difference in `BENCHMARKS.md` can be explained.
+//! difference can be explained.
 //!
 //! `cargo run --release --features embree -p antumbra-cli --example embree_diff -- forest [TRIS]`
 

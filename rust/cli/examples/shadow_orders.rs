@@ -9,7 +9,7 @@
 //! cargo run --release -p antumbra-cli --example shadow_orders -- oracle SCENE [TRIS] [WxH] [SPP] [COLLAPSE]
 //! ```
 //!
-//! COLLAPSE is how the 4- and 8-wide trees are made: greedy (default) or sah.
+//! COLLAPSE is how the 4- and 8-wide trees are made: sah (default) or greedy.
 //!
 //! `oracle` measures, on the 8-wide tree, the fewest node visits any child order could give each
 //! ray (an occluded ray: the interior nodes on the path to its shallowest occluding leaf; an

@@ -1,11 +1,8 @@
 //! The process's allocator: mimalloc, told to keep freed memory for a few seconds.
 //!
-//! Each frame's BVH build allocates and frees tens of megabytes (references, node arrays, the
-//! tree itself). glibc's malloc returns large blocks to the kernel, so the next frame's build
-//! faulted every page in again: about 5,700 page faults per SAH build of 350k triangles, and a
-//! few more megabytes in flight doubled that (BENCHMARKS.md, issue 6, "Build speed, ninth
-//! round"). mimalloc keeps freed pages for `purge_delay` milliseconds before handing them back;
-//! its default (1 s, and after the bench's pauses between builds also too short) is raised so
+//! Each frame's BVH build allocates and frees tens of megabytes that the next build needs again;
+//! glibc's malloc hands large blocks back to the kernel, so every build faulted its pages in
+//! anew. mimalloc's purge delay (default 1 s, shorter than the gaps between builds) is raised so
 //! that the memory of one frame's build serves the next.
 
 #[global_allocator]

@@ -23,8 +23,7 @@ pub struct BuildSettings {
     /// Nodes of at most this many references become leaves without a split search
     /// (1..=`max_leaf_size`; Embree's `minLeafSize`). 1, the default, lets the SAH decide
     /// every leaf; larger values skip the bottom levels' binning (a faster build) for leaves
-    /// of more triangles (more triangle tests, fewer nodes entered: BENCHMARKS.md, issue 6,
-    /// "Smallest leaf").
+    /// of more triangles (more triangle tests, fewer nodes entered).
     #[serde(default = "default_min_leaf_size")]
     pub min_leaf_size: usize,
     /// SAH cost of one traversal step, relative to `intersection_cost`.
@@ -38,8 +37,8 @@ pub struct BuildSettings {
     #[serde(default = "default_osah_weight")]
     pub osah_weight: f32,
     /// OSAH viability: besides the paper's condition (5), the hidden child must hold no visible
-    /// triangle (true, the default: measured better, BENCHMARKS.md issue 6); false is the paper's
-    /// condition (5) alone.
+    /// triangle (true, the default: fewer traversal steps than the paper's rule); false is the
+    /// paper's condition (5) alone.
     #[serde(default = "default_osah_strict")]
     pub osah_strict_viability: bool,
 }
@@ -126,9 +125,8 @@ impl BuildSettings {
 /// 16-byte vectors that min/max in one instruction each.
 ///
 /// The id lane rides along through 4-lane arithmetic (areas, centroids, bin indices). Raw ids
-/// below 2^23 are denormal floats, and every multiply that met one took a microcode assist
-/// (~20% of a SAH build); the id is stored XOR [`ID_LANE_BIAS`], a normal float for any id
-/// below 2^30.
+/// below 2^23 are denormal floats, and every multiply that met one took a slow microcode
+/// assist; the id is stored XOR [`ID_LANE_BIAS`], a normal float for any id below 2^30.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PrimRef {
     pub(crate) lo: Vec4,
@@ -562,7 +560,7 @@ pub(crate) fn bounds_of(refs: &[PrimRef]) -> (Box4, Box4) {
 }
 
 /// The bounds of some references' doubled centroids (the second half of [`bounds_of`]; kept
-/// apart because folding both through one generic helper cost the SAH builder 2%).
+/// apart because folding both through one generic helper made the SAH builder slower).
 pub(crate) fn centroid_bounds_of(refs: &[PrimRef]) -> Box4 {
     let fold = |mut c: Box4, r: &PrimRef| {
         let c2 = r.centroid2();

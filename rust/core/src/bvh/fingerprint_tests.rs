@@ -1,8 +1,8 @@
 //! Fingerprints of whole trees, recorded before the builders' inner loops were rewritten for
-//! speed (BENCHMARKS.md, issue 6, "Build speed, third round"): the rewrites must build the same
-//! trees bit for bit (node boxes, child layout, leaf ranges, the triangles of each leaf). The
-//! order of triangles inside a leaf is not part of a tree's shape (the partitions' order is an
-//! implementation detail), so each leaf's ids are hashed sorted.
+//! speed: the rewrites must build the same trees bit for bit (node boxes, child layout, leaf
+//! ranges, the triangles of each leaf). The order of triangles inside a leaf is not part of a
+//! tree's shape (the partitions' order is an implementation detail), so each leaf's ids are
+//! hashed sorted.
 
 use glam::Vec3;
 
@@ -99,9 +99,9 @@ fn trees_are_unchanged_by_the_build_speed_rewrites() {
 
 #[test]
 fn cut_box_trees_are_unchanged_by_the_build_speed_rewrites() {
-    // The fifth round's default settings (cut boxes below 65536 references, so both spatial
-    // binning paths), recorded before that round's changes (BENCHMARKS.md, issue 6). The
-    // seventh round's default (cut boxes in every node) builds the very same trees here.
+    // The former default (cut boxes below 65536 references, so both spatial binning paths),
+    // recorded before the binning loops were rewritten; today's default (cut boxes in every
+    // node) builds the very same trees here.
     for clip_min_refs in [65536, BuildSettings::default().spatial.clip_min_refs] {
         let mut s = BuildSettings::default();
         s.spatial.clip_min_refs = clip_min_refs;

@@ -69,8 +69,8 @@ impl CostModel {
 /// Condition (5) alone also passes splits that merely cut the visible set in two unequal parts
 /// (e.g. 60% / 40% of it, the 40% side being the larger child): both children then stay on
 /// the visible rays' path, and the split, chosen for its visible counts rather than its areas,
-/// is a worse SAH split. Measured on bedroom and city (BENCHMARKS.md, issue 6), requiring an
-/// invisible-only hidden child lowers N_TS where condition (5) alone raised it.
+/// is a worse SAH split. On bedroom and city, requiring an invisible-only hidden child lowers
+/// N_TS where condition (5) alone raised it.
 /// `strict` false is condition (5) alone, as the paper states it.
 pub(super) fn osah_viable(osah: &Sides, sah: &Sides, strict: bool) -> bool {
     let (hidden, hidden_visible) = if osah.vis_left < osah.vis_right {

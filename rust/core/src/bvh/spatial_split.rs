@@ -39,18 +39,15 @@ pub struct SpatialSettings {
     /// Which axes spatial splits are binned on: all three (Stich et al.), or only the axis of
     /// the node's best object split (SAH's and, in OSAH nodes, OSAH's: at most two axes), which
     /// clips each straddling reference a third as often. The default is the object split's
-    /// axis: on the bedroom and city views it kept N_IT/N_TS within 2 points of all three
-    /// axes and took 40-50% off OSAH builds (BENCHMARKS.md, issue 6, "Build speed, second
-    /// round"); `All` is the SBVH as Stich et al. define it.
+    /// axis: nearly the trees of all three axes for much less binning; `All` is the SBVH as
+    /// Stich et al. define it.
     pub axes: SpatialAxes,
     /// Nodes with fewer references than this bin spatial candidates with each straddling
     /// reference's box cut at the bin planes instead of its triangle clipped to each bin (the
     /// partition of the chosen split always clips, so children get the clipped triangles' tight
     /// boxes). 0 clips everywhere, as Stich et al. The default never clips in binning: cut boxes
-    /// below 65536 references left every N_IT/N_TS of the bench views unchanged to the percent
-    /// (BENCHMARKS.md, issue 6, "Build speed, third round"), and cut boxes in the top nodes too
-    /// left every figure and reference count of the eight views unchanged while taking 13% of
-    /// an OSAH build's instructions ("seventh round").
+    /// left every counter and reference count of the bench views unchanged, at a fraction of
+    /// clipping's cost.
     #[serde(default)]
     pub clip_min_refs: usize,
 }

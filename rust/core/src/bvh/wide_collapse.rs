@@ -18,8 +18,7 @@ pub enum CollapseMethod {
     /// most [`super::wide::MERGE_LIMIT`] triangles become one leaf.
     Greedy,
     /// The slots and leaves that minimise [`CollapseCost`] over the whole tree. The default:
-    /// fuller nodes, fewer node visits and fewer instructions per ray than `Greedy`
-    /// (BENCHMARKS.md, "SAH-optimal collapse").
+    /// fuller nodes, hence fewer node visits and fewer instructions per ray than `Greedy`.
     #[default]
     Sah,
 }

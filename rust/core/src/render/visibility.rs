@@ -111,8 +111,8 @@ pub(super) fn trace_visible_set(
 /// invisible until a frame sees them.
 pub fn visibility_flags(set: &TriangleSet, visible: &[TriangleRef]) -> Vec<bool> {
     // A frame collects its refs object by object in ascending order, so one merge walk against
-    // the sorted visible refs flags them all (a binary search per triangle cost ~80M
-    // instructions a frame at 350k triangles); any other order searches.
+    // the sorted visible refs flags them all, instead of a binary search per triangle; any
+    // other order searches.
     if set.refs.is_sorted() {
         let mut next = visible.iter().peekable();
         set.refs

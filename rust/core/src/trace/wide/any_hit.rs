@@ -30,9 +30,8 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT
         return None;
     }
     let wray = WideRay::<N>::for_octant::<OCT>(ray);
-    // The triangle test's set-up is built at the first leaf: many shadow rays reach none, and
-    // its values are then not live across the node loop (callgrind: -3% instructions per
-    // bedroom shadow ray, -6% colonnade; BENCHMARKS.md).
+    // The triangle test's set-up is built at the first leaf, so its values are not live across
+    // the node loop (fewer registers spilled there), and a ray that reaches no leaf skips it.
     let mut wt_slot: Option<WatertightRay> = None;
     let t_min = ray.t_min;
     // Box tests reach a margin past the segment's end; triangle tests do not (see t_margin).
@@ -40,7 +39,7 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT
     // The root box: counted as the binary traversal counts it, but only tested when counting.
     // A ray that misses it misses every child box (each lies inside it, and the slab test is
     // monotone in the planes under rounding), so the timed path lets the root node's test
-    // reject it instead and skips ~40 instructions per ray.
+    // reject it instead and skips one box test per ray.
     if C::COUNTING {
         stats.boxes(1);
         let r = &bvh.root_bounds;
@@ -72,9 +71,8 @@ pub(crate) fn any_hit<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT
             let a = mask.trailing_zeros() as u8;
             let rest = mask & (mask - 1);
             if rest == 0 {
-                // One child hit: every order visits it next, so the order is not read (in a
-                // callgrind profile: -11% instructions and -20% mispredicted branches per
-                // shadow ray, BENCHMARKS.md).
+                // One child hit: every order visits it next, so in this common case the order
+                // (the light's permutation) is not read at all.
                 current = ChildRef {
                     child: child_a,
                     count: node.count[a as usize] as u32,

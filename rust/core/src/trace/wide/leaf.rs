@@ -226,9 +226,8 @@ mod simd {
             let z = $zero();
             let zero = $or($or($eq!(u, z), $eq!(v, z)), $eq!(w, z));
             if $any {
-                // Any hit: the hit mask alone, in fewer operations than the full form below
-                // (callgrind: -6 instructions per bedroom shadow ray). Lanes with an edge 0
-                // take the scalar test whatever the rest says.
+                // Any hit: the hit mask alone, in fewer operations than the full form below.
+                // Lanes with an edge 0 take the scalar test whatever the rest says.
                 let zero = $movemask(zero) as u32;
                 // Sign bits that differ: with no edge 0, the scalar test's "some edge < 0 and
                 // some > 0", a miss (a NaN lane's `t` is NaN, also a miss either way).
@@ -246,7 +245,7 @@ mod simd {
                 ($movemask(in_range) as u32 & !mixed, zero)
             } else {
                 // Closest hit: with barycentrics, and unchanged (the mask above made the
-                // closest-hit loop's register allocation worse: callgrind +4% per camera ray).
+                // closest-hit loop's register allocation worse).
                 let neg = $or($or($lt!(u, z), $lt!(v, z)), $lt!(w, z));
                 let pos = $or($or($gt!(u, z), $gt!(v, z)), $gt!(w, z));
                 let det = $add($add(u, v), w);

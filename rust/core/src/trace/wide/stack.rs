@@ -13,8 +13,8 @@ use crate::bvh::MAX_DEPTH;
 /// entries, 5-8 KB of the thread's stack, left uninitialised).
 pub(crate) const CAPACITY: usize = 7 * MAX_DEPTH + 1;
 
-/// Entries below `len` are initialised; the rest are not: zeroing the array was a `memset` per
-/// ray, ~4% of the traversal's instructions in a callgrind profile.
+/// Entries below `len` are initialised; the rest are not: zeroing the array would cost a
+/// `memset` per ray.
 ///
 /// No call may stay in the traversal loop, not even one that never runs: every vector register
 /// is caller-saved, so the register allocator keeps the ray's constants on the memory stack
