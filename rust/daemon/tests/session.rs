@@ -7,8 +7,8 @@ use std::time::{Duration, Instant};
 
 use antumbra_core::render::RenderSettings;
 use antumbra_core::scene::{Mesh, Scene};
-use antumbra_protocol::client::Client;
 use antumbra_daemon::{Daemon, DaemonConfig, DaemonError};
+use antumbra_protocol::client::Client;
 use antumbra_protocol::{
     encode_message, frame_update_from_scene, replay_scenes, upload_from_mesh, ErrorCode,
     LightKindState, LightState, Passes, RenderRequest, RenderSettingsState, Reply, Request,

@@ -454,9 +454,9 @@ impl Connection {
                     let Some(cb) = &progress else {
                         return Ok(true);
                     };
-                    let stop = cb.call1((stage, done, total)).and_then(|v| {
-                        Ok(v.is_instance_of::<PyBool>() && !v.is_truthy()?)
-                    });
+                    let stop = cb
+                        .call1((stage, done, total))
+                        .and_then(|v| Ok(v.is_instance_of::<PyBool>() && !v.is_truthy()?));
                     stop.map(|stop| !stop).map_err(|e| wait.keep(e))
                 },
             );

@@ -18,8 +18,8 @@ use antumbra_protocol::{
 use super::out::{error_reply, protocol_error, Out};
 use super::Session;
 use crate::lock;
-use crate::slots::Acquired;
 use crate::shared::{bump, Shared};
+use crate::slots::Acquired;
 
 /// Renders one session may have waiting; more get `Busy`.
 pub(super) const RENDER_QUEUE: usize = 32;

@@ -9,8 +9,8 @@ use std::time::{Duration, Instant};
 
 use antumbra_core::render::{FrameResult, RenderSettings, Renderer};
 use antumbra_core::scene::{Camera, Light, LightKind, Mesh, Object, Resolution, Scene};
-use antumbra_protocol::client::Client;
 use antumbra_daemon::{Daemon, DaemonConfig, DaemonError, DaemonHandle};
+use antumbra_protocol::client::Client;
 use antumbra_protocol::{
     planes_from_reply, DaemonStats, FrameResultReply, Passes, RenderSettingsState, Reply, Request,
 };

@@ -21,7 +21,10 @@ pub enum ClientError {
         waited: Duration,
     },
     #[error("connection to the daemon broken while sending {kind}: {error}")]
-    Send { kind: &'static str, error: io::Error },
+    Send {
+        kind: &'static str,
+        error: io::Error,
+    },
     /// The stream ended or broke, or a reply did not decode.
     #[error("{}", read_message(waiting_for, error))]
     Read {
@@ -68,9 +71,9 @@ pub enum ClientError {
 
 fn read_message(waiting_for: &str, error: &FrameError) -> String {
     match error {
-        FrameError::Closed => format!(
-            "the daemon closed the connection while this client waited for {waiting_for}"
-        ),
+        FrameError::Closed => {
+            format!("the daemon closed the connection while this client waited for {waiting_for}")
+        }
         FrameError::Decode(e) => format!(
             "cannot read the daemon's reply to {waiting_for}: {e} (is the daemon the same \
              antumbra version as this client?)"

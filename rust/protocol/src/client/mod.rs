@@ -84,7 +84,9 @@ impl Sender {
             .as_mut()
             .ok_or_else(|| io::Error::new(ErrorKind::NotConnected, "the client is closed"))?;
         w.write_all(bytes).and_then(|()| w.flush())?;
-        self.0.bytes.fetch_add(bytes.len() as u64, Ordering::Relaxed);
+        self.0
+            .bytes
+            .fetch_add(bytes.len() as u64, Ordering::Relaxed);
         Ok(())
     }
 
@@ -209,7 +211,11 @@ impl Client {
     }
 
     /// Writes one framed request; the encoding and the write run in [`Wait::block`].
-    pub fn send_with(&mut self, wait: &mut impl Wait, request: &Request) -> Result<(), ClientError> {
+    pub fn send_with(
+        &mut self,
+        wait: &mut impl Wait,
+        request: &Request,
+    ) -> Result<(), ClientError> {
         let kind = request.kind();
         let sender = &self.sender;
         let waited = self.timeout.get().unwrap_or_default();
