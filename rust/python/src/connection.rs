@@ -1,9 +1,5 @@
-//! The socket session (`antumbra._native.Connection`): a thin Python layer over the protocol's
-//! one client, [`antumbra_protocol::client::Client`].
-//!
-//! Every blocking step runs without the GIL, in slices of at most [`POLL`] so that Ctrl-C and
-//! progress callbacks are handled while a render runs; `cancel()` goes through the client's
-//! [`Sender`] from another thread while the render's thread reads.
+//! The socket session (`antumbra._native.Connection`): Python values in and out around the
+//! protocol's one client, [`antumbra_protocol::client::Client`], waiting without the GIL.
 
 use std::collections::HashSet;
 use std::io::ErrorKind;
@@ -29,7 +25,8 @@ use crate::settings::RenderSettings;
 /// Longest time spent without the GIL before checking for signals.
 const POLL: Duration = Duration::from_millis(100);
 
-/// Waiting with the GIL released, checking for Ctrl-C between slices.
+/// Waiting with the GIL released, in slices of at most [`POLL`], checking for Ctrl-C (and so
+/// running progress callbacks) between them.
 struct PyWait<'py> {
     py: Python<'py>,
     /// The first Python exception that stopped a wait (KeyboardInterrupt, a callback's error).
@@ -115,6 +112,7 @@ pub struct Connection {
     limits: Limits,
     timeout: Option<Duration>,
     state: Mutex<Option<State>>,
+    /// `cancel()` writes through this from another thread while the render's thread reads.
     sender: Sender,
     /// The request id of the render in progress (0: none).
     active_render: AtomicU64,
@@ -462,7 +460,7 @@ impl Connection {
             );
             self.active_render.store(0, Ordering::SeqCst);
             let result = result.map_err(|e| wait.error(e))?;
-            Ok(frame_result_to_py(py, result)?)
+            frame_result_to_py(py, result)
         })()
         .py_result(py)
     }

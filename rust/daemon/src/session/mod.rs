@@ -1,8 +1,9 @@
 //! One client connection, from the handshake until the client closes, a frame error ends it or
-//! the daemon stops: [`connection`] reads requests, [`dispatch`] answers them, [`worker`] renders
-//! on a second thread (so `Cancel` and `Stats` are answered meanwhile), and both reply through
-//! [`out`], one whole frame at a time.
+//! the daemon stops; the session's state, its start and its end.
 
+// The connection's thread reads requests (`connection`) and answers them (`dispatch`); renders
+// run on a second thread (`worker`) so that `Cancel` and `Stats` are answered meanwhile; both
+// reply through `out`, a whole frame at a time.
 mod connection;
 mod dispatch;
 mod out;

@@ -1,10 +1,5 @@
 //! The one client of the protocol, used by the Python binding, the tests and tools: connect, say
 //! Hello, send requests and read their replies, scenes (uploading only missing meshes), renders.
-//!
-//! Replies are read through a [`FrameDecoder`] in slices the caller's [`Wait`] chooses, so a
-//! caller can release a lock (Python's GIL) while it waits and handle Ctrl-C between slices
-//! without losing its place in the stream. Writes share one lock with [`Sender`] handles, so
-//! another thread can send `Cancel` while a render's replies are read.
 
 mod conn;
 mod error;
@@ -27,7 +22,9 @@ use crate::{encode_message, FrameDecoder, FrameError, Limits, Reply, Request, PR
 
 const READ_CHUNK: usize = 1 << 20;
 
-/// How a caller waits for the daemon.
+/// How a caller waits for the daemon. Replies are read through a [`FrameDecoder`] in slices the
+/// caller chooses, so it can release a lock (Python's GIL) while it waits and handle Ctrl-C
+/// between slices without losing its place in the stream.
 pub trait Wait {
     /// The longest read before [`Wait::between`] is asked; None reads until a reply or the
     /// deadline.
@@ -60,7 +57,8 @@ impl Wait for Blocking {
     }
 }
 
-/// The writing side of a client, for sending `Cancel` from another thread.
+/// The writing side of a client: every write takes its lock, so another thread can send `Cancel`
+/// while a render's replies are read.
 #[derive(Clone)]
 pub struct Sender(Arc<SendSide>);
 
