@@ -127,6 +127,31 @@ pub(crate) fn run(shared: &Arc<Shared>, conn: Conn, id: u64) {
 }
 
 impl Session<'_> {
+    /// The session's render worker, started on first use.
+    fn worker(&mut self) -> &Worker {
+        self.worker.get_or_insert_with(|| {
+            let label = if self.client.is_empty() {
+                format!("session-{}", self.id)
+            } else {
+                self.client.clone()
+            };
+            Worker::spawn(
+                self.id,
+                self.shared.clone(),
+                self.out.clone(),
+                self.controls.clone(),
+                label,
+            )
+        })
+    }
+
+    /// Waits until every render asked for so far has replied.
+    fn drain(&mut self) {
+        if let Some(w) = self.worker.take() {
+            w.finish();
+        }
+    }
+
     fn finish(&mut self, end: End) {
         match end {
             // The client is gone or the stream is unusable: nobody reads the results.

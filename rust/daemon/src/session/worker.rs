@@ -16,7 +16,6 @@ use antumbra_protocol::{
 };
 
 use super::out::{error_reply, protocol_error, Out};
-use super::Session;
 use crate::lock;
 use crate::shared::{bump, Shared};
 use crate::slots::Acquired;
@@ -47,38 +46,37 @@ pub(super) struct Worker {
     thread: JoinHandle<()>,
 }
 
-impl Session<'_> {
-    pub(super) fn worker(&mut self) -> &Worker {
-        self.worker.get_or_insert_with(|| {
-            let (tx, rx) = sync_channel(RENDER_QUEUE);
-            let ctx = WorkerCtx {
-                shared: self.shared.clone(),
-                out: self.out.clone(),
-                controls: self.controls.clone(),
-                label: if self.client.is_empty() {
-                    format!("session-{}", self.id)
-                } else {
-                    self.client.clone()
-                },
-            };
-            let span = tracing::Span::current();
-            let thread = std::thread::Builder::new()
-                .name(format!("render-{}", self.id))
-                .spawn(move || {
-                    let _enter = span.enter();
-                    ctx.run(rx)
-                })
-                .expect("spawning a render worker");
-            Worker { tx, thread }
-        })
+impl Worker {
+    /// Starts a session's render worker; `label` names its statistics rows.
+    pub(super) fn spawn(
+        session: u64,
+        shared: Arc<Shared>,
+        out: Arc<Out>,
+        controls: Controls,
+        label: String,
+    ) -> Worker {
+        let (tx, rx) = sync_channel(RENDER_QUEUE);
+        let ctx = WorkerCtx {
+            shared,
+            out,
+            controls,
+            label,
+        };
+        let span = tracing::Span::current();
+        let thread = std::thread::Builder::new()
+            .name(format!("render-{session}"))
+            .spawn(move || {
+                let _enter = span.enter();
+                ctx.run(rx)
+            })
+            .expect("spawning a render worker");
+        Worker { tx, thread }
     }
 
     /// Waits until every render asked for so far has replied.
-    pub(super) fn drain(&mut self) {
-        if let Some(w) = self.worker.take() {
-            drop(w.tx);
-            let _ = w.thread.join();
-        }
+    pub(super) fn finish(self) {
+        drop(self.tx);
+        let _ = self.thread.join();
     }
 }
 
