@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 use antumbra_core::output::read_exr;
 use antumbra_core::render::{FrameResult, RenderSettings, Renderer};
 use antumbra_core::scene::{Resolution, Scene};
-use antumbra_daemon::client::Client;
 use antumbra_daemon::spool::{submit_job, JobSpec, Manifest, DONE_FILE, MANIFEST_FILE};
+use antumbra_protocol::client::Client;
 use antumbra_protocol::{
     planes_from_reply, stats_from_reply, FrameResultReply, NamedSettings, Passes, RecordingWriter,
     Reply, Request,

@@ -8,20 +8,21 @@
 //!   sharing one mesh cache ([`cache`]) and a bound on concurrent renders ([`slots`]).
 //! - [`spool`] renders jobs from a folder, writing each frame's results atomically, so a killed
 //!   daemon resumes without losing or duplicating frames.
-//! - [`client`] is a small blocking client of the protocol (tests, tools).
+//! - The client of the protocol is `antumbra_protocol::client` (the Python binding, tests,
+//!   tools).
 //!
 //! See `docs/daemon.md` for the behaviour, the spool layout and the operational details.
 
 #![cfg(unix)]
 
 pub mod cache;
-pub mod client;
 pub mod config;
 pub mod error;
 pub mod listen;
 pub mod logging;
 mod server;
 mod session;
+mod shared;
 pub mod slots;
 pub mod spool;
 

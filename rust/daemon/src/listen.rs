@@ -1,15 +1,15 @@
 //! Where the daemon listens: a Unix domain socket (0600 in a 0700 folder), optionally a loopback
-//! TCP port guarded by a token, and the connection type both give.
+//! TCP port guarded by a token. The connection type both give, [`Conn`], is the client's too.
 
 use std::fs;
-use std::io::{self, Read, Write};
-use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
+use std::io;
+use std::net::{SocketAddr, TcpListener, ToSocketAddrs};
 use std::os::unix::fs::{DirBuilderExt, FileTypeExt, MetadataExt, PermissionsExt};
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use crate::error::DaemonError;
+pub use antumbra_protocol::client::Conn;
 
 /// `$XDG_RUNTIME_DIR/antumbra/daemon.sock`, or `/tmp/antumbra-$UID/daemon.sock` when
 /// `XDG_RUNTIME_DIR` is unset or empty.
@@ -214,88 +214,6 @@ pub fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
         diff |= (x ^ y) as u64;
     }
     std::hint::black_box(diff) == 0
-}
-
-/// One client connection, over either transport.
-#[derive(Debug)]
-pub enum Conn {
-    Unix(UnixStream),
-    Tcp(TcpStream),
-}
-
-impl Conn {
-    pub fn try_clone(&self) -> io::Result<Conn> {
-        Ok(match self {
-            Conn::Unix(s) => Conn::Unix(s.try_clone()?),
-            Conn::Tcp(s) => Conn::Tcp(s.try_clone()?),
-        })
-    }
-
-    pub fn shutdown(&self, how: Shutdown) -> io::Result<()> {
-        match self {
-            Conn::Unix(s) => s.shutdown(how),
-            Conn::Tcp(s) => s.shutdown(how),
-        }
-    }
-
-    pub fn set_write_timeout(&self, t: Option<Duration>) -> io::Result<()> {
-        match self {
-            Conn::Unix(s) => s.set_write_timeout(t),
-            Conn::Tcp(s) => s.set_write_timeout(t),
-        }
-    }
-
-    pub fn set_read_timeout(&self, t: Option<Duration>) -> io::Result<()> {
-        match self {
-            Conn::Unix(s) => s.set_read_timeout(t),
-            Conn::Tcp(s) => s.set_read_timeout(t),
-        }
-    }
-
-    pub fn set_nonblocking(&self, on: bool) -> io::Result<()> {
-        match self {
-            Conn::Unix(s) => s.set_nonblocking(on),
-            Conn::Tcp(s) => s.set_nonblocking(on),
-        }
-    }
-
-    pub fn is_tcp(&self) -> bool {
-        matches!(self, Conn::Tcp(_))
-    }
-
-    /// The peer, for logs.
-    pub fn peer(&self) -> String {
-        match self {
-            Conn::Unix(_) => "unix".into(),
-            Conn::Tcp(s) => s
-                .peer_addr()
-                .map_or_else(|_| "tcp".into(), |a| format!("tcp:{a}")),
-        }
-    }
-}
-
-impl Read for Conn {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        match self {
-            Conn::Unix(s) => s.read(buf),
-            Conn::Tcp(s) => s.read(buf),
-        }
-    }
-}
-
-impl Write for Conn {
-    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        match self {
-            Conn::Unix(s) => s.write(buf),
-            Conn::Tcp(s) => s.write(buf),
-        }
-    }
-    fn flush(&mut self) -> io::Result<()> {
-        match self {
-            Conn::Unix(s) => s.flush(),
-            Conn::Tcp(s) => s.flush(),
-        }
-    }
 }
 
 #[cfg(test)]

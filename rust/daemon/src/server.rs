@@ -1,78 +1,24 @@
-//! The accept loop, the state shared by all sessions, and the orderly stop.
+//! The daemon's front door: binding the sockets, the accept loop that starts a session per
+//! connection, and the orderly stop.
 
-use std::collections::HashMap;
 use std::net::{Shutdown, SocketAddr, TcpListener};
 use std::os::fd::AsRawFd;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::path::Path;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use antumbra_protocol::DaemonStats;
 
-use crate::cache::MeshCache;
 use crate::config::DaemonConfig;
 use crate::error::DaemonError;
 use crate::listen::{bind_tcp, bind_unix, BoundUnix, Conn};
-use crate::slots::RenderSlots;
+use crate::shared::{bump, Shared};
 use crate::{lock, session, spool};
 
 /// Connections served at once; more are refused with `Busy`.
 const MAX_SESSIONS: u64 = 256;
-
-#[derive(Default)]
-pub(crate) struct Counters {
-    pub sessions_live: AtomicU64,
-    pub sessions_total: AtomicU64,
-    pub renders_done: AtomicU64,
-    pub renders_cancelled: AtomicU64,
-    pub renders_failed: AtomicU64,
-}
-
-pub(crate) fn bump(c: &AtomicU64) {
-    c.fetch_add(1, Ordering::Relaxed);
-}
-
-/// What every session, the spool and the accept loop share.
-pub(crate) struct Shared {
-    pub config: DaemonConfig,
-    pub cache: MeshCache,
-    pub slots: RenderSlots,
-    pub counters: Counters,
-    /// Set by `Shutdown`, a signal or [`DaemonHandle::stop`]; everything winds down once set.
-    pub stop: Arc<AtomicBool>,
-    pub started: Instant,
-    /// A clone of each live session's connection, to wake its reader when the daemon stops.
-    sessions: Mutex<HashMap<u64, Conn>>,
-}
-
-impl Shared {
-    pub fn stopping(&self) -> bool {
-        self.stop.load(Ordering::Relaxed)
-    }
-
-    pub fn request_stop(&self) {
-        self.stop.store(true, Ordering::Relaxed);
-    }
-
-    pub fn daemon_stats(&self) -> DaemonStats {
-        let c = &self.counters;
-        let cache = self.cache.stats();
-        let get = |a: &AtomicU64| a.load(Ordering::Relaxed);
-        DaemonStats {
-            sessions: get(&c.sessions_live) as u32,
-            sessions_total: get(&c.sessions_total),
-            meshes_cached: cache.meshes,
-            bytes_cached: cache.bytes,
-            renders_done: get(&c.renders_done),
-            renders_cancelled: get(&c.renders_cancelled),
-            renders_failed: get(&c.renders_failed),
-            uptime_s: self.started.elapsed().as_secs_f64(),
-            meshes_evicted: cache.evicted,
-        }
-    }
-}
 
 /// A daemon whose sockets are bound; [`run`](Daemon::run) serves until it is stopped.
 pub struct Daemon {
@@ -131,15 +77,7 @@ impl Daemon {
             None => None,
         };
         let unix = bind_unix(&config.socket)?;
-        let shared = Arc::new(Shared {
-            cache: MeshCache::new(config.memory_budget),
-            slots: RenderSlots::new(config.max_renders),
-            counters: Counters::default(),
-            stop: Arc::new(AtomicBool::new(false)),
-            started: Instant::now(),
-            sessions: Mutex::new(HashMap::new()),
-            config,
-        });
+        let shared = Arc::new(Shared::new(config));
         Ok(Daemon {
             shared,
             unix,
@@ -380,14 +318,4 @@ impl Daemon {
             }
         }
     }
-}
-
-/// Where `--record` puts a session's recording.
-pub(crate) fn recording_path(dir: &Path, session: u64) -> PathBuf {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
-    // The pid keeps two daemons recording into one folder from overwriting each other.
-    let pid = std::process::id();
-    dir.join(format!("session-{secs}-{pid}-{session}.antrec"))
 }

@@ -36,7 +36,7 @@ use notify::Watcher;
 use serde::{Deserialize, Serialize};
 
 use crate::error::DaemonError;
-use crate::server::{bump, Shared};
+use crate::shared::{bump, Shared};
 use crate::slots::Acquired;
 use antumbra_core::output::{frame_stem, write_frame_files, Outputs};
 

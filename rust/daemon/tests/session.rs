@@ -7,8 +7,8 @@ use std::time::{Duration, Instant};
 
 use antumbra_core::render::RenderSettings;
 use antumbra_core::scene::{Mesh, Scene};
-use antumbra_daemon::client::Client;
 use antumbra_daemon::{Daemon, DaemonConfig, DaemonError};
+use antumbra_protocol::client::Client;
 use antumbra_protocol::{
     encode_message, frame_update_from_scene, replay_scenes, upload_from_mesh, ErrorCode,
     LightKindState, LightState, NamedSettings, Passes, RenderRequest, Reply, Request,
@@ -60,7 +60,7 @@ fn unchanged_meshes_are_not_uploaded_again() {
         Reply::Missing { hashes } => assert!(hashes.is_empty(), "{hashes:?}"),
         other => panic!("{other:?}"),
     }
-    let before = c.bytes_sent;
+    let before = c.bytes_sent();
     let second = c.send_scene(&tiny_scene(2, 32, 20)).unwrap();
     assert_eq!(second.meshes_uploaded, 0);
     assert_eq!(second.upload_bytes, 0);
@@ -71,9 +71,9 @@ fn unchanged_meshes_are_not_uploaded_again() {
     .len() as u64;
     // Only the question and the frame update went out.
     assert!(
-        c.bytes_sent - before < update_bytes + 100,
+        c.bytes_sent() - before < update_bytes + 100,
         "{}",
-        c.bytes_sent - before
+        c.bytes_sent() - before
     );
     render_reply(&mut c, 2, 2);
     // Another session finds the meshes in the shared cache.

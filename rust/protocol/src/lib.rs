@@ -1,11 +1,14 @@
 //! The wire protocol between the Blender add-on (through the Python client) and the antumbra
 //! daemon: versioned messages ([`Request`], [`Reply`]), length-prefixed MessagePack framing
 //! ([`frame`]), limits ([`Limits`], [`check_limits`]), conversions to and from antumbra-core's
-//! scene and results ([`convert`]), and session recordings ([`recording`]).
+//! scene and results ([`convert`]), session recordings ([`recording`]), and the one client of
+//! the daemon ([`client`]), which the Python binding wraps.
 //!
 //! The normative description, with byte layouts and an example session, is `docs/protocol.md`.
 
 pub mod bytes;
+#[cfg(unix)]
+pub mod client;
 pub mod convert;
 pub mod error;
 pub mod frame;

@@ -9,8 +9,8 @@ use std::time::{Duration, Instant};
 
 use antumbra_core::render::{FrameResult, RenderSettings, Renderer};
 use antumbra_core::scene::{Camera, Light, LightKind, Mesh, Object, Resolution, Scene};
-use antumbra_daemon::client::Client;
 use antumbra_daemon::{Daemon, DaemonConfig, DaemonError, DaemonHandle};
+use antumbra_protocol::client::Client;
 use antumbra_protocol::{
     planes_from_reply, DaemonStats, FrameResultReply, NamedSettings, Passes, Reply, Request,
 };
@@ -294,9 +294,10 @@ pub fn expect_error(reply: Reply) -> (antumbra_protocol::ErrorCode, String, bool
 /// After an error that closed the connection, the stream ends.
 pub fn assert_closed(c: &mut Client) {
     match c.recv() {
-        Err(antumbra_daemon::client::ClientError::Frame(antumbra_protocol::FrameError::Closed)) => {
-        }
-        Err(antumbra_daemon::client::ClientError::Frame(antumbra_protocol::FrameError::Io(_))) => {}
+        Err(antumbra_protocol::client::ClientError::Read {
+            error: antumbra_protocol::FrameError::Closed | antumbra_protocol::FrameError::Io(_),
+            ..
+        }) => {}
         other => panic!("expected the connection to be closed, got {other:?}"),
     }
 }

@@ -1,0 +1,191 @@
+//! One client connection, from the handshake until the client closes, a frame error ends it or
+//! the daemon stops; the session's state, its start and its end.
+
+// The connection's thread reads requests (`connection`) and answers them (`dispatch`); renders
+// run on a second thread (`worker`) so that `Cancel` and `Stats` are answered meanwhile; both
+// reply through `out`, a whole frame at a time.
+mod connection;
+mod dispatch;
+mod out;
+mod worker;
+
+use std::collections::{HashMap, VecDeque};
+use std::fs::File;
+use std::io::{BufReader, BufWriter};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use antumbra_core::scene::Mesh;
+use antumbra_protocol::{CameraState, FrameUpdate, Limits, RecordingWriter, Request};
+
+use crate::listen::Conn;
+use crate::lock;
+use crate::shared::Shared;
+use out::Out;
+use worker::{Controls, Worker};
+
+/// Frame descriptions a session keeps for `Render` (the most recently updated ones).
+const FRAMES_KEPT: usize = 8;
+
+/// Why a session ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum End {
+    /// Close, or Shutdown from this client.
+    Closed,
+    /// The client went away (end of stream, i/o error).
+    Gone,
+    /// A frame error left the stream unusable.
+    BadFrame,
+    /// Failed handshake.
+    Refused,
+    /// The daemon is stopping.
+    Stopped,
+    /// A request handler panicked.
+    Internal,
+}
+
+enum Next {
+    Request(Box<Request>),
+    /// A body that did not decode was answered; read on.
+    Skip,
+    End(End),
+}
+
+enum Flow {
+    Continue,
+    End(End),
+}
+
+struct Session<'a> {
+    shared: &'a Arc<Shared>,
+    id: u64,
+    tcp: bool,
+    out: Arc<Out>,
+    client: String,
+    limits: Limits,
+    /// Frame updates seen (the generation of the session's mesh working set).
+    generation: u64,
+    /// The session's working set: meshes it uploaded, asked about or used recently, with the
+    /// generation in which it last touched them. Holding the `Arc` keeps them out of eviction.
+    pins: HashMap<u64, (Arc<Mesh>, u64)>,
+    frames: VecDeque<Arc<FrameUpdate>>,
+    camera_path: Vec<(i32, CameraState)>,
+    controls: Controls,
+    worker: Option<Worker>,
+    recorder: Option<RecordingWriter<BufWriter<File>>>,
+    requests: u64,
+}
+
+/// Serves one connection to its end.
+pub(crate) fn run(shared: &Arc<Shared>, conn: Conn, id: u64) {
+    let peer = conn.peer();
+    let span = tracing::info_span!("session", id, peer = %peer);
+    let _enter = span.enter();
+    let (read_half, write_half) = match conn.try_clone() {
+        Ok(w) => (conn, w),
+        Err(e) => {
+            tracing::warn!(error = %e, "cannot clone the connection");
+            return;
+        }
+    };
+    let tcp = read_half.is_tcp();
+    let limits = shared.config.limits.clone();
+    let mut reader = BufReader::with_capacity(256 * 1024, read_half);
+    let mut session = Session {
+        shared,
+        id,
+        tcp,
+        out: Arc::new(Out {
+            w: Mutex::new(BufWriter::with_capacity(256 * 1024, write_half)),
+            broken: AtomicBool::new(false),
+            limits: limits.clone(),
+        }),
+        client: String::new(),
+        limits,
+        generation: 0,
+        pins: HashMap::new(),
+        frames: VecDeque::new(),
+        camera_path: Vec::new(),
+        controls: Arc::new(Mutex::new(HashMap::new())),
+        worker: None,
+        recorder: None,
+        requests: 0,
+    };
+    tracing::info!("connected");
+    let started = Instant::now();
+    let end = session.serve(&mut reader);
+    session.finish(end);
+    tracing::info!(
+        reason = ?end,
+        client = %session.client,
+        requests = session.requests,
+        seconds = started.elapsed().as_secs_f64(),
+        "session ended"
+    );
+}
+
+impl Session<'_> {
+    /// The session's render worker, started on first use.
+    fn worker(&mut self) -> &Worker {
+        self.worker.get_or_insert_with(|| {
+            let label = if self.client.is_empty() {
+                format!("session-{}", self.id)
+            } else {
+                self.client.clone()
+            };
+            Worker::spawn(
+                self.id,
+                self.shared.clone(),
+                self.out.clone(),
+                self.controls.clone(),
+                label,
+            )
+        })
+    }
+
+    /// Waits until every render asked for so far has replied.
+    fn drain(&mut self) {
+        if let Some(w) = self.worker.take() {
+            w.finish();
+        }
+    }
+
+    fn finish(&mut self, end: End) {
+        match end {
+            // The client is gone or the stream is unusable: nobody reads the results.
+            End::Gone | End::BadFrame | End::Refused | End::Internal => {
+                for ctl in lock(&self.controls).values() {
+                    ctl.cancel.store(true, Ordering::Relaxed);
+                }
+            }
+            // The daemon stops: the render under way finishes, the queued ones are cancelled.
+            End::Stopped => {
+                for ctl in lock(&self.controls).values() {
+                    if !ctl.started.load(Ordering::Relaxed) {
+                        ctl.cancel.store(true, Ordering::Relaxed);
+                    }
+                }
+            }
+            End::Closed => {}
+        }
+        self.drain();
+        if let Some(w) = self.recorder.take() {
+            let _ = w.finish();
+        }
+        let _ = lock(&self.out.w)
+            .get_ref()
+            .shutdown(std::net::Shutdown::Both);
+    }
+}
+
+/// Where `--record` puts a session's recording.
+fn recording_path(dir: &Path, session: u64) -> PathBuf {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    // The pid keeps two daemons recording into one folder from overwriting each other.
+    let pid = std::process::id();
+    dir.join(format!("session-{secs}-{pid}-{session}.antrec"))
+}

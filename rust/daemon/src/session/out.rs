@@ -1,0 +1,76 @@
+//! The replies' side of a session's connection: one locked writer, a whole frame at a time, shared
+//! by the connection's thread and the render worker.
+
+use std::io::{BufWriter, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+
+use antumbra_protocol::{encode_message_within, ErrorCode, Limits, ProtocolError, Reply};
+
+use crate::listen::Conn;
+use crate::lock;
+
+/// The replies' side of the connection.
+pub(super) struct Out {
+    pub(super) w: Mutex<BufWriter<Conn>>,
+    pub(super) broken: AtomicBool,
+    pub(super) limits: Limits,
+}
+
+impl Out {
+    /// Sends one encoded frame; false once the connection is broken.
+    pub(super) fn send_frame(&self, bytes: &[u8]) -> bool {
+        if self.broken.load(Ordering::Relaxed) {
+            return false;
+        }
+        let mut w = lock(&self.w);
+        let ok = w.write_all(bytes).and_then(|()| w.flush());
+        if let Err(e) = ok {
+            if !self.broken.swap(true, Ordering::Relaxed) {
+                tracing::debug!(error = %e, "cannot write to the client");
+            }
+            return false;
+        }
+        true
+    }
+
+    pub(super) fn send(&self, reply: &Reply) -> bool {
+        match encode_message_within(reply, &self.limits) {
+            Ok(bytes) => self.send_frame(&bytes),
+            Err(e) => {
+                tracing::warn!(reply = reply.kind(), error = %e, "cannot encode a reply");
+                let request_id = match reply {
+                    Reply::FrameResult(r) => Some(r.request_id),
+                    _ => None,
+                };
+                self.send(&error_reply(e.code(), e.to_string(), true, request_id))
+            }
+        }
+    }
+}
+
+pub(super) fn error_reply(
+    code: ErrorCode,
+    message: impl Into<String>,
+    session_usable: bool,
+    request_id: Option<u64>,
+) -> Reply {
+    Reply::Error {
+        code,
+        message: message.into(),
+        session_usable,
+        request_id,
+    }
+}
+
+pub(super) fn protocol_error(e: &ProtocolError, request_id: Option<u64>) -> Reply {
+    match e.to_reply() {
+        Reply::Error {
+            code,
+            message,
+            session_usable,
+            ..
+        } => error_reply(code, message, session_usable, request_id),
+        other => other,
+    }
+}

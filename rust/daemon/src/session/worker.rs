@@ -1,0 +1,229 @@
+//! A session's render worker: a second thread that owns the session's [`Renderer`] (BVH reuse
+//! across frames), so that `Cancel`, `Stats` and frame updates are answered while a render runs.
+
+use std::collections::HashMap;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+use antumbra_core::render::{RenderSettings, Renderer};
+use antumbra_core::scene::Scene;
+use antumbra_protocol::{
+    encode_message_within, frame_result_reply, ErrorCode, Passes, ProtocolError, Reply,
+};
+
+use super::out::{error_reply, protocol_error, Out};
+use crate::lock;
+use crate::shared::{bump, Shared};
+use crate::slots::Acquired;
+
+/// Renders one session may have waiting; more get `Busy`.
+pub(super) const RENDER_QUEUE: usize = 32;
+/// Progress stages of a render after the optional `queued`: `render`, then `encode`.
+const STAGES: u32 = 2;
+
+/// A render's controls, shared by the reader (Cancel), the worker and the session's end.
+pub(super) struct RenderCtl {
+    pub(super) cancel: AtomicBool,
+    pub(super) started: AtomicBool,
+}
+
+pub(super) struct Job {
+    pub(super) request_id: u64,
+    pub(super) scene: Scene,
+    pub(super) settings: RenderSettings,
+    pub(super) passes: Passes,
+    pub(super) ctl: Arc<RenderCtl>,
+}
+
+pub(super) type Controls = Arc<Mutex<HashMap<u64, Arc<RenderCtl>>>>;
+
+pub(super) struct Worker {
+    pub(super) tx: SyncSender<Job>,
+    thread: JoinHandle<()>,
+}
+
+impl Worker {
+    /// Starts a session's render worker; `label` names its statistics rows.
+    pub(super) fn spawn(
+        session: u64,
+        shared: Arc<Shared>,
+        out: Arc<Out>,
+        controls: Controls,
+        label: String,
+    ) -> Worker {
+        let (tx, rx) = sync_channel(RENDER_QUEUE);
+        let ctx = WorkerCtx {
+            shared,
+            out,
+            controls,
+            label,
+        };
+        let span = tracing::Span::current();
+        let thread = std::thread::Builder::new()
+            .name(format!("render-{session}"))
+            .spawn(move || {
+                let _enter = span.enter();
+                ctx.run(rx)
+            })
+            .expect("spawning a render worker");
+        Worker { tx, thread }
+    }
+
+    /// Waits until every render asked for so far has replied.
+    pub(super) fn finish(self) {
+        drop(self.tx);
+        let _ = self.thread.join();
+    }
+}
+
+struct WorkerCtx {
+    shared: Arc<Shared>,
+    out: Arc<Out>,
+    controls: Controls,
+    label: String,
+}
+
+impl WorkerCtx {
+    fn run(self, rx: Receiver<Job>) {
+        let mut renderer = Renderer::new();
+        for job in rx {
+            self.render(&mut renderer, &job);
+            let mut controls = lock(&self.controls);
+            if controls
+                .get(&job.request_id)
+                .is_some_and(|c| Arc::ptr_eq(c, &job.ctl))
+            {
+                controls.remove(&job.request_id);
+            }
+        }
+    }
+
+    fn progress(&self, request_id: u64, stage: &str, done: u32, total: u32) {
+        self.out.send(&Reply::Progress {
+            request_id,
+            stage: stage.into(),
+            done,
+            total,
+        });
+    }
+
+    fn cancelled(&self, job: &Job, when: &str) {
+        bump(&self.shared.counters.renders_cancelled);
+        let why = if self.shared.stopping() {
+            "the daemon is stopping"
+        } else {
+            "cancelled by the client"
+        };
+        tracing::info!(
+            request_id = job.request_id,
+            frame = job.scene.frame,
+            when,
+            "render cancelled"
+        );
+        self.out.send(&error_reply(
+            ErrorCode::Cancelled,
+            format!(
+                "Render frame {} (request {}): {why}",
+                job.scene.frame, job.request_id
+            ),
+            true,
+            Some(job.request_id),
+        ));
+    }
+
+    fn render(&self, renderer: &mut Renderer, job: &Job) {
+        let id = job.request_id;
+        let frame = job.scene.frame;
+        if job.ctl.cancel.load(Ordering::Relaxed) {
+            return self.cancelled(job, "before it started");
+        }
+        let acquired = self.shared.slots.acquire(&job.ctl.cancel, |position| {
+            let total = position.try_into().unwrap_or(u32::MAX);
+            self.progress(id, "queued", 0, total);
+        });
+        let slot = match acquired {
+            Acquired::Slot(slot, _) => slot,
+            Acquired::GaveUp => return self.cancelled(job, "while queued"),
+        };
+        job.ctl.started.store(true, Ordering::Relaxed);
+        if job.ctl.cancel.load(Ordering::Relaxed) {
+            return self.cancelled(job, "before it started");
+        }
+        self.progress(id, "render", 0, STAGES);
+        let t0 = Instant::now();
+        let result = catch_unwind(AssertUnwindSafe(|| {
+            renderer.render(&self.label, &job.scene, &job.settings)
+        }));
+        drop(slot);
+        let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let result = match result {
+            Ok(Ok(r)) => r,
+            Ok(Err(e)) => {
+                bump(&self.shared.counters.renders_failed);
+                let e = ProtocolError::InFrame { frame, error: e };
+                tracing::warn!(request_id = id, error = %e, "render failed");
+                self.out.send(&protocol_error(&e, Some(id)));
+                return;
+            }
+            Err(_) => {
+                // The renderer's cache may be half-updated: start afresh.
+                *renderer = Renderer::new();
+                bump(&self.shared.counters.renders_failed);
+                tracing::error!(request_id = id, frame, "render panicked");
+                self.out.send(&error_reply(
+                    ErrorCode::Internal,
+                    format!("Render frame {frame} (request {id}): internal error in the renderer"),
+                    true,
+                    Some(id),
+                ));
+                return;
+            }
+        };
+        if job.ctl.cancel.load(Ordering::Relaxed) {
+            return self.cancelled(job, "after rendering");
+        }
+        self.progress(id, "encode", 1, STAGES);
+        let reply = Reply::FrameResult(frame_result_reply(&result, id, &job.passes));
+        match encode_message_within(&reply, &self.out.limits) {
+            Ok(bytes) => {
+                drop(reply);
+                if self.out.send_frame(&bytes) {
+                    bump(&self.shared.counters.renders_done);
+                    tracing::info!(
+                        request_id = id,
+                        frame,
+                        width = result.width,
+                        height = result.height,
+                        render_ms,
+                        bytes = bytes.len(),
+                        "frame rendered"
+                    );
+                } else {
+                    bump(&self.shared.counters.renders_cancelled);
+                    tracing::info!(
+                        request_id = id,
+                        frame,
+                        "frame rendered for a client that left"
+                    );
+                }
+            }
+            Err(e) => {
+                bump(&self.shared.counters.renders_failed);
+                tracing::warn!(request_id = id, error = %e, "result too large to send");
+                self.out.send(&error_reply(
+                    e.code(),
+                    format!(
+                        "Render frame {frame} (request {id}): the result is too large to send \
+                         ({e}); ask for fewer passes or a smaller image"
+                    ),
+                    true,
+                    Some(id),
+                ));
+            }
+        }
+    }
+}
