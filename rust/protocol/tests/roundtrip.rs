@@ -501,10 +501,10 @@ fn field_order_unknown_fields_and_defaults() {
     );
     // A wrong type decodes (the map holds any value) and is named when resolved.
     let body = b"\x81\xa6Render\x83\xa5frame\x01\xaarequest_id\x02\xa8settings\x81\xa3spp\xc3";
-    let Request::Render(r) = decode_body::<Request>(body).unwrap() else {
+    let Request::Render(wrong) = decode_body::<Request>(body).unwrap() else {
         panic!()
     };
-    let e = render_settings(&r.settings).unwrap_err().to_string();
+    let e = render_settings(&wrong.settings).unwrap_err().to_string();
     assert!(
         e.contains("spp") && e.contains("integer") && e.contains("boolean"),
         "{e}"
