@@ -8,10 +8,10 @@ use std::collections::HashMap;
 use std::hash::BuildHasher;
 use std::sync::Arc;
 
-use antumbra_core::bvh::{
-    BuildMethod, BuildSettings, BvhWidth, CollapseMethod, CollapseSettings, SpatialAxes,
-    SpatialSettings,
+use antumbra_core::build::{
+    BuildMethod, BuildSettings, CollapseMethod, CollapseSettings, SpatialAxes, SpatialSettings,
 };
+use antumbra_core::bvh::BvhWidth;
 use antumbra_core::output::ImagePlane;
 use antumbra_core::render::{FrameResult, RenderSettings, StatsMode, VisibilitySource};
 use antumbra_core::scene::{

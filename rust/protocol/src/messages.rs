@@ -268,7 +268,7 @@ pub struct RenderSettingsState {
     pub collapse: CollapseState,
 }
 
-/// Mirrors [`antumbra_core::bvh::CollapseMethod`].
+/// Mirrors [`antumbra_core::build::CollapseMethod`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum CollapseState {
     #[default]
@@ -276,7 +276,7 @@ pub enum CollapseState {
     Greedy,
 }
 
-/// Mirrors [`antumbra_core::bvh::SpatialAxes`].
+/// Mirrors [`antumbra_core::build::SpatialAxes`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum SpatialAxesState {
     #[default]
@@ -306,7 +306,7 @@ pub enum BuildMethodState {
     Vsah,
 }
 
-/// Mirrors [`antumbra_core::bvh::BuildSettings`].
+/// Mirrors [`antumbra_core::build::BuildSettings`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct BuildSettingsState {

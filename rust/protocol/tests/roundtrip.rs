@@ -578,22 +578,22 @@ fn field_order_unknown_fields_and_defaults() {
     assert!(b.spatial_splits && b.spatial_bins == 32);
     assert_eq!(
         b.spatial_clip_min_refs as usize,
-        antumbra_core::bvh::SpatialSettings::default().clip_min_refs,
+        antumbra_core::build::SpatialSettings::default().clip_min_refs,
         "omitted clip threshold is the core default"
     );
     assert_eq!(
         b.spatial_node_overlap,
-        antumbra_core::bvh::SpatialSettings::default().node_overlap,
+        antumbra_core::build::SpatialSettings::default().node_overlap,
         "omitted node overlap gate is the core default"
     );
     assert_eq!(
         b.spatial_min_refs as usize,
-        antumbra_core::bvh::SpatialSettings::default().min_refs,
+        antumbra_core::build::SpatialSettings::default().min_refs,
         "omitted spatial node size is the core default"
     );
     assert_eq!(
         b.min_leaf_size as usize,
-        antumbra_core::bvh::BuildSettings::default().min_leaf_size,
+        antumbra_core::build::BuildSettings::default().min_leaf_size,
         "omitted smallest leaf is the core default"
     );
     assert!(r.passes.visible_set && r.passes.masks && r.passes.heat_maps);

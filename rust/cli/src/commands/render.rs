@@ -2,10 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use antumbra_core::bvh::{
-    BuildSettings, BvhWidth, CollapseCost, CollapseMethod, CollapseSettings, SpatialAxes,
-    SpatialSettings,
+use antumbra_core::build::{
+    BuildSettings, CollapseCost, CollapseMethod, CollapseSettings, SpatialAxes, SpatialSettings,
 };
+use antumbra_core::bvh::BvhWidth;
 use antumbra_core::render::{
     build_and_order, RenderSettings, Renderer, StatsMode, VisibilitySource,
 };
