@@ -223,6 +223,7 @@ impl<P: Payload> Binning<P> {
     /// Bins `refs` by centroid on all three axes into `nb` (at most `MAX_BINS`) bins per axis
     /// as `binner` maps them; each axis's first `nb` bins of the result hold them. Large nodes
     /// bin chunks in parallel: the merged bins equal serial binning's exactly.
+    #[inline]
     pub(crate) fn bin(&mut self, refs: &[PrimRef], binner: &Binner, nb: usize) -> &Bins3<P> {
         let bins: &mut Bins3<P> = &mut self.bins;
         if refs.len() > PARALLEL_BINNING {
@@ -253,6 +254,7 @@ pub(crate) struct Binner {
 impl Binner {
     /// `bins` bins per axis over `centroids` (doubled centroid bounds); an axis without extent
     /// puts every reference in its bin 0.
+    #[inline]
     pub(crate) fn new(centroids: &Box4, bins: usize) -> Self {
         let extent = centroids.hi - centroids.lo;
         let scale = Vec4::select(

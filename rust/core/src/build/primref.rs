@@ -112,6 +112,7 @@ impl Box4 {
         }
         e.x * e.y + e.y * e.z + e.z * e.x
     }
+    #[inline]
     pub(crate) fn to_aabb(self) -> Aabb {
         Aabb::new(self.lo.truncate(), self.hi.truncate())
     }
