@@ -1,6 +1,6 @@
-//! Object splits for the spatial/visibility builder: reference centroids binned per axis, with
-//! visible references counted per bin so one sweep yields both the best SAH and the best OSAH
-//! candidate.
+//! Object splits for the split builder: references binned by centroid (the shared binning,
+//! with visible references counted per bin) so one sweep yields both the best SAH and the best
+//! OSAH candidate.
 
 use glam::Vec4;
 
