@@ -4,7 +4,7 @@
 //!
 //! `cargo run --release --features embree -p antumbra-cli --example embree_diff -- forest [TRIS]`
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings};
+use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::{intersect_triangle, WatertightRay};
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,

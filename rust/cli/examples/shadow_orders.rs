@@ -15,7 +15,8 @@
 //! ray (an occluded ray: the interior nodes on the path to its shallowest occluding leaf; an
 //! unoccluded ray: every interior node it enters, which no order avoids), beside SATO and sorted.
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, CollapseSettings, WideBvh};
+use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseSettings};
+use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::{intersect_triangle, Ray, WatertightRay};
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,

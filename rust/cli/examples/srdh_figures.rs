@@ -19,7 +19,8 @@
 
 use std::time::Instant;
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, Bvh, WideBvh};
+use antumbra_core::build::{build_binned_sah, BuildSettings};
+use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     samples_for, shadow_rays, srdh_for_light, srdh_rays, LightSampler, PrimaryPass, PrimaryRays,

@@ -13,7 +13,8 @@
 //! of the 8-wide trees (default: the default collapse), and the box kernels to time in turn
 //! (default: auto).
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, CollapseSettings, WideBvh};
+use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseSettings};
+use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,

@@ -2,9 +2,8 @@
 //! occlusion answers equal brute force for thousands of rays — camera rays, the frame's own shadow
 //! rays, random rays, rays from inside closed meshes, grazing and axis-parallel rays.
 
-use antumbra_core::bvh::{
-    build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings, WideBvh,
-};
+use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
+use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,

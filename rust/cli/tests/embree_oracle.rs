@@ -5,7 +5,8 @@
 //! agreement on all but a tiny, reported fraction.
 #![cfg(feature = "embree")]
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, WideBvh};
+use antumbra_core::build::{build_binned_sah, BuildSettings};
+use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,

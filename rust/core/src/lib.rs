@@ -6,6 +6,7 @@
 //! [`scene::Scene`] → [`scene::FrameGeometry`] (world-space triangles in a normalised render space)
 //! → [`bvh::Bvh`] → [`render::render_frame`] → [`render::FrameResult`] (images + [`stats::FrameStats`]).
 
+pub mod build;
 pub mod bvh;
 pub mod error;
 pub mod geometry;

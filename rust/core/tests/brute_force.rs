@@ -4,7 +4,7 @@
 
 mod common;
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings};
+use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::Ray;
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::{

@@ -12,7 +12,8 @@
 //!        leaf B   leaf C
 //! ```
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings, Bvh};
+use antumbra_core::build::{build_binned_sah, BuildSettings};
+use antumbra_core::bvh::Bvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::trace::{closest_hit, occluded, AnyHitOrder, TraversalStats};
 use glam::Vec3;

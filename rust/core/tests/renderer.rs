@@ -3,7 +3,7 @@
 
 mod common;
 
-use antumbra_core::bvh::BuildSettings;
+use antumbra_core::build::BuildSettings;
 use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
 use antumbra_core::scene::LightKind;
 use antumbra_core::trace::AnyHitOrder;

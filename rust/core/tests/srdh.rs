@@ -2,7 +2,7 @@
 //! the cheapest candidate (exhaustively, against an independent evaluation of the cost), and
 //! for two one-triangle leaves the cost is exactly the triangle tests of the traversal.
 
-use antumbra_core::bvh::{build_binned_sah, BuildSettings};
+use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::Ray;
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::srdh::{

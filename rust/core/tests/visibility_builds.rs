@@ -3,10 +3,11 @@
 //! SAH tree with no visible triangles and to the SBVH tree with all of them, and OSAH moves
 //! work away from rays that hit visible triangles.
 
-use antumbra_core::bvh::{
-    build, build_with_visibility, check_references, BuildMethod, BuildSettings, Bvh, SpatialAxes,
+use antumbra_core::build::{
+    build, build_with_visibility, check_references, BuildMethod, BuildSettings, SpatialAxes,
     SpatialSettings,
 };
+use antumbra_core::bvh::Bvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::{

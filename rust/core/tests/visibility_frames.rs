@@ -4,7 +4,7 @@
 
 mod common;
 
-use antumbra_core::bvh::BuildMethod;
+use antumbra_core::build::BuildMethod;
 use antumbra_core::render::{FrameResult, RenderSettings, Renderer, VisibilitySource};
 use antumbra_core::scene::Scene;
 use glam::{DMat4, DVec3};

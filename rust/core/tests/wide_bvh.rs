@@ -3,9 +3,8 @@
 //! the 2-wide tree does exactly the binary traversal's work; sorting changes work, not answers;
 //! and the Q/C order minimises the node cost of equation (1) over all permutations.
 
-use antumbra_core::bvh::{
-    build_binned_sah, BuildSettings, Bvh, CollapseMethod, CollapseSettings, WideBvh, MAX_DEPTH,
-};
+use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
+use antumbra_core::bvh::{Bvh, WideBvh, MAX_DEPTH};
 use antumbra_core::geometry::Ray;
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::wide::cost::{expected_cost, order_by_ratio};

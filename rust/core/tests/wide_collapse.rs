@@ -4,9 +4,10 @@
 
 use std::collections::HashMap;
 
-use antumbra_core::bvh::{
-    build_binned_sah, BuildSettings, Bvh, CollapseCost, CollapseMethod, CollapseSettings, WideBvh,
+use antumbra_core::build::{
+    build_binned_sah, BuildSettings, CollapseCost, CollapseMethod, CollapseSettings,
 };
+use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::sampling::{hash_u32, unit_float};
 use glam::Vec3;
 

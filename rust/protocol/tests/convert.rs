@@ -5,7 +5,7 @@ mod common;
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use antumbra_core::bvh::{CollapseMethod, CollapseSettings, SpatialAxes};
+use antumbra_core::build::{CollapseMethod, CollapseSettings, SpatialAxes};
 use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
 use antumbra_core::scene::{Mesh, Scene};
 use antumbra_core::settings::SettingValue;

@@ -1,6 +1,6 @@
 //! Build-time probe (not part of the bench): builds one viewpoint's tree with a method, for
 //! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT [SPATIAL_AXES [SPLIT_ALPHA [CLIP_MIN_REFS [NODE_OVERLAP [MIN_REFS [MIN_LEAF_SIZE]]]]]]`
-use antumbra_core::bvh::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
+use antumbra_core::build::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
 use antumbra_core::render::{visibility_flags, PrimaryPass, PrimaryRays};
 use antumbra_core::scene::{FrameGeometry, Resolution};
 use std::time::Instant;

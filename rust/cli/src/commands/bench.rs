@@ -3,10 +3,11 @@
 
 use std::time::Instant;
 
-use antumbra_core::bvh::{
-    build_binned_sah, BuildMethod, BuildSettings, Bvh, BvhWidth, CollapseCost, CollapseMethod,
-    CollapseSettings, SpatialAxes,
+use antumbra_core::build::{
+    build_binned_sah, BuildMethod, BuildSettings, CollapseCost, CollapseMethod, CollapseSettings,
+    SpatialAxes,
 };
+use antumbra_core::bvh::{Bvh, BvhWidth};
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     binary_order, representative_rays, samples_for, shadow_rays, srdh_for_light, LightSampler,

@@ -7,9 +7,8 @@
 use std::path::Path;
 use std::time::Instant;
 
-use antumbra_core::bvh::{
-    build_binned_sah, build_with_visibility, BuildMethod, BuildSettings, Bvh,
-};
+use antumbra_core::build::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
+use antumbra_core::bvh::Bvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::output::write_line_plot;
 use antumbra_core::render::{

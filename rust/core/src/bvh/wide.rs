@@ -1,24 +1,12 @@
-//! N-wide BVH (N = 2, 4, 8) collapsed from a binary BVH, with the node layout SIMD traversal
-//! reads: per node the bounds of all N children as six rows of N floats (min x/y/z, max x/y/z),
-//! so one vector load per row tests every child at once.
-//!
-//! The collapse keeps the binary tree's leaves (and so its leaf-ordered triangles) and only
-//! removes interior levels: each wide node starts from a binary node's two children and
-//! repeatedly opens the interior child with the largest surface area until it has N children or
-//! only leaves are left (Wald, Benthin, Boulos 2008; Dammertz, Hanika, Keller 2008), or takes the
-//! SAH-optimal slots ([`CollapseMethod::Sah`], see `wide_collapse.rs`). For N = 2 the result is
-//! the binary tree itself in this layout, whatever the method.
-
-use std::collections::VecDeque;
-use std::time::Instant;
+//! N-wide BVH (N = 2, 4, 8) with the node layout SIMD traversal reads: per node the bounds of
+//! all N children as six rows of N floats (min x/y/z, max x/y/z), so one vector load per row
+//! tests every child at once. Made from a binary BVH by the collapse in `build::collapse`.
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::wide_collapse::{CollapseMethod, CollapseSettings, SahPlan};
-use super::Bvh;
+use super::TriangleRows;
 use crate::geometry::Aabb;
-use crate::trace::wide::TriangleRows;
 
 /// How many children a BVH node has: 2 is the builder's binary tree, 4 and 8 its collapse.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -126,7 +114,7 @@ impl<const N: usize> WideNode<N> {
             Vec3::new(b[3][slot], b[4][slot], b[5][slot]),
         )
     }
-    fn set_child_bounds(&mut self, slot: usize, a: &Aabb) {
+    pub(crate) fn set_child_bounds(&mut self, slot: usize, a: &Aabb) {
         let (lo, hi) = (a.min.to_array(), a.max.to_array());
         for axis in 0..3 {
             self.bounds[axis][slot] = lo[axis];
@@ -156,74 +144,6 @@ pub struct WideBvh<const N: usize> {
 }
 
 impl<const N: usize> WideBvh<N> {
-    /// Collapses `bvh` into N-wide nodes with the default settings.
-    pub fn collapse(bvh: &Bvh) -> Self {
-        Self::collapse_with(bvh, &CollapseSettings::default())
-    }
-
-    /// Collapses `bvh` into N-wide nodes.
-    pub fn collapse_with(bvh: &Bvh, settings: &CollapseSettings) -> Self {
-        assert!(
-            matches!(N, 2 | 4 | 8),
-            "wide BVHs are 2, 4 or 8 wide, not {N}"
-        );
-        let start = Instant::now();
-        let mut out = WideBvh {
-            triangles: bvh.triangles.clone(),
-            triangle_rows: TriangleRows::new(&bvh.triangles),
-            triangle_ids: bvh.triangle_ids.clone(),
-            ..WideBvh::default()
-        };
-        let Some(root) = bvh.nodes.first() else {
-            return out;
-        };
-        out.root_bounds = root.bounds();
-        let ranges = triangle_ranges(bvh);
-        // N = 2 stays the binary tree, whatever the method.
-        let plan = (N > 2 && settings.method == CollapseMethod::Sah)
-            .then(|| SahPlan::<N>::new(bvh, &ranges, &settings.cost));
-        // Greedy: a binary subtree this small becomes one leaf (its triangles are contiguous in
-        // leaf order): wide nodes then do not end in nodes of two or three tiny leaves.
-        let merge_limit = if N == 2 { 0 } else { MERGE_LIMIT };
-        let as_leaf = |c: usize| {
-            let n = &bvh.nodes[c];
-            if n.is_leaf() {
-                return Some((n.first, n.count));
-            }
-            let merge = match &plan {
-                Some(p) => p.is_leaf(c),
-                None => ranges[c].is_some_and(|(_, count)| count <= merge_limit),
-            };
-            ranges[c].filter(|_| merge)
-        };
-        // A wide node per queued binary node; its binary children fill the slots.
-        let mut queue = VecDeque::from([(0usize, u32::MAX, 0u8, 0u16)]);
-        while let Some((binary, parent, slot, depth)) = queue.pop_front() {
-            let index = out.nodes.len() as u32;
-            out.parent.push((parent, slot));
-            out.depth.push(depth);
-            let mut node = WideNode::<N>::default();
-            let children = match &plan {
-                Some(p) => p.children(bvh, binary),
-                None => open_children::<N>(bvh, binary, &|c| as_leaf(c).is_some()),
-            };
-            for (s, &c) in children.iter().enumerate() {
-                node.set_child_bounds(s, &bvh.nodes[c].bounds());
-                if let Some((first, count)) = as_leaf(c) {
-                    node.child[s] = first;
-                    node.count[s] = u8::try_from(count).expect("leaves hold at most 64");
-                } else {
-                    // Nodes are numbered in queue order: this child's index is known now.
-                    node.child[s] = index + 1 + queue.len() as u32;
-                    queue.push_back((c, index, s as u8, depth + 1));
-                }
-            }
-            out.nodes.push(node);
-        }
-        out.collapse_ms = start.elapsed().as_secs_f64() * 1e3;
-        out
-    }
-
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()
     }
@@ -288,64 +208,4 @@ impl<const N: usize> WideBvh<N> {
             None => Ok(()),
         }
     }
-}
-
-/// The binary nodes that become the slots of the wide node made from binary node `index`:
-/// its two children, then greedily the children of the largest-area interior slot until N
-/// slots are filled. A slot opened in place keeps the builder's left-to-right order. A binary
-/// root that is a leaf becomes a one-slot wide root.
-fn open_children<const N: usize>(
-    bvh: &Bvh,
-    index: usize,
-    is_leaf: &dyn Fn(usize) -> bool,
-) -> Vec<usize> {
-    let node = &bvh.nodes[index];
-    if is_leaf(index) {
-        return vec![index];
-    }
-    let first = node.first as usize;
-    let mut slots = vec![first, first + 1];
-    while slots.len() < N {
-        let widest = slots
-            .iter()
-            .enumerate()
-            .filter(|(_, &c)| !is_leaf(c))
-            .max_by(|(_, &a), (_, &b)| {
-                let (a, b) = (&bvh.nodes[a], &bvh.nodes[b]);
-                a.bounds().half_area().total_cmp(&b.bounds().half_area())
-            })
-            .map(|(i, _)| i);
-        let Some(i) = widest else { break };
-        let c = bvh.nodes[slots[i]].first as usize;
-        slots.splice(i..=i, [c, c + 1]);
-    }
-    slots
-}
-
-/// Largest binary subtree (in triangles) the collapse turns into a single leaf.
-pub const MERGE_LIMIT: u32 = 4;
-
-/// Per binary node, the triangle slots of its subtree as (first, count) when they are
-/// contiguous (the builders lay leaves out depth first, so they are), else `None`.
-fn triangle_ranges(bvh: &Bvh) -> Vec<Option<(u32, u32)>> {
-    fn visit(bvh: &Bvh, i: usize, out: &mut [Option<(u32, u32)>]) -> Option<(u32, u32)> {
-        let n = &bvh.nodes[i];
-        let r = if n.is_leaf() {
-            Some((n.first, n.count))
-        } else {
-            let l = n.first as usize;
-            match (visit(bvh, l, out), visit(bvh, l + 1, out)) {
-                (Some(a), Some(b)) if a.0 + a.1 == b.0 => Some((a.0, a.1 + b.1)),
-                (Some(a), Some(b)) if b.0 + b.1 == a.0 => Some((b.0, a.1 + b.1)),
-                _ => None,
-            }
-        };
-        out[i] = r;
-        r
-    }
-    let mut out = vec![None; bvh.nodes.len()];
-    if !bvh.nodes.is_empty() {
-        visit(bvh, 0, &mut out);
-    }
-    out
 }

@@ -13,7 +13,8 @@ use super::visibility::{trace_visible_set, visibility_flags, visible_set};
 use super::wide_tree::{binary_order, ShadowTracer, WideTree};
 use super::VisibilitySource;
 use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
-use crate::bvh::{build_binned_sah, build_with_visibility, Bvh, BvhWidth, CollapseSettings};
+use crate::build::{build_binned_sah, build_with_visibility, CollapseSettings};
+use crate::bvh::{Bvh, BvhWidth};
 use crate::output::ImagePlane;
 use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::stats::StatsRow;
@@ -80,7 +81,7 @@ struct Cached {
     key: GeometryKey,
     /// Keeps the meshes alive so their addresses in the key cannot be reused.
     _meshes: Vec<Arc<Mesh>>,
-    build: (crate::bvh::BuildMethod, crate::bvh::BuildSettings),
+    build: (crate::build::BuildMethod, crate::build::BuildSettings),
     geometry: Arc<FrameGeometry>,
     camera_bvh: Arc<Bvh>,
     shadow_bvh: Option<Arc<Bvh>>,

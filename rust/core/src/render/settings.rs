@@ -1,7 +1,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::VisibilitySource;
-use crate::bvh::{BuildMethod, BuildSettings, BvhWidth, CollapseMethod, CollapseSettings};
+use crate::build::{BuildMethod, BuildSettings, CollapseMethod, CollapseSettings};
+use crate::bvh::BvhWidth;
 use crate::trace::ShadowOrder;
 
 /// What the passes measure.

@@ -8,7 +8,8 @@ use glam::Vec3;
 
 use super::shadow::{representative_rays, shadow_rays, SamplePlan};
 use super::{LightSampler, PrimaryPass};
-use crate::bvh::{BuildSettings, Bvh};
+use crate::build::BuildSettings;
+use crate::bvh::Bvh;
 use crate::geometry::Ray;
 use crate::srdh::{build_srdh, RaySet, RaySetSource, SrdhBvh, SrdhSettings};
 

@@ -2,7 +2,8 @@
 //! pass uses: the binary traversal where the order is one it has (stored, front to back on the
 //! 2-wide tree), the wide tree with a prepared order otherwise.
 
-use crate::bvh::{Bvh, BvhWidth, CollapseSettings, WideBvh};
+use crate::build::CollapseSettings;
+use crate::bvh::{Bvh, BvhWidth, WideBvh};
 use crate::geometry::Ray;
 use crate::srdh::{occluded_with, SrdhBvh};
 use crate::trace::wide::{BoxKernel, OrderView, PreparedOrder, SortTables, WideQueries};

@@ -1,7 +1,8 @@
 //! The list of render settings: one entry per setting, in the order help and the panel show them.
 
 use super::{Group, Kind, NamedSettings, Setting, SettingValue as V};
-use crate::bvh::{BuildMethod, BvhWidth, CollapseMethod, SpatialAxes};
+use crate::build::{BuildMethod, CollapseMethod, SpatialAxes};
+use crate::bvh::BvhWidth;
 use crate::render::{RenderSettings, StatsMode, VisibilitySource};
 use crate::trace::ShadowOrder;
 use crate::{Error, Result};

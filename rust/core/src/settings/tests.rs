@@ -1,5 +1,5 @@
 use super::*;
-use crate::bvh::{BuildMethod, CollapseMethod, SpatialAxes};
+use crate::build::{BuildMethod, CollapseMethod, SpatialAxes};
 use crate::trace::ShadowOrder;
 
 fn named(pairs: &[(&str, SettingValue)]) -> NamedSettings {

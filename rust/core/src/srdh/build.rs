@@ -13,9 +13,8 @@ use super::cost::{pierces, ray_term};
 use super::kernel::{Kernel, PackedKernels};
 use super::ray_set::RaySet;
 use super::SrdhSettings;
-use crate::bvh::{
-    build_sah_nodes, Box4, BuildSettings, Bvh, BvhNode, NodeArray, PrimRef, MEDIAN_DEPTH,
-};
+use crate::build::{build_sah_nodes, Box4, BuildSettings, PrimRef, MEDIAN_DEPTH};
+use crate::bvh::{Bvh, BvhNode, NodeArray};
 use crate::geometry::{Aabb, RayBoxPrecomp};
 
 /// A binary BVH for one light's shadow rays with a traversal kernel per node.

@@ -119,7 +119,7 @@ pub fn all_hits(bvh: &Bvh, ray: &Ray, out: &mut Vec<u32>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::{build_binned_sah, BuildSettings};
+    use crate::build::{build_binned_sah, BuildSettings};
     use glam::Vec3;
 
     #[test]

@@ -9,41 +9,9 @@
 //! rows. Leaves start at any slot: a test covers the aligned blocks a leaf touches (one with
 //! SSE, two with AVX2) and masks the lanes outside it.
 
+use crate::bvh::TriangleRows;
 use crate::geometry::{intersect_triangle, WatertightRay};
 use glam::Vec3;
-
-/// Four triangle slots: `rows[3 * v + axis][lane]`.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(16))]
-struct Block {
-    rows: [[f32; 4]; 9],
-}
-
-/// The triangles of a tree in blocks of four slots (slot `s` is lane `s % 4` of block `s / 4`),
-/// followed by two zero blocks so that an eight-lane window starting at any block stays inside.
-#[derive(Clone, Debug, Default)]
-pub struct TriangleRows {
-    blocks: Vec<Block>,
-}
-
-impl TriangleRows {
-    pub fn new(triangles: &[[Vec3; 3]]) -> Self {
-        let mut blocks = vec![Block::default(); triangles.len().div_ceil(4) + 2];
-        for (slot, t) in triangles.iter().enumerate() {
-            let block = &mut blocks[slot / 4];
-            for (v, vertex) in t.iter().enumerate() {
-                for axis in 0..3 {
-                    block.rows[3 * v + axis][slot % 4] = vertex[axis];
-                }
-            }
-        }
-        TriangleRows { blocks }
-    }
-
-    pub fn bytes(&self) -> usize {
-        self.blocks.len() * std::mem::size_of::<Block>()
-    }
-}
 
 /// How a traversal tests leaf triangles: one at a time (the reference, in the traversal's own
 /// loop; here it means every lane takes the scalar test), or in SIMD windows of four (SSE) or

@@ -18,7 +18,6 @@ pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay, ANY_OCTANT};
 pub use child_sort::{
     sort_for_light, ChildHitModel, LightOrder, LoggingOrder, SortSettings, SortTables,
 };
-pub use leaf::TriangleRows;
 pub use order::{OrderView, Permutation};
 pub use prepared::PreparedOrder;
 

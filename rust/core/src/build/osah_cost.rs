@@ -4,12 +4,7 @@
 //! viability test that keeps an OSAH split only when it hides more triangles than the best SAH
 //! split would.
 
-use super::binned_sah::{Box4, PrimRef};
-
-/// How many of `refs` are visible ([`PrimRef::visible`]).
-pub(super) fn count_visible(refs: &[PrimRef]) -> u32 {
-    refs.iter().filter(|r| r.visible()).count() as u32
-}
+use super::primref::Box4;
 
 /// The two sides of a candidate split: boxes, reference counts and visible-reference counts.
 /// A reference a spatial split duplicates counts on both sides.

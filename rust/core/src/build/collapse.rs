@@ -1,21 +1,29 @@
-//! Which binary nodes become the slots of each wide node. `Greedy` opens the largest-area
-//! interior slot until the node is full (see `open_children` in `wide.rs`); `Sah` takes the
-//! choice that minimises the SAH cost of the whole wide tree, by the dynamic programme of
-//! Ylitie, Karras & Laine 2017 (section 4): per binary node n and slot count i = 1..N, the
-//! cheapest way to represent n's subtree in at most i slots, each a leaf or a wide node.
+//! The wide collapse: a binary BVH becomes an N-wide one (N = 2, 4, 8) that keeps the binary
+//! tree's leaves (and so its leaf-ordered triangles) and only removes interior levels.
+//!
+//! Which binary nodes become the slots of each wide node: `Greedy` starts from a binary node's
+//! two children and opens the largest-area interior slot until the node is full (Wald, Benthin,
+//! Boulos 2008; Dammertz, Hanika, Keller 2008); `Sah` takes the choice that minimises the SAH
+//! cost of the whole wide tree, by the dynamic programme of Ylitie, Karras & Laine 2017
+//! (section 4): per binary node n and slot count i = 1..N, the cheapest way to represent n's
+//! subtree in at most i slots, each a leaf or a wide node. For N = 2 the result is the binary
+//! tree itself in the wide layout, whatever the method.
 //!
 //! A leaf is always a whole binary subtree, whose triangles are contiguous in leaf order, so
 //! neither method re-orders triangles.
 
+use std::collections::VecDeque;
+use std::time::Instant;
+
 use serde::{Deserialize, Serialize};
 
-use super::{Bvh, WideBvh};
+use crate::bvh::{Bvh, TriangleRows, WideBvh, WideNode};
 
 /// How the binary BVH is collapsed into wide nodes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum CollapseMethod {
     /// Open the largest-area interior child until N slots are filled; binary subtrees of at
-    /// most [`super::wide::MERGE_LIMIT`] triangles become one leaf.
+    /// most [`MERGE_LIMIT`] triangles become one leaf.
     Greedy,
     /// The slots and leaves that minimise [`CollapseCost`] over the whole tree. The default:
     /// fuller nodes, hence fewer node visits and fewer instructions per ray than `Greedy`.
@@ -121,6 +129,136 @@ impl CollapseSettings {
     }
 }
 
+impl<const N: usize> WideBvh<N> {
+    /// Collapses `bvh` into N-wide nodes with the default settings.
+    pub fn collapse(bvh: &Bvh) -> Self {
+        Self::collapse_with(bvh, &CollapseSettings::default())
+    }
+
+    /// Collapses `bvh` into N-wide nodes.
+    pub fn collapse_with(bvh: &Bvh, settings: &CollapseSettings) -> Self {
+        assert!(
+            matches!(N, 2 | 4 | 8),
+            "wide BVHs are 2, 4 or 8 wide, not {N}"
+        );
+        let start = Instant::now();
+        let mut out = WideBvh {
+            triangles: bvh.triangles.clone(),
+            triangle_rows: TriangleRows::new(&bvh.triangles),
+            triangle_ids: bvh.triangle_ids.clone(),
+            ..WideBvh::default()
+        };
+        let Some(root) = bvh.nodes.first() else {
+            return out;
+        };
+        out.root_bounds = root.bounds();
+        let ranges = triangle_ranges(bvh);
+        // N = 2 stays the binary tree, whatever the method.
+        let plan = (N > 2 && settings.method == CollapseMethod::Sah)
+            .then(|| SahPlan::<N>::new(bvh, &ranges, &settings.cost));
+        // Greedy: a binary subtree this small becomes one leaf (its triangles are contiguous in
+        // leaf order): wide nodes then do not end in nodes of two or three tiny leaves.
+        let merge_limit = if N == 2 { 0 } else { MERGE_LIMIT };
+        let as_leaf = |c: usize| {
+            let n = &bvh.nodes[c];
+            if n.is_leaf() {
+                return Some((n.first, n.count));
+            }
+            let merge = match &plan {
+                Some(p) => p.is_leaf(c),
+                None => ranges[c].is_some_and(|(_, count)| count <= merge_limit),
+            };
+            ranges[c].filter(|_| merge)
+        };
+        // A wide node per queued binary node; its binary children fill the slots.
+        let mut queue = VecDeque::from([(0usize, u32::MAX, 0u8, 0u16)]);
+        while let Some((binary, parent, slot, depth)) = queue.pop_front() {
+            let index = out.nodes.len() as u32;
+            out.parent.push((parent, slot));
+            out.depth.push(depth);
+            let mut node = WideNode::<N>::default();
+            let children = match &plan {
+                Some(p) => p.children(bvh, binary),
+                None => open_children::<N>(bvh, binary, &|c| as_leaf(c).is_some()),
+            };
+            for (s, &c) in children.iter().enumerate() {
+                node.set_child_bounds(s, &bvh.nodes[c].bounds());
+                if let Some((first, count)) = as_leaf(c) {
+                    node.child[s] = first;
+                    node.count[s] = u8::try_from(count).expect("leaves hold at most 64");
+                } else {
+                    // Nodes are numbered in queue order: this child's index is known now.
+                    node.child[s] = index + 1 + queue.len() as u32;
+                    queue.push_back((c, index, s as u8, depth + 1));
+                }
+            }
+            out.nodes.push(node);
+        }
+        out.collapse_ms = start.elapsed().as_secs_f64() * 1e3;
+        out
+    }
+}
+
+/// The binary nodes that become the slots of the wide node made from binary node `index`:
+/// its two children, then greedily the children of the largest-area interior slot until N
+/// slots are filled. A slot opened in place keeps the builder's left-to-right order. A binary
+/// root that is a leaf becomes a one-slot wide root.
+fn open_children<const N: usize>(
+    bvh: &Bvh,
+    index: usize,
+    is_leaf: &dyn Fn(usize) -> bool,
+) -> Vec<usize> {
+    let node = &bvh.nodes[index];
+    if is_leaf(index) {
+        return vec![index];
+    }
+    let first = node.first as usize;
+    let mut slots = vec![first, first + 1];
+    while slots.len() < N {
+        let widest = slots
+            .iter()
+            .enumerate()
+            .filter(|(_, &c)| !is_leaf(c))
+            .max_by(|(_, &a), (_, &b)| {
+                let (a, b) = (&bvh.nodes[a], &bvh.nodes[b]);
+                a.bounds().half_area().total_cmp(&b.bounds().half_area())
+            })
+            .map(|(i, _)| i);
+        let Some(i) = widest else { break };
+        let c = bvh.nodes[slots[i]].first as usize;
+        slots.splice(i..=i, [c, c + 1]);
+    }
+    slots
+}
+
+/// Largest binary subtree (in triangles) the collapse turns into a single leaf.
+pub const MERGE_LIMIT: u32 = 4;
+
+/// Per binary node, the triangle slots of its subtree as (first, count) when they are
+/// contiguous (the builders lay leaves out depth first, so they are), else `None`.
+fn triangle_ranges(bvh: &Bvh) -> Vec<Option<(u32, u32)>> {
+    fn visit(bvh: &Bvh, i: usize, out: &mut [Option<(u32, u32)>]) -> Option<(u32, u32)> {
+        let n = &bvh.nodes[i];
+        let r = if n.is_leaf() {
+            Some((n.first, n.count))
+        } else {
+            let l = n.first as usize;
+            match (visit(bvh, l, out), visit(bvh, l + 1, out)) {
+                (Some(a), Some(b)) if a.0 + a.1 == b.0 => Some((a.0, a.1 + b.1)),
+                (Some(a), Some(b)) if b.0 + b.1 == a.0 => Some((b.0, a.1 + b.1)),
+                _ => None,
+            }
+        };
+        out[i] = r;
+        r
+    }
+    let mut out = vec![None; bvh.nodes.len()];
+    if !bvh.nodes.is_empty() {
+        visit(bvh, 0, &mut out);
+    }
+    out
+}
+
 /// How one binary node is represented in at most i slots: as one slot (itself: a leaf or a
 /// wide node), or split into `left` slots for its left child and `total - left` for its right.
 #[derive(Clone, Copy, Default)]
@@ -130,7 +268,7 @@ struct Choice {
 }
 
 /// The decisions of the SAH collapse for every binary node reachable from the root.
-pub(super) struct SahPlan<const N: usize> {
+struct SahPlan<const N: usize> {
     /// Per binary node: a slot holding it is a leaf (else a wide node).
     leaf: Vec<bool>,
     /// Per binary node and slot budget i (index i - 1): the cheapest representation. Only

@@ -4,9 +4,9 @@
 
 use glam::Vec3;
 
-use super::binned_sah::Box4;
 use super::clip::clipped_box;
-use super::node::{Bvh, MAX_DEPTH};
+use super::primref::Box4;
+use crate::bvh::{Bvh, MAX_DEPTH};
 
 /// Checks that every slot is in exactly one leaf and holds its triangle, children nest in their
 /// parents, each leaf box holds a part of each of its triangles, and every triangle is covered:

@@ -6,8 +6,9 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::binned_sah::{build_binned_sah, BuildSettings};
-use super::node::Bvh;
+use super::sah::build_binned_sah;
+use super::settings::BuildSettings;
+use crate::bvh::Bvh;
 
 /// A SAH tree over the triangles with `visible[i]`; triangle ids stay those of `triangles`.
 pub(super) fn build_vsah(

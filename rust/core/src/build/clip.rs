@@ -4,7 +4,7 @@
 
 use glam::{BVec4A, Vec3, Vec4};
 
-use super::binned_sah::Box4;
+use super::primref::Box4;
 
 /// The box of the part of `triangle` with `lo <= p[axis] <= hi`, intersected with `within`
 /// (the reference's current box, which already bounds earlier cuts). Empty if nothing is left.

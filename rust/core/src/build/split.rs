@@ -10,13 +10,15 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::binned_sah::{
-    bounds_of, build_sah_nodes, Box4, BuildSettings, PrimRef, MEDIAN_DEPTH, PARALLEL_SUBTREE,
+use super::object_split::{
+    best_object_splits, median_split, partition_object, ChildSummary, ObjectSplit,
 };
-use super::node::{Bvh, BvhNode, NodeArray};
-use super::object_split::{best_object_splits, median_split, partition_object, ChildSummary};
-use super::osah_cost::{count_visible, osah_viable, CostModel, Sides};
-use super::spatial_split::{best_spatial_splits, partition_spatial, SpatialAxes, Unsplit};
+use super::osah_cost::{osah_viable, CostModel, Sides};
+use super::primref::{bounds_of, count_visible, Box4, PrimRef};
+use super::sah::{build_sah_nodes, MEDIAN_DEPTH, PARALLEL_SUBTREE};
+use super::settings::{BuildSettings, SpatialAxes};
+use super::spatial_split::{best_spatial_splits, partition_spatial, SpatialSplit, Unsplit};
+use crate::bvh::{Bvh, BvhNode, NodeArray};
 
 /// Where a builder may use spatial splits and visibility-driven splits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -124,8 +126,8 @@ struct Builder<'a> {
 
 /// The split a node takes.
 enum Choice {
-    Object(super::object_split::ObjectSplit),
-    Spatial(super::spatial_split::SpatialSplit, Unsplit),
+    Object(ObjectSplit),
+    Spatial(SpatialSplit, Unsplit),
 }
 
 impl Builder<'_> {
@@ -264,8 +266,8 @@ impl Builder<'_> {
         let sp_osah = sp_osah.filter(|(x, _)| affordable(&x.sides));
 
         // Candidates as (choice, cost, sides); the lower cost wins, objects win ties.
-        let pick = |o: Option<(super::object_split::ObjectSplit, f32)>,
-                    p: Option<(super::spatial_split::SpatialSplit, f32)>,
+        let pick = |o: Option<(ObjectSplit, f32)>,
+                    p: Option<(SpatialSplit, f32)>,
                     unsplit: Unsplit| {
             match (o, p) {
                 (Some(o), Some(p)) if p.1 < o.1 => {

@@ -5,131 +5,11 @@
 
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use super::binned_sah::{
-    in_lanes, truncate_lanes, Box4, Corners, PrimRef, BIN_LANES, LANES_MIN_REFS,
-};
+use super::binning::{in_lanes, truncate_lanes, use_avx, Corners, BIN_LANES, LANES_MIN_REFS};
 use super::clip::{axis_lane, clipped_box, clipped_strips, cut_to_slab};
 use super::osah_cost::{CostModel, Sides};
-
-/// Settings of spatial splits.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct SpatialSettings {
-    /// Whether the SBVH, ABVH and OSAH builders may split space at all.
-    pub enabled: bool,
-    /// Spatial bins per axis (2..=256).
-    pub bins: usize,
-    /// Spatial splits are tried only in nodes whose best object split's children overlap by
-    /// more than this fraction of the root's surface area (Stich et al.'s alpha; 1 disables).
-    pub alpha: f32,
-    /// Spatial splits are tried only in nodes whose best object split's children overlap by
-    /// at least this fraction of the node's own surface area (Embree's spatial-split gate;
-    /// 0 tries every node that passes `alpha`, as Stich et al.).
-    #[serde(default)]
-    pub node_overlap: f32,
-    /// Nodes with fewer references than this never try spatial splits (outside OSAH's depth
-    /// they are built by the binned SAH builder); 0 tries every node.
-    #[serde(default)]
-    pub min_refs: usize,
-    /// References may grow to at most (1 + max_growth) x triangles; the budget is handed down
-    /// the tree in proportion to child sizes, so the build stays deterministic.
-    pub max_growth: f32,
-    /// Which axes spatial splits are binned on: all three (Stich et al.), or only the axis of
-    /// the node's best object split (SAH's and, in OSAH nodes, OSAH's: at most two axes), which
-    /// clips each straddling reference a third as often. The default is the object split's
-    /// axis: nearly the trees of all three axes for much less binning; `All` is the SBVH as
-    /// Stich et al. define it.
-    pub axes: SpatialAxes,
-    /// Nodes with fewer references than this bin spatial candidates with each straddling
-    /// reference's box cut at the bin planes instead of its triangle clipped to each bin (the
-    /// partition of the chosen split always clips, so children get the clipped triangles' tight
-    /// boxes). 0 clips everywhere, as Stich et al. The default never clips in binning: cut boxes
-    /// left every counter and reference count of the bench views unchanged, at a fraction of
-    /// clipping's cost.
-    #[serde(default)]
-    pub clip_min_refs: usize,
-}
-
-/// The default [`SpatialSettings::clip_min_refs`]: no node is that large (it also fits the
-/// protocol's 32-bit field, so the default survives a round trip).
-const CLIP_NEVER: usize = u32::MAX as usize;
-
-/// The axes a node bins spatial split candidates on (see [`SpatialSettings::axes`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SpatialAxes {
-    /// x, y and z, as Stich et al.
-    All,
-    /// The best object split's axis only.
-    Object,
-}
-
-impl std::fmt::Display for SpatialAxes {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            SpatialAxes::All => "all",
-            SpatialAxes::Object => "object",
-        })
-    }
-}
-
-impl std::str::FromStr for SpatialAxes {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "all" => Ok(SpatialAxes::All),
-            "object" => Ok(SpatialAxes::Object),
-            other => Err(format!("spatial axes: '{other}' is not all or object")),
-        }
-    }
-}
-
-impl Default for SpatialSettings {
-    fn default() -> Self {
-        SpatialSettings {
-            enabled: true,
-            bins: 32,
-            alpha: 1e-5,
-            node_overlap: 0.0,
-            min_refs: 0,
-            max_growth: 0.5,
-            axes: SpatialAxes::Object,
-            clip_min_refs: CLIP_NEVER,
-        }
-    }
-}
-
-impl SpatialSettings {
-    pub fn validate(&self) -> crate::Result<()> {
-        if !(2..=256).contains(&self.bins) {
-            return Err(crate::Error::invalid(
-                "build.spatial.bins",
-                format!("must be in 2..=256, got {}", self.bins),
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.alpha) {
-            return Err(crate::Error::invalid(
-                "build.spatial.alpha",
-                format!("must be in 0..=1, got {}", self.alpha),
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.node_overlap) {
-            return Err(crate::Error::invalid(
-                "build.spatial.node_overlap",
-                format!("must be in 0..=1, got {}", self.node_overlap),
-            ));
-        }
-        if !(0.0..=16.0).contains(&self.max_growth) {
-            return Err(crate::Error::invalid(
-                "build.spatial.max_growth",
-                format!("must be in 0..=16, got {}", self.max_growth),
-            ));
-        }
-        Ok(())
-    }
-}
+use super::primref::{Box4, PrimRef};
 
 /// A spatial split: the plane `p[axis] = position` and the binned estimate of its sides.
 #[derive(Clone, Copy, Debug)]
@@ -342,7 +222,7 @@ impl Grid {
             }
         } else {
             #[cfg(target_arch = "x86_64")]
-            if super::binned_sah::use_avx() {
+            if use_avx() {
                 if refs.len() < LANES_MIN_REFS {
                     // SAFETY: AVX is present (checked above).
                     unsafe { self.bin_cut_boxes_avx(refs, &mut [&mut all]) };
@@ -671,8 +551,9 @@ pub(super) fn partition_spatial(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::binned_sah::bounds_of;
-    use crate::bvh::object_split::tests::{refs_visible_every, scattered};
+    use crate::build::binning::portable_and_avx;
+    use crate::build::primref::bounds_of;
+    use crate::build::primref::tests::{refs_visible_every, scattered};
 
     #[test]
     fn chunked_and_avx_binning_equal_serial_portable_binning() {
@@ -699,11 +580,10 @@ mod tests {
                 clip: false,
                 ..grid
             };
-            let (portable, avx) =
-                crate::bvh::binned_sah::portable_and_avx(|| cut.bin(&refs, &tris));
+            let (portable, avx) = portable_and_avx(|| cut.bin(&refs, &tris));
             assert_eq!(portable, avx, "AVX and portable cut-box binning differ");
             // Chunks under LANES_MIN_REFS bin in one lane, the whole in lanes: the same bins.
-            let (_, one_lane) = crate::bvh::binned_sah::portable_and_avx(|| {
+            let (_, one_lane) = portable_and_avx(|| {
                 refs.chunks(LANES_MIN_REFS - 1)
                     .map(|c| cut.bin(c, &tris))
                     .fold(vec![EMPTY_BIN; 3 * 32], merge_bins)
