@@ -9,6 +9,7 @@
 pub mod bvh;
 pub mod error;
 pub mod geometry;
+pub mod order;
 pub mod output;
 pub mod render;
 pub mod sampling;

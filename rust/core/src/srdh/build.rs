@@ -10,9 +10,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::cost::{pierces, ray_term};
-use super::kernel::{Kernel, PackedKernels};
+use crate::order::{Kernel, PackedKernels};
 use super::ray_set::RaySet;
-use super::SrdhSettings;
+use crate::order::SrdhSettings;
 use crate::bvh::{
     build_sah_nodes, Box4, BuildSettings, Bvh, BvhNode, NodeArray, PrimRef, MEDIAN_DEPTH,
 };

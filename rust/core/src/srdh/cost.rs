@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::kernel::Kernel;
+use crate::order::Kernel;
 use super::ray_set::RaySet;
 use crate::geometry::{Aabb, Ray, RayBoxPrecomp};
 
