@@ -103,7 +103,11 @@ fn main() -> anyhow::Result<()> {
                 };
                 let bs = BuildSettings::default();
                 let l = srdh_for_light(&pass, &sampler, plan, &settings, &shadow_bvh, shadow_tris, &bs);
-                let tree = l.tree.ok_or(anyhow::anyhow!("no SRDH tree"))?;
+                // A light none of whose representative rays reach a surface gets no tree.
+                let Some(tree) = l.tree else {
+                    rays_traced -= rays.len();
+                    continue;
+                };
                 trace_srdh(&tree, &rays)
             }
             other => anyhow::bail!("unknown mode '{other}' (binary, fbto8, sorted8, srdh)"),
