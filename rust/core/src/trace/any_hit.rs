@@ -72,16 +72,17 @@ pub fn occluding_leaf<O: ChildOrder, C: Counters>(
     // Entries: hit children (tested at the parent) or children still to test (on entry).
     let mut stack = [0u32; MAX_DEPTH];
     let mut sp = 0usize;
-    let mut index = 0usize;
+    // The current node as a reference, as the single-hit step needs no index; its index is
+    // only derived where an order or the answer reads it.
+    let mut node = root;
     loop {
-        let node = &nodes[index];
         if node.is_leaf() {
             stats.leaf();
             let first = node.first as usize;
             for slot in first..first + node.count as usize {
                 stats.triangles(1);
                 if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
-                    return Some(index);
+                    return Some(index_of(nodes, node));
                 }
             }
         } else {
@@ -93,16 +94,13 @@ pub fn occluding_leaf<O: ChildOrder, C: Counters>(
                     t: [0.0; 2],
                     nodes: [a, b],
                 };
-                let (first, second) = if order.second_first(index, 0, 1, &oray, &pair) {
-                    (l + 1, l)
-                } else {
-                    (l, l + 1)
-                };
+                let b_first = order.second_first(index_of(nodes, node), 0, 1, &oray, &pair);
+                let (first, second) = if b_first { (b, l) } else { (a, l + 1) };
                 stack[sp] = second as u32;
                 sp += 1;
                 stats.boxes(1);
-                if pre.hit_packed(nodes[first].packed(), t_min, t_max).is_some() {
-                    index = first;
+                if pre.hit_packed(first.packed(), t_min, t_max).is_some() {
+                    node = first;
                     continue;
                 }
             } else {
@@ -115,22 +113,20 @@ pub fn occluding_leaf<O: ChildOrder, C: Counters>(
                             t: [ta, tb],
                             nodes: [a, b],
                         };
-                        let (first, second) = if order.second_first(index, 0, 1, &oray, &pair) {
-                            (l + 1, l)
-                        } else {
-                            (l, l + 1)
-                        };
+                        let b_first =
+                            order.second_first(index_of(nodes, node), 0, 1, &oray, &pair);
+                        let (first, second) = if b_first { (b, l) } else { (a, l + 1) };
                         stack[sp] = second as u32;
                         sp += 1;
-                        index = first;
+                        node = first;
                         continue;
                     }
                     (Some(_), None) => {
-                        index = l;
+                        node = a;
                         continue;
                     }
                     (None, Some(_)) => {
-                        index = l + 1;
+                        node = b;
                         continue;
                     }
                     (None, None) => {}
@@ -143,16 +139,22 @@ pub fn occluding_leaf<O: ChildOrder, C: Counters>(
                 return None;
             }
             sp -= 1;
-            index = stack[sp] as usize;
+            node = &nodes[stack[sp] as usize];
             if !O::TEST_ON_ENTRY {
                 break;
             }
             stats.boxes(1);
-            if pre.hit_packed(nodes[index].packed(), t_min, t_max).is_some() {
+            if pre.hit_packed(node.packed(), t_min, t_max).is_some() {
                 break;
             }
         }
     }
+}
+
+/// The index of `node` in `nodes` (a subtraction: cheaper than carrying it through the loop).
+#[inline(always)]
+fn index_of(nodes: &[BvhNode], node: &BvhNode) -> usize {
+    (node as *const BvhNode as usize - nodes.as_ptr() as usize) / std::mem::size_of::<BvhNode>()
 }
 
 #[cfg(test)]
