@@ -102,7 +102,15 @@ fn main() -> anyhow::Result<()> {
                     ..SrdhSettings::default()
                 };
                 let bs = BuildSettings::default();
-                let l = srdh_for_light(&pass, &sampler, plan, &settings, &shadow_bvh, shadow_tris, &bs);
+                let l = srdh_for_light(
+                    &pass,
+                    &sampler,
+                    plan,
+                    &settings,
+                    &shadow_bvh,
+                    shadow_tris,
+                    &bs,
+                );
                 // A light none of whose representative rays reach a surface gets no tree.
                 let Some(tree) = l.tree else {
                     rays_traced -= rays.len();
@@ -113,6 +121,8 @@ fn main() -> anyhow::Result<()> {
             other => anyhow::bail!("unknown mode '{other}' (binary, fbto8, sorted8, srdh)"),
         };
     }
-    println!("{mode} {name} {triangles} {w}x{h}: {rays_traced} shadow rays ({occluded_rays} occluded)");
+    println!(
+        "{mode} {name} {triangles} {w}x{h}: {rays_traced} shadow rays ({occluded_rays} occluded)"
+    );
     Ok(())
 }

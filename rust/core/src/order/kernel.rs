@@ -144,7 +144,9 @@ impl ChildOrder for PackedKernels {
         ray: &OrderRay,
         children: &K,
     ) -> bool {
-        !self.get(node).left_first_children(ray.origin, a, b, children)
+        !self
+            .get(node)
+            .left_first_children(ray.origin, a, b, children)
     }
 }
 

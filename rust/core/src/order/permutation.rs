@@ -245,7 +245,9 @@ mod tests {
                     let n = view.ordered_hits(node, mask, &RAY, &near, &mut out);
                     let mut typed = [0u8; 8];
                     let m = match view {
-                        OrderView::Stored => Stored.ordered_hits(node, mask, &RAY, &near, &mut typed),
+                        OrderView::Stored => {
+                            Stored.ordered_hits(node, mask, &RAY, &near, &mut typed)
+                        }
                         OrderView::FrontToBack => {
                             FrontToBack.ordered_hits(node, mask, &RAY, &near, &mut typed)
                         }
@@ -270,7 +272,6 @@ mod tests {
             }
         }
     }
-
 
     #[test]
     fn ranks_invert_the_order() {

@@ -168,12 +168,9 @@ pub fn light_tracing<'a>(
                 Some((_, p, _)) => Cow::Borrowed(p),
                 None => {
                     let representative: Vec<Ray> = match order {
-                        ShadowOrder::Sorted(s) => representative_rays(
-                            light.primary,
-                            light.sampler,
-                            light.plan,
-                            s.budget,
-                        ),
+                        ShadowOrder::Sorted(s) => {
+                            representative_rays(light.primary, light.sampler, light.plan, s.budget)
+                        }
                         _ => Vec::new(),
                     };
                     Cow::Owned(tree.prepare(order, trees.sort_tables, &representative))

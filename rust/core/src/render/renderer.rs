@@ -5,18 +5,18 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::primary::heat_planes;
 use super::light_tracer::{binary_order, light_tracing, LightRays, ShadowTrees};
+use super::primary::heat_planes;
 use super::shadow::{samples_for, SamplePlan};
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
 use super::wide_tree::WideTree;
 use super::VisibilitySource;
 use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
 use crate::bvh::{build_binned_sah, build_with_visibility, Bvh, BvhWidth, CollapseSettings};
+use crate::order::{PreparedOrder, ShadowOrder, SortTables};
 use crate::output::ImagePlane;
 use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::stats::StatsRow;
-use crate::order::{PreparedOrder, ShadowOrder, SortTables};
 use crate::trace::{ClosestHitQuery, TraversalStats};
 use crate::Result;
 
@@ -181,7 +181,11 @@ impl Renderer {
             scene,
             method: settings.method_name(),
             prepared,
-            collapse_ms: cached.wide.as_ref().and_then(|w| w.collapse_ms).unwrap_or(0.0),
+            collapse_ms: cached
+                .wide
+                .as_ref()
+                .and_then(|w| w.collapse_ms)
+                .unwrap_or(0.0),
         };
         let (primary, primary_row) = primary_pass(cached, scene, settings, &rows);
         let shadows = shadow_passes(cached, &primary, scene, settings, &rows);
@@ -433,7 +437,13 @@ fn primary_pass(
         None => trace_primary(counted, &rays, &*cached.camera_bvh, &geometry.camera),
     };
     let primary = trace(counted);
-    let mut row = rows.row("primary", "", &cached.camera_bvh, cached.camera_info, wide_camera);
+    let mut row = rows.row(
+        "primary",
+        "",
+        &cached.camera_bvh,
+        cached.camera_info,
+        wide_camera,
+    );
     row.rays = primary.ray_count();
     row.occluded_fraction =
         primary.surfaces.iter().filter(|s| s.is_some()).count() as f64 / row.rays.max(1) as f64;
@@ -479,7 +489,11 @@ fn shadow_passes(
     let shadow_info = cached.shadow_info.unwrap_or(cached.camera_info);
     let trees = ShadowTrees {
         bvh: shadow_bvh,
-        triangles: &geometry.shadow.as_ref().unwrap_or(&geometry.camera).vertices,
+        triangles: &geometry
+            .shadow
+            .as_ref()
+            .unwrap_or(&geometry.camera)
+            .vertices,
         wide: wide.map(|w| w.shadow.as_deref().unwrap_or(&w.camera)),
         sort_tables: wide.and_then(|w| w.sort_tables.as_ref()),
         per_tree: wide

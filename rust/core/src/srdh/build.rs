@@ -10,13 +10,13 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::cost::{pierces, ray_term};
-use crate::order::{Kernel, PackedKernels};
 use super::ray_set::RaySet;
-use crate::order::SrdhSettings;
 use crate::bvh::{
     build_sah_nodes, Box4, BuildSettings, Bvh, BvhNode, NodeArray, PrimRef, MEDIAN_DEPTH,
 };
 use crate::geometry::{Aabb, RayBoxPrecomp};
+use crate::order::SrdhSettings;
+use crate::order::{Kernel, PackedKernels};
 
 /// A binary BVH for one light's shadow rays with a traversal kernel per node.
 #[derive(Clone, Debug, Default)]

@@ -18,4 +18,3 @@ pub use crate::order::{
     RandomKernel, RaySetSource, SrdhSettings, Uniform, DEFAULT_MIN_OCCLUDED,
 };
 pub use crate::trace::{occluded_with, occluding_leaf};
-

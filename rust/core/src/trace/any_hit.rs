@@ -113,8 +113,7 @@ pub fn occluding_leaf<O: ChildOrder, C: Counters>(
                             t: [ta, tb],
                             nodes: [a, b],
                         };
-                        let b_first =
-                            order.second_first(index_of(nodes, node), 0, 1, &oray, &pair);
+                        let b_first = order.second_first(index_of(nodes, node), 0, 1, &oray, &pair);
                         let (first, second) = if b_first { (b, l) } else { (a, l + 1) };
                         stack[sp] = second as u32;
                         sp += 1;
@@ -294,35 +293,37 @@ mod tests {
                 } else {
                     occluding_leaf(&bvh, &Stored, &ray, &mut got)
                 };
-                assert_eq!((leaf, got), (expect, want), "ray {k} near_first {near_first}");
+                assert_eq!(
+                    (leaf, got),
+                    (expect, want),
+                    "ray {k} near_first {near_first}"
+                );
                 hits += expect.is_some() as u32;
             }
             let oray = OrderRay::new::<RandomKernel>(&ray);
             let random = RandomKernel { seed: 5 };
-            let check = |order: &dyn Fn(&mut TraversalStats) -> Option<usize>,
-                         left_first: &dyn Fn(usize, &BvhNode, &BvhNode) -> bool| {
-                let (mut want, mut got) = (TraversalStats::default(), TraversalStats::default());
-                let expect = reference_entry_tests(&bvh, left_first, &ray, &mut want);
-                assert_eq!((order(&mut got), got), (expect, want), "ray {k}");
-            };
+            let check =
+                |order: &dyn Fn(&mut TraversalStats) -> Option<usize>,
+                 left_first: &dyn Fn(usize, &BvhNode, &BvhNode) -> bool| {
+                    let (mut want, mut got) =
+                        (TraversalStats::default(), TraversalStats::default());
+                    let expect = reference_entry_tests(&bvh, left_first, &ray, &mut want);
+                    assert_eq!((order(&mut got), got), (expect, want), "ray {k}");
+                };
             for kernel in Kernel::ALL {
                 check(
                     &|s| occluding_leaf(&bvh, &Uniform(kernel), &ray, s),
                     &|_, l, r| kernel.left_first_nodes(ray.origin, l, r),
                 );
             }
-            check(
-                &|s| occluding_leaf(&bvh, &rtsah, &ray, s),
-                &|i, l, r| rtsah.get(i).left_first_nodes(ray.origin, l, r),
-            );
-            check(
-                &|s| occluding_leaf(&bvh, &random, &ray, s),
-                &|i, _, _| {
-                    crate::sampling::hash_combine(crate::sampling::hash_combine(5, oray.key), i as u32)
-                        & 1
-                        == 0
-                },
-            );
+            check(&|s| occluding_leaf(&bvh, &rtsah, &ray, s), &|i, l, r| {
+                rtsah.get(i).left_first_nodes(ray.origin, l, r)
+            });
+            check(&|s| occluding_leaf(&bvh, &random, &ray, s), &|i, _, _| {
+                crate::sampling::hash_combine(crate::sampling::hash_combine(5, oray.key), i as u32)
+                    & 1
+                    == 0
+            });
         }
         assert!(hits > 100 && hits < 2 * rays - 100, "{hits} of {rays}");
     }

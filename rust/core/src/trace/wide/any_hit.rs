@@ -121,17 +121,12 @@ pub(crate) fn any_hit<
                     t_near: &t_near,
                     node,
                 };
-                let (first, second) = if order.second_first(
-                    index,
-                    a as usize,
-                    b as usize,
-                    &oray,
-                    &children,
-                ) {
-                    (ref_b, ref_a)
-                } else {
-                    (ref_a, ref_b)
-                };
+                let (first, second) =
+                    if order.second_first(index, a as usize, b as usize, &oray, &children) {
+                        (ref_b, ref_a)
+                    } else {
+                        (ref_a, ref_b)
+                    };
                 stack.push(second);
                 current = first;
                 continue;

@@ -2,9 +2,9 @@
 //! and, on x86_64, the instruction set each is compiled with (8-wide AVX2 and AVX-512 traversals
 //! also per ray octant). Both traversals go through the same table.
 
-use super::boxes::{BoxKernel, ChildBoxTest, Scalar, ANY_OCTANT};
 #[cfg(target_arch = "x86_64")]
 use super::boxes::{Avx2, Avx512, Sse, WideRay};
+use super::boxes::{BoxKernel, ChildBoxTest, Scalar, ANY_OCTANT};
 use super::{any_hit, closest, OrderView};
 use crate::bvh::WideBvh;
 use crate::geometry::Ray;
