@@ -302,7 +302,7 @@ mod x86 {
             t_max: f32,
             out: &mut [f32; N],
         ) -> u32 {
-            const { assert!(N % 4 == 0, "SSE tests 4 or 8 children") };
+            const { assert!(N.is_multiple_of(4), "SSE tests 4 or 8 children") };
             let mut mask = 0;
             for lane in (0..N).step_by(4) {
                 mask |= sse4(ray, node, lane, t_min, t_max, out) << lane;
