@@ -10,6 +10,7 @@ pub mod build;
 pub mod bvh;
 pub mod error;
 pub mod geometry;
+pub mod order;
 pub mod output;
 pub mod render;
 pub mod sampling;

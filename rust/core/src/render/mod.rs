@@ -3,6 +3,7 @@
 //! statistics of both. [`Renderer`] keeps what carries over between frames.
 
 mod camera_rays;
+mod light_tracer;
 mod lights;
 mod primary;
 mod renderer;
@@ -13,6 +14,9 @@ mod visibility;
 mod wide_tree;
 
 pub use camera_rays::PrimaryRays;
+pub use light_tracer::{
+    binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
+};
 pub use lights::{LightSample, LightSampler};
 pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, OBJECT_PLANE};
@@ -22,4 +26,4 @@ pub use shadow::{
 };
 pub use srdh_light::{srdh_for_light, srdh_rays, LightSrdh};
 pub use visibility::{visibility_flags, VisibilitySource};
-pub use wide_tree::{binary_order, ShadowTracer, WideTree};
+pub use wide_tree::WideTree;

@@ -2,24 +2,23 @@
 //! whose geometry (and, for visibility-driven builds, visible-set input) did not change are
 //! reused, and the visible set is kept for the next frame's OSAH/ABVH build.
 
-use std::borrow::Cow;
 use std::sync::Arc;
 use std::time::Instant;
 
+use super::light_tracer::{binary_order, light_tracing, LightRays, ShadowTrees};
 use super::primary::heat_planes;
-use super::shadow::{representative_rays, samples_for, SamplePlan};
-use super::srdh_light::{srdh_for_light, LightSrdh};
+use super::shadow::{samples_for, SamplePlan};
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
-use super::wide_tree::{binary_order, ShadowTracer, WideTree};
+use super::wide_tree::WideTree;
 use super::VisibilitySource;
 use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
 use crate::build::{build_binned_sah, build_with_visibility, CollapseSettings};
 use crate::bvh::{Bvh, BvhWidth};
+use crate::order::{PreparedOrder, ShadowOrder, SortTables};
 use crate::output::ImagePlane;
 use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::stats::StatsRow;
-use crate::trace::wide::{PreparedOrder, SortTables};
-use crate::trace::{AnyHitOrder, BinaryOcclusion, ClosestHitQuery, ShadowOrder, TraversalStats};
+use crate::trace::{ClosestHitQuery, TraversalStats};
 use crate::Result;
 
 /// Heat maps of traversal work per pixel: N_B, N_L, N_T for primary rays and for all shadow
@@ -165,7 +164,8 @@ impl Renderer {
         Self::default()
     }
 
-    /// Renders one frame. `scene_name` labels the statistics rows.
+    /// Renders one frame: geometry and trees, the primary pass, each light's shadow pass, and
+    /// their combination. `scene_name` labels the statistics rows.
     pub fn render(
         &mut self,
         scene_name: &str,
@@ -177,214 +177,23 @@ impl Renderer {
         let prepared = self.prepare(scene, settings)?;
         self.prepare_wide(settings);
         let cached = self.cache.as_ref().expect("prepared above");
-        let wide = cached.wide.as_ref();
-        let collapse_ms = wide.and_then(|w| w.collapse_ms).unwrap_or(0.0);
-        // The primary pass uses the wide tree for widths 4 and 8; the shadow pass whenever the
-        // order is not one the binary traversal has.
-        let wide_camera = wide
-            .filter(|w| w.width != BvhWidth::Two)
-            .map(|w| &*w.camera);
-        let wide_shadow = wide.map(|w| w.shadow.as_deref().unwrap_or(&w.camera));
-        let geometry = &cached.geometry;
-        let camera_bvh = &cached.camera_bvh;
-        let shadow_bvh = cached.shadow_bvh.as_ref().unwrap_or(camera_bvh);
-        let shadow_info = cached.shadow_info.unwrap_or(cached.camera_info);
-        let method = settings.method_name();
-        let row =
-            |pass: &str, light: &str, bvh: &Bvh, info: BvhInfo, tree: Option<&WideTree>| StatsRow {
-                scene: scene_name.to_string(),
-                frame: scene.frame,
-                method: method.clone(),
-                pass: pass.to_string(),
-                light: light.to_string(),
-                rebuilt: prepared.rebuilt || collapse_ms > 0.0,
-                build_ms: if prepared.rebuilt { bvh.build_ms } else { 0.0 } + collapse_ms,
-                bvh_nodes: tree.map_or(bvh.nodes.len(), |t| t.node_count()) as u64,
-                bvh_bytes: tree.map_or(bvh.bytes(), |t| t.bytes()) as u64,
-                triangles: info.triangles,
-                references: bvh.triangles.len() as u64,
-                visible_input: info.visible,
-                visibility_ms: prepared.visibility_ms,
-                ..StatsRow::default()
-            };
-
-        let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
-        let counted = settings.stats != StatsMode::TimingOnly;
-        let timed = settings.stats != StatsMode::Counts;
-        let primary_pass = |counted: bool| match wide_camera {
-            Some(t) => primary_pass(counted, &rays, t, &geometry.camera),
-            None => primary_pass(counted, &rays, &**camera_bvh, &geometry.camera),
+        let rows = Rows {
+            scene_name,
+            scene,
+            method: settings.method_name(),
+            prepared,
+            collapse_ms: cached
+                .wide
+                .as_ref()
+                .and_then(|w| w.collapse_ms)
+                .unwrap_or(0.0),
         };
-        let primary = primary_pass(counted);
-        let mut stats = Vec::new();
-        let mut primary_row = row("primary", "", camera_bvh, cached.camera_info, wide_camera);
-        primary_row.rays = primary.ray_count();
-        primary_row.occluded_fraction = primary.surfaces.iter().filter(|s| s.is_some()).count()
-            as f64
-            / primary_row.rays.max(1) as f64;
-        primary_row.set_work(&primary.totals);
-        if counted && timed {
-            let t = primary_pass(false);
-            debug_assert_eq!(t.surfaces, primary.surfaces);
-            primary_row.set_timing(t.trace_ms, true);
-        } else {
-            primary_row.set_timing(primary.trace_ms, !counted);
-        }
-        stats.push(primary_row);
-
-        let (w, h) = (primary.width, primary.height);
-        let mut masks = Vec::new();
-        let mut shadow_work =
-            vec![TraversalStats::default(); if counted { primary.surfaces.len() } else { 0 }];
-        let mut per_tree_reported = false;
-        for (index, light) in scene.lights.iter().enumerate() {
-            if !light.casts_shadow {
-                continue;
-            }
-            let sampler = LightSampler::new(light, &geometry.space);
-            let spp = samples_for(&sampler, settings.spp);
-            let args = (index as u32, spp, settings.seed);
-            let order = &settings.shadow_order;
-            let plan = SamplePlan {
-                light_index: args.0,
-                samples: spp,
-                seed: settings.seed,
-            };
-            let srdh = match order {
-                ShadowOrder::Srdh(s) => Some(srdh_for_light(
-                    &primary,
-                    &sampler,
-                    plan,
-                    s,
-                    shadow_bvh,
-                    &geometry
-                        .shadow
-                        .as_ref()
-                        .unwrap_or(&geometry.camera)
-                        .vertices,
-                    &settings.build_settings,
-                )),
-                _ => None,
-            };
-            let wide_order = match (binary_order(settings.width, order), wide_shadow, &srdh) {
-                (None, Some(tree), None) => {
-                    let representative = match order {
-                        ShadowOrder::Sorted(s) => {
-                            representative_rays(&primary, &sampler, plan, s.budget)
-                        }
-                        _ => Vec::new(),
-                    };
-                    let tables = wide.and_then(|w| w.sort_tables.as_ref());
-                    let per_tree = wide
-                        .and_then(|w| w.per_tree_order.as_ref())
-                        .filter(|p| &p.order == order);
-                    let prepared = match per_tree {
-                        Some(p) => Cow::Borrowed(&p.prepared),
-                        None => Cow::Owned(tree.prepare(order, tables, &representative)),
-                    };
-                    Some((tree, prepared))
-                }
-                _ => None,
-            };
-            let tracer = match (&srdh, &wide_order) {
-                (Some(LightSrdh { tree: Some(t), .. }), _) => ShadowTracer::Srdh(t),
-                // Too few occluded rays for a tree of its own: the SAH tree, front to back.
-                (Some(_), _) => ShadowTracer::Binary(BinaryOcclusion {
-                    bvh: shadow_bvh,
-                    order: AnyHitOrder::NearFirst,
-                }),
-                (None, Some((tree, p))) => ShadowTracer::Wide {
-                    tree,
-                    order: p.view(),
-                },
-                (None, None) => ShadowTracer::Binary(BinaryOcclusion {
-                    bvh: shadow_bvh,
-                    order: binary_order(settings.width, order).expect("binary order"),
-                }),
-            };
-            let pass = if counted {
-                ShadowPass::counted(&primary, &tracer, &sampler, args.0, args.1, args.2)
-            } else {
-                ShadowPass::timed(&primary, &tracer, &sampler, args.0, args.1, args.2)
-            };
-            let mut r = row(
-                "shadow",
-                &light.name,
-                shadow_bvh,
-                shadow_info,
-                wide_order.as_ref().map(|(t, _)| *t),
-            );
-            r.sort_ms = wide_order.as_ref().map_or(0.0, |(_, p)| p.sort_ms());
-            if order.is_per_tree() && !per_tree_reported {
-                // Prepared once for all lights: reported on the first shadow row.
-                r.sort_ms = wide
-                    .and_then(|w| w.per_tree_order.as_ref()?.ms)
-                    .unwrap_or(0.0);
-                per_tree_reported = true;
-            }
-            if let Some(l) = &srdh {
-                r.sort_ms = l.ms;
-                if let Some(t) = &l.tree {
-                    r.bvh_nodes = t.bvh.nodes.len() as u64;
-                    r.bvh_bytes = t.bytes() as u64;
-                }
-            }
-            r.rays = pass.outcome.rays;
-            r.occluded_fraction = pass.outcome.occluded as f64 / r.rays.max(1) as f64;
-            r.back_facing = pass.outcome.back_facing;
-            r.unreached = pass.outcome.unreached;
-            r.set_work(&pass.totals);
-            if counted && timed {
-                let t = ShadowPass::timed(&primary, &tracer, &sampler, args.0, args.1, args.2);
-                debug_assert_eq!(t.mask, pass.mask);
-                r.set_timing(t.trace_ms, true);
-            } else {
-                r.set_timing(pass.trace_ms, !counted);
-            }
-            for (acc, wk) in shadow_work.iter_mut().zip(&pass.work) {
-                *acc += *wk;
-            }
-            stats.push(r);
-            masks.push(pass.mask);
-        }
-
-        let mut combined = ImagePlane::new("combined", w, h);
-        if masks.is_empty() {
-            combined.data.fill(1.0);
-        } else {
-            let k = 1.0 / masks.len() as f32;
-            for m in &masks {
-                for (c, v) in combined.data.iter_mut().zip(&m.data) {
-                    *c += v * k;
-                }
-            }
-        }
-
-        let heat = counted.then(|| HeatMaps {
-            primary: primary.heat_maps("primary"),
-            shadow: heat_planes("shadow", w, h, &shadow_work),
-        });
-        let primary_ids: Vec<u32> = primary
-            .surfaces
-            .iter()
-            .map(|s| s.map_or(u32::MAX, |s| s.triangle))
-            .collect();
-        let primary_objects = geometry.camera.objects_of(&primary_ids);
-        let visible = visible_set(&primary_ids, &geometry.camera);
-        self.previous_visible = visible.clone();
+        let (primary, primary_row) = primary_pass(cached, scene, settings, &rows);
+        let shadows = shadow_passes(cached, &primary, scene, settings, &rows);
+        let result = combine(scene, cached, primary, primary_row, shadows, settings);
+        self.previous_visible = result.visible.clone();
         self.frames_rendered += 1;
-        Ok(FrameResult {
-            frame: scene.frame,
-            width: w,
-            height: h,
-            masks,
-            combined,
-            heat,
-            visible,
-            primary_ids,
-            primary_objects,
-            stats,
-        })
+        Ok(result)
     }
 
     /// Builds geometry and BVHs unless the cached ones still hold: same geometry, same build
@@ -569,8 +378,248 @@ impl Renderer {
     }
 }
 
-/// The primary pass on any tree, with counters or timed.
+/// What every statistics row of a frame shares.
+struct Rows<'a> {
+    scene_name: &'a str,
+    scene: &'a Scene,
+    method: String,
+    prepared: Prepared,
+    collapse_ms: f64,
+}
+
+impl Rows<'_> {
+    /// A row for `pass` over `bvh` (or its collapse `tree`), work and timing still unset.
+    fn row(
+        &self,
+        pass: &str,
+        light: &str,
+        bvh: &Bvh,
+        info: BvhInfo,
+        tree: Option<&WideTree>,
+    ) -> StatsRow {
+        let rebuilt = self.prepared.rebuilt;
+        StatsRow {
+            scene: self.scene_name.to_string(),
+            frame: self.scene.frame,
+            method: self.method.clone(),
+            pass: pass.to_string(),
+            light: light.to_string(),
+            rebuilt: rebuilt || self.collapse_ms > 0.0,
+            build_ms: if rebuilt { bvh.build_ms } else { 0.0 } + self.collapse_ms,
+            bvh_nodes: tree.map_or(bvh.nodes.len(), |t| t.node_count()) as u64,
+            bvh_bytes: tree.map_or(bvh.bytes(), |t| t.bytes()) as u64,
+            triangles: info.triangles,
+            references: bvh.triangles.len() as u64,
+            visible_input: info.visible,
+            visibility_ms: self.prepared.visibility_ms,
+            ..StatsRow::default()
+        }
+    }
+}
+
+/// The primary pass (on the wide tree for widths 4 and 8) and its statistics row; traced a
+/// second time without counters when the row wants both counts and timing.
 fn primary_pass(
+    cached: &Cached,
+    scene: &Scene,
+    settings: &RenderSettings,
+    rows: &Rows,
+) -> (PrimaryPass, StatsRow) {
+    let wide_camera = cached
+        .wide
+        .as_ref()
+        .filter(|w| w.width != BvhWidth::Two)
+        .map(|w| &*w.camera);
+    let geometry = &cached.geometry;
+    let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
+    let (counted, timed) = counted_timed(settings);
+    let trace = |counted: bool| match wide_camera {
+        Some(t) => trace_primary(counted, &rays, t, &geometry.camera),
+        None => trace_primary(counted, &rays, &*cached.camera_bvh, &geometry.camera),
+    };
+    let primary = trace(counted);
+    let mut row = rows.row(
+        "primary",
+        "",
+        &cached.camera_bvh,
+        cached.camera_info,
+        wide_camera,
+    );
+    row.rays = primary.ray_count();
+    row.occluded_fraction =
+        primary.surfaces.iter().filter(|s| s.is_some()).count() as f64 / row.rays.max(1) as f64;
+    row.set_work(&primary.totals);
+    if counted && timed {
+        let t = trace(false);
+        debug_assert_eq!(t.surfaces, primary.surfaces);
+        row.set_timing(t.trace_ms, true);
+    } else {
+        row.set_timing(primary.trace_ms, !counted);
+    }
+    (primary, row)
+}
+
+/// Whether a frame's passes count work, and whether they are timed without counters.
+fn counted_timed(settings: &RenderSettings) -> (bool, bool) {
+    (
+        settings.stats != StatsMode::TimingOnly,
+        settings.stats != StatsMode::Counts,
+    )
+}
+
+/// The shadow passes of a frame: per light, a mask and a statistics row; the summed work per
+/// pixel over lights when counting.
+struct ShadowPasses {
+    masks: Vec<ImagePlane>,
+    rows: Vec<StatsRow>,
+    work: Vec<TraversalStats>,
+}
+
+/// Each shadow-casting light in turn: its tree and order ([`light_tracing`]), its shadow pass
+/// and its row.
+fn shadow_passes(
+    cached: &Cached,
+    primary: &PrimaryPass,
+    scene: &Scene,
+    settings: &RenderSettings,
+    rows: &Rows,
+) -> ShadowPasses {
+    let geometry = &cached.geometry;
+    let wide = cached.wide.as_ref();
+    let shadow_bvh = cached.shadow_bvh.as_ref().unwrap_or(&cached.camera_bvh);
+    let shadow_info = cached.shadow_info.unwrap_or(cached.camera_info);
+    let trees = ShadowTrees {
+        bvh: shadow_bvh,
+        triangles: &geometry
+            .shadow
+            .as_ref()
+            .unwrap_or(&geometry.camera)
+            .vertices,
+        wide: wide.map(|w| w.shadow.as_deref().unwrap_or(&w.camera)),
+        sort_tables: wide.and_then(|w| w.sort_tables.as_ref()),
+        per_tree: wide
+            .and_then(|w| w.per_tree_order.as_ref())
+            .map(|p| (&p.order, &p.prepared, p.ms)),
+    };
+    let (counted, timed) = counted_timed(settings);
+    let mut out = ShadowPasses {
+        masks: Vec::new(),
+        rows: Vec::new(),
+        work: vec![TraversalStats::default(); if counted { primary.surfaces.len() } else { 0 }],
+    };
+    for (index, light) in scene.lights.iter().enumerate() {
+        if !light.casts_shadow {
+            continue;
+        }
+        let sampler = LightSampler::new(light, &geometry.space);
+        let plan = SamplePlan {
+            light_index: index as u32,
+            samples: samples_for(&sampler, settings.spp),
+            seed: settings.seed,
+        };
+        let light_rays = LightRays {
+            primary,
+            sampler: &sampler,
+            plan,
+            sah: &settings.build_settings,
+            first: out.rows.is_empty(),
+        };
+        let tracing = light_tracing(&trees, &settings.shadow_order, settings.width, &light_rays);
+        let tracer = tracing.tracer();
+        let pass_of = |counted: bool| {
+            let (i, spp, seed) = (plan.light_index, plan.samples, plan.seed);
+            if counted {
+                ShadowPass::counted(primary, &tracer, &sampler, i, spp, seed)
+            } else {
+                ShadowPass::timed(primary, &tracer, &sampler, i, spp, seed)
+            }
+        };
+        let pass = pass_of(counted);
+        let mut r = rows.row(
+            "shadow",
+            &light.name,
+            shadow_bvh,
+            shadow_info,
+            tracing.wide_tree(),
+        );
+        r.sort_ms = tracing.sort_ms;
+        if let Some(t) = tracing.own_tree() {
+            r.bvh_nodes = t.bvh.nodes.len() as u64;
+            r.bvh_bytes = t.bytes() as u64;
+        }
+        r.rays = pass.outcome.rays;
+        r.occluded_fraction = pass.outcome.occluded as f64 / r.rays.max(1) as f64;
+        r.back_facing = pass.outcome.back_facing;
+        r.unreached = pass.outcome.unreached;
+        r.set_work(&pass.totals);
+        if counted && timed {
+            let t = pass_of(false);
+            debug_assert_eq!(t.mask, pass.mask);
+            r.set_timing(t.trace_ms, true);
+        } else {
+            r.set_timing(pass.trace_ms, !counted);
+        }
+        for (acc, wk) in out.work.iter_mut().zip(&pass.work) {
+            *acc += *wk;
+        }
+        out.rows.push(r);
+        out.masks.push(pass.mask);
+    }
+    out
+}
+
+/// The frame's result: the masks and their mean, heat maps when counting, the primary hits
+/// and the visible set.
+fn combine(
+    scene: &Scene,
+    cached: &Cached,
+    primary: PrimaryPass,
+    primary_row: StatsRow,
+    shadows: ShadowPasses,
+    settings: &RenderSettings,
+) -> FrameResult {
+    let (w, h) = (primary.width, primary.height);
+    let masks = shadows.masks;
+    let mut combined = ImagePlane::new("combined", w, h);
+    if masks.is_empty() {
+        combined.data.fill(1.0);
+    } else {
+        let k = 1.0 / masks.len() as f32;
+        for m in &masks {
+            for (c, v) in combined.data.iter_mut().zip(&m.data) {
+                *c += v * k;
+            }
+        }
+    }
+    let (counted, _) = counted_timed(settings);
+    let heat = counted.then(|| HeatMaps {
+        primary: primary.heat_maps("primary"),
+        shadow: heat_planes("shadow", w, h, &shadows.work),
+    });
+    let primary_ids: Vec<u32> = primary
+        .surfaces
+        .iter()
+        .map(|s| s.map_or(u32::MAX, |s| s.triangle))
+        .collect();
+    let camera = &cached.geometry.camera;
+    let mut stats = vec![primary_row];
+    stats.extend(shadows.rows);
+    FrameResult {
+        frame: scene.frame,
+        width: w,
+        height: h,
+        masks,
+        combined,
+        heat,
+        visible: visible_set(&primary_ids, camera),
+        primary_objects: camera.objects_of(&primary_ids),
+        primary_ids,
+        stats,
+    }
+}
+
+/// The primary pass on any tree, with counters or timed.
+fn trace_primary(
     counted: bool,
     rays: &PrimaryRays,
     tree: &impl ClosestHitQuery,

@@ -1,15 +1,11 @@
-//! A wide BVH of the width chosen at run time, and the per-light occlusion tracer the shadow
-//! pass uses: the binary traversal where the order is one it has (stored, front to back on the
-//! 2-wide tree), the wide tree with a prepared order otherwise.
+//! A wide BVH of the width chosen at run time.
 
 use crate::build::CollapseSettings;
 use crate::bvh::{Bvh, BvhWidth, WideBvh};
 use crate::geometry::Ray;
-use crate::srdh::{occluded_with, SrdhBvh};
-use crate::trace::wide::{BoxKernel, OrderView, PreparedOrder, SortTables, WideQueries};
-use crate::trace::{
-    AnyHitOrder, BinaryOcclusion, ClosestHitQuery, Counters, Hit, OcclusionQuery, ShadowOrder,
-};
+use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
+use crate::trace::wide::{BoxKernel, WideQueries};
+use crate::trace::{ClosestHitQuery, Counters, Hit};
 
 /// A collapsed BVH of one of the supported widths.
 #[derive(Clone, Debug)]
@@ -90,33 +86,4 @@ impl ClosestHitQuery for WideTree {
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
         with_tree!(self, t => WideQueries::closest_hit(t, ray, BoxKernel::Auto, stats))
     }
-}
-
-/// The occlusion query of one light's shadow pass.
-pub enum ShadowTracer<'a> {
-    Binary(BinaryOcclusion<'a>),
-    Wide {
-        tree: &'a WideTree,
-        order: OrderView<'a>,
-    },
-    /// A light's SRDH tree with its kernels.
-    Srdh(&'a SrdhBvh),
-}
-
-impl OcclusionQuery for ShadowTracer<'_> {
-    #[inline]
-    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
-        match self {
-            ShadowTracer::Binary(b) => b.occluded(ray, stats),
-            ShadowTracer::Wide { tree, order } => {
-                tree.occluded(ray, *order, BoxKernel::Auto, stats)
-            }
-            ShadowTracer::Srdh(t) => occluded_with(&t.bvh, &t.kernels, ray, stats),
-        }
-    }
-}
-
-/// The binary traversal's order when `order` at `width` is one the binary traversal has.
-pub fn binary_order(width: BvhWidth, order: &ShadowOrder) -> Option<AnyHitOrder> {
-    (width == BvhWidth::Two).then(|| order.binary()).flatten()
 }

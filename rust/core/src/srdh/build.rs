@@ -10,12 +10,12 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::cost::{pierces, ray_term};
-use super::kernel::{Kernel, PackedKernels};
 use super::ray_set::RaySet;
-use super::SrdhSettings;
 use crate::build::{build_sah_nodes, Box4, BuildSettings, PrimRef, MEDIAN_DEPTH};
 use crate::bvh::{Bvh, BvhNode, NodeArray};
 use crate::geometry::{Aabb, RayBoxPrecomp};
+use crate::order::SrdhSettings;
+use crate::order::{Kernel, PackedKernels};
 
 /// A binary BVH for one light's shadow rays with a traversal kernel per node.
 #[derive(Clone, Debug, Default)]

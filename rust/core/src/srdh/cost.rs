@@ -5,9 +5,9 @@
 
 use glam::Vec3;
 
-use super::kernel::Kernel;
 use super::ray_set::RaySet;
 use crate::geometry::{Aabb, Ray, RayBoxPrecomp};
+use crate::order::Kernel;
 
 /// One ray's term: `(1 - !κ·H2)·I1·n1 + (1 - κ·H1)·I2·n2`, κ = `left_first`.
 #[inline(always)]

@@ -291,31 +291,23 @@ mod x86 {
         }
     }
 
-    impl ChildBoxTest<4> for Sse {
+    /// Four lanes at a time: one call for N = 4, two halves for N = 8.
+    impl<const N: usize> ChildBoxTest<N> for Sse {
         const LEAVES: LeafLanes = LeafLanes::Four;
         #[inline(always)]
         fn test(
-            ray: &WideRay<4>,
-            node: &WideNode<4>,
+            ray: &WideRay<N>,
+            node: &WideNode<N>,
             t_min: f32,
             t_max: f32,
-            out: &mut [f32; 4],
+            out: &mut [f32; N],
         ) -> u32 {
-            sse4(ray, node, 0, t_min, t_max, out)
-        }
-    }
-
-    impl ChildBoxTest<8> for Sse {
-        const LEAVES: LeafLanes = LeafLanes::Four;
-        #[inline(always)]
-        fn test(
-            ray: &WideRay<8>,
-            node: &WideNode<8>,
-            t_min: f32,
-            t_max: f32,
-            out: &mut [f32; 8],
-        ) -> u32 {
-            sse4(ray, node, 0, t_min, t_max, out) | sse4(ray, node, 4, t_min, t_max, out) << 4
+            const { assert!(N.is_multiple_of(4), "SSE tests 4 or 8 children") };
+            let mut mask = 0;
+            for lane in (0..N).step_by(4) {
+                mask |= sse4(ray, node, lane, t_min, t_max, out) << lane;
+            }
+            mask
         }
     }
 
@@ -341,45 +333,41 @@ mod x86 {
         }
     }
 
-    impl ChildBoxTest<8> for Avx2 {
-        const LEAVES: LeafLanes = LeafLanes::Eight;
-        #[inline(always)]
-        fn test(
-            ray: &WideRay<8>,
-            node: &WideNode<8>,
-            t_min: f32,
-            t_max: f32,
-            out: &mut [f32; 8],
-        ) -> u32 {
-            let (tn, tf) = distances8(ray, node, t_min, t_max);
-            // SAFETY: as in `distances8`; the store writes all of `out`.
-            unsafe {
-                _mm256_storeu_ps(out.as_mut_ptr(), tn);
-                _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf)) as u32
+    /// The 8-lane kernels: the same distances, the hit mask by `$mask`, and any other items
+    /// of the kernel.
+    macro_rules! eight_lanes {
+        ($kernel:ty, |$tn:ident, $tf:ident| $mask:expr $(, $item:item)*) => {
+            impl ChildBoxTest<8> for $kernel {
+                const LEAVES: LeafLanes = LeafLanes::Eight;
+                #[inline(always)]
+                fn test(
+                    ray: &WideRay<8>,
+                    node: &WideNode<8>,
+                    t_min: f32,
+                    t_max: f32,
+                    out: &mut [f32; 8],
+                ) -> u32 {
+                    let ($tn, $tf) = distances8(ray, node, t_min, t_max);
+                    // SAFETY: only instantiated inside functions compiled with the kernel's
+                    // features (see `distances8`); the store writes all of `out`.
+                    unsafe {
+                        _mm256_storeu_ps(out.as_mut_ptr(), $tn);
+                        $mask
+                    }
+                }
+                $($item)*
             }
-        }
+        };
     }
 
-    impl ChildBoxTest<8> for Avx512 {
-        const LEAVES: LeafLanes = LeafLanes::Eight;
-        #[inline(always)]
-        fn test(
-            ray: &WideRay<8>,
-            node: &WideNode<8>,
-            t_min: f32,
-            t_max: f32,
-            out: &mut [f32; 8],
-        ) -> u32 {
-            let (tn, tf) = distances8(ray, node, t_min, t_max);
-            // SAFETY: only instantiated inside functions compiled with
-            // `target_feature(enable = "avx512f,avx512vl")` and called after runtime detection;
-            // the store writes all of `out`.
-            unsafe {
-                _mm256_storeu_ps(out.as_mut_ptr(), tn);
-                _mm256_cmp_ps_mask::<_CMP_LE_OQ>(tn, tf) as u32
-            }
-        }
+    eight_lanes!(
+        Avx2,
+        |tn, tf| _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tn, tf)) as u32
+    );
 
+    eight_lanes!(
+        Avx512,
+        |tn, tf| _mm256_cmp_ps_mask::<_CMP_LE_OQ>(tn, tf) as u32,
         /// The hit children's references packed to the low lanes by the hit mask: the next
         /// node's index is ready a compress and a move after the compare (a mask move, a bit
         /// scan, an address computation and a load before).
@@ -396,7 +384,7 @@ mod x86 {
                 )
             }
         }
-    }
+    );
 }
 
 #[cfg(all(test, target_arch = "x86_64"))]

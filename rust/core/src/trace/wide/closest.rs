@@ -137,7 +137,7 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT
                     continue;
                 }
                 let mut visit = [0u8; N];
-                let hits = near_to_far(mask, &t_near, &mut visit);
+                let hits = near_to_far(node, mask, &t_near, &mut visit);
                 for &s in visit[1..hits].iter().rev() {
                     stack.push(e(s));
                 }

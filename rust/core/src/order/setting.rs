@@ -8,10 +8,21 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use super::wide::{ChildHitModel, LoggingOrder, SortSettings};
-use super::AnyHitOrder;
-use crate::srdh::SrdhSettings;
+use super::child_sort::{ChildHitModel, LoggingOrder, SortSettings};
+use super::srdh_settings::SrdhSettings;
 use crate::{Error, Result};
+
+/// The order in which the two children of a binary node are visited by an occlusion query
+/// (the binary traversal's run setting; [`super::Stored`] and [`super::FrontToBack`] as types).
+/// The answer never depends on it; only the work does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum AnyHitOrder {
+    /// Left child first, as the builder stored it.
+    Stored,
+    /// The child whose box the ray enters first (front to back).
+    #[default]
+    NearFirst,
+}
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub enum ShadowOrder {

@@ -3,10 +3,9 @@
 //! (sorted).
 
 use super::child_sort::{sort_for_light, LightOrder, SortTables};
-use super::{static_orders, BoxKernel, OrderView, Permutation, WideQueries};
+use super::{static_orders, OrderView, Permutation, ShadowOrder};
 use crate::bvh::WideBvh;
 use crate::geometry::Ray;
-use crate::trace::ShadowOrder;
 
 #[derive(Clone, Debug)]
 pub enum PreparedOrder {
@@ -20,17 +19,15 @@ pub enum PreparedOrder {
 
 impl PreparedOrder {
     /// Prepares `order` on `bvh`. `representative` are the light's representative shadow rays
-    /// (only read by the sorted order); `tables` is made on demand when not given.
-    pub fn new<const N: usize>(
+    /// (only read by the sorted order, whose logging pass traces them with `occluder`, see
+    /// [`sort_for_light`]); `tables` is made on demand when not given.
+    pub fn with_occluder<const N: usize>(
         bvh: &WideBvh<N>,
         order: &ShadowOrder,
         tables: Option<&SortTables>,
         representative: &[Ray],
-        kernel: BoxKernel,
-    ) -> Self
-    where
-        WideBvh<N>: WideQueries,
-    {
+        occluder: impl Fn(&Ray, OrderView) -> Option<u32> + Sync,
+    ) -> Self {
         match order {
             ShadowOrder::Stored => PreparedOrder::Stored,
             ShadowOrder::Fbto => PreparedOrder::FrontToBack,
@@ -55,7 +52,7 @@ impl PreparedOrder {
                     tables,
                     representative,
                     settings,
-                    kernel,
+                    occluder,
                 ))
             }
         }

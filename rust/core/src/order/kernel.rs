@@ -1,10 +1,13 @@
-//! Traversal-order kernels: per interior node, which child a shadow ray visits first. The SRDH
-//! builder picks one of these per node; the baselines assign one to every node of a tree.
+//! Traversal-order kernels of binary trees: per interior node, which child a shadow ray visits
+//! first. The SRDH builder picks one of these per node; the baselines assign one to every node
+//! of a tree (one kernel everywhere, a coin per node and ray, or RTSAH's constants).
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::child_order::{ChildOrder, Children, OrderRay};
 use crate::bvh::BvhNode;
+use crate::sampling::hash_combine;
 
 /// The four {0,1}-valued kernels of the paper's section 3.4 (2 bits each).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -55,6 +58,17 @@ impl Kernel {
             Kernel::LeftFirst => true,
             Kernel::RightFirst => false,
             _ => self.left_first(origin, centre(left), centre(right)),
+        }
+    }
+
+    /// [`Kernel::left_first`] for the children in slots `a` (left) and `b` (right); the
+    /// centres are only read by the directional kernels.
+    #[inline(always)]
+    fn left_first_children<K: Children>(self, origin: Vec3, a: usize, b: usize, c: &K) -> bool {
+        match self {
+            Kernel::LeftFirst => true,
+            Kernel::RightFirst => false,
+            _ => self.left_first(origin, c.centre(a), c.centre(b)),
         }
     }
 }
@@ -115,6 +129,66 @@ impl PackedKernels {
     }
     pub fn bytes(&self) -> usize {
         self.bits.len()
+    }
+}
+
+/// The SRDH tree's kernels, one per node.
+impl ChildOrder for PackedKernels {
+    const TEST_ON_ENTRY: bool = true;
+    #[inline(always)]
+    fn second_first<K: Children>(
+        &self,
+        node: usize,
+        a: usize,
+        b: usize,
+        ray: &OrderRay,
+        children: &K,
+    ) -> bool {
+        !self
+            .get(node)
+            .left_first_children(ray.origin, a, b, children)
+    }
+}
+
+/// The same kernel at every node.
+#[derive(Clone, Copy, Debug)]
+pub struct Uniform(pub Kernel);
+
+impl ChildOrder for Uniform {
+    const TEST_ON_ENTRY: bool = true;
+    #[inline(always)]
+    fn second_first<K: Children>(
+        &self,
+        _: usize,
+        a: usize,
+        b: usize,
+        ray: &OrderRay,
+        children: &K,
+    ) -> bool {
+        !self.0.left_first_children(ray.origin, a, b, children)
+    }
+}
+
+/// A fair coin per node and ray (the SRDH paper's random order, κ = 0.5), seeded and
+/// repeatable.
+#[derive(Clone, Copy, Debug)]
+pub struct RandomKernel {
+    pub seed: u32,
+}
+
+impl ChildOrder for RandomKernel {
+    const TEST_ON_ENTRY: bool = true;
+    const NEEDS_KEY: bool = true;
+    #[inline(always)]
+    fn second_first<K: Children>(
+        &self,
+        node: usize,
+        _: usize,
+        _: usize,
+        ray: &OrderRay,
+        _: &K,
+    ) -> bool {
+        hash_combine(hash_combine(self.seed, ray.key), node as u32) & 1 != 0
     }
 }
 

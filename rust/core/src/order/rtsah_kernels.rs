@@ -1,6 +1,6 @@
 //! Kernels for the SAH tree that the SRDH is compared with: RTSAH (Ize & Hansen 2011) as one
 //! constant kernel per node, from geometry alone, with the same estimates as the wide trees'
-//! RTSAH order (`trace::wide::static_orders::rtsah`) restricted to two children.
+//! RTSAH order (`static_orders::rtsah`) restricted to two children.
 
 use super::kernel::{Kernel, PackedKernels};
 use crate::bvh::Bvh;

@@ -11,10 +11,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::cost::{expected_cost, order_by_ratio};
-use super::{BoxKernel, OrderView, Permutation, WideQueries};
+use super::{OrderView, Permutation};
 use crate::bvh::WideBvh;
 use crate::geometry::{Aabb, Ray};
-use crate::trace::NoStats;
 
 /// The order the representative rays are traced with while their occluders are logged.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -155,17 +154,17 @@ fn child_costs<const N: usize>(
     (slots, c)
 }
 
-/// Sorts the children of `bvh` for the light whose representative rays are `rays`.
+/// Sorts the children of `bvh` for the light whose representative rays are `rays`. `occluder`
+/// is the logging pass's traversal of `bvh`: the first triangle slot of the leaf that stopped a
+/// ray traced in the given order (the wide any-hit traversal; passed in, as tracing sits above
+/// the orders).
 pub fn sort_for_light<const N: usize>(
     bvh: &WideBvh<N>,
     tables: &SortTables,
     rays: &[Ray],
     settings: &SortSettings,
-    kernel: BoxKernel,
-) -> LightOrder
-where
-    WideBvh<N>: WideQueries,
-{
+    occluder: impl Fn(&Ray, OrderView) -> Option<u32> + Sync,
+) -> LightOrder {
     let start = Instant::now();
     let logging_view = match settings.logging {
         LoggingOrder::Sato => OrderView::Permuted {
@@ -177,7 +176,7 @@ where
     let stoppers: Vec<u32> = rays
         .par_iter()
         .with_min_len(256)
-        .filter_map(|r| bvh.occluder_leaf(r, logging_view, kernel, &mut NoStats))
+        .filter_map(|r| occluder(r, logging_view))
         .collect();
     // Nodes are numbered breadth first, so the nodes above the depth limit are a prefix.
     let limit = settings.depth.map_or(u32::MAX, |d| d);

@@ -1,0 +1,129 @@
+//! Traces one frame's shadow rays on one thread with one traversal and child order, for counting
+//! instructions per ray with callgrind: the binary tree front to back, the 8-wide tree front to
+//! back or with the per-light sorted order, or each light's SRDH tree.
+//!
+//! ```text
+//! cargo build --release -p antumbra-cli --example order_profile
+//! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*order_profile*trace_*' \
+//!   target/release/examples/order_profile binary|fbto8|sorted8|srdh [scene] [triangles] [WxH]
+//! ```
+//!
+//! It prints the shadow rays traced; instructions per ray = callgrind's total / rays.
+
+use antumbra_core::build::{build_binned_sah, BuildSettings};
+use antumbra_core::bvh::{Bvh, WideBvh};
+use antumbra_core::geometry::Ray;
+use antumbra_core::render::{
+    representative_rays, samples_for, shadow_rays, srdh_for_light, LightSampler, PrimaryPass,
+    PrimaryRays, SamplePlan,
+};
+use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::srdh::{occluded_with, SrdhBvh, SrdhSettings};
+use antumbra_core::trace::wide::{BoxKernel, OrderView, PreparedOrder, WideQueries};
+use antumbra_core::trace::{occluded, AnyHitOrder, NoStats, ShadowOrder};
+
+#[inline(never)]
+fn trace_binary(bvh: &Bvh, rays: &[Ray]) -> usize {
+    rays.iter()
+        .filter(|r| occluded(bvh, r, AnyHitOrder::NearFirst, &mut NoStats))
+        .count()
+}
+
+#[inline(never)]
+fn trace_wide(bvh: &WideBvh<8>, rays: &[Ray], order: OrderView) -> usize {
+    rays.iter()
+        .filter(|r| bvh.occluded(r, order, BoxKernel::Auto, &mut NoStats))
+        .count()
+}
+
+#[inline(never)]
+fn trace_srdh(tree: &SrdhBvh, rays: &[Ray]) -> usize {
+    rays.iter()
+        .filter(|r| occluded_with(&tree.bvh, &tree.kernels, r, &mut NoStats))
+        .count()
+}
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mode = args.first().cloned().unwrap_or_else(|| "binary".into());
+    let name = args.get(1).cloned().unwrap_or_else(|| "city".into());
+    let triangles = args.get(2).map_or(Ok(100_000), |s| s.parse())?;
+    let (w, h) = match args.get(3) {
+        Some(s) => {
+            let (a, b) = s.split_once('x').ok_or(anyhow::anyhow!("size WxH"))?;
+            (a.parse()?, b.parse()?)
+        }
+        None => (160, 160),
+    };
+    let params = antumbra_scenes::SceneParams {
+        triangles,
+        frames: 1,
+        rotated: false,
+    };
+    let anim = antumbra_scenes::builtin(&name, &params)?;
+    let mut scene = anim.frame(*anim.frame_range().start());
+    scene.resolution = Resolution::new(w, h);
+    let g = FrameGeometry::from_scene(&scene)?;
+    let bvh = build_binned_sah(&g.camera.vertices, &BuildSettings::default());
+    let shadow_tris = g
+        .shadow
+        .as_ref()
+        .map_or(&g.camera.vertices, |s| &s.vertices);
+    let shadow_bvh = build_binned_sah(shadow_tris, &BuildSettings::default());
+    let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
+    let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+    let s8 = WideBvh::<8>::collapse(&shadow_bvh);
+    let (mut rays_traced, mut occluded_rays) = (0, 0);
+    for (i, l) in scene
+        .lights
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.casts_shadow)
+    {
+        let sampler = LightSampler::new(l, &g.space);
+        let plan = SamplePlan {
+            light_index: i as u32,
+            samples: samples_for(&sampler, 1),
+            seed: 0,
+        };
+        let rays = shadow_rays(&pass, &sampler, plan);
+        rays_traced += rays.len();
+        occluded_rays += match mode.as_str() {
+            "binary" => trace_binary(&shadow_bvh, &rays),
+            "fbto8" => trace_wide(&s8, &rays, OrderView::FrontToBack),
+            "sorted8" => {
+                let reps = representative_rays(&pass, &sampler, plan, 0.05);
+                let order: ShadowOrder = "sorted".parse()?;
+                let p = PreparedOrder::new(&s8, &order, None, &reps, BoxKernel::Auto);
+                trace_wide(&s8, &rays, p.view())
+            }
+            "srdh" => {
+                let settings = SrdhSettings {
+                    min_occluded: 0.0,
+                    ..SrdhSettings::default()
+                };
+                let bs = BuildSettings::default();
+                let l = srdh_for_light(
+                    &pass,
+                    &sampler,
+                    plan,
+                    &settings,
+                    &shadow_bvh,
+                    shadow_tris,
+                    &bs,
+                );
+                // A light none of whose representative rays reach a surface gets no tree.
+                let Some(tree) = l.tree else {
+                    rays_traced -= rays.len();
+                    continue;
+                };
+                trace_srdh(&tree, &rays)
+            }
+            other => anyhow::bail!("unknown mode '{other}' (binary, fbto8, sorted8, srdh)"),
+        };
+    }
+    println!(
+        "{mode} {name} {triangles} {w}x{h}: {rays_traced} shadow rays ({occluded_rays} occluded)"
+    );
+    Ok(())
+}

@@ -1,0 +1,194 @@
+//! The choice of a light's tree and child order, in one function ([`light_tracing`]): the
+//! binary traversal where the order is one it has, a light's SRDH tree, else the wide tree with
+//! the light's prepared order. [`ShadowTracer`] is what the shadow pass then traces.
+
+use std::borrow::Cow;
+
+use glam::Vec3;
+
+use super::shadow::{representative_rays, SamplePlan};
+use super::srdh_light::srdh_for_light;
+use super::wide_tree::WideTree;
+use super::{LightSampler, PrimaryPass};
+use crate::build::BuildSettings;
+use crate::bvh::{Bvh, BvhWidth};
+use crate::geometry::Ray;
+use crate::order::{AnyHitOrder, OrderView, PreparedOrder, ShadowOrder, SortTables};
+use crate::srdh::SrdhBvh;
+use crate::trace::wide::BoxKernel;
+use crate::trace::{occluded_with, BinaryOcclusion, Counters, OcclusionQuery};
+
+/// The occlusion query of one light's shadow pass.
+pub enum ShadowTracer<'a> {
+    Binary(BinaryOcclusion<'a>),
+    Wide {
+        tree: &'a WideTree,
+        order: OrderView<'a>,
+    },
+    /// A light's SRDH tree with its kernels.
+    Srdh(&'a SrdhBvh),
+}
+
+impl OcclusionQuery for ShadowTracer<'_> {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        match self {
+            ShadowTracer::Binary(b) => b.occluded(ray, stats),
+            ShadowTracer::Wide { tree, order } => {
+                tree.occluded(ray, *order, BoxKernel::Auto, stats)
+            }
+            ShadowTracer::Srdh(t) => occluded_with(&t.bvh, &t.kernels, ray, stats),
+        }
+    }
+}
+
+/// The binary traversal's order when `order` at `width` is one the binary traversal has.
+pub fn binary_order(width: BvhWidth, order: &ShadowOrder) -> Option<AnyHitOrder> {
+    (width == BvhWidth::Two).then(|| order.binary()).flatten()
+}
+
+/// The trees a frame's shadow rays may trace, and the orders made once per tree.
+#[derive(Clone, Copy)]
+pub struct ShadowTrees<'a> {
+    pub bvh: &'a Bvh,
+    /// The triangles `bvh` was built over (SRDH trees are built over them too).
+    pub triangles: &'a [[Vec3; 3]],
+    /// The collapsed tree, where the frame has one.
+    pub wide: Option<&'a WideTree>,
+    pub sort_tables: Option<&'a SortTables>,
+    /// A per-tree order (SATO, RTSAH, random) already prepared on `wide`, and its preparation
+    /// time when this frame prepared it.
+    pub per_tree: Option<(&'a ShadowOrder, &'a PreparedOrder, Option<f64>)>,
+}
+
+/// One light's tree and order, owning what it made for the light.
+pub struct LightTracing<'a> {
+    route: Route<'a>,
+    /// Preparation time for this light's statistics row, ms: sorting or SRDH selection and
+    /// build; a per-tree order's on the first light's row only.
+    pub sort_ms: f64,
+}
+
+enum Route<'a> {
+    Binary(BinaryOcclusion<'a>),
+    Wide {
+        tree: &'a WideTree,
+        order: Cow<'a, PreparedOrder>,
+    },
+    Srdh(SrdhBvh),
+}
+
+impl<'a> LightTracing<'a> {
+    pub fn tracer(&self) -> ShadowTracer<'_> {
+        match &self.route {
+            Route::Binary(b) => ShadowTracer::Binary(*b),
+            Route::Wide { tree, order } => ShadowTracer::Wide {
+                tree,
+                order: order.view(),
+            },
+            Route::Srdh(t) => ShadowTracer::Srdh(t),
+        }
+    }
+
+    /// The wide tree traced, if any.
+    pub fn wide_tree(&self) -> Option<&'a WideTree> {
+        match &self.route {
+            Route::Wide { tree, .. } => Some(tree),
+            _ => None,
+        }
+    }
+
+    /// The light's own tree (SRDH), if it has one.
+    pub fn own_tree(&self) -> Option<&SrdhBvh> {
+        match &self.route {
+            Route::Srdh(t) => Some(t),
+            _ => None,
+        }
+    }
+}
+
+/// What one light's order reads: the frame's primary hits and the light's samples.
+#[derive(Clone, Copy)]
+pub struct LightRays<'a> {
+    pub primary: &'a PrimaryPass,
+    pub sampler: &'a LightSampler,
+    pub plan: SamplePlan,
+    /// Settings of the SAH subtrees an SRDH build grafts.
+    pub sah: &'a BuildSettings,
+    /// The first shadow-casting light of the frame (its row reports a per-tree order's time).
+    pub first: bool,
+}
+
+/// Chooses and prepares one light's tree and order: an SRDH tree for the light (or the binary
+/// tree front to back when too few of its rays are occluded), the binary traversal for the
+/// orders it has at width 2, else the wide tree with the order prepared for this light.
+pub fn light_tracing<'a>(
+    trees: &ShadowTrees<'a>,
+    order: &ShadowOrder,
+    width: BvhWidth,
+    light: &LightRays,
+) -> LightTracing<'a> {
+    let binary = |order| {
+        Route::Binary(BinaryOcclusion {
+            bvh: trees.bvh,
+            order,
+        })
+    };
+    if let ShadowOrder::Srdh(s) = order {
+        let l = srdh_for_light(
+            light.primary,
+            light.sampler,
+            light.plan,
+            s,
+            trees.bvh,
+            trees.triangles,
+            light.sah,
+        );
+        let route = match l.tree {
+            Some(t) => Route::Srdh(t),
+            // Too few occluded rays for a tree of its own: the SAH tree, front to back.
+            None => binary(AnyHitOrder::NearFirst),
+        };
+        return LightTracing {
+            route,
+            sort_ms: l.ms,
+        };
+    }
+    let per_tree_ms = |ms: f64| {
+        if order.is_per_tree() && light.first {
+            trees.per_tree.and_then(|p| p.2).unwrap_or(0.0)
+        } else {
+            ms
+        }
+    };
+    let (route, ms) = match (binary_order(width, order), trees.wide) {
+        (Some(o), _) => (binary(o), 0.0),
+        (None, None) => unreachable!("an order the binary traversal lacks comes with a wide tree"),
+        (None, Some(tree)) => {
+            let prepared = match trees.per_tree.filter(|p| p.0 == order) {
+                Some((_, p, _)) => Cow::Borrowed(p),
+                None => {
+                    let representative: Vec<Ray> = match order {
+                        ShadowOrder::Sorted(s) => {
+                            representative_rays(light.primary, light.sampler, light.plan, s.budget)
+                        }
+                        _ => Vec::new(),
+                    };
+                    Cow::Owned(tree.prepare(order, trees.sort_tables, &representative))
+                }
+            };
+            let ms = prepared.sort_ms();
+            (
+                Route::Wide {
+                    tree,
+                    order: prepared,
+                },
+                ms,
+            )
+        }
+    };
+    LightTracing {
+        route,
+        sort_ms: per_tree_ms(ms),
+    }
+}
