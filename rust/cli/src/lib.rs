@@ -2,6 +2,7 @@
 //! types and frame set-up the example programs share with them.
 
 pub mod commands;
+pub mod example_args;
 pub mod frames;
 pub mod method_args;
 pub mod scene_args;
