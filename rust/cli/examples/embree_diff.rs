@@ -2,30 +2,36 @@
 //! both tracers' hits and the watertight test's verdict on Embree's triangle, so that every
 //! difference can be explained.
 //!
-//! `cargo run --release --features embree -p antumbra-cli --example embree_diff -- forest [TRIS]`
+//! `cargo run --release --features embree -p antumbra-cli --example embree_diff -- forest [TRIS] [WxH]`
 
+use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::{intersect_triangle, WatertightRay};
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
 };
-use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::scene::ImageSize;
 use antumbra_core::trace::{brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats};
 use antumbra_embree::{EmbreeQuality, EmbreeScene};
+use clap::Parser;
+
+#[derive(Parser)]
+struct Cli {
+    #[command(flatten)]
+    frame: FrameArgs,
+}
 
 fn main() -> anyhow::Result<()> {
-    let mut args = std::env::args().skip(1);
-    let name = args.next().unwrap_or_else(|| "forest".into());
-    let triangles = args.next().map_or(Ok(350_000), |s| s.parse())?;
-    let params = antumbra_scenes::SceneParams {
-        triangles,
-        frames: 1,
-        rotated: false,
-    };
-    let anim = antumbra_scenes::builtin(&name, &params)?;
-    let mut scene = anim.frame(*anim.frame_range().start());
-    scene.resolution = Resolution::new(512, 512);
-    let g = FrameGeometry::from_scene(&scene)?;
+    let ExampleFrame {
+        name,
+        scene,
+        geometry: g,
+        ..
+    } = Cli::parse().frame.open(FrameDefaults {
+        scene: "forest",
+        triangles: 350_000,
+        size: ImageSize::new(512, 512),
+    })?;
     let tris = &g.camera.vertices;
     let bvh = build_binned_sah(tris, &BuildSettings::default());
     let embree = EmbreeScene::new(tris, EmbreeQuality::Medium, None).map_err(anyhow::Error::msg)?;

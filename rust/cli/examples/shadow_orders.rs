@@ -9,24 +9,27 @@
 //! cargo run --release -p antumbra-cli --example shadow_orders -- oracle SCENE [TRIS] [WxH] [SPP] [COLLAPSE]
 //! ```
 //!
-//! COLLAPSE is how the 4- and 8-wide trees are made: sah (default) or greedy.
+//! COLLAPSE is how the 4- and 8-wide trees are made: greedy or sah (default: the default
+//! collapse).
 //!
 //! `oracle` measures, on the 8-wide tree, the fewest node visits any child order could give each
 //! ray (an occluded ray: the interior nodes on the path to its shallowest occluding leaf; an
 //! unoccluded ray: every interior node it enters, which no order avoids), beside SATO and sorted.
 
-use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseSettings};
+use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
+use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::{intersect_triangle, Ray, WatertightRay};
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
     SamplePlan,
 };
-use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::scene::ImageSize;
 use antumbra_core::trace::wide::{
     BoxKernel, ChildBoxTest, PreparedOrder, Scalar, SortTables, WideQueries, WideRay,
 };
 use antumbra_core::trace::{ShadowOrder, TraversalStats};
+use clap::Parser;
 use rayon::prelude::*;
 
 /// One light's rays and its representative rays for each budget asked for.
@@ -141,30 +144,42 @@ fn per_ray(v: u64, rays: u64) -> f64 {
     v as f64 / rays.max(1) as f64
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Mode {
+    Table,
+    Trade,
+    Oracle,
+}
+
+#[derive(Parser)]
+struct Cli {
+    #[arg(default_value = "table")]
+    mode: Mode,
+    #[command(flatten)]
+    frame: FrameArgs,
+    /// Shadow samples per pixel of soft lights.
+    #[arg(default_value_t = 1)]
+    spp: u32,
+    /// How the 4- and 8-wide trees are made: greedy or sah.
+    #[arg(default_value_t = Default::default())]
+    collapse: CollapseMethod,
+}
+
 fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mode = args.first().map_or("table", |s| s.as_str()).to_string();
-    let name = args.get(1).cloned().unwrap_or_else(|| "bedroom".into());
-    let triangles = args.get(2).map_or(Ok(350_000), |s| s.parse())?;
-    let (w, h) = match args.get(3) {
-        Some(s) => {
-            let (a, b) = s.split_once('x').ok_or(anyhow::anyhow!("size WxH"))?;
-            (a.parse()?, b.parse()?)
-        }
-        None => (512, 512),
-    };
-    let spp: u32 = args.get(4).map_or(Ok(1), |s| s.parse())?;
-    let collapse =
-        CollapseSettings::new(args.get(5).map_or(Ok(Default::default()), |s| s.parse())?);
-    let params = antumbra_scenes::SceneParams {
-        triangles,
-        frames: 1,
-        rotated: name.ends_with("-rot45"),
-    };
-    let anim = antumbra_scenes::builtin(name.trim_end_matches("-rot45"), &params)?;
-    let mut scene = anim.frame(*anim.frame_range().start());
-    scene.resolution = Resolution::new(w, h);
-    let g = FrameGeometry::from_scene(&scene)?;
+    let cli = Cli::parse();
+    let (mode, spp) = (cli.mode, cli.spp);
+    let collapse = CollapseSettings::new(cli.collapse);
+    let ExampleFrame {
+        name,
+        size,
+        scene,
+        geometry: g,
+    } = cli.frame.open(FrameDefaults {
+        scene: "bedroom",
+        triangles: 350_000,
+        size: ImageSize::new(512, 512),
+    })?;
+    let (w, h) = (size.width, size.height);
     let bvh = build_binned_sah(&g.camera.vertices, &BuildSettings::default());
     let shadow_tris = g
         .shadow
@@ -230,7 +245,7 @@ fn main() -> anyhow::Result<()> {
         _ => measure(&w8, &t8, &lights, order),
     };
     let parse = |s: &str| s.parse::<ShadowOrder>().expect("order");
-    if mode == "table" {
+    if mode == Mode::Table {
         let columns = [
             "fbto",
             "sorted:logging=fbto",
@@ -254,7 +269,7 @@ fn main() -> anyhow::Result<()> {
                 );
             }
         }
-    } else if mode == "oracle" {
+    } else if mode == Mode::Oracle {
         let all: Vec<Ray> = lights.iter().flat_map(|l| l.rays.iter().copied()).collect();
         let (mut occ, mut occ_nb, mut free_nb) = (0u64, 0u64, 0u64);
         let mut by_depth = [0u64; 16];

@@ -19,6 +19,7 @@
 
 use std::time::Instant;
 
+use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::geometry::Ray;
@@ -26,13 +27,14 @@ use antumbra_core::render::{
     samples_for, shadow_rays, srdh_for_light, srdh_rays, LightSampler, PrimaryPass, PrimaryRays,
     SamplePlan,
 };
-use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::scene::ImageSize;
 use antumbra_core::srdh::{
     build_srdh, occluded_with, occluding_leaf, rtsah_kernels, Kernel, KernelSet, KernelSource,
     RandomKernel, RaySet, RaySetSource, SrdhSettings, Uniform,
 };
 use antumbra_core::trace::wide::{BoxKernel, PreparedOrder, SortTables, WideQueries};
 use antumbra_core::trace::{occluded, AnyHitOrder, NoStats, ShadowOrder, TraversalStats};
+use clap::Parser;
 use rayon::prelude::*;
 
 /// Box tests of a set of rays in the three parts of the paper's Figure 2.
@@ -143,28 +145,37 @@ fn best_of(n: u32, mut f: impl FnMut()) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Mode {
+    Counts,
+    Wall,
+}
+
+#[derive(Parser)]
+struct Cli {
+    #[arg(default_value = "counts")]
+    mode: Mode,
+    #[command(flatten)]
+    frame: FrameArgs,
+    /// Shadow samples per pixel of soft lights.
+    #[arg(default_value_t = 1)]
+    spp: u32,
+}
+
 fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mode = args.first().map_or("counts", |s| s.as_str()).to_string();
-    let name = args.get(1).cloned().unwrap_or_else(|| "bedroom".into());
-    let triangles = args.get(2).map_or(Ok(100_000), |s| s.parse())?;
-    let (w, h) = match args.get(3) {
-        Some(s) => {
-            let (a, b) = s.split_once('x').ok_or(anyhow::anyhow!("size WxH"))?;
-            (a.parse()?, b.parse()?)
-        }
-        None => (128, 128),
-    };
-    let spp: u32 = args.get(4).map_or(Ok(1), |s| s.parse())?;
-    let params = antumbra_scenes::SceneParams {
-        triangles,
-        frames: 1,
-        rotated: false,
-    };
-    let anim = antumbra_scenes::builtin(&name, &params)?;
-    let mut scene = anim.frame(*anim.frame_range().start());
-    scene.resolution = Resolution::new(w, h);
-    let g = FrameGeometry::from_scene(&scene)?;
+    let cli = Cli::parse();
+    let (mode, spp) = (cli.mode, cli.spp);
+    let ExampleFrame {
+        name,
+        size,
+        scene,
+        geometry: g,
+    } = cli.frame.open(FrameDefaults {
+        scene: "bedroom",
+        triangles: 100_000,
+        size: ImageSize::new(128, 128),
+    })?;
+    let (w, h) = (size.width, size.height);
     let default_settings = BuildSettings::default();
     let camera_bvh = build_binned_sah(&g.camera.vertices, &default_settings);
     let tris = g
@@ -201,7 +212,7 @@ fn main() -> anyhow::Result<()> {
         lights.len(),
         rayon::current_num_threads()
     );
-    if mode == "wall" {
+    if mode == Mode::Wall {
         wall(&pass, tris, &lights, &default_settings)
     } else {
         counts(&pass, tris, &lights, &default_settings)

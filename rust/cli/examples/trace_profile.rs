@@ -13,16 +13,18 @@
 //! of the 8-wide trees (default: the default collapse), and the box kernels to time in turn
 //! (default: auto).
 
-use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseSettings};
+use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
+use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
     SamplePlan,
 };
-use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::scene::ImageSize;
 use antumbra_core::trace::wide::{BoxKernel, OrderView, PreparedOrder, WideQueries};
 use antumbra_core::trace::{NoStats, ShadowOrder};
+use clap::Parser;
 
 #[inline(never)]
 fn trace_shadow(bvh: &WideBvh<8>, rays: &[Ray], order: OrderView, kernel: BoxKernel) -> usize {
@@ -50,30 +52,48 @@ fn best_of<T>(repeat: usize, mut f: impl FnMut() -> T) -> (T, f64) {
     (out.expect("ran at least once"), best)
 }
 
+#[derive(Parser)]
+struct Cli {
+    #[command(flatten)]
+    frame: FrameArgs,
+    /// Timed repetitions (best of); 1 under callgrind.
+    #[arg(default_value_t = 1)]
+    repeat: usize,
+    /// How the 8-wide trees are made: greedy or sah.
+    #[arg(default_value_t = Default::default())]
+    collapse: CollapseMethod,
+    /// Box kernels to time in turn, e.g. auto,avx2 (AVX-512 where present beside AVX2).
+    #[arg(default_value = "auto", value_delimiter = ',', value_parser = parse_kernel)]
+    kernels: Vec<BoxKernel>,
+}
+
+fn parse_kernel(k: &str) -> anyhow::Result<BoxKernel> {
+    match k {
+        "auto" => Ok(BoxKernel::Auto),
+        "avx2" => Ok(BoxKernel::Avx2),
+        "sse" => Ok(BoxKernel::Sse),
+        "scalar" => Ok(BoxKernel::Scalar),
+        _ => Err(anyhow::anyhow!(
+            "unknown kernel '{k}' (auto, avx2, sse, scalar)"
+        )),
+    }
+}
+
 fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let name = args.first().cloned().unwrap_or_else(|| "bedroom".into());
-    let triangles = args.get(1).map_or(Ok(350_000), |s| s.parse())?;
-    let (w, h) = match args.get(2) {
-        Some(s) => {
-            let (a, b) = s.split_once('x').ok_or(anyhow::anyhow!("size WxH"))?;
-            (a.parse()?, b.parse()?)
-        }
-        None => (256, 256),
-    };
-    // Timed repetitions (best of); 1 under callgrind.
-    let repeat: usize = args.get(3).map_or(Ok(1), |s| s.parse())?;
-    let collapse =
-        CollapseSettings::new(args.get(4).map_or(Ok(Default::default()), |s| s.parse())?);
-    let params = antumbra_scenes::SceneParams {
-        triangles,
-        frames: 1,
-        rotated: false,
-    };
-    let anim = antumbra_scenes::builtin(&name, &params)?;
-    let mut scene = anim.frame(*anim.frame_range().start());
-    scene.resolution = Resolution::new(w, h);
-    let g = FrameGeometry::from_scene(&scene)?;
+    let cli = Cli::parse();
+    let repeat = cli.repeat;
+    let collapse = CollapseSettings::new(cli.collapse);
+    let ExampleFrame {
+        name,
+        size,
+        scene,
+        geometry: g,
+    } = cli.frame.open(FrameDefaults {
+        scene: "bedroom",
+        triangles: 350_000,
+        size: ImageSize::new(256, 256),
+    })?;
+    let (w, h) = (size.width, size.height);
     let bvh = build_binned_sah(&g.camera.vertices, &BuildSettings::default());
     let shadow_tris = g
         .shadow
@@ -89,22 +109,8 @@ fn main() -> anyhow::Result<()> {
     let w8 = WideBvh::<8>::collapse_with(&bvh, &collapse);
     let s8 = WideBvh::<8>::collapse_with(&shadow_bvh, &collapse);
     let order: ShadowOrder = "sorted".parse().expect("order");
-    // Box kernels to compare, timed in turn within each repetition so that load changes hit
-    // them alike (e.g. "auto,avx2": AVX-512 where present beside AVX2).
-    let kernels: Vec<BoxKernel> = args
-        .get(5)
-        .map_or("auto", |s| s.as_str())
-        .split(',')
-        .map(|k| match k {
-            "auto" => Ok(BoxKernel::Auto),
-            "avx2" => Ok(BoxKernel::Avx2),
-            "sse" => Ok(BoxKernel::Sse),
-            "scalar" => Ok(BoxKernel::Scalar),
-            _ => Err(anyhow::anyhow!(
-                "unknown kernel '{k}' (auto, avx2, sse, scalar)"
-            )),
-        })
-        .collect::<anyhow::Result<_>>()?;
+    // Timed in turn within each repetition so that load changes hit them alike.
+    let kernels = cli.kernels;
     let mut lights = Vec::new();
     for (i, l) in scene
         .lights

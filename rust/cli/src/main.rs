@@ -2,13 +2,8 @@
 //! benchmark the structures that trace them.
 
 mod allocator;
-mod commands;
-mod frames;
-mod method_args;
-mod scene_args;
-mod scene_source;
-mod write;
 
+use antumbra_cli::commands;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]

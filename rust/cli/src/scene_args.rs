@@ -2,11 +2,11 @@
 
 use std::ops::RangeInclusive;
 
-use antumbra_core::scene::{Animation, Scene};
+use antumbra_core::scene::{Animation, ImageSize, Scene};
 use anyhow::Result;
 use clap::Args;
 
-use crate::frames::{parse_frames, parse_size};
+use crate::frames::parse_frames;
 use crate::scene_source::open_scene;
 
 #[derive(Args, Debug)]
@@ -19,8 +19,8 @@ pub struct SceneArgs {
     #[arg(long)]
     pub frames: Option<String>,
     /// Image size WxH (default: the scene's resolution).
-    #[arg(long)]
-    pub size: Option<String>,
+    #[arg(long, value_name = "WxH", value_parser = ImageSize::parse_image)]
+    pub size: Option<ImageSize>,
     /// Triangle budget of a built-in scene.
     #[arg(long, default_value_t = 100_000)]
     pub triangles: usize,
@@ -30,30 +30,29 @@ pub struct SceneArgs {
 pub struct OpenScene {
     pub animation: Box<dyn Animation>,
     pub frames: RangeInclusive<i32>,
-    pub size: Option<(u32, u32)>,
+    pub size: Option<ImageSize>,
 }
 
 impl SceneArgs {
     pub fn open(&self) -> Result<OpenScene> {
         let frames = self.frames.as_deref().map(parse_frames).transpose()?;
-        let size = self.size.as_deref().map(parse_size).transpose()?;
         let frame_count = frames.as_ref().map_or(24, |r| *r.end());
         let animation = open_scene(&self.scene, self.triangles, frame_count.max(1))?;
         let frames = frames.unwrap_or_else(|| animation.frame_range());
         Ok(OpenScene {
             animation,
             frames,
-            size,
+            size: self.size,
         })
     }
 }
 
 /// Frame `frame` of `animation`, at `size` (100%) if given.
-pub fn frame_at_size(animation: &dyn Animation, frame: i32, size: Option<(u32, u32)>) -> Scene {
+pub fn frame_at_size(animation: &dyn Animation, frame: i32, size: Option<ImageSize>) -> Scene {
     let mut scene = animation.frame(frame);
-    if let Some((w, h)) = size {
-        scene.resolution.x = w;
-        scene.resolution.y = h;
+    if let Some(size) = size {
+        scene.resolution.x = size.width;
+        scene.resolution.y = size.height;
         scene.resolution.percentage = 100;
     }
     scene

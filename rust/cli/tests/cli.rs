@@ -118,7 +118,7 @@ fn bad_arguments_fail_with_a_clear_message() {
         ),
         (
             vec!["render", "--scene", "city", "--build", "kd", "--out"],
-            "unknown build method 'kd'",
+            "build: expected one of sah, sbvh, abvh, osah, vsah, srdh, got text ('kd')",
         ),
         (
             vec![

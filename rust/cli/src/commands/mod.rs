@@ -1,5 +1,4 @@
 pub mod bench;
-pub mod bench_methods;
 pub mod demo;
 pub mod record;
 pub mod render;

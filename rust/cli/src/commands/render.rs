@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use antumbra_core::render::{RenderSettings, Renderer};
-use antumbra_core::scene::Animation;
+use antumbra_core::scene::{Animation, ImageSize};
 use antumbra_core::stats::{write_csv, write_json, StatsRow};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -50,7 +50,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
 pub fn render_frames(
     scene: &dyn Animation,
     frames: std::ops::RangeInclusive<i32>,
-    size: Option<(u32, u32)>,
+    size: Option<ImageSize>,
     settings: &RenderSettings,
     out: &Path,
 ) -> Result<Vec<StatsRow>> {

@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::kernel::KernelSet;
+use crate::scene::{ImageSize, ImageSizeError};
 use crate::{Error, Result};
 
 /// Where a light's representative rays come from.
@@ -75,13 +76,10 @@ impl SrdhSettings {
             )));
         }
         match self.rays {
-            RaySetSource::Prepass { width, height }
-                if width == 0 || height == 0 || width > 4096 || height > 4096 =>
-            {
-                Err(invalid(format!(
-                    "srdh: prepass must be 1x1 to 4096x4096, got {width}x{height}"
-                )))
-            }
+            RaySetSource::Prepass { width, height } => ImageSize::new(width, height)
+                .check(ImageSize::MAX_PREPASS_SIDE)
+                .map(|_| ())
+                .map_err(|e| invalid(format!("srdh: prepass {e}"))),
             RaySetSource::Budget(f) if !(f > 0.0 && f <= 1.0) => Err(invalid(format!(
                 "srdh: rays share must be in (0, 1], got {f}"
             ))),
@@ -135,14 +133,20 @@ fn parse_rays(v: &str) -> Result<RaySetSource> {
     if v == "all" {
         return Ok(RaySetSource::All);
     }
-    if let Some((w, h)) = v.split_once('x') {
-        let (w, h) = (w.parse::<u32>(), h.parse::<u32>());
-        return match (w, h) {
-            (Ok(width), Ok(height)) => Ok(RaySetSource::Prepass { width, height }),
-            _ => Err(invalid(format!(
+    match v.parse::<ImageSize>() {
+        Ok(size) => {
+            return Ok(RaySetSource::Prepass {
+                width: size.width,
+                height: size.height,
+            })
+        }
+        // Not `WxH` at all: a share.
+        Err(ImageSizeError::NotWxH(_)) => {}
+        Err(_) => {
+            return Err(invalid(format!(
                 "srdh: rays must be WxH, all or a share, got '{v}'"
-            ))),
-        };
+            )))
+        }
     }
     let f = match v.strip_suffix('%') {
         Some(p) => p.parse::<f32>().map(|p| p / 100.0),
@@ -155,7 +159,9 @@ fn parse_rays(v: &str) -> Result<RaySetSource> {
 impl std::fmt::Display for SrdhSettings {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self.rays {
-            RaySetSource::Prepass { width, height } => write!(f, "srdh:rays={width}x{height}")?,
+            RaySetSource::Prepass { width, height } => {
+                write!(f, "srdh:rays={}", ImageSize::new(width, height))?
+            }
             RaySetSource::Budget(b) => write!(f, "srdh:rays={b}")?,
             RaySetSource::All => write!(f, "srdh:rays=all")?,
         }

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{PrimaryPass, PrimaryRays};
 use crate::bvh::Bvh;
-use crate::scene::{FrameGeometry, Resolution, Scene, TriangleRef, TriangleSet};
+use crate::scene::{FrameGeometry, ImageSize, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::{Error, Result};
 
 /// Where a visibility-driven build takes its visible set from.
@@ -29,18 +29,17 @@ impl VisibilitySource {
         match self {
             VisibilitySource::Previous => "previous".into(),
             VisibilitySource::Exact => "exact".into(),
-            VisibilitySource::Prepass { width, height } => format!("prepass:{width}x{height}"),
+            VisibilitySource::Prepass { width, height } => {
+                format!("prepass:{}", ImageSize::new(*width, *height))
+            }
         }
     }
 
     pub fn validate(&self) -> Result<()> {
         if let VisibilitySource::Prepass { width, height } = *self {
-            if !(1..=4096).contains(&width) || !(1..=4096).contains(&height) {
-                return Err(Error::invalid(
-                    "visibility",
-                    format!("prepass size must be in 1..=4096, got {width}x{height}"),
-                ));
-            }
+            ImageSize::new(width, height)
+                .check(ImageSize::MAX_PREPASS_SIDE)
+                .map_err(|e| Error::invalid("visibility", format!("prepass size {e}")))?;
         }
         Ok(())
     }
@@ -59,11 +58,14 @@ impl std::str::FromStr for VisibilitySource {
             "previous" => Ok(VisibilitySource::Previous),
             "exact" => Ok(VisibilitySource::Exact),
             _ => {
-                let size = s.strip_prefix("prepass:").ok_or_else(bad)?;
-                let (w, h) = size.split_once('x').ok_or_else(bad)?;
+                let size: ImageSize = s
+                    .strip_prefix("prepass:")
+                    .ok_or_else(bad)?
+                    .parse()
+                    .map_err(|_| bad())?;
                 let v = VisibilitySource::Prepass {
-                    width: w.parse().map_err(|_| bad())?,
-                    height: h.parse().map_err(|_| bad())?,
+                    width: size.width,
+                    height: size.height,
                 };
                 v.validate()?;
                 Ok(v)

@@ -7,6 +7,7 @@
 mod animation;
 mod camera;
 mod frame_geometry;
+mod image_size;
 mod light;
 mod mesh;
 mod object;
@@ -16,6 +17,7 @@ mod scene;
 pub use animation::{Animation, StaticAnimation};
 pub use camera::{Camera, Resolution, SensorFit, ViewPlane};
 pub use frame_geometry::{FrameGeometry, RenderSpace, TriangleRef, TriangleSet};
+pub use image_size::{ImageSize, ImageSizeError};
 pub use light::{AreaShape, Light, LightKind};
 pub use mesh::Mesh;
 pub use object::Object;

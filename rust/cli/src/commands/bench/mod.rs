@@ -1,0 +1,165 @@
+//! `antumbra bench`: build time and Mrays/s per scene on exactly the rays a frame traces
+//! ([`rays`]), build methods side by side ([`methods`]) or over an animation ([`animation`]),
+//! optionally beside Embree on the same triangles and rays ([`reference`]).
+
+mod animation;
+mod methods;
+mod rays;
+mod reference;
+
+use std::time::Instant;
+
+use antumbra_core::build::BuildMethod;
+use antumbra_core::render::RenderSettings;
+use antumbra_core::scene::ImageSize;
+use anyhow::{bail, Result};
+use clap::Args;
+
+use crate::method_args::MethodArgs;
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Scenes to measure (default: every built-in scene).
+    #[arg(long, num_args = 1..)]
+    pub scene: Vec<String>,
+    /// Triangle budget of built-in scenes.
+    #[arg(long, default_value_t = 350_000)]
+    pub triangles: usize,
+    /// Image size WxH of the camera rays.
+    #[arg(long, value_name = "WxH", default_value = "512x512", value_parser = ImageSize::parse_image)]
+    pub size: ImageSize,
+    /// Timing repetitions; the best is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: u32,
+    /// Compare with another tracer on the same triangles and rays ("embree").
+    #[arg(long)]
+    pub compare: Option<String>,
+    /// Print the table as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Embree build quality with --compare embree: medium or high.
+    #[arg(long, default_value = "medium")]
+    pub embree_quality: String,
+    #[command(flatten)]
+    pub sweep: SweepArgs,
+    /// Render this many frames with SAH, SBVH, OSAH-exact and OSAH-previous and write the
+    /// per-frame curve (animation.csv, animation.png) into --out.
+    #[arg(long)]
+    pub animation: Option<i32>,
+    /// Output folder of --animation.
+    #[arg(long, default_value = "bench-out")]
+    pub out: std::path::PathBuf,
+    /// The method measured (spp defaults to 1 here); --methods measures each builder in its
+    /// list with these build settings.
+    #[command(flatten)]
+    pub method: MethodArgs,
+}
+
+/// The build-method comparison (the OSAH paper's tables) and the variants it sweeps.
+#[derive(Args, Debug)]
+pub struct SweepArgs {
+    /// Compare build methods on each scene's viewpoints instead (the OSAH paper's tables),
+    /// e.g. sah,sbvh,abvh,osah,vsah; the first is the reference of the ratios.
+    #[arg(long, value_delimiter = ',')]
+    pub methods: Vec<BuildMethod>,
+    /// OSAH weights w to sweep with --methods (default: --osah-w).
+    #[arg(long, value_delimiter = ',')]
+    pub sweep_osah_w: Vec<f32>,
+    /// Spatial splits for sbvh/abvh/osah with --methods: on, off, or on,off for both
+    /// (default: --spatial-splits).
+    #[arg(long, value_delimiter = ',', value_parser = clap::builder::BoolishValueParser::new())]
+    pub sweep_spatial_splits: Vec<bool>,
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    check_compare(args.compare.as_deref())?;
+    let settings = bench_settings(&args.method)?;
+    let scenes = scene_names(&args.scene);
+    if let Some(frames) = args.animation {
+        for name in &scenes {
+            let out = args.out.join(name);
+            animation::animation_curve(name, args.triangles, args.size, frames, &settings, &out)?;
+        }
+        return Ok(());
+    }
+    if !args.sweep.methods.is_empty() {
+        return methods::run(&args, &scenes, &settings);
+    }
+    rays::run(&args, &scenes, &settings)
+}
+
+/// The command line's method settings, with bench's own default of one sample per pixel.
+fn bench_settings(method: &MethodArgs) -> Result<RenderSettings> {
+    let mut named = method.named.clone();
+    if named.get("spp").is_none() {
+        named.insert("spp", 1);
+    }
+    let settings = named.resolve()?;
+    if settings.build != BuildMethod::Sah {
+        bail!("--build: bench times SAH trees (compare builders with --methods)");
+    }
+    Ok(settings)
+}
+
+fn check_compare(compare: Option<&str>) -> Result<()> {
+    match compare {
+        None => Ok(()),
+        Some("embree") if cfg!(feature = "embree") => Ok(()),
+        Some("embree") => bail!(
+            "--compare embree: this antumbra was built without the 'embree' feature (cargo build --features embree)"
+        ),
+        Some(c) => bail!("--compare: unknown tracer '{c}' (known: embree)"),
+    }
+}
+
+/// The scenes asked for, or every built-in scene.
+fn scene_names(asked: &[String]) -> Vec<String> {
+    if asked.is_empty() {
+        antumbra_scenes::BUILTIN_SCENES
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        asked.to_vec()
+    }
+}
+
+fn print_json(rows: &impl serde::Serialize) -> Result<()> {
+    println!("{}", serde_json::to_string_pretty(rows)?);
+    Ok(())
+}
+
+/// The best time in ms of `repeat` calls of `f`; what `f` returns is dropped after the clock
+/// stops (freeing a 40 MB tree is not part of building it).
+fn best_of<T>(repeat: u32, mut f: impl FnMut() -> T) -> f64 {
+    (0..repeat.max(1))
+        .map(|_| timed(&mut f).1)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// What `f` returns and its time in ms.
+fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let t = Instant::now();
+    let out = f();
+    (out, t.elapsed().as_secs_f64() * 1e3)
+}
+
+/// Best times of `ours` and of `theirs` (when given) over `repeat` runs each, run in turn.
+fn best_of_in_turn(
+    repeat: u32,
+    mut ours: impl FnMut(),
+    mut theirs: Option<impl FnMut()>,
+) -> (f64, Option<f64>) {
+    let (mut best, mut best_theirs) = (f64::INFINITY, theirs.as_ref().map(|_| f64::INFINITY));
+    for _ in 0..repeat.max(1) {
+        best = best.min(timed(&mut ours).1);
+        if let (Some(f), Some(b)) = (theirs.as_mut(), best_theirs.as_mut()) {
+            *b = b.min(timed(f).1);
+        }
+    }
+    (best, best_theirs)
+}
+
+fn mrays(n: usize, ms: f64) -> f64 {
+    n as f64 / (ms * 1e3)
+}

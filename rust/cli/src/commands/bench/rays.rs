@@ -1,0 +1,460 @@
+//! `antumbra bench`'s main table: per scene, SAH build time and Mrays/s on exactly the rays a
+//! frame traces (camera rays, then every light's shadow rays in its order), on one thread and
+//! on all, optionally beside Embree timed in turn on the same triangles and rays.
+
+use antumbra_core::build::{build_binned_sah, CollapseSettings};
+use antumbra_core::bvh::{Bvh, BvhWidth};
+use antumbra_core::geometry::Ray;
+use antumbra_core::render::{
+    binary_order, representative_rays, shadow_rays, srdh_for_light, LightSrdh, PrimaryPass,
+    PrimaryRays, RenderSettings, ShadowTracer, WideTree,
+};
+use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::trace::wide::{BoxKernel, PreparedOrder};
+use antumbra_core::trace::{
+    AnyHitOrder, BinaryOcclusion, ClosestHitQuery, NoStats, OcclusionQuery, ShadowOrder,
+    WideOcclusion,
+};
+use anyhow::Result;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::reference::Reference;
+use super::{best_of, best_of_in_turn, mrays, print_json, BenchArgs};
+use crate::scene_source::open_scene;
+use crate::shadow_lights::{shadow_lights, ShadowLight};
+
+/// Runs `$body` with `$o` bound to the concrete occlusion query of one light of a frame (its
+/// SRDH tree, the binary tree, or the wide tree of its width with the light's order), so timed
+/// loops have no per-ray dispatch.
+macro_rules! with_occluder {
+    ($frame:expr, $light:expr, |$o:ident| $body:expr) => {
+        match (
+            &$light.srdh,
+            $frame.binary,
+            &$frame.wide_shadow,
+            &$light.prepared,
+        ) {
+            (Some(srdh), _, _, _) => match srdh.tree.as_ref() {
+                Some(t) => {
+                    let $o = &ShadowTracer::Srdh(t);
+                    $body
+                }
+                // Too few occluded rays: the SAH tree front to back, as the renderer does.
+                None => {
+                    let $o = &BinaryOcclusion {
+                        bvh: $frame.shadow_bvh(),
+                        order: AnyHitOrder::NearFirst,
+                    };
+                    $body
+                }
+            },
+            (None, Some(order), _, _) => {
+                let $o = &BinaryOcclusion {
+                    bvh: $frame.shadow_bvh(),
+                    order,
+                };
+                $body
+            }
+            (None, None, Some(tree), Some(p)) => {
+                let (order, kernel) = (p.view(), BoxKernel::Auto);
+                match tree {
+                    WideTree::Two(bvh) => {
+                        let $o = &WideOcclusion { bvh, order, kernel };
+                        $body
+                    }
+                    WideTree::Four(bvh) => {
+                        let $o = &WideOcclusion { bvh, order, kernel };
+                        $body
+                    }
+                    WideTree::Eight(bvh) => {
+                        let $o = &WideOcclusion { bvh, order, kernel };
+                        $body
+                    }
+                }
+            }
+            _ => unreachable!("a wide order comes with its tree"),
+        }
+    };
+}
+
+#[derive(Debug, Default, Serialize)]
+pub struct BenchRow {
+    pub scene: String,
+    /// Builder / width / shadow order, as in the statistics tables.
+    pub method: String,
+    pub triangles: usize,
+    pub threads: usize,
+    pub build_ms: f64,
+    pub bvh_bytes: usize,
+    pub primary_rays: usize,
+    pub primary_mrays: f64,
+    pub shadow_rays: usize,
+    pub shadow_occluded: f64,
+    pub shadow_mrays: f64,
+    /// Collapse to the wide tree (not in `build_ms`).
+    pub collapse_ms: f64,
+    /// Per light, logging + sorting ms of a sorted order (one thread for the sorting, the
+    /// pool for the logging rays); for `srdh`, ray selection + hit lists + SRDH build (all
+    /// threads).
+    pub sort_ms_per_light: Vec<f64>,
+    /// `srdh`: bytes of the lights' SRDH trees (0 for a light that traces the SAH tree).
+    pub srdh_bytes_per_light: Vec<usize>,
+    pub embree_build_ms: Option<f64>,
+    pub embree_primary_mrays: Option<f64>,
+    pub embree_shadow_mrays: Option<f64>,
+    /// Shadow rays on which Embree and antumbra give the same occlusion answer.
+    pub embree_agreement: Option<f64>,
+}
+
+/// Two rows per scene (one thread, all threads), printed as a table or JSON.
+pub(super) fn run(args: &BenchArgs, scenes: &[String], settings: &RenderSettings) -> Result<()> {
+    settings.collapse.cost.validate()?;
+    let all = rayon::current_num_threads();
+    let mut rows = Vec::new();
+    for name in scenes {
+        let frame = Frame::prepare(name, args, settings)?;
+        for threads in [1, all] {
+            rows.push(frame.timed_row(threads, args, settings)?);
+        }
+    }
+    if args.json {
+        print_json(&rows)
+    } else {
+        print_table(&rows);
+        Ok(())
+    }
+}
+
+/// One light's shadow rays and what traces them: its prepared wide order or its SRDH tree.
+struct LightRays {
+    rays: Vec<Ray>,
+    prepared: Option<PreparedOrder>,
+    srdh: Option<LightSrdh>,
+}
+
+/// The first frame of a scene with its trees and rays, ready to be timed.
+struct Frame {
+    scene: String,
+    geometry: FrameGeometry,
+    bvh: Bvh,
+    /// The tree of the shadow-casting triangles when they are not the camera's.
+    shadow_bvh: Option<Bvh>,
+    binary: Option<AnyHitOrder>,
+    wide_camera: Option<WideTree>,
+    wide_shadow: Option<WideTree>,
+    primary: Vec<Ray>,
+    lights: Vec<LightRays>,
+    /// Every light's rays in turn, and antumbra's answer for each.
+    shadow: Vec<Ray>,
+    answers: Vec<bool>,
+}
+
+impl Frame {
+    fn prepare(name: &str, args: &BenchArgs, s: &RenderSettings) -> Result<Frame> {
+        let anim = open_scene(name, args.triangles, 1)?;
+        let mut scene = anim.frame(*anim.frame_range().start());
+        scene.resolution = Resolution::new(args.size.width, args.size.height);
+        let geometry = FrameGeometry::from_scene(&scene)?;
+        let bvh = build_binned_sah(&geometry.camera.vertices, &s.build_settings);
+        let primary_gen = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
+        let pass = PrimaryPass::timed(&primary_gen, &bvh, &geometry.camera);
+        let shadow_bvh = geometry
+            .shadow
+            .as_ref()
+            .map(|set| build_binned_sah(&set.vertices, &s.build_settings));
+        let mut frame = Frame {
+            scene: anim.name().to_string(),
+            primary: camera_rays(&primary_gen, args.size.width, args.size.height),
+            binary: binary_order(s.width, &s.shadow_order),
+            wide_camera: (s.width != BvhWidth::Two)
+                .then(|| WideTree::collapse(&bvh, s.width, &s.collapse)),
+            geometry,
+            bvh,
+            shadow_bvh,
+            wide_shadow: None,
+            lights: Vec::new(),
+            shadow: Vec::new(),
+            answers: Vec::new(),
+        };
+        let srdh = matches!(s.shadow_order, ShadowOrder::Srdh(_));
+        frame.wide_shadow = (frame.binary.is_none() && !srdh)
+            .then(|| WideTree::collapse(frame.shadow_bvh(), s.width, &s.collapse));
+        frame.lights = shadow_lights(&scene, &frame.geometry.space, s.spp, s.seed)
+            .iter()
+            .map(|light| frame.light_rays(&pass, light, s))
+            .collect();
+        frame.shadow = frame
+            .lights
+            .iter()
+            .flat_map(|l| l.rays.iter().copied())
+            .collect();
+        frame.answers = frame.occlusion_answers();
+        Ok(frame)
+    }
+
+    fn shadow_bvh(&self) -> &Bvh {
+        self.shadow_bvh.as_ref().unwrap_or(&self.bvh)
+    }
+
+    fn shadow_triangles(&self) -> &[[glam::Vec3; 3]] {
+        let g = &self.geometry;
+        &g.shadow.as_ref().unwrap_or(&g.camera).vertices
+    }
+
+    /// A light's rays (the same the shadow pass traces) and its order made from them.
+    fn light_rays(&self, pass: &PrimaryPass, light: &ShadowLight, s: &RenderSettings) -> LightRays {
+        let (sampler, plan) = (&light.sampler, light.plan);
+        let order = &s.shadow_order;
+        let tables = matches!(order, ShadowOrder::Sorted(_))
+            .then(|| self.wide_shadow.as_ref().map(|t| t.sort_tables()))
+            .flatten();
+        let prepared = self.wide_shadow.as_ref().map(|t| {
+            let representative = match order {
+                ShadowOrder::Sorted(o) => representative_rays(pass, sampler, plan, o.budget),
+                _ => Vec::new(),
+            };
+            // The sorting itself runs on one thread, as the target asks.
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .build()
+                .expect("thread pool")
+                .install(|| t.prepare(order, tables.as_ref(), &representative))
+        });
+        let srdh = match order {
+            ShadowOrder::Srdh(o) => Some(srdh_for_light(
+                pass,
+                sampler,
+                plan,
+                o,
+                self.shadow_bvh(),
+                self.shadow_triangles(),
+                &s.build_settings,
+            )),
+            _ => None,
+        };
+        LightRays {
+            rays: shadow_rays(pass, sampler, plan),
+            prepared,
+            srdh,
+        }
+    }
+
+    fn occlusion_answers(&self) -> Vec<bool> {
+        self.lights
+            .iter()
+            .flat_map(|light| {
+                with_occluder!(self, light, |o| {
+                    light
+                        .rays
+                        .par_iter()
+                        .map(|r| o.occluded(r, &mut NoStats))
+                        .collect::<Vec<bool>>()
+                })
+            })
+            .collect()
+    }
+
+    /// The row's counts, before anything is timed.
+    fn row(&self, threads: usize, s: &RenderSettings) -> BenchRow {
+        let occluded = self.answers.iter().filter(|a| **a).count();
+        BenchRow {
+            scene: self.scene.clone(),
+            method: method_name(s),
+            triangles: self.geometry.camera.vertices.len(),
+            threads,
+            bvh_bytes: self
+                .wide_camera
+                .as_ref()
+                .map_or(self.bvh.bytes(), |t| t.bytes()),
+            primary_rays: self.primary.len(),
+            shadow_rays: self.shadow.len(),
+            shadow_occluded: occluded as f64 / self.shadow.len().max(1) as f64,
+            collapse_ms: self.wide_camera.as_ref().map_or(0.0, |t| t.collapse_ms()),
+            sort_ms_per_light: self
+                .lights
+                .iter()
+                .filter_map(|l| match &l.srdh {
+                    Some(srdh) => Some(srdh.ms),
+                    None => l.prepared.as_ref().map(|p| p.sort_ms()),
+                })
+                .filter(|ms| *ms > 0.0)
+                .collect(),
+            srdh_bytes_per_light: self
+                .lights
+                .iter()
+                .filter_map(|l| l.srdh.as_ref())
+                .map(|l| l.tree.as_ref().map_or(0, |t| t.bytes()))
+                .collect(),
+            ..BenchRow::default()
+        }
+    }
+
+    /// The row on `threads` threads: build, camera rays and shadow rays timed, each beside
+    /// Embree's when compared.
+    fn timed_row(&self, threads: usize, args: &BenchArgs, s: &RenderSettings) -> Result<BenchRow> {
+        let mut row = self.row(threads, s);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()?;
+        // Embree's side is built first and its rays are timed in turn with antumbra's
+        // (antumbra, Embree, antumbra, ...), so the two best times come from the same spells of
+        // a noisy machine and their ratio means something.
+        let reference = match &args.compare {
+            Some(_) => Some(Reference::build(
+                &args.embree_quality,
+                &self.geometry.camera.vertices,
+                threads,
+                args.repeat,
+            )?),
+            None => None,
+        };
+        pool.install(|| {
+            row.build_ms = best_of(args.repeat, || {
+                build_binned_sah(&self.geometry.camera.vertices, &s.build_settings)
+            });
+            let (ms, reference_ms) = self.time_primary(args.repeat, reference.as_ref());
+            row.primary_mrays = mrays(self.primary.len(), ms);
+            row.embree_primary_mrays = reference_ms.map(|ms| mrays(self.primary.len(), ms));
+            let (ms, reference_ms) = self.time_shadow(args.repeat, reference.as_ref());
+            row.shadow_mrays = mrays(self.shadow.len(), ms);
+            row.embree_shadow_mrays = reference_ms.map(|ms| mrays(self.shadow.len(), ms));
+            if let Some(r) = &reference {
+                row.embree_build_ms = Some(r.build_ms);
+                row.embree_agreement = Some(self.agreement(r));
+            }
+        });
+        Ok(row)
+    }
+
+    /// Best ms of the camera rays' closest hits, ours and the reference's.
+    fn time_primary(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Option<f64>) {
+        let closest = |tree: &(dyn Fn(&Ray) + Sync)| {
+            best_of_in_turn(
+                repeat,
+                || self.primary.par_iter().with_min_len(256).for_each(tree),
+                reference.map(|r| {
+                    || {
+                        self.primary
+                            .par_iter()
+                            .with_min_len(256)
+                            .for_each(|ray| r.intersect(ray))
+                    }
+                }),
+            )
+        };
+        match &self.wide_camera {
+            Some(WideTree::Four(t)) => closest(&|r| {
+                std::hint::black_box(t.closest_hit(r, &mut NoStats));
+            }),
+            Some(WideTree::Eight(t)) => closest(&|r| {
+                std::hint::black_box(t.closest_hit(r, &mut NoStats));
+            }),
+            _ => closest(&|r| {
+                std::hint::black_box(self.bvh.closest_hit(r, &mut NoStats));
+            }),
+        }
+    }
+
+    /// Best ms of every light's shadow rays, ours light by light in its order, and the
+    /// reference's on the same rays.
+    fn time_shadow(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Option<f64>) {
+        best_of_in_turn(
+            repeat,
+            || {
+                for light in &self.lights {
+                    with_occluder!(self, light, |o| {
+                        light.rays.par_iter().with_min_len(256).for_each(|r| {
+                            std::hint::black_box(o.occluded(r, &mut NoStats));
+                        })
+                    })
+                }
+            },
+            reference.map(|r| {
+                || {
+                    self.shadow.par_iter().with_min_len(256).for_each(|ray| {
+                        std::hint::black_box(r.occluded(ray));
+                    })
+                }
+            }),
+        )
+    }
+
+    /// The share of shadow rays the reference answers as antumbra does.
+    fn agreement(&self, reference: &Reference) -> f64 {
+        let agree = self
+            .shadow
+            .par_iter()
+            .zip(&self.answers)
+            .filter(|(ray, a)| reference.occluded(ray) == **a)
+            .count();
+        agree as f64 / self.shadow.len().max(1) as f64
+    }
+}
+
+/// Every pixel's camera ray, row by row.
+fn camera_rays(rays: &PrimaryRays, w: u32, h: u32) -> Vec<Ray> {
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| rays.ray(x, y))
+        .collect()
+}
+
+/// Builder / width / order; the collapse is named when it is not the default, e.g.
+/// `sah/bin8:sah/sorted`.
+fn method_name(s: &RenderSettings) -> String {
+    let collapsed = if s.collapse.method == CollapseSettings::default().method {
+        String::new()
+    } else {
+        format!(":{}", s.collapse.method)
+    };
+    format!("sah/bin{}{collapsed}/{}", s.width, s.shadow_order)
+}
+
+fn print_table(rows: &[BenchRow]) {
+    let embree = rows.iter().any(|r| r.embree_build_ms.is_some());
+    print!(
+        "{:<16} {:>9} {:>3} {:>9} {:>9} {:>8} {:>8} {:>7}",
+        "scene", "tris", "thr", "build ms", "MB", "prim Mr/s", "shad Mr/s", "occl"
+    );
+    if embree {
+        print!(
+            " | {:>9} {:>8} {:>9} {:>9} {:>9} {:>8}",
+            "E build", "build x", "E prim", "E shad", "shad x", "agree"
+        );
+    }
+    println!();
+    for r in rows {
+        print!(
+            "{:<16} {:>9} {:>3} {:>9.1} {:>9.1} {:>8.2} {:>8.2} {:>6.1}%",
+            r.scene,
+            r.triangles,
+            r.threads,
+            r.build_ms,
+            r.bvh_bytes as f64 / 1e6,
+            r.primary_mrays,
+            r.shadow_mrays,
+            r.shadow_occluded * 100.0
+        );
+        if let (Some(b), Some(p), Some(s), Some(a)) = (
+            r.embree_build_ms,
+            r.embree_primary_mrays,
+            r.embree_shadow_mrays,
+            r.embree_agreement,
+        ) {
+            print!(
+                " | {:>9.1} {:>8.2} {:>9.2} {:>9.2} {:>9.2} {:>7.3}%",
+                b,
+                r.build_ms / b,
+                p,
+                s,
+                r.shadow_mrays / s,
+                a * 100.0
+            );
+        }
+        println!();
+    }
+    if embree {
+        println!("build x = antumbra build / Embree build (quality per --embree-quality, default medium); shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays)");
+    }
+}

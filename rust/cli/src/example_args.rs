@@ -1,0 +1,54 @@
+//! The positional arguments the example programs share, `SCENE [TRIS] [WxH]` (each program with
+//! its own defaults), and the first frame of that scene they all start from.
+
+use antumbra_core::scene::{FrameGeometry, ImageSize, Resolution, Scene};
+use anyhow::Result;
+use clap::Args;
+
+#[derive(Args, Debug, Clone)]
+pub struct FrameArgs {
+    /// Built-in scene ("-rot45" for the rotated variant).
+    pub scene: Option<String>,
+    /// Triangle budget of the scene.
+    pub triangles: Option<usize>,
+    /// Image size WxH of the camera rays.
+    #[arg(value_name = "WxH", value_parser = ImageSize::parse_image)]
+    pub size: Option<ImageSize>,
+}
+
+/// What a program takes when an argument is left out.
+pub struct FrameDefaults {
+    pub scene: &'static str,
+    pub triangles: usize,
+    pub size: ImageSize,
+}
+
+/// The first frame of a built-in scene at the size asked for, and its geometry.
+pub struct ExampleFrame {
+    pub name: String,
+    pub size: ImageSize,
+    pub scene: Scene,
+    pub geometry: FrameGeometry,
+}
+
+impl FrameArgs {
+    pub fn open(&self, defaults: FrameDefaults) -> Result<ExampleFrame> {
+        let name = self.scene.as_deref().unwrap_or(defaults.scene).to_string();
+        let size = self.size.unwrap_or(defaults.size);
+        let params = antumbra_scenes::SceneParams {
+            triangles: self.triangles.unwrap_or(defaults.triangles),
+            frames: 1,
+            rotated: name.ends_with("-rot45"),
+        };
+        let anim = antumbra_scenes::builtin(name.trim_end_matches("-rot45"), &params)?;
+        let mut scene = anim.frame(*anim.frame_range().start());
+        scene.resolution = Resolution::new(size.width, size.height);
+        let geometry = FrameGeometry::from_scene(&scene)?;
+        Ok(ExampleFrame {
+            name,
+            size,
+            scene,
+            geometry,
+        })
+    }
+}
