@@ -131,7 +131,7 @@ fn bad_arguments_fail_with_a_clear_message() {
                 "6",
                 "--out",
             ],
-            "build.min_leaf_size: must be in 1..=max_leaf_size (4), got 6",
+            "min_leaf_size: must be at most leaf_size (4), got 6",
         ),
     ] {
         let o = antumbra().args(&args).arg(&out).output().unwrap();

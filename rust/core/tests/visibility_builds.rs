@@ -164,8 +164,8 @@ fn spatial_split_gates_trade_references_for_nothing_else() {
     }
     let mut bad = eager;
     bad.spatial.node_overlap = 1.5;
-    let err = bad.validate().unwrap_err().to_string();
-    assert!(err.contains("build.spatial.node_overlap"), "{err}");
+    let err = with_build(bad).validate().unwrap_err().to_string();
+    assert!(err.contains("split_node_overlap"), "{err}");
 }
 
 #[test]
@@ -349,7 +349,7 @@ fn smallest_leaf_stops_splits_and_changes_no_answer() {
             min_leaf_size: min,
             ..eager_splits()
         };
-        settings.validate().unwrap();
+        with_build(settings).validate().unwrap();
         for method in [
             BuildMethod::Sah,
             BuildMethod::Sbvh,
@@ -400,10 +400,18 @@ fn smallest_leaf_stops_splits_and_changes_no_answer() {
             max_leaf_size: max,
             ..BuildSettings::default()
         };
-        let err = bad.validate().unwrap_err().to_string();
+        let err = with_build(bad).validate().unwrap_err().to_string();
         assert!(
-            err.contains("build.min_leaf_size") && err.contains(&format!("got {min}")),
+            err.contains("min_leaf_size") && err.contains(&format!("{min}")),
             "{err}"
         );
+    }
+}
+
+/// Render settings with these build settings (where ranges are checked).
+fn with_build(build_settings: BuildSettings) -> antumbra_core::render::RenderSettings {
+    antumbra_core::render::RenderSettings {
+        build_settings,
+        ..Default::default()
     }
 }

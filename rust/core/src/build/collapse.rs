@@ -94,22 +94,6 @@ impl CollapseCost {
         let lanes = self.lanes.max(1);
         self.triangle * (count.div_ceil(lanes) * lanes) as f64
     }
-
-    pub fn validate(&self) -> crate::Result<()> {
-        if !(1..=64).contains(&self.max_leaf) {
-            return Err(crate::Error::invalid(
-                "collapse.max_leaf",
-                format!("must be in 1..=64, got {}", self.max_leaf),
-            ));
-        }
-        if !(self.node >= 0.0 && self.triangle >= 0.0) {
-            return Err(crate::Error::invalid(
-                "collapse cost",
-                "node and triangle costs must be >= 0",
-            ));
-        }
-        Ok(())
-    }
 }
 
 /// The collapse to perform: the method and, for `Sah`, its cost model.

@@ -63,54 +63,13 @@ impl Default for BuildSettings {
     }
 }
 
+/// Ranges are checked where settings enter (`crate::settings::SCHEMA`); the builders clamp
+/// what they rely on.
 impl BuildSettings {
     /// Nodes of at most this many references are leaves without a split search: the
     /// smallest leaf, never below 1 even in settings that were not validated.
     pub(crate) fn unsplit_refs(&self) -> usize {
         self.min_leaf_size.max(1)
-    }
-
-    pub fn validate(&self) -> crate::Result<()> {
-        if !(2..=MAX_BINS).contains(&self.bins) {
-            return Err(crate::Error::invalid(
-                "build.bins",
-                format!("must be in 2..={MAX_BINS}, got {}", self.bins),
-            ));
-        }
-        if !(1..=64).contains(&self.max_leaf_size) {
-            return Err(crate::Error::invalid(
-                "build.max_leaf_size",
-                format!("must be in 1..=64, got {}", self.max_leaf_size),
-            ));
-        }
-        if !(1..=self.max_leaf_size).contains(&self.min_leaf_size) {
-            return Err(crate::Error::invalid(
-                "build.min_leaf_size",
-                format!(
-                    "must be in 1..=max_leaf_size ({}), got {}",
-                    self.max_leaf_size, self.min_leaf_size
-                ),
-            ));
-        }
-        for (f, v) in [
-            ("build.traversal_cost", self.traversal_cost),
-            ("build.intersection_cost", self.intersection_cost),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(crate::Error::invalid(
-                    f,
-                    format!("must be positive, got {v}"),
-                ));
-            }
-        }
-        // w = 1 would drop the area term that breaks ties between splits; w = 0 is plain SAH.
-        if !(self.osah_weight > 0.0 && self.osah_weight < 1.0) {
-            return Err(crate::Error::invalid(
-                "build.osah_weight",
-                format!("must be in (0, 1), got {}", self.osah_weight),
-            ));
-        }
-        self.spatial.validate()
     }
 }
 
@@ -199,35 +158,5 @@ impl Default for SpatialSettings {
             axes: SpatialAxes::Object,
             clip_min_refs: CLIP_NEVER,
         }
-    }
-}
-
-impl SpatialSettings {
-    pub fn validate(&self) -> crate::Result<()> {
-        if !(2..=256).contains(&self.bins) {
-            return Err(crate::Error::invalid(
-                "build.spatial.bins",
-                format!("must be in 2..=256, got {}", self.bins),
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.alpha) {
-            return Err(crate::Error::invalid(
-                "build.spatial.alpha",
-                format!("must be in 0..=1, got {}", self.alpha),
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.node_overlap) {
-            return Err(crate::Error::invalid(
-                "build.spatial.node_overlap",
-                format!("must be in 0..=1, got {}", self.node_overlap),
-            ));
-        }
-        if !(0.0..=16.0).contains(&self.max_growth) {
-            return Err(crate::Error::invalid(
-                "build.spatial.max_growth",
-                format!("must be in 0..=16, got {}", self.max_growth),
-            ));
-        }
-        Ok(())
     }
 }

@@ -129,7 +129,10 @@ pub static SCHEMA: &[Setting] = &[
     },
     Setting {
         name: "bins",
-        kind: Kind::Int { min: 2, max: 256 },
+        kind: Kind::Int {
+            min: 2,
+            max: crate::build::MAX_BINS as i64,
+        },
         group: Group::Build,
         help: "SAH bins per axis: more find better splits at a higher build cost.",
         get: |s| s.build_settings.bins.into(),

@@ -109,7 +109,6 @@ pub struct BenchRow {
 
 /// Two rows per scene (one thread, all threads), printed as a table or JSON.
 pub(super) fn run(args: &BenchArgs, scenes: &[String], settings: &RenderSettings) -> Result<()> {
-    settings.collapse.cost.validate()?;
     let all = rayon::current_num_threads();
     let mut rows = Vec::new();
     for name in scenes {
