@@ -204,8 +204,8 @@ mod tests {
 
     #[test]
     fn json_round_trips() {
-        let dir = std::env::temp_dir().join(format!("antumbra-stats-{}", std::process::id()));
-        let path = dir.join("s.json");
+        let dir = tempfile::TempDir::new().unwrap();
+        let path = dir.path().join("s.json");
         let row = StatsRow {
             scene: "x".into(),
             frame: 3,
@@ -216,7 +216,6 @@ mod tests {
         let back: Vec<StatsRow> =
             serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
         assert_eq!(back, vec![row]);
-        std::fs::remove_dir_all(dir).unwrap();
     }
 
     /// `cells` must name every field once, with the field's own value: compared with what

@@ -90,11 +90,12 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::test_dir::TestDir;
+    use crate::output::file_names;
+    use tempfile::TempDir;
 
     #[test]
     fn output_atomic_replaces_and_cleans_up() {
-        let dir = TestDir::new("atomic");
+        let dir = TempDir::new().unwrap();
         let target = dir.path().join("a.bin");
         write_atomic(&target, |w| {
             w.write_all(b"first").map_err(|e| Error::io("x", e))
@@ -105,12 +106,12 @@ mod tests {
         })
         .unwrap();
         assert_eq!(fs::read(&target).unwrap(), b"second");
-        assert_eq!(dir.file_names(), vec!["a.bin".to_string()]);
+        assert_eq!(file_names(dir.path()), vec!["a.bin".to_string()]);
     }
 
     #[test]
     fn output_atomic_failure_keeps_old_file_and_no_temp() {
-        let dir = TestDir::new("atomic_fail");
+        let dir = TempDir::new().unwrap();
         let target = dir.path().join("a.bin");
         fs::write(&target, b"old").unwrap();
         let err = write_atomic(&target, |w| {
@@ -120,15 +121,15 @@ mod tests {
         .unwrap_err();
         assert!(matches!(err, Error::Invalid { .. }));
         assert_eq!(fs::read(&target).unwrap(), b"old");
-        assert_eq!(dir.file_names(), vec!["a.bin".to_string()]);
+        assert_eq!(file_names(dir.path()), vec!["a.bin".to_string()]);
     }
 
     #[test]
     fn output_atomic_missing_folder_is_io_error() {
-        let dir = TestDir::new("atomic_missing");
+        let dir = TempDir::new().unwrap();
         let target = dir.path().join("no_such_folder").join("a.bin");
         let err = write_atomic(&target, |_| Ok(())).unwrap_err();
         assert!(matches!(err, Error::Io { .. }), "{err}");
-        assert!(dir.file_names().is_empty());
+        assert!(file_names(dir.path()).is_empty());
     }
 }

@@ -12,8 +12,6 @@ mod heatmap;
 mod legend;
 mod line_plot;
 mod png;
-#[cfg(test)]
-mod test_dir;
 
 pub use self::atomic::write_bytes_atomic;
 pub use self::colormap::ColorMap;
@@ -85,4 +83,16 @@ impl ImagePlane {
             (lo, hi)
         }
     }
+}
+
+/// Sorted names of everything in a folder, hidden temporary files included (tests check that
+/// a write leaves nothing behind).
+#[cfg(test)]
+pub(crate) fn file_names(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
 }
