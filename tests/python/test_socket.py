@@ -147,7 +147,7 @@ def frame(value) -> bytes:
     return len(body).to_bytes(4, "little") + body
 
 
-WELCOME = frame({"Welcome": {"version": 1, "server": "fake", "limits": {}}})
+WELCOME = frame({"Welcome": {"version": antumbra.PROTOCOL_VERSION, "server": "fake", "limits": {}}})
 
 
 def read_frame(conn) -> bytes:

@@ -128,6 +128,20 @@ fn wrong_protocol_version_is_refused() {
     );
     assert!(!usable);
     assert_closed(&mut c);
+    // A version-1 add-on (FNV-1a mesh hashes) is told to update itself.
+    let mut old = d.raw_client();
+    let reply = old
+        .call(&Request::Hello {
+            version: 1,
+            client: "blender 4.2".into(),
+            token: None,
+        })
+        .unwrap();
+    let (code, message, usable, _) = expect_error(reply);
+    assert_eq!(code, ErrorCode::VersionMismatch);
+    assert!(message.contains("update the Blender add-on"), "{message}");
+    assert!(!usable);
+    assert_closed(&mut old);
     other.still_served();
 }
 

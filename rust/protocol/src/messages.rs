@@ -18,8 +18,9 @@ use serde_bytes::ByteBuf;
 use crate::error::ErrorCode;
 use crate::limits::Limits;
 
-/// The protocol version this crate speaks; `Hello` must carry it.
-pub const PROTOCOL_VERSION: u32 = 1;
+/// The protocol version this crate speaks; `Hello` must carry it. Version 2: mesh hashes are
+/// XXH3 (version 1: FNV-1a).
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// A message from the client to the daemon.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

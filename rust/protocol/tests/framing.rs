@@ -229,14 +229,32 @@ fn decode_errors_name_the_problem() {
 fn hello_checks() {
     assert!(check_hello(&hello()).is_ok());
     let err = check_hello(&Request::Hello {
-        version: 2,
+        version: PROTOCOL_VERSION + 1,
         client: "future".into(),
         token: None,
     })
     .unwrap_err();
     assert_eq!(err.code(), ErrorCode::VersionMismatch);
-    assert!(err.to_string().contains("version 2"), "{err}");
+    let future = format!("version {}", PROTOCOL_VERSION + 1);
+    assert!(err.to_string().contains(&future), "{err}");
+    assert!(
+        err.to_string().contains("update the antumbra daemon"),
+        "{err}"
+    );
+    // A version-1 client (FNV-1a mesh hashes) is told to update the add-on.
+    let err = check_hello(&Request::Hello {
+        version: 1,
+        client: "blender 4.2".into(),
+        token: None,
+    })
+    .unwrap_err();
+    assert_eq!(err.code(), ErrorCode::VersionMismatch);
     assert!(err.to_string().contains("version 1"), "{err}");
+    assert!(err.to_string().contains("version 2"), "{err}");
+    assert!(
+        err.to_string().contains("update the Blender add-on"),
+        "{err}"
+    );
     let Reply::Error {
         code,
         session_usable,

@@ -69,7 +69,7 @@ def default_socket_path() -> str:
 
 
 def mesh_hash(positions: np.ndarray, triangles: np.ndarray) -> int:
-    """The protocol's content hash of a mesh (64-bit FNV-1a over the vertex count, the float32
+    """The protocol's content hash of a mesh (64-bit XXH3 over the vertex count, the float32
     positions, the triangle count and the uint32 indices; computed in Rust).
 
     ``positions``: float32 array of shape (n, 3); ``triangles``: integer array of shape (m, 3).
