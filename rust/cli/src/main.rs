@@ -4,6 +4,7 @@
 mod allocator;
 mod commands;
 mod frames;
+mod line_plot;
 mod scene_args;
 mod scene_source;
 mod write;

@@ -151,7 +151,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub min_leaf_size: Option<usize>,
     /// Render this many frames with SAH, SBVH, OSAH-exact and OSAH-previous and write the
-    /// per-frame curve (animation.csv, animation.png) into --out.
+    /// per-frame curve (animation.csv, animation.svg) into --out.
     #[arg(long)]
     pub animation: Option<i32>,
     /// Output folder of --animation.

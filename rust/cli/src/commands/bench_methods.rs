@@ -11,7 +11,7 @@ use antumbra_core::bvh::{
     build_binned_sah, build_with_visibility, BuildMethod, BuildSettings, Bvh,
 };
 use antumbra_core::geometry::Ray;
-use antumbra_core::output::write_line_plot;
+use antumbra_core::output::write_bytes_atomic;
 use antumbra_core::render::{
     samples_for, shadow_rays, visibility_flags, LightSampler, PrimaryPass, PrimaryRays,
     RenderSettings, Renderer, SamplePlan, StatsMode, VisibilitySource,
@@ -21,6 +21,8 @@ use antumbra_core::trace::{occluded, AnyHitOrder, NoStats, TraversalStats};
 use anyhow::{bail, Result};
 use rayon::prelude::*;
 use serde::Serialize;
+
+use crate::line_plot::LinePlot;
 
 /// One method on one viewpoint.
 #[derive(Debug, Default, Serialize)]
@@ -392,7 +394,7 @@ fn print_reference_builds(
 }
 
 /// Renders `frames` frames of `scene_name` with SAH, SBVH, OSAH-exact and OSAH-previous and
-/// writes the per-frame primary Mrays/s (and work) as `animation.csv` and `animation.png`.
+/// writes the per-frame primary Mrays/s (and work) as `animation.csv` and `animation.svg`.
 pub fn animation_curve(
     scene_name: &str,
     triangles: usize,
@@ -422,6 +424,7 @@ pub fn animation_curve(
         "frame,method,primary_mrays,primary_nit,primary_nts,shadow_mrays,build_ms,visibility_ms,rebuilt\n",
     );
     let mut series = Vec::new();
+    let first_frame = *anim.frame_range().start();
     for (name, build, visibility) in configs {
         let s = RenderSettings {
             build,
@@ -459,13 +462,13 @@ pub fn animation_curve(
         );
         series.push((format!("{name} ({mean:.2})"), mrays));
     }
-    std::fs::write(out.join("animation.csv"), csv)?;
-    write_line_plot(
-        &out.join("animation.png"),
-        &format!("{scene_name}: primary Mrays/s per frame"),
-        &series,
-        900,
-        420,
-    )?;
+    write_bytes_atomic(&out.join("animation.csv"), csv.as_bytes())?;
+    LinePlot {
+        title: &format!("{scene_name}: primary Mrays/s per frame"),
+        y_label: "primary Mrays/s",
+        first_frame,
+        series: &series,
+    }
+    .write_svg(&out.join("animation.svg"), 900, 420)?;
     Ok(())
 }
