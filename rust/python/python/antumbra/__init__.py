@@ -26,6 +26,9 @@ from .client import (
     read_exr,
     read_recording,
     render_settings,
+    write_file_atomic,
+    write_stats_csv,
+    write_stats_json,
 )
 from .errors import (
     AntumbraError,
@@ -63,4 +66,7 @@ __all__ = [
     "read_exr",
     "read_recording",
     "render_settings",
+    "write_file_atomic",
+    "write_stats_csv",
+    "write_stats_json",
 ]

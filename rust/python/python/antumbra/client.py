@@ -41,6 +41,9 @@ __all__ = [
     "read_exr",
     "read_recording",
     "render_settings",
+    "write_file_atomic",
+    "write_stats_csv",
+    "write_stats_json",
 ]
 
 PROTOCOL_VERSION: int = _native.PROTOCOL_VERSION
@@ -88,6 +91,25 @@ def read_recording(path: str | os.PathLike[str]) -> dict[str, Any]:
     matrices as nested lists).
     """
     return _native.read_recording(os.fspath(path))
+
+
+def write_file_atomic(path: str | os.PathLike[str], data: bytes) -> None:
+    """Writes ``data`` to ``path`` as every antumbra file is written: into a uniquely named
+    temporary file beside it, synced to disk, then renamed over ``path`` (so a reader never sees
+    half a file, and two writers never share a temporary file)."""
+    _native.write_file_atomic(os.fspath(path), bytes(data))
+
+
+def write_stats_csv(path: str | os.PathLike[str], rows: list[dict[str, Any]]) -> None:
+    """Writes statistics rows (``Result.stats`` dicts, or those dicts read back from JSON) as
+    ``stats.csv``, with the Rust writer ``antumbra render`` uses: the same bytes for the same
+    rows, written atomically."""
+    _native.write_stats(os.fspath(path), list(rows), "csv")
+
+
+def write_stats_json(path: str | os.PathLike[str], rows: list[dict[str, Any]]) -> None:
+    """Writes statistics rows as ``stats.json``, as ``antumbra render`` does (atomically)."""
+    _native.write_stats(os.fspath(path), list(rows), "json")
 
 
 def colorize_heat(array: np.ndarray, max: float | None = None) -> tuple[np.ndarray, float]:
