@@ -117,8 +117,18 @@ def test_stats_files_of_the_client_are_the_clis(antumbra_bin, recording, tmp_pat
     keeps them)."""
     cli_out = tmp_path / "cli"
     subprocess.run(
-        [str(antumbra_bin), "render", "--scene", str(recording), "--frames", "1-2"]
-        + ["--spp", "1", "--out", str(cli_out)],
+        [
+            str(antumbra_bin),
+            "render",
+            "--scene",
+            str(recording),
+            "--frames",
+            "1-2",
+            "--spp",
+            "1",
+            "--out",
+            str(cli_out),
+        ],
         check=True,
         capture_output=True,
     )
