@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import io
 import json
 import os
 from pathlib import Path
 
 import bpy
 import numpy as np
+
+from . import client_loader
 
 #: The heat maps' planes and how their images are called.
 HEAT_PLANES = {
@@ -115,9 +118,8 @@ def stats_summary(rows: list[dict]) -> list[str]:
 
 
 def _write_atomic(path: Path, text: str):
-    partial = path.with_name(path.name + ".partial")
-    partial.write_text(text)
-    os.replace(partial, path)
+    # The client's Rust writer: a unique temporary file, synced, renamed (two writers never race).
+    client_loader.load().write_file_atomic(path, text.encode())
 
 
 def run_key(blend: str, options) -> str:
@@ -196,12 +198,11 @@ def _write_csv(path: Path, rows: list[dict]):
     columns: list[str] = []
     for row in rows:
         columns.extend(k for k in row if k not in columns)
-    partial = path.with_name(path.name + ".partial")
-    with open(partial, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=columns)
-        writer.writeheader()
-        writer.writerows(rows)
-    os.replace(partial, path)
+    text = io.StringIO(newline="")
+    writer = csv.DictWriter(text, fieldnames=columns)
+    writer.writeheader()
+    writer.writerows(rows)
+    _write_atomic(path, text.getvalue())
 
 
 def write_tables(out_dir: Path) -> tuple[Path, int]:
@@ -210,7 +211,9 @@ def write_tables(out_dir: Path) -> tuple[Path, int]:
     ``stats.json`` (one row per pass and frame). Returns the frames table and its row count."""
     records = finished_frames(out_dir)
     rows = [row for f in sorted(records) for row in records[f]["rows"]]
-    _write_atomic(out_dir / "stats.json", json.dumps(rows, indent=1))
-    _write_csv(out_dir / "stats.csv", rows)
+    # The statistics through the client's Rust writers: the same bytes as `antumbra render`.
+    client = client_loader.load()
+    client.write_stats_json(out_dir / "stats.json", rows)
+    client.write_stats_csv(out_dir / "stats.csv", rows)
     _write_csv(out_dir / "frames.csv", [frame_summary(records[f]) for f in sorted(records)])
     return out_dir / "frames.csv", len(records)

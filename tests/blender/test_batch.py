@@ -5,6 +5,7 @@ object and frame named) on bad input or with no daemon to be had."""
 from __future__ import annotations
 
 import csv
+import json
 import os
 import signal
 import subprocess
@@ -50,6 +51,9 @@ def test_ten_frames_then_resume(scene_blend, antumbra_bin, short_tmp):
     with open(out / "stats.csv") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == FRAMES * (1 + len(LIGHTS))
+    # The add-on's stats.csv is the Rust writer's (the one `antumbra render` uses) for its rows.
+    antumbra.write_stats_csv(short_tmp / "rust.csv", json.loads((out / "stats.json").read_text()))
+    assert (out / "stats.csv").read_bytes() == (short_tmp / "rust.csv").read_bytes()
 
     # Half the work lost: the batch renders only what is missing, and the same pixels again.
     before = (out / "frame_0004.exr").read_bytes()

@@ -4,6 +4,7 @@ bit, and ``Result.save`` writes the CLI's bytes."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 
 import numpy as np
@@ -108,3 +109,49 @@ def test_save_refuses_planes_of_the_wrong_shape(tmp_path):
         antumbra._native.save_frame(
             str(tmp_path), 1, 4, 3, [("combined", np.zeros((2, 2), np.float32))]
         )
+
+
+def test_stats_files_of_the_client_are_the_clis(antumbra_bin, recording, tmp_path):
+    """One writer of stats.csv/stats.json: the client writes the CLI's bytes for the CLI's rows,
+    and a session's rows give the same file directly or read back from JSON (as the add-on
+    keeps them)."""
+    cli_out = tmp_path / "cli"
+    subprocess.run(
+        [
+            str(antumbra_bin),
+            "render",
+            "--scene",
+            str(recording),
+            "--frames",
+            "1-2",
+            "--spp",
+            "1",
+            "--out",
+            str(cli_out),
+        ],
+        check=True,
+        capture_output=True,
+    )
+    rows = json.loads((cli_out / "stats.json").read_text())
+    antumbra.write_stats_csv(tmp_path / "stats.csv", rows)
+    antumbra.write_stats_json(tmp_path / "stats.json", rows)
+    for name in ("stats.csv", "stats.json"):
+        assert (tmp_path / name).read_bytes() == (cli_out / name).read_bytes(), name
+    rec = antumbra.read_recording(recording)
+    with antumbra.LocalSession() as session:
+        result = render_recording(session, rec, 0)
+    antumbra.write_stats_csv(tmp_path / "direct.csv", result.stats)
+    antumbra.write_stats_csv(tmp_path / "via_json.csv", json.loads(json.dumps(result.stats)))
+    direct = (tmp_path / "direct.csv").read_bytes()
+    assert direct == (tmp_path / "via_json.csv").read_bytes()
+    assert direct.splitlines()[0] == (cli_out / "stats.csv").read_bytes().splitlines()[0]
+    with pytest.raises(antumbra.InvalidInput, match=r"rows\[0\]"):
+        antumbra.write_stats_csv(tmp_path / "bad.csv", [{"rays": "many"}])
+
+
+def test_write_file_atomic_leaves_only_the_file(tmp_path):
+    target = tmp_path / "sub" / "a.json"
+    antumbra.write_file_atomic(target, b"first")
+    antumbra.write_file_atomic(target, b"second")
+    assert target.read_bytes() == b"second"
+    assert [p.name for p in target.parent.iterdir()] == ["a.json"]

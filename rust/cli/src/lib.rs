@@ -4,6 +4,7 @@
 pub mod commands;
 pub mod example_args;
 pub mod frames;
+pub mod line_plot;
 pub mod method_args;
 pub mod scene_args;
 pub mod scene_source;

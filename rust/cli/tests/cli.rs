@@ -4,25 +4,22 @@
 use std::path::Path;
 use std::process::Command;
 
+use tempfile::TempDir;
+
 fn antumbra() -> Command {
     Command::new(env!("CARGO_BIN_EXE_antumbra"))
 }
 
-fn temp_dir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("antumbra-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
 #[test]
 fn render_writes_images_heat_maps_and_statistics() {
-    let out = temp_dir("render");
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path();
     let status = antumbra()
         .args([
             "render", "--scene", "city", "--frames", "1-2", "--size", "64x40",
         ])
         .args(["--triangles", "10000", "--spp", "2", "--out"])
-        .arg(&out)
+        .arg(out)
         .output()
         .unwrap();
     assert!(
@@ -70,12 +67,12 @@ fn render_writes_images_heat_maps_and_statistics() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
     assert_eq!(json.as_array().unwrap().len(), rows.len());
-    std::fs::remove_dir_all(out).unwrap();
 }
 
 #[test]
 fn bad_arguments_fail_with_a_clear_message() {
-    let out = temp_dir("bad");
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path();
     for (args, needle) in [
         (
             vec!["render", "--scene", "nowhere", "--out"],
@@ -134,7 +131,7 @@ fn bad_arguments_fail_with_a_clear_message() {
             "min_leaf_size: must be at most leaf_size (4), got 6",
         ),
     ] {
-        let o = antumbra().args(&args).arg(&out).output().unwrap();
+        let o = antumbra().args(&args).arg(out).output().unwrap();
         assert!(!o.status.success(), "{args:?} succeeded");
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(needle), "{args:?}: {err}");
@@ -143,7 +140,8 @@ fn bad_arguments_fail_with_a_clear_message() {
 
 #[test]
 fn record_then_render_the_recording_equals_rendering_the_scene() {
-    let dir = temp_dir("record");
+    let tmp = TempDir::new().unwrap();
+    let dir = tmp.path();
     let rec = dir.join("city.antrec");
     let scene_args = [
         "--scene",

@@ -21,19 +21,15 @@ use antumbra_protocol::{
     Reply, Request,
 };
 use antumbra_scenes::{builtin, SceneParams};
+use tempfile::TempDir;
 
 const REPLY_TIMEOUT: Duration = Duration::from_secs(60);
 
-fn temp_dir(tag: &str) -> PathBuf {
-    static N: AtomicU64 = AtomicU64::new(0);
-    let d = std::env::temp_dir().join(format!(
-        "antumbra-served-{tag}-{}-{}",
-        std::process::id(),
-        N.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(tag: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("antumbra-served-{tag}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// A daemon process; killed (SIGKILL) and reaped on drop, and by a watchdog after its time
@@ -235,7 +231,7 @@ fn render(c: &mut Client, frame: i32, id: u64) -> FrameResultReply {
 #[test]
 fn serve_renders_like_in_process_and_stops_on_sigterm() {
     let dir = temp_dir("basic");
-    let d = DaemonProcess::spawn(&dir, &[], Duration::from_secs(60));
+    let d = DaemonProcess::spawn(dir.path(), &[], Duration::from_secs(60));
     assert_eq!(
         d.ready,
         format!("antumbra: listening on unix:{}", d.socket.display())
@@ -254,7 +250,7 @@ fn serve_renders_like_in_process_and_stops_on_sigterm() {
         assert_same_result(&render(&mut c, s.frame, i as u64), want);
     }
     // A second daemon on the same socket is refused while this one lives.
-    let err = DaemonProcess::try_spawn(&dir, &[], Duration::from_secs(30))
+    let err = DaemonProcess::try_spawn(dir.path(), &[], Duration::from_secs(30))
         .err()
         .expect("second daemon refused");
     assert!(err.contains("already listening"), "{err}");
@@ -265,18 +261,17 @@ fn serve_renders_like_in_process_and_stops_on_sigterm() {
     assert!(status.success(), "{status:?}\n{}", d.log());
     assert!(!d.socket.exists(), "socket removed");
     assert!(d.log().contains("daemon stopped"), "{}", d.log());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn serve_tcp_needs_token_and_loopback() {
     let dir = temp_dir("tcp");
-    let token = dir.join("token");
+    let token = dir.path().join("token");
     std::fs::write(&token, "  tcp-secret-1\n").unwrap();
     std::fs::set_permissions(&token, std::fs::Permissions::from_mode(0o600)).unwrap();
     let token_arg = token.to_str().unwrap();
     let d = DaemonProcess::spawn(
-        &dir,
+        dir.path(),
         &[
             "--tcp",
             "127.0.0.1:0",
@@ -332,16 +327,14 @@ fn serve_tcp_needs_token_and_loopback() {
     // Non-loopback addresses are refused before anything is bound.
     let dir2 = temp_dir("tcp-any");
     let err = DaemonProcess::try_spawn(
-        &dir2,
+        dir2.path(),
         &["--tcp", "0.0.0.0:0", "--token-file", token_arg],
         Duration::from_secs(30),
     )
     .err()
     .expect("non-loopback refused");
     assert!(err.contains("loopback"), "{err}");
-    assert!(!dir2.join("d.sock").exists());
-    let _ = std::fs::remove_dir_all(&dir);
-    let _ = std::fs::remove_dir_all(&dir2);
+    assert!(!dir2.path().join("d.sock").exists());
 }
 
 fn frame_dirs(results: &Path) -> Vec<String> {
@@ -374,7 +367,7 @@ fn wait_for_frames(results: &Path, n: usize, d: &DaemonProcess) -> usize {
 fn spool_job_survives_kill_9_with_every_frame_exactly_once() {
     let t0 = Instant::now();
     let dir = temp_dir("spool");
-    let spool = dir.join("spool");
+    let spool = dir.path().join("spool");
     let spool_arg = spool.to_str().unwrap().to_string();
     let args = ["--spool", spool_arg.as_str(), "--spool-rescan-s", "0.2"];
     let scenes = city(10_000, 20, 96, 60);
@@ -396,7 +389,7 @@ fn spool_job_survives_kill_9_with_every_frame_exactly_once() {
     // the files, renaming, rewriting the manifest).
     let mut kills = 0;
     for target in [2, 5, 8, 11, 14, 17] {
-        let d = DaemonProcess::spawn(&dir, &args, Duration::from_secs(60));
+        let d = DaemonProcess::spawn(dir.path(), &args, Duration::from_secs(60));
         let k = wait_for_frames(&results, target, &d);
         if results.join(DONE_FILE).exists() {
             break;
@@ -413,7 +406,7 @@ fn spool_job_survives_kill_9_with_every_frame_exactly_once() {
         eprintln!("killed the daemon with {k}+ of 20 frames finished, {temporaries} temporaries");
     }
     let before_last = frame_dirs(&results).len();
-    let d = DaemonProcess::spawn(&dir, &args, Duration::from_secs(60));
+    let d = DaemonProcess::spawn(dir.path(), &args, Duration::from_secs(60));
     wait_for_frames(&results, 20, &d);
     let deadline = Instant::now() + Duration::from_secs(30);
     while !results.join(DONE_FILE).exists() {
@@ -473,7 +466,6 @@ fn spool_job_survives_kill_9_with_every_frame_exactly_once() {
         t0.elapsed().as_secs_f64()
     );
     drop(d);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `clients` concurrent sessions each send and render `frames` frames of a small city; every
@@ -483,7 +475,7 @@ fn load_test(clients: usize, frames: i32, max_renders: &str) {
     let scenes = Arc::new(city(10_000, frames, 128, 80));
     let expected = Arc::new(render_in_process("load", &scenes));
     let d = DaemonProcess::spawn(
-        &dir,
+        dir.path(),
         &["--max-renders", max_renders],
         Duration::from_secs(300),
     );
@@ -529,7 +521,6 @@ fn load_test(clients: usize, frames: i32, max_renders: &str) {
     );
     assert_eq!(latencies.len(), clients * frames as usize);
     drop(d);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -546,9 +537,9 @@ fn load_8_clients_x_20_frames() {
 #[test]
 fn recorded_session_replays_with_antumbra_render() {
     let dir = temp_dir("record");
-    let rec = dir.join("recordings");
+    let rec = dir.path().join("recordings");
     let d = DaemonProcess::spawn(
-        &dir,
+        dir.path(),
         &["--record", rec.to_str().unwrap()],
         Duration::from_secs(60),
     );
@@ -567,7 +558,7 @@ fn recorded_session_replays_with_antumbra_render() {
         .map(|e| e.path())
         .collect();
     assert_eq!(files.len(), 1, "{files:?}");
-    let out = dir.join("out");
+    let out = dir.path().join("out");
     let run = Command::new(env!("CARGO_BIN_EXE_antumbra"))
         .args(["render", "--scene"])
         .arg(&files[0])
@@ -595,5 +586,4 @@ fn recorded_session_replays_with_antumbra_render() {
             );
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,5 +1,6 @@
 //! Per-frame statistics: one row per frame, method and pass (the primary pass, and the shadow
-//! pass of each light), with the columns defined once here and written as CSV and JSON.
+//! pass of each light), with the columns defined once here and written as CSV and JSON (both
+//! through serde: every number at full precision, so the two files hold the same values).
 //!
 //! | column | meaning |
 //! |---|---|
@@ -94,20 +95,19 @@ impl StatsRow {
     }
 }
 
-/// One column's value, as the CSV, JSON and Python renderings of a row need it.
+/// One column's value, as the Python client's dicts of a row need it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Cell<'a> {
     Text(&'a str),
     Int(i64),
     Count(u64),
     Flag(bool),
-    /// A value and the decimals the CSV prints.
-    Real(f64, usize),
+    Real(f64),
 }
 
 impl StatsRow {
-    /// Every column, named and in order: the one list CSV files, the Python client's dicts and
-    /// the column header are made from (a test checks it against the struct's fields).
+    /// Every column, named and in order: the one list the Python client's dicts and the CSV
+    /// header are made from (tests check it against the struct's fields and their order).
     pub fn cells(&self) -> Vec<(&'static str, Cell<'_>)> {
         use Cell::*;
         vec![
@@ -117,26 +117,26 @@ impl StatsRow {
             ("pass", Text(&self.pass)),
             ("light", Text(&self.light)),
             ("rebuilt", Flag(self.rebuilt)),
-            ("build_ms", Real(self.build_ms, 4)),
+            ("build_ms", Real(self.build_ms)),
             ("bvh_nodes", Count(self.bvh_nodes)),
             ("bvh_bytes", Count(self.bvh_bytes)),
             ("triangles", Count(self.triangles)),
             ("rays", Count(self.rays)),
-            ("trace_ms", Real(self.trace_ms, 4)),
-            ("mrays_per_s", Real(self.mrays_per_s, 4)),
+            ("trace_ms", Real(self.trace_ms)),
+            ("mrays_per_s", Real(self.mrays_per_s)),
             ("timed_without_counters", Flag(self.timed_without_counters)),
-            ("occluded_fraction", Real(self.occluded_fraction, 6)),
-            ("nb_per_ray", Real(self.nb_per_ray, 6)),
-            ("nl_per_ray", Real(self.nl_per_ray, 6)),
-            ("nt_per_ray", Real(self.nt_per_ray, 6)),
-            ("nbox_per_ray", Real(self.nbox_per_ray, 6)),
+            ("occluded_fraction", Real(self.occluded_fraction)),
+            ("nb_per_ray", Real(self.nb_per_ray)),
+            ("nl_per_ray", Real(self.nl_per_ray)),
+            ("nt_per_ray", Real(self.nt_per_ray)),
+            ("nbox_per_ray", Real(self.nbox_per_ray)),
             ("back_facing", Count(self.back_facing)),
             ("unreached", Count(self.unreached)),
-            ("sort_ms", Real(self.sort_ms, 4)),
+            ("sort_ms", Real(self.sort_ms)),
             ("references", Count(self.references)),
             ("visible_input", Count(self.visible_input)),
-            ("visibility_ms", Real(self.visibility_ms, 4)),
-            ("nts_per_ray", Real(self.nts_per_ray, 6)),
+            ("visibility_ms", Real(self.visibility_ms)),
+            ("nts_per_ray", Real(self.nts_per_ray)),
         ]
     }
 
@@ -150,27 +150,20 @@ impl StatsRow {
     }
 }
 
-fn csv_field(cell: Cell<'_>) -> String {
-    match cell {
-        Cell::Text(s) if s.contains([',', '"', '\n']) => format!("\"{}\"", s.replace('"', "\"\"")),
-        Cell::Text(s) => s.to_string(),
-        Cell::Int(v) => v.to_string(),
-        Cell::Count(v) => v.to_string(),
-        Cell::Flag(v) => v.to_string(),
-        Cell::Real(v, decimals) => format!("{v:.decimals$}"),
-    }
-}
-
-/// The rows as CSV text with a header line.
+/// The rows as CSV text with a header line: the one writer of `stats.csv` (the CLI, the spool and
+/// the Python client's `write_stats_csv` all call it). Columns in field order; text is quoted
+/// only where it must be; reals print as the shortest text that reads back to the same value.
 pub fn to_csv(rows: &[StatsRow]) -> String {
-    let mut out = StatsRow::columns().join(",");
-    out.push('\n');
-    for r in rows {
-        let fields: Vec<String> = r.cells().into_iter().map(|(_, c)| csv_field(c)).collect();
-        out.push_str(&fields.join(","));
-        out.push('\n');
-    }
-    out
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(false)
+        .from_writer(Vec::new());
+    // Written by hand so that no rows still give the header.
+    let header = w.write_record(StatsRow::columns());
+    let body = rows.iter().try_for_each(|r| w.serialize(r));
+    // Writing plain fields into memory cannot fail.
+    header.and(body).expect("CSV of a stats row");
+    let bytes = w.into_inner().expect("CSV in memory");
+    String::from_utf8(bytes).expect("CSV of UTF-8 fields")
 }
 
 pub fn write_csv(path: &Path, rows: &[StatsRow]) -> Result<()> {
@@ -200,12 +193,40 @@ mod tests {
             StatsRow::columns().len()
         );
         assert!(lines.next().unwrap().starts_with("\"a,b\",0,"));
+        assert_eq!(to_csv(&[]), StatsRow::columns().join(",") + "\n");
+    }
+
+    /// serde's field order (the CSV's columns) is the order of `cells`, the header's.
+    #[test]
+    fn csv_columns_follow_the_fields() {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(StatsRow::default()).unwrap();
+        let text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        assert_eq!(text.lines().next().unwrap(), StatsRow::columns().join(","));
+    }
+
+    /// Reals keep every digit, so the CSV reads back to the JSON's values.
+    #[test]
+    fn csv_reals_read_back_exactly() {
+        let row = StatsRow {
+            trace_ms: 0.1 + 0.2,
+            nb_per_ray: 1.0 / 3.0,
+            occluded_fraction: 1e-7,
+            ..StatsRow::default()
+        };
+        let csv = to_csv(std::slice::from_ref(&row));
+        let back: StatsRow = csv::Reader::from_reader(csv.as_bytes())
+            .deserialize()
+            .next()
+            .unwrap()
+            .unwrap();
+        assert_eq!(back, row);
     }
 
     #[test]
     fn json_round_trips() {
-        let dir = std::env::temp_dir().join(format!("antumbra-stats-{}", std::process::id()));
-        let path = dir.join("s.json");
+        let dir = tempfile::TempDir::new().unwrap();
+        let path = dir.path().join("s.json");
         let row = StatsRow {
             scene: "x".into(),
             frame: 3,
@@ -216,7 +237,6 @@ mod tests {
         let back: Vec<StatsRow> =
             serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
         assert_eq!(back, vec![row]);
-        std::fs::remove_dir_all(dir).unwrap();
     }
 
     /// `cells` must name every field once, with the field's own value: compared with what
@@ -266,7 +286,7 @@ mod tests {
                 Cell::Int(v) => serde_json::json!(v),
                 Cell::Count(v) => serde_json::json!(v),
                 Cell::Flag(v) => serde_json::json!(v),
-                Cell::Real(v, _) => serde_json::json!(v),
+                Cell::Real(v) => serde_json::json!(v),
             };
             assert_eq!(&as_json, value, "column {name}");
         }

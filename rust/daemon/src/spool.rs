@@ -428,7 +428,7 @@ pub fn submit_job(
         .join(format!("{id}-{}-{}", std::process::id(), unique()));
     fs::create_dir(&temp).map_err(|e| format!("{}: {e}", temp.display()))?;
     let text = serde_json::to_string_pretty(spec).map_err(|e| e.to_string())?;
-    fs::write(temp.join(JOB_FILE), text).map_err(|e| e.to_string())?;
+    write_bytes_atomic(&temp.join(JOB_FILE), text.as_bytes()).map_err(|e| e.to_string())?;
     write_scene(&temp.join(SCENE_FILE))?;
     let target = dirs.jobs.join(id);
     if target.exists() {

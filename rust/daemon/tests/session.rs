@@ -128,6 +128,20 @@ fn wrong_protocol_version_is_refused() {
     );
     assert!(!usable);
     assert_closed(&mut c);
+    // A version-1 add-on (FNV-1a mesh hashes) is told to update itself.
+    let mut old = d.raw_client();
+    let reply = old
+        .call(&Request::Hello {
+            version: 1,
+            client: "blender 4.2".into(),
+            token: None,
+        })
+        .unwrap();
+    let (code, message, usable, _) = expect_error(reply);
+    assert_eq!(code, ErrorCode::VersionMismatch);
+    assert!(message.contains("update the Blender add-on"), "{message}");
+    assert!(!usable);
+    assert_closed(&mut old);
     other.still_served();
 }
 
@@ -495,7 +509,7 @@ fn tcp_needs_the_token() {
 
 #[test]
 fn non_loopback_tcp_is_refused() {
-    let dir = TempDir::new("nonloop");
+    let dir = temp_dir("nonloop");
     let socket = dir.path().join("d.sock");
     for addr in ["0.0.0.0:0", "[::]:0"] {
         let mut config = DaemonConfig::new(&socket);
@@ -518,7 +532,7 @@ fn non_loopback_tcp_is_refused() {
 
 #[test]
 fn stale_socket_is_replaced_live_one_and_other_files_are_not() {
-    let dir = TempDir::new("stale");
+    let dir = temp_dir("stale");
     let socket = dir.path().join("d.sock");
     // A socket nobody listens on (a daemon that was killed).
     drop(std::os::unix::net::UnixListener::bind(&socket).unwrap());
@@ -586,10 +600,10 @@ fn unused_meshes_are_evicted_beyond_the_budget() {
 
 #[test]
 fn sessions_are_recorded_and_replay() {
-    let d = TestDaemon::start_with("record", |c| {
-        c.record = Some(std::env::temp_dir().join(format!("antd-rec-{}", std::process::id())))
-    });
-    let rec_dir = std::env::temp_dir().join(format!("antd-rec-{}", std::process::id()));
+    // A folder the daemon makes itself.
+    let rec = temp_dir("rec");
+    let rec_dir = rec.path().join("recordings");
+    let d = TestDaemon::start_with("record", |c| c.record = Some(rec_dir.clone()));
     let mut c = d.client("recorder");
     let scenes: Vec<Scene> = (1..=3).map(|f| tiny_scene(f, 24, 16)).collect();
     for s in &scenes {
@@ -613,7 +627,6 @@ fn sessions_are_recorded_and_replay() {
             frame_update_from_scene(s).unwrap()
         );
     }
-    let _ = std::fs::remove_dir_all(&rec_dir);
 }
 
 #[test]

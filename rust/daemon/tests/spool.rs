@@ -42,7 +42,7 @@ fn manifest(results: &Path) -> Manifest {
 
 #[test]
 fn job_is_rendered_into_complete_frame_folders() {
-    let spool = TempDir::new("spool-job");
+    let spool = temp_dir("spool-job");
     let d = TestDaemon::start_with("spool", |c| c.spool = Some(spool.path().to_path_buf()));
     let scenes: Vec<Scene> = (1..=4).map(|f| tiny_scene(f, 24, 16)).collect();
     // Submitted while the daemon runs: the watcher (or the rescan) picks it up.
@@ -98,7 +98,7 @@ fn job_is_rendered_into_complete_frame_folders() {
 
 #[test]
 fn restart_skips_finished_frames_and_cleans_temporaries() {
-    let spool = TempDir::new("spool-resume");
+    let spool = temp_dir("spool-resume");
     let scenes: Vec<Scene> = (1..=3).map(|f| tiny_scene(f, 24, 16)).collect();
     let spec = JobSpec {
         frames: Some(vec![3, 1, 2, 1]),
@@ -147,7 +147,7 @@ fn restart_skips_finished_frames_and_cleans_temporaries() {
 
 #[test]
 fn bad_jobs_get_an_error_file_and_others_still_run() {
-    let spool = TempDir::new("spool-bad");
+    let spool = temp_dir("spool-bad");
     let d = TestDaemon::start_with("spool-bad", |c| c.spool = Some(spool.path().to_path_buf()));
     // Unknown field in job.json.
     let jobs = spool.path().join("jobs");
@@ -172,9 +172,9 @@ fn bad_jobs_get_an_error_file_and_others_still_run() {
 
 #[test]
 fn one_daemon_per_spool() {
-    let spool = TempDir::new("spool-lock");
+    let spool = temp_dir("spool-lock");
     let _d = TestDaemon::start_with("spool-lock", |c| c.spool = Some(spool.path().to_path_buf()));
-    let dir = TempDir::new("spool-lock2");
+    let dir = temp_dir("spool-lock2");
     let mut config = antumbra_daemon::DaemonConfig::new(dir.path().join("d.sock"));
     config.spool = Some(spool.path().to_path_buf());
     let err = antumbra_daemon::Daemon::bind(config)

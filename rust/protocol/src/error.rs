@@ -84,10 +84,23 @@ impl FrameError {
     }
 }
 
+/// Names both versions and which side to update: usually the add-on, which carries the client.
+fn version_mismatch(client: u32, server: u32) -> String {
+    let update = if client < server {
+        "update the Blender add-on (it carries the antumbra client) to this daemon's release"
+    } else {
+        "update the antumbra daemon to the add-on's release"
+    };
+    format!(
+        "protocol version mismatch: the client speaks version {client}, this daemon speaks \
+         version {server}: {update}"
+    )
+}
+
 /// Errors in the content of a well-framed message.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum ProtocolError {
-    #[error("protocol version mismatch: the client speaks version {client}, this daemon speaks version {server}{}", if client < server { " (update the antumbra add-on or Python client to this daemon's version)" } else { " (update the antumbra daemon)" })]
+    #[error("{}", version_mismatch(*client, *server))]
     VersionMismatch { client: u32, server: u32 },
     /// A field with a value outside its valid range; `field` names the mesh/object/frame too.
     #[error("{field}: {message}")]

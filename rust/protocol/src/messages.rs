@@ -19,7 +19,8 @@ use serde_bytes::ByteBuf;
 use crate::error::ErrorCode;
 use crate::limits::Limits;
 
-/// The protocol version this crate speaks; `Hello` must carry it.
+/// The protocol version this crate speaks; `Hello` must carry it. Version 2: mesh hashes are
+/// XXH3 and render settings a map by name (version 1: FNV-1a, nested settings structs).
 pub const PROTOCOL_VERSION: u32 = 2;
 
 /// A message from the client to the daemon.

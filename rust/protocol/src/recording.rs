@@ -70,6 +70,13 @@ impl RecordingWriter<BufWriter<File>> {
         let file = File::create(path).map_err(|e| RecordingError::from(e).in_file(path))?;
         RecordingWriter::new(BufWriter::new(file)).map_err(|e| e.in_file(path))
     }
+
+    /// Flushes the recording and waits until it is on disk (a spool job's folder is renamed
+    /// into place right after).
+    pub fn close(self) -> std::io::Result<()> {
+        let file = self.finish()?.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()
+    }
 }
 
 impl<W: Write> RecordingWriter<W> {

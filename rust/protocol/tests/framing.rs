@@ -235,25 +235,24 @@ fn hello_checks() {
     })
     .unwrap_err();
     assert_eq!(err.code(), ErrorCode::VersionMismatch);
-    let (ours, theirs) = (
-        format!("version {PROTOCOL_VERSION}"),
-        format!("version {}", PROTOCOL_VERSION + 1),
-    );
-    assert!(err.to_string().contains(&ours), "{err}");
-    assert!(err.to_string().contains(&theirs), "{err}");
+    let future = format!("version {}", PROTOCOL_VERSION + 1);
+    assert!(err.to_string().contains(&future), "{err}");
     assert!(
         err.to_string().contains("update the antumbra daemon"),
         "{err}"
     );
-    // A client from before version 2 (older settings and mesh hashes) is told to update.
+    // A version-1 client (FNV-1a mesh hashes) is told to update the add-on.
     let err = check_hello(&Request::Hello {
         version: 1,
-        client: "add-on 0.1".into(),
+        client: "blender 4.2".into(),
         token: None,
     })
     .unwrap_err();
+    assert_eq!(err.code(), ErrorCode::VersionMismatch);
+    assert!(err.to_string().contains("version 1"), "{err}");
+    assert!(err.to_string().contains("version 2"), "{err}");
     assert!(
-        err.to_string().contains("update the antumbra add-on"),
+        err.to_string().contains("update the Blender add-on"),
         "{err}"
     );
     let Reply::Error {

@@ -2,35 +2,16 @@
 
 mod common;
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use antumbra_core::scene::Animation;
 use antumbra_protocol::recording::{replay_scenes_from, RECORDING_MAGIC};
 use antumbra_protocol::*;
 
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> Self {
-        let dir =
-            std::env::temp_dir().join(format!("antumbra-protocol-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 #[test]
 fn write_read_replay_round_trip() {
-    let dir = TempDir::new("roundtrip");
-    let path = dir.0.join("tiny shot.antrec");
+    let dir = tempfile::TempDir::new().unwrap();
+    let path = dir.path().join("tiny shot.antrec");
     let scenes: Vec<_> = (0..5).map(common::tiny_scene).collect();
 
     let mut w = RecordingWriter::create(&path).unwrap();
@@ -106,14 +87,14 @@ fn gaps_hold_the_previous_frame() {
 
 #[test]
 fn bad_recordings_say_what_is_wrong() {
-    let dir = TempDir::new("bad");
+    let dir = tempfile::TempDir::new().unwrap();
 
-    let not_one = dir.0.join("x.antrec");
+    let not_one = dir.path().join("x.antrec");
     std::fs::write(&not_one, b"PNG....").unwrap();
     let e = replay_scenes(&not_one).err().unwrap().to_string();
     assert!(e.contains("x.antrec") && e.contains("ANTREC1"), "{e}");
 
-    let missing = dir.0.join("missing.antrec");
+    let missing = dir.path().join("missing.antrec");
     let e = replay_scenes(&missing).err().unwrap().to_string();
     assert!(e.contains("missing.antrec"), "{e}");
 
@@ -122,7 +103,7 @@ fn bad_recordings_say_what_is_wrong() {
     w.append_scene(&common::tiny_scene(0)).unwrap();
     let bytes = w.finish().unwrap();
     let first = 8 + 4 + u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize;
-    let cut = dir.0.join("cut.antrec");
+    let cut = dir.path().join("cut.antrec");
     std::fs::write(&cut, &bytes[..first + 10]).unwrap();
     let e = replay_scenes(&cut).err().unwrap().to_string();
     assert!(

@@ -7,9 +7,10 @@ use antumbra_core::output::{
     heatmap_rgb, read_exr, write_frame_files, ColorMap, HeatScale, ImagePlane, Outputs,
 };
 use antumbra_core::render::{FrameResult, HeatMaps};
+use antumbra_core::stats::StatsRow;
 use numpy::{IntoPyArray, PyReadonlyArray2};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyBool, PyDict, PyList};
 
 use crate::arrays::{describe, plane_to_array};
 use crate::error::{ClientError, ClientResult};
@@ -169,4 +170,54 @@ pub fn colorize_heat<'py>(
         .expect("three bytes per pixel")
         .into_pyarray(py);
     Ok((rgb, legend.max))
+}
+
+/// One statistics row from a dict of its columns (as `Result.stats` gives them, or as read back
+/// from JSON); missing columns take their defaults, unknown ones are ignored.
+fn stats_row_from(i: usize, row: &Bound<'_, PyAny>) -> ClientResult<StatsRow> {
+    let bad = |what: String| ClientError::invalid(format!("rows[{i}]{what}"));
+    let dict = row
+        .cast::<PyDict>()
+        .map_err(|_| bad(format!(": expected a dict, got {}", describe(row))))?;
+    let mut map = serde_json::Map::new();
+    for (key, value) in dict.iter() {
+        let key: String = key
+            .extract()
+            .map_err(|_| bad(": keys must be str".into()))?;
+        // Floats go across as they are (no text round trip), so the CSV is exact.
+        let json = if value.is_none() {
+            serde_json::Value::Null
+        } else if let Ok(b) = value.cast::<PyBool>() {
+            serde_json::Value::Bool(b.is_true())
+        } else if let Ok(i) = value.extract::<i64>() {
+            i.into()
+        } else if let Ok(u) = value.extract::<u64>() {
+            u.into()
+        } else if let Ok(f) = value.extract::<f64>() {
+            serde_json::Number::from_f64(f).map_or(serde_json::Value::Null, Into::into)
+        } else if let Ok(t) = value.extract::<String>() {
+            t.into()
+        } else {
+            return Err(bad(format!(
+                ".{key}: unsupported value {}",
+                describe(&value)
+            )));
+        };
+        map.insert(key, json);
+    }
+    serde_json::from_value(map.into()).map_err(|e| bad(format!(": {e}")))
+}
+
+/// The rows of `Result.stats` (a list of dicts) as the daemon's statistics rows.
+pub fn stats_rows(rows: &Bound<'_, PyAny>) -> ClientResult<Vec<StatsRow>> {
+    let list = rows.cast::<PyList>().map_err(|_| {
+        ClientError::invalid(format!(
+            "rows: expected a list of dicts, got {}",
+            describe(rows)
+        ))
+    })?;
+    list.iter()
+        .enumerate()
+        .map(|(i, row)| stats_row_from(i, &row))
+        .collect()
 }

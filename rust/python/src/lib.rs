@@ -19,6 +19,8 @@ mod result;
 mod scene;
 mod settings;
 
+use std::path::Path;
+
 use pyo3::prelude::*;
 use pyo3::types::PyString;
 
@@ -74,6 +76,36 @@ fn save_frame(
     files::save_frame(py, dir, frame, width, height, planes, outputs).py_result(py)
 }
 
+/// Writes `data` to `path` atomically (a unique temporary file beside it, synced, renamed): the
+/// writer of every antumbra file, for the add-on's tables too.
+#[pyfunction]
+fn write_file_atomic(py: Python<'_>, path: &str, data: &[u8]) -> PyResult<()> {
+    antumbra_core::output::write_bytes_atomic(Path::new(path), data)
+        .map_err(|e| ClientError::invalid(e.to_string()))
+        .py_result(py)
+}
+
+/// Writes statistics rows (dicts of their columns, as `Result.stats` gives them) as the CLI
+/// writes `stats.csv` (`format="csv"`) or `stats.json` (`format="json"`), atomically.
+#[pyfunction]
+fn write_stats(py: Python<'_>, path: &str, rows: &Bound<'_, PyAny>, format: &str) -> PyResult<()> {
+    let write = || -> ClientResult<()> {
+        let rows = files::stats_rows(rows)?;
+        let path = Path::new(path);
+        match format {
+            "csv" => antumbra_core::stats::write_csv(path, &rows),
+            "json" => antumbra_core::stats::write_json(path, &rows),
+            other => {
+                return Err(ClientError::invalid(format!(
+                    "format: 'csv' or 'json', got '{other}'"
+                )))
+            }
+        }
+        .map_err(|e| ClientError::invalid(e.to_string()))
+    };
+    write().py_result(py)
+}
+
 /// Every channel of an EXR file as float32 arrays.
 #[pyfunction]
 fn read_exr<'py>(py: Python<'py>, path: &str) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
@@ -98,6 +130,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_recording, m)?)?;
     m.add_function(wrap_pyfunction!(save_frame, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(write_file_atomic, m)?)?;
+    m.add_function(wrap_pyfunction!(write_stats, m)?)?;
     m.add_function(wrap_pyfunction!(colorize_heat, m)?)?;
     m.add_class::<settings::RenderSettings>()?;
     m.add_function(wrap_pyfunction!(settings::settings_schema, m)?)?;

@@ -91,7 +91,7 @@ impl Recorder {
     pub fn finish(self) -> ClientResult<(usize, usize)> {
         let path = self.path;
         self.writer
-            .finish()
+            .close()
             .map_err(|e| ClientError::invalid(format!("recording {path}: {e}")))?;
         Ok((self.frames, self.pending.len()))
     }

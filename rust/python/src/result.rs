@@ -69,7 +69,7 @@ pub fn stats_row<'py>(py: Python<'py>, r: &StatsRowState) -> PyResult<Bound<'py,
             Cell::Int(v) => d.set_item(name, v)?,
             Cell::Count(v) => d.set_item(name, v)?,
             Cell::Flag(v) => d.set_item(name, v)?,
-            Cell::Real(v, _) => d.set_item(name, v)?,
+            Cell::Real(v) => d.set_item(name, v)?,
         }
     }
     Ok(d)

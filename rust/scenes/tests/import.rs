@@ -6,30 +6,13 @@ use std::sync::Arc;
 use antumbra_core::Error;
 use antumbra_scenes::load_file;
 use glam::DVec3;
+use tempfile::TempDir;
 
-/// A fresh directory under the system's temp dir, removed when dropped.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(tag: &str) -> Self {
-        let dir =
-            std::env::temp_dir().join(format!("antumbra-scenes-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-
-    fn write(&self, name: &str, bytes: &[u8]) -> PathBuf {
-        let path = self.0.join(name);
-        std::fs::write(&path, bytes).unwrap();
-        path
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
+/// Writes `bytes` to `name` in `dir`; returns the file's path.
+fn write(dir: &TempDir, name: &str, bytes: &[u8]) -> PathBuf {
+    let path = dir.path().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
 }
 
 const CUBE_AND_TRIANGLE_OBJ: &str = "\
@@ -58,8 +41,8 @@ f 9 10 11
 
 #[test]
 fn obj_loads_as_a_static_scene() {
-    let dir = TempDir::new("obj");
-    let path = dir.write("things.obj", CUBE_AND_TRIANGLE_OBJ.as_bytes());
+    let dir = TempDir::new().unwrap();
+    let path = write(&dir, "things.obj", CUBE_AND_TRIANGLE_OBJ.as_bytes());
     let anim = load_file(&path, 5).unwrap();
     assert_eq!(anim.name(), "things");
     assert_eq!(anim.frame_range(), 1..=5);
@@ -174,19 +157,24 @@ fn check_two_quads(path: &Path) {
 
 #[test]
 fn gltf_with_embedded_buffer_applies_node_transforms() {
-    let dir = TempDir::new("gltf");
+    let dir = TempDir::new().unwrap();
     let buffer = quad_buffer();
     let uri = format!("data:application/octet-stream;base64,{}", base64(&buffer));
-    let path = dir.write("quads.gltf", gltf_json(Some(&uri), buffer.len()).as_bytes());
+    let path = write(
+        &dir,
+        "quads.gltf",
+        gltf_json(Some(&uri), buffer.len()).as_bytes(),
+    );
     check_two_quads(&path);
 }
 
 #[test]
 fn gltf_with_external_buffer_and_glb() {
-    let dir = TempDir::new("glb");
+    let dir = TempDir::new().unwrap();
     let buffer = quad_buffer();
-    dir.write("quads.bin", &buffer);
-    let path = dir.write(
+    write(&dir, "quads.bin", &buffer);
+    let path = write(
+        &dir,
         "quads.gltf",
         gltf_json(Some("quads.bin"), buffer.len()).as_bytes(),
     );
@@ -208,7 +196,7 @@ fn gltf_with_external_buffer_and_glb() {
     glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
     glb.extend_from_slice(b"BIN\0");
     glb.extend_from_slice(&bin);
-    let path = dir.write("quads.glb", &glb);
+    let path = write(&dir, "quads.glb", &glb);
     check_two_quads(&path);
 }
 
@@ -218,8 +206,8 @@ fn message(err: &Error) -> String {
 
 #[test]
 fn missing_garbage_and_unsupported_files_are_errors_naming_the_file() {
-    let dir = TempDir::new("errors");
-    let missing = dir.0.join("nowhere.obj");
+    let dir = TempDir::new().unwrap();
+    let missing = dir.path().join("nowhere.obj");
     let err = load_file(&missing, 1).err().expect("missing file");
     assert!(matches!(err, Error::Io { .. }), "{err:?}");
     assert!(message(&err).contains("nowhere.obj"));
@@ -234,7 +222,7 @@ fn missing_garbage_and_unsupported_files_are_errors_naming_the_file() {
         ("garbage.glb", &b"glTF\x02\x00\x00\x00junk"[..]),
         ("notes.txt", &b"v 0 0 0"[..]),
     ] {
-        let path = dir.write(name, bytes);
+        let path = write(&dir, name, bytes);
         let err = load_file(&path, 1)
             .err()
             .unwrap_or_else(|| panic!("{name} loaded"));
@@ -245,19 +233,23 @@ fn missing_garbage_and_unsupported_files_are_errors_naming_the_file() {
         assert!(message(&err).contains(name), "{name}: {err}");
     }
 
-    let path = dir.write("ok.obj", CUBE_AND_TRIANGLE_OBJ.as_bytes());
+    let path = write(&dir, "ok.obj", CUBE_AND_TRIANGLE_OBJ.as_bytes());
     assert!(load_file(&path, 0).is_err());
 }
 
 #[test]
 fn gltf_index_out_of_range_is_an_error() {
-    let dir = TempDir::new("badindex");
+    let dir = TempDir::new().unwrap();
     let mut buffer = quad_buffer();
     // Last index 2 -> 9: past the 4 vertices.
     let n = buffer.len();
     buffer[n - 2..].copy_from_slice(&9u16.to_le_bytes());
     let uri = format!("data:application/octet-stream;base64,{}", base64(&buffer));
-    let path = dir.write("bad.gltf", gltf_json(Some(&uri), buffer.len()).as_bytes());
+    let path = write(
+        &dir,
+        "bad.gltf",
+        gltf_json(Some(&uri), buffer.len()).as_bytes(),
+    );
     let err = load_file(&path, 1).err().expect("bad index");
     assert!(
         message(&err).contains("bad.gltf") && message(&err).contains("out of range"),

@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use antumbra_core::output::AtomicFile;
 use antumbra_protocol::RecordingWriter;
 use anyhow::{Context, Result};
 use clap::Args;
@@ -25,9 +26,9 @@ pub fn run(args: RecordArgs) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     // Written beside the target and renamed, so a reader never sees half a recording.
-    let partial = args.out.with_extension("antrec.partial");
-    let mut writer = RecordingWriter::create(&partial)
-        .with_context(|| format!("creating {}", partial.display()))?;
+    let file = AtomicFile::create(&args.out)?;
+    let mut writer =
+        RecordingWriter::new(file).with_context(|| format!("writing {}", args.out.display()))?;
     let mut count = 0;
     for frame in open.frames.clone() {
         let s = frame_at_size(open.animation.as_ref(), frame, open.size);
@@ -38,9 +39,8 @@ pub fn run(args: RecordArgs) -> Result<()> {
     }
     writer
         .finish()
-        .with_context(|| format!("writing {}", partial.display()))?;
-    std::fs::rename(&partial, &args.out)
-        .with_context(|| format!("renaming to {}", args.out.display()))?;
+        .with_context(|| format!("writing {}", args.out.display()))?
+        .commit()?;
     println!(
         "recorded {count} frames of {} to {}",
         open.animation.name(),

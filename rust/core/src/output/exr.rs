@@ -139,7 +139,8 @@ fn text_to_string(bytes: &[u8]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::test_dir::TestDir;
+    use crate::output::file_names;
+    use tempfile::TempDir;
 
     fn plane(name: &str, w: u32, h: u32, data: Vec<f32>) -> ImagePlane {
         assert_eq!(data.len(), (w * h) as usize);
@@ -157,7 +158,7 @@ mod tests {
 
     #[test]
     fn output_exr_round_trip_is_bit_exact() {
-        let dir = TestDir::new("exr_round_trip");
+        let dir = TempDir::new().unwrap();
         let path = dir.path().join("frame_0001.exr");
         let special = vec![
             0.0,
@@ -199,36 +200,36 @@ mod tests {
             assert_eq!((got.width, got.height), (want.width, want.height));
             assert_eq!(bits(got), bits(want), "channel {}", want.name);
         }
-        assert_eq!(dir.file_names(), vec!["frame_0001.exr".to_string()]);
+        assert_eq!(file_names(dir.path()), vec!["frame_0001.exr".to_string()]);
     }
 
     #[test]
     fn output_exr_overwrites_atomically() {
-        let dir = TestDir::new("exr_overwrite");
+        let dir = TempDir::new().unwrap();
         let path = dir.path().join("f.exr");
         let one = plane("a", 2, 1, vec![1.0, 2.0]);
         let two = plane("a", 1, 1, vec![3.0]);
         write_exr(&path, &[&one]).unwrap();
         write_exr(&path, &[&two]).unwrap();
         assert_eq!(read_exr(&path).unwrap(), vec![two]);
-        assert_eq!(dir.file_names(), vec!["f.exr".to_string()]);
+        assert_eq!(file_names(dir.path()), vec!["f.exr".to_string()]);
     }
 
     #[test]
     fn output_exr_mismatched_size_names_the_plane() {
-        let dir = TestDir::new("exr_mismatch");
+        let dir = TempDir::new().unwrap();
         let path = dir.path().join("f.exr");
         let a = plane("combined", 2, 2, vec![0.0; 4]);
         let b = plane("primary.N_T", 2, 1, vec![0.0; 2]);
         let err = write_exr(&path, &[&a, &b]).unwrap_err();
         assert!(matches!(err, Error::Invalid { .. }), "{err}");
         assert!(err.to_string().contains("primary.N_T"), "{err}");
-        assert!(dir.file_names().is_empty());
+        assert!(file_names(dir.path()).is_empty());
     }
 
     #[test]
     fn output_exr_rejects_bad_input() {
-        let dir = TestDir::new("exr_bad");
+        let dir = TempDir::new().unwrap();
         let path = dir.path().join("f.exr");
         assert!(write_exr(&path, &[]).is_err());
         let empty = plane("empty", 0, 0, vec![]);
@@ -243,7 +244,7 @@ mod tests {
         assert!(write_exr(&path, &[&unnamed]).is_err());
         let long = plane(&"x".repeat(256), 1, 1, vec![0.0]);
         assert!(write_exr(&path, &[&long]).is_err());
-        assert!(dir.file_names().is_empty());
+        assert!(file_names(dir.path()).is_empty());
 
         let missing = read_exr(&dir.path().join("missing.exr")).unwrap_err();
         assert!(matches!(missing, Error::Io { .. }), "{missing}");

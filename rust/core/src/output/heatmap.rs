@@ -123,8 +123,9 @@ fn normalize(v: f32, min: f32, max: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::output::file_names;
     use crate::output::legend::bar_rows;
-    use crate::output::test_dir::TestDir;
+    use tempfile::TempDir;
 
     fn pixel(img: &image::RgbImage, x: u32, y: u32) -> [u8; 3] {
         img.get_pixel(x, y).0
@@ -132,7 +133,7 @@ mod tests {
 
     #[test]
     fn output_heatmap_png_auto_scale_and_legend() {
-        let dir = TestDir::new("heatmap_auto");
+        let dir = TempDir::new().unwrap();
         let path = dir.path().join("heat.png");
         let mut plane = ImagePlane::new("primary.N_B", 5, 3);
         for (i, v) in plane.data.iter_mut().enumerate() {
@@ -169,12 +170,12 @@ mod tests {
         let bar_y = 3 + bar_rows(5).start;
         assert_eq!(pixel(&img, 0, bar_y), ColorMap::Turbo.map(0.0));
         assert_eq!(pixel(&img, 4, bar_y), ColorMap::Turbo.map(1.0));
-        assert_eq!(dir.file_names(), vec!["heat.png".to_string()]);
+        assert_eq!(file_names(dir.path()), vec!["heat.png".to_string()]);
     }
 
     #[test]
     fn output_heatmap_png_linear_scale_clamps() {
-        let dir = TestDir::new("heatmap_linear");
+        let dir = TempDir::new().unwrap();
         let path = dir.path().join("heat.png");
         let mut plane = ImagePlane::new("N_T", 4, 1);
         plane.data = vec![0.0, 5.0, 10.0, 40.0];
@@ -196,7 +197,7 @@ mod tests {
 
     #[test]
     fn output_heatmap_png_all_zero_plane() {
-        let dir = TestDir::new("heatmap_zero");
+        let dir = TempDir::new().unwrap();
         let path = dir.path().join("heat.png");
         let plane = ImagePlane::new("idle", 3, 2);
         let legend = write_heatmap_png(&path, &plane, ColorMap::Turbo, HeatScale::Auto).unwrap();
@@ -207,7 +208,7 @@ mod tests {
 
     #[test]
     fn output_heatmap_png_rejects_bad_input() {
-        let dir = TestDir::new("heatmap_bad");
+        let dir = TempDir::new().unwrap();
         let path = dir.path().join("heat.png");
         let plane = ImagePlane::new("N_L", 2, 2);
         for max in [0.0, -1.0, f32::NAN, f32::INFINITY] {
@@ -217,6 +218,6 @@ mod tests {
         }
         let empty = ImagePlane::new("empty", 3, 0);
         assert!(write_heatmap_png(&path, &empty, ColorMap::Turbo, HeatScale::Auto).is_err());
-        assert!(dir.file_names().is_empty());
+        assert!(file_names(dir.path()).is_empty());
     }
 }

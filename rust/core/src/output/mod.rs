@@ -10,18 +10,14 @@ mod font;
 mod frame_files;
 mod heatmap;
 mod legend;
-mod line_plot;
 mod png;
-#[cfg(test)]
-mod test_dir;
 
-pub use self::atomic::write_bytes_atomic;
+pub use self::atomic::{sync_dir, write_bytes_atomic, AtomicFile, TEMP_SUFFIX};
 pub use self::colormap::ColorMap;
 pub use self::exr::{read_exr, write_exr};
 pub use self::frame_files::{frame_stem, planes, write_frame_files, FrameFiles, Outputs};
 pub use self::heatmap::{heatmap_rgb, write_heatmap_png, HeatLegend, HeatScale};
 pub use self::legend::heat_legend_height;
-pub use self::line_plot::write_line_plot;
 pub use self::png::write_mask_png;
 
 /// A single-channel float image, rows top to bottom.
@@ -85,4 +81,16 @@ impl ImagePlane {
             (lo, hi)
         }
     }
+}
+
+/// Sorted names of everything in a folder, hidden temporary files included (tests check that
+/// a write leaves nothing behind).
+#[cfg(test)]
+pub(crate) fn file_names(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
 }

@@ -49,11 +49,12 @@ pub(crate) fn encode_png(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::test_dir::TestDir;
+    use crate::output::file_names;
+    use tempfile::TempDir;
 
     #[test]
     fn output_mask_png_values() {
-        let dir = TestDir::new("mask_png");
+        let dir = TempDir::new().unwrap();
         let path = dir.path().join("mask.png");
         let mut plane = ImagePlane::new("sun", 4, 2);
         plane.data = vec![0.0, 1.0, 0.5, 0.25, -3.0, 7.0, f32::NAN, 0.999];
@@ -63,12 +64,12 @@ mod tests {
         let grey = img.into_luma8();
         assert_eq!(grey.dimensions(), (4, 2));
         assert_eq!(grey.into_raw(), vec![0, 255, 128, 64, 0, 255, 0, 255]);
-        assert_eq!(dir.file_names(), vec!["mask.png".to_string()]);
+        assert_eq!(file_names(dir.path()), vec!["mask.png".to_string()]);
     }
 
     #[test]
     fn output_mask_png_rejects_bad_planes() {
-        let dir = TestDir::new("mask_png_bad");
+        let dir = TempDir::new().unwrap();
         let empty = ImagePlane::new("empty", 0, 3);
         let err = write_mask_png(&dir.path().join("a.png"), &empty).unwrap_err();
         assert!(err.to_string().contains("empty"), "{err}");
@@ -79,6 +80,6 @@ mod tests {
             matches!(err, Error::Invalid { .. }) && err.to_string().contains("short"),
             "{err}"
         );
-        assert!(dir.file_names().is_empty());
+        assert!(file_names(dir.path()).is_empty());
     }
 }

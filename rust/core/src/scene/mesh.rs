@@ -1,5 +1,6 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
+use xxhash_rust::xxh3::Xxh3;
 
 use crate::{Error, Result};
 
@@ -48,29 +49,69 @@ impl Mesh {
         Ok(())
     }
 
-    /// A content hash (FNV-1a over the vertex and triangle counts and the little-endian bytes of
-    /// positions and indices; the name is not hashed) so that unchanged meshes can be recognised
-    /// across frames without comparing them element by element.
+    /// A content hash (64-bit XXH3 over the vertex count, the positions, the triangle count and
+    /// the indices, all little-endian; the name is not hashed) so that unchanged meshes can be
+    /// recognised across frames without comparing them element by element. The protocol's mesh
+    /// hash (`docs/protocol.md`). XXH3, not BLAKE3: the hash only recognises a client's own
+    /// meshes, so speed matters and collision resistance against an attacker does not.
     pub fn content_hash(&self) -> u64 {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |bytes: &[u8]| {
-            for &b in bytes {
-                h ^= b as u64;
-                h = h.wrapping_mul(0x0100_0000_01b3);
-            }
-        };
-        eat(&(self.positions.len() as u64).to_le_bytes());
-        for p in &self.positions {
-            for c in p.to_array() {
-                eat(&c.to_bits().to_le_bytes());
-            }
+        let mut h = Xxh3::new();
+        h.update(&(self.positions.len() as u64).to_le_bytes());
+        hash_in_chunks(&mut h, &self.positions, |p| {
+            p.to_array().map(f32::to_le_bytes)
+        });
+        h.update(&(self.triangles.len() as u64).to_le_bytes());
+        hash_in_chunks(&mut h, &self.triangles, |t| t.map(u32::to_le_bytes));
+        h.digest()
+    }
+}
+
+/// Feeds items as little-endian bytes through a stack buffer: XXH3 is fastest on long inputs,
+/// and the bytes need no per-platform cast.
+fn hash_in_chunks<T>(h: &mut Xxh3, items: &[T], bytes: impl Fn(&T) -> [[u8; 4]; 3]) {
+    const ITEMS: usize = 512;
+    let mut buf = [0u8; ITEMS * 12];
+    for chunk in items.chunks(ITEMS) {
+        for (out, item) in buf.chunks_exact_mut(12).zip(chunk) {
+            out.copy_from_slice(bytes(item).as_flattened());
         }
-        eat(&(self.triangles.len() as u64).to_le_bytes());
-        for t in &self.triangles {
-            for i in t {
-                eat(&i.to_le_bytes());
+        h.update(&buf[..chunk.len() * 12]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The chunked hash equals XXH3 over the bytes the protocol sends, in one piece, and
+    /// docs/protocol.md's example value.
+    #[test]
+    fn content_hash_is_xxh3_of_the_wire_bytes() {
+        let positions: Vec<Vec3> = (0..1500)
+            .map(|i| Vec3::new(i as f32, -0.5, 1e-3 * i as f32))
+            .collect();
+        let triangles: Vec<[u32; 3]> = (0..1400).map(|i| [i, i + 1, i + 2]).collect();
+        let mesh = Mesh::new("m", positions.clone(), triangles.clone());
+        let mut bytes = (positions.len() as u64).to_le_bytes().to_vec();
+        bytes.extend(
+            positions
+                .iter()
+                .flat_map(|p| p.to_array())
+                .flat_map(f32::to_le_bytes),
+        );
+        bytes.extend((triangles.len() as u64).to_le_bytes());
+        bytes.extend(triangles.iter().flatten().flat_map(|i| i.to_le_bytes()));
+        assert_eq!(mesh.content_hash(), xxhash_rust::xxh3::xxh3_64(&bytes));
+
+        let tri = Mesh::new("tri", vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
+        assert_eq!(tri.content_hash(), 0x6ffd_2beb_bb67_e42d);
+        assert_eq!(
+            tri.content_hash(),
+            Mesh {
+                name: "other".into(),
+                ..tri.clone()
             }
-        }
-        h
+            .content_hash()
+        );
     }
 }

@@ -172,7 +172,7 @@ impl Session<'_> {
         }
         self.drain();
         if let Some(w) = self.recorder.take() {
-            let _ = w.finish();
+            let _ = w.close();
         }
         let _ = lock(&self.out.w)
             .get_ref()

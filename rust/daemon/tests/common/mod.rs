@@ -1,8 +1,7 @@
 //! An in-process daemon on a temporary socket, clients for it, and small scenes.
 #![allow(dead_code)]
 
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -20,30 +19,14 @@ use glam::{DMat4, DVec3, Vec3};
 /// Replies must come within this; no test waits longer for one.
 pub const TIMEOUT: Duration = Duration::from_secs(60);
 
-/// A unique empty folder under the system's temp dir, removed on drop.
-pub struct TempDir(pub PathBuf);
+pub use tempfile::TempDir;
 
-impl TempDir {
-    pub fn new(tag: &str) -> Self {
-        static N: AtomicU64 = AtomicU64::new(0);
-        let p = std::env::temp_dir().join(format!(
-            "antd-{tag}-{}-{}",
-            std::process::id(),
-            N.fetch_add(1, Ordering::Relaxed)
-        ));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        TempDir(p)
-    }
-    pub fn path(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
+/// A unique empty folder under the system's temp dir (named after `tag`), removed on drop.
+pub fn temp_dir(tag: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("antd-{tag}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// A daemon serving on its own thread; stopped and joined on drop.
@@ -61,7 +44,7 @@ impl TestDaemon {
     }
 
     pub fn start_with(tag: &str, configure: impl FnOnce(&mut DaemonConfig)) -> Self {
-        let dir = TempDir::new(tag);
+        let dir = temp_dir(tag);
         let socket = dir.path().join("run").join("daemon.sock");
         let mut config = DaemonConfig::new(&socket);
         config.shutdown_grace = Duration::from_secs(20);

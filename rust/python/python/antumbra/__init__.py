@@ -27,6 +27,9 @@ from .client import (
     read_recording,
     render_settings,
     settings_schema,
+    write_file_atomic,
+    write_stats_csv,
+    write_stats_json,
 )
 from .errors import (
     AntumbraError,
@@ -65,4 +68,7 @@ __all__ = [
     "read_recording",
     "render_settings",
     "settings_schema",
+    "write_file_atomic",
+    "write_stats_csv",
+    "write_stats_json",
 ]

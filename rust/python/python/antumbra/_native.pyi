@@ -48,6 +48,12 @@ def save_frame(
 def read_exr(path: str) -> dict[str, npt.NDArray[np.float32]]:
     """Every channel of an EXR as float32 (h, w) arrays."""
 
+def write_file_atomic(path: str, data: bytes) -> None:
+    """Writes `data` to `path` atomically (unique temporary file, fsync, rename)."""
+
+def write_stats(path: str, rows: list[dict[str, Any]], format: str) -> None:
+    """Statistics rows as the CLI's `stats.csv` (format "csv") or `stats.json` ("json")."""
+
 def colorize_heat(
     array: npt.NDArray[np.float32], max: float | None = None
 ) -> tuple[npt.NDArray[np.uint8], float]:

@@ -42,6 +42,9 @@ __all__ = [
     "read_recording",
     "render_settings",
     "settings_schema",
+    "write_file_atomic",
+    "write_stats_csv",
+    "write_stats_json",
 ]
 
 PROTOCOL_VERSION: int = _native.PROTOCOL_VERSION
@@ -70,7 +73,7 @@ def default_socket_path() -> str:
 
 
 def mesh_hash(positions: np.ndarray, triangles: np.ndarray) -> int:
-    """The protocol's content hash of a mesh (64-bit FNV-1a over the vertex count, the float32
+    """The protocol's content hash of a mesh (64-bit XXH3 over the vertex count, the float32
     positions, the triangle count and the uint32 indices; computed in Rust).
 
     ``positions``: float32 array of shape (n, 3); ``triangles``: integer array of shape (m, 3).
@@ -89,6 +92,25 @@ def read_recording(path: str | os.PathLike[str]) -> dict[str, Any]:
     matrices as nested lists).
     """
     return _native.read_recording(os.fspath(path))
+
+
+def write_file_atomic(path: str | os.PathLike[str], data: bytes) -> None:
+    """Writes ``data`` to ``path`` as every antumbra file is written: into a uniquely named
+    temporary file beside it, synced to disk, then renamed over ``path`` (so a reader never sees
+    half a file, and two writers never share a temporary file)."""
+    _native.write_file_atomic(os.fspath(path), bytes(data))
+
+
+def write_stats_csv(path: str | os.PathLike[str], rows: list[dict[str, Any]]) -> None:
+    """Writes statistics rows (``Result.stats`` dicts, or those dicts read back from JSON) as
+    ``stats.csv``, with the Rust writer ``antumbra render`` uses: the same bytes for the same
+    rows, written atomically."""
+    _native.write_stats(os.fspath(path), list(rows), "csv")
+
+
+def write_stats_json(path: str | os.PathLike[str], rows: list[dict[str, Any]]) -> None:
+    """Writes statistics rows as ``stats.json``, as ``antumbra render`` does (atomically)."""
+    _native.write_stats(os.fspath(path), list(rows), "json")
 
 
 def colorize_heat(array: np.ndarray, max: float | None = None) -> tuple[np.ndarray, float]:

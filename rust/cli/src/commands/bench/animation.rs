@@ -4,16 +4,18 @@
 use std::path::Path;
 
 use antumbra_core::build::BuildMethod;
-use antumbra_core::output::write_line_plot;
+use antumbra_core::output::write_bytes_atomic;
 use antumbra_core::render::{RenderSettings, Renderer, StatsMode, VisibilitySource};
 use antumbra_core::scene::{ImageSize, Resolution};
 use anyhow::Result;
+
+use crate::line_plot::LinePlot;
 
 const CSV_HEADER: &str =
     "frame,method,primary_mrays,primary_nit,primary_nts,shadow_mrays,build_ms,visibility_ms,rebuilt\n";
 
 /// Renders `frames` frames of `scene_name` with each method and writes the per-frame primary
-/// Mrays/s (and work) as `animation.csv` and `animation.png`.
+/// Mrays/s (and work) as `animation.csv` and `animation.svg`.
 pub(super) fn animation_curve(
     scene_name: &str,
     triangles: usize,
@@ -56,14 +58,14 @@ pub(super) fn animation_curve(
         );
         series.push((format!("{name} ({mean:.2})"), mrays));
     }
-    std::fs::write(out.join("animation.csv"), csv)?;
-    write_line_plot(
-        &out.join("animation.png"),
-        &format!("{scene_name}: primary Mrays/s per frame"),
-        &series,
-        900,
-        420,
-    )?;
+    write_bytes_atomic(&out.join("animation.csv"), csv.as_bytes())?;
+    LinePlot {
+        title: &format!("{scene_name}: primary Mrays/s per frame"),
+        y_label: "primary Mrays/s",
+        first_frame: *anim.frame_range().start(),
+        series: &series,
+    }
+    .write_svg(&out.join("animation.svg"), 900, 420)?;
     Ok(())
 }
 

@@ -1,0 +1,132 @@
+//! Line plots of per-frame numbers (the benchmarks' animation curves) as SVG, drawn with
+//! plotters: the viewer renders the text, so no font is needed here.
+
+use std::path::Path;
+
+use antumbra_core::output::write_bytes_atomic;
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+
+/// Width of the legend column right of the plot, so the legend never covers a curve.
+const LEGEND_WIDTH: u32 = 220;
+
+/// A titled plot of named series against the frame number (`first_frame` for each series' first
+/// value), y from 0 to just above the largest value, with ticks on both axes.
+pub struct LinePlot<'a> {
+    pub title: &'a str,
+    pub y_label: &'a str,
+    pub first_frame: i32,
+    pub series: &'a [(String, Vec<f64>)],
+}
+
+impl LinePlot<'_> {
+    /// Writes the plot as a `width` x `height` SVG file.
+    pub fn write_svg(&self, path: &Path, width: u32, height: u32) -> Result<()> {
+        let mut svg = String::new();
+        self.draw(SVGBackend::with_string(&mut svg, (width, height)))
+            .map_err(|e| anyhow!("plotting {}: {e}", path.display()))?;
+        write_bytes_atomic(path, svg.as_bytes())?;
+        Ok(())
+    }
+
+    fn draw<DB: DrawingBackend>(&self, backend: DB) -> Result<(), String> {
+        let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+        let root = backend.into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let (width, _) = root.dim_in_pixel();
+        let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(LEGEND_WIDTH));
+        let y_max = self
+            .series
+            .iter()
+            .flat_map(|(_, v)| v.iter().copied())
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, f64::max)
+            .max(1e-9)
+            * 1.05;
+        let longest = self.series.iter().map(|(_, v)| v.len()).max().unwrap_or(1);
+        let first = self.first_frame;
+        let last = first + longest.max(2) as i32 - 1;
+        let mut chart = ChartBuilder::on(&plot_area)
+            .caption(self.title, ("sans-serif", 20))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(first..last, 0.0..y_max)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("frame")
+            .y_desc(self.y_label)
+            .draw()
+            .map_err(err)?;
+        for (i, (_, values)) in self.series.iter().enumerate() {
+            let color = Palette99::pick(i).stroke_width(2);
+            let points = values
+                .iter()
+                .enumerate()
+                .map(|(k, &v)| (first + k as i32, v));
+            chart
+                .draw_series(LineSeries::new(points, color))
+                .map_err(err)?;
+        }
+        // The legend in its own column: a line of each series' colour and its name.
+        for (i, (name, _)) in self.series.iter().enumerate() {
+            let y = 50 + 22 * i as i32;
+            let color = Palette99::pick(i).stroke_width(2);
+            legend_area
+                .draw(&PathElement::new(vec![(8, y), (32, y)], color))
+                .map_err(err)?;
+            legend_area
+                .draw(&Text::new(
+                    name.as_str(),
+                    (40, y - 7),
+                    ("sans-serif", 14).into_font().color(&BLACK),
+                ))
+                .map_err(err)?;
+        }
+        root.present().map_err(err)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svg_has_title_ticks_legend_and_curves() {
+        let dir = tempfile::TempDir::new().unwrap();
+        let path = dir.path().join("plot.svg");
+        let series = [
+            ("SAH (1.00)".to_string(), vec![1.0, 2.0, 1.5, 1.0]),
+            ("OSAH (2.00)".to_string(), vec![2.0, 2.5, 2.0, 1.5]),
+        ];
+        LinePlot {
+            title: "bedroom: primary Mrays/s per frame",
+            y_label: "Mrays/s",
+            first_frame: 1,
+            series: &series,
+        }
+        .write_svg(&path, 900, 420)
+        .unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        assert!(svg.starts_with("<svg"), "{}", &svg[..80]);
+        for text in [
+            "bedroom: primary Mrays/s per frame",
+            "SAH (1.00)",
+            "OSAH (2.00)",
+            "frame",
+        ] {
+            assert!(svg.contains(text), "{text} missing");
+        }
+        // x ticks: the frame numbers 1..=4 are labelled.
+        for frame in 1..=4 {
+            assert!(
+                svg.contains(&format!(">\n{frame}\n</text>")),
+                "tick {frame}"
+            );
+        }
+        // Curves and legend lines are the only lines two pixels wide.
+        assert_eq!(svg.matches(r#"stroke-width="2""#).count(), 2 + 2);
+    }
+}
