@@ -1,10 +1,13 @@
 //! antumbra core: the scene model, robust ray/box and ray/triangle tests, BVH builders,
-//! traversal with exact work counters, and the passes that turn a scene into shadow masks,
-//! heat maps and statistics.
+//! traversal orders, traversal with exact work counters, and the passes that turn a scene into
+//! shadow masks, heat maps and statistics; plus the one schema of the render settings.
 //!
 //! The data flow of one frame (see `ARCHITECTURE.md`):
-//! [`scene::Scene`] → [`scene::FrameGeometry`] (world-space triangles in a normalised render space)
-//! → [`bvh::Bvh`] → [`render::render_frame`] → [`render::FrameResult`] (images + [`stats::FrameStats`]).
+//! [`scene::Scene`] → [`scene::FrameGeometry`] (triangles in a normalised render space)
+//! → [`build`] ([`bvh::Bvh`], collapsed to [`bvh::WideBvh`] when needed) → a light's tree and
+//! [`order`] ([`render::light_tracing`]) → [`trace`] → [`render::Renderer::render`] (primary pass,
+//! shadow passes, combine) → [`render::FrameResult`] (images + [`stats::StatsRow`] per pass)
+//! → [`output::write_frame_files`]. [`settings::SCHEMA`] describes every [`render::RenderSettings`] field.
 
 pub mod build;
 pub mod bvh;
