@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use antumbra_core::output::write_bytes_atomic;
+use antumbra_core::atomic_file::write_bytes_atomic;
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 

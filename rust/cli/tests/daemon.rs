@@ -186,7 +186,7 @@ fn render_in_process(label: &str, scenes: &[Scene]) -> Vec<FrameResult> {
 }
 
 /// The planes of a result as `antumbra render` writes them to the EXR.
-fn planes(result: &FrameResult) -> Vec<antumbra_core::output::ImagePlane> {
+fn planes(result: &FrameResult) -> Vec<antumbra_core::image::ImagePlane> {
     antumbra_core::output::planes(result)
 }
 

@@ -10,9 +10,11 @@
 //! → [`output::write_frame_files`]. [`settings::SCHEMA`] describes every [`render::RenderSettings`] field.
 
 pub mod build;
+pub mod atomic_file;
 pub mod bvh;
 pub mod error;
 pub mod geometry;
+pub mod image;
 pub mod order;
 pub mod output;
 pub mod render;

@@ -35,7 +35,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::output::write_bytes_atomic;
+use crate::atomic_file::write_bytes_atomic;
 use crate::trace::TraversalStats;
 use crate::{Error, Result};
 

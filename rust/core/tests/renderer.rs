@@ -151,7 +151,7 @@ fn statistics_are_the_sums_of_the_heat_maps() {
         .render("t", &soft_scene(), &RenderSettings::default())
         .unwrap();
     let heat = r.heat.as_ref().unwrap();
-    let sum = |p: &antumbra_core::output::ImagePlane| p.data.iter().map(|v| *v as f64).sum::<f64>();
+    let sum = |p: &antumbra_core::image::ImagePlane| p.data.iter().map(|v| *v as f64).sum::<f64>();
     let primary = &r.stats[0];
     assert_eq!(primary.pass, "primary");
     assert_eq!(primary.rays, (r.width * r.height) as u64);

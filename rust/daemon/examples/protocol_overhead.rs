@@ -9,7 +9,7 @@ use std::io::BufReader;
 use std::os::unix::net::UnixStream;
 use std::time::Instant;
 
-use antumbra_core::output::ImagePlane;
+use antumbra_core::image::ImagePlane;
 use antumbra_core::render::{RenderSettings, Renderer};
 use antumbra_core::scene::Mesh;
 use antumbra_protocol::bytes::f32s_to_bytes;

@@ -25,7 +25,7 @@ use std::sync::mpsc;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use antumbra_core::output::write_bytes_atomic;
+use antumbra_core::atomic_file::write_bytes_atomic;
 use antumbra_core::render::Renderer;
 use antumbra_core::scene::Animation;
 use antumbra_protocol::{

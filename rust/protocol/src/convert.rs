@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::hash::BuildHasher;
 use std::sync::Arc;
 
-use antumbra_core::output::ImagePlane;
+use antumbra_core::image::ImagePlane;
 use antumbra_core::render::{FrameResult, RenderSettings};
 use antumbra_core::scene::{
     AreaShape, Camera, Light, LightKind, Mesh, Object, Resolution, Scene, SensorFit, TriangleRef,

@@ -1,36 +1,9 @@
 //! Errors of the protocol layer. Every message names the mesh, object, frame or field at fault so
 //! the daemon can send it to Blender as is (see [`ProtocolError::to_reply`]).
 
-use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::messages::Reply;
-
-/// The machine-readable class of an error reply. The human-readable `message` beside it names
-/// what was wrong; the code tells a client what to do about it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum ErrorCode {
-    /// The bytes of a frame were not a valid message (bad MessagePack, unknown message type,
-    /// missing field, trailing bytes).
-    BadFrame,
-    /// The client's protocol version is not the daemon's.
-    VersionMismatch,
-    /// A frame's length prefix exceeds `Limits::max_frame_bytes`.
-    TooLarge,
-    /// A well-formed message with values that make no sense (NaN, index out of range, wrong hash,
-    /// bad byte length, setting out of range).
-    InvalidInput,
-    /// A frame refers to a mesh hash the daemon does not hold: upload it and resend the frame.
-    UnknownMesh,
-    /// A count or size above one of the [`crate::Limits`].
-    LimitExceeded,
-    /// The daemon is doing something else that this request would conflict with.
-    Busy,
-    /// The render was cancelled by a `Cancel` request.
-    Cancelled,
-    /// A bug or resource failure in the daemon.
-    Internal,
-}
+use crate::messages::{ErrorCode, Reply};
 
 /// Errors of the framing layer: reading or decoding one length-prefixed message.
 #[derive(Debug, Error)]

@@ -4,7 +4,8 @@
 use crate::convert::{missing_meshes, render_settings};
 use crate::error::FrameError;
 use crate::frame::{decode_body, encode_message, read_message, FrameDecoder};
-use crate::limits::{check_limits, Limits};
+use crate::check::check_limits;
+use crate::limits::Limits;
 use crate::messages::Request;
 use crate::recording::Replay;
 

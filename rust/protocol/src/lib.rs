@@ -7,6 +7,7 @@
 //! The normative description, with byte layouts and an example session, is `docs/protocol.md`.
 
 pub mod bytes;
+pub mod check;
 #[cfg(unix)]
 pub mod client;
 pub mod convert;
@@ -23,12 +24,13 @@ pub use convert::{
     planes_from_reply, render_settings, scene_from_frame, scene_to_messages, stats_from_reply,
     upload_from_mesh, visible_from_reply, MeshStore,
 };
-pub use error::{ErrorCode, FrameError, ProtocolError};
+pub use error::{FrameError, ProtocolError};
 pub use frame::{
     decode_body, encode_body, encode_message, encode_message_within, read_frame, read_message,
     write_message, FrameDecoder,
 };
-pub use limits::{check_limits, Limits};
+pub use check::check_limits;
+pub use limits::Limits;
 pub use messages::*;
 pub use recording::{
     replay_scenes, RecordedAnimation, RecordingError, RecordingReader, RecordingWriter, Replay,

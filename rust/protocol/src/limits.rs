@@ -1,12 +1,7 @@
 //! What a daemon accepts: sizes and counts that bound the memory and time one request can take.
 //! The daemon sends its limits in `Welcome` so a client can check before it sends.
 
-use std::collections::HashSet;
-
 use serde::{Deserialize, Serialize};
-
-use crate::error::ProtocolError;
-use crate::messages::Request;
 
 const GIB: u64 = 1 << 30;
 
@@ -47,95 +42,5 @@ impl Limits {
     /// The frame-size limit actually in force (a 4-byte prefix cannot announce more).
     pub fn frame_limit(&self) -> u64 {
         self.max_frame_bytes.min(MAX_FRAME_BYTES_CEILING)
-    }
-}
-
-fn check(
-    what: impl FnOnce() -> String,
-    value: u64,
-    limit: u64,
-    limit_name: &'static str,
-) -> Result<(), ProtocolError> {
-    if value > limit {
-        Err(ProtocolError::LimitExceeded {
-            what: what(),
-            value,
-            limit,
-            limit_name,
-        })
-    } else {
-        Ok(())
-    }
-}
-
-/// Checks a request's counts and sizes against `limits` before any work is done on it: triangles
-/// per upload, objects, lights and distinct meshes per frame, image size and samples per pixel.
-/// Content (NaN, indices, hashes) is checked by the conversions.
-pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolError> {
-    match request {
-        Request::MissingMeshes { hashes } => check(
-            || "MissingMeshes: hashes".into(),
-            hashes.len() as u64,
-            limits.max_meshes,
-            "max_meshes",
-        ),
-        Request::UploadMesh(upload) => check(
-            || format!("mesh '{}': triangles", upload.name),
-            upload.triangles.len() as u64 / 12,
-            limits.max_triangles_per_mesh,
-            "max_triangles_per_mesh",
-        ),
-        Request::FrameUpdate(update) => {
-            let frame = update.frame;
-            check(
-                || format!("frame {frame}: objects"),
-                update.objects.len() as u64,
-                limits.max_objects,
-                "max_objects",
-            )?;
-            check(
-                || format!("frame {frame}: lights"),
-                update.lights.len() as u64,
-                limits.max_lights as u64,
-                "max_lights",
-            )?;
-            let distinct: HashSet<u64> = update.objects.iter().map(|o| o.mesh_hash).collect();
-            check(
-                || format!("frame {frame}: distinct meshes"),
-                distinct.len() as u64,
-                limits.max_meshes,
-                "max_meshes",
-            )?;
-            let r = &update.resolution;
-            // As Resolution::pixels, in u64 so that no input overflows.
-            let scale = |v: u32| (v as u64 * r.percentage as u64 / 100).max(1);
-            check(
-                || {
-                    format!(
-                        "frame {frame}: resolution {}x{} at {}% (pixels)",
-                        r.x, r.y, r.percentage
-                    )
-                },
-                scale(r.x).saturating_mul(scale(r.y)),
-                limits.max_image_pixels,
-                "max_image_pixels",
-            )
-        }
-        Request::Render(render) => check(
-            || format!("Render frame {}: settings.spp", render.frame),
-            // A wrong type passes here and is named when the settings are resolved.
-            render.settings.get("spp").map_or(
-                antumbra_core::render::RenderSettings::default().spp as u64,
-                |v| v.as_int().max(0) as u64,
-            ),
-            limits.max_spp as u64,
-            "max_spp",
-        ),
-        Request::Hello { .. }
-        | Request::CameraPath { .. }
-        | Request::Cancel { .. }
-        | Request::Stats
-        | Request::Close
-        | Request::Shutdown => Ok(()),
     }
 }

@@ -1,7 +1,7 @@
 //! numpy arrays in, numpy arrays out: mesh arrays become an [`antumbra_core::scene::Mesh`]
 //! (checked and hashed without the GIL), result planes become float32 arrays without a copy.
 
-use antumbra_core::output::ImagePlane;
+use antumbra_core::image::ImagePlane;
 use antumbra_core::scene::{Mesh, TriangleRef};
 use glam::Vec3;
 use numpy::ndarray::{Array2, ArrayView2};

@@ -3,8 +3,9 @@
 
 use std::path::Path;
 
+use antumbra_core::image::ImagePlane;
 use antumbra_core::output::{
-    heatmap_rgb, read_exr, write_frame_files, ColorMap, HeatScale, ImagePlane, Outputs,
+    heatmap_rgb, read_exr, write_frame_files, ColorMap, HeatScale, Outputs,
 };
 use antumbra_core::render::{FrameResult, HeatMaps};
 use antumbra_core::stats::StatsRow;

@@ -80,7 +80,7 @@ fn save_frame(
 /// writer of every antumbra file, for the add-on's tables too.
 #[pyfunction]
 fn write_file_atomic(py: Python<'_>, path: &str, data: &[u8]) -> PyResult<()> {
-    antumbra_core::output::write_bytes_atomic(Path::new(path), data)
+    antumbra_core::atomic_file::write_bytes_atomic(Path::new(path), data)
         .map_err(|e| ClientError::invalid(e.to_string()))
         .py_result(py)
 }

@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use antumbra_core::output::{write_mask_png, ImagePlane};
+use antumbra_core::image::ImagePlane;
+use antumbra_core::output::write_mask_png;
 use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
 use antumbra_scenes::{builtin, load_file, SceneParams};
 

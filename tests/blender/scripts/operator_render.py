@@ -60,7 +60,7 @@ def main():
     scene = bpy.context.scene
     scene.frame_set(a.frame)
     settings = scene.antumbra
-    settings.spp = a.spp
+    settings.method.spp = a.spp
     settings.resolution_scale = 1.0
     settings.output_dir = os.path.join(a.out, "files")
     addon = sys.modules[module_name]

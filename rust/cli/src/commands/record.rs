@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use antumbra_core::output::AtomicFile;
+use antumbra_core::atomic_file::AtomicFile;
 use antumbra_protocol::RecordingWriter;
 use anyhow::{Context, Result};
 use clap::Args;

@@ -9,8 +9,8 @@ use exr::prelude::{
     ReadChannels, ReadLayers, SmallVec, Text, WritableImage,
 };
 
-use super::atomic::write_atomic;
-use super::ImagePlane;
+use crate::atomic_file::write_atomic;
+use crate::image::ImagePlane;
 use crate::{Error, Result};
 
 /// Longest channel name the EXR format allows.

@@ -3,9 +3,8 @@
 
 use std::path::Path;
 
-use super::{
-    write_exr, write_heatmap_png, write_mask_png, ColorMap, HeatLegend, HeatScale, ImagePlane,
-};
+use super::{write_exr, write_heatmap_png, write_mask_png, ColorMap, HeatLegend, HeatScale};
+use crate::image::ImagePlane;
 use crate::render::FrameResult;
 use crate::stats::write_json;
 use serde::{Deserialize, Serialize};

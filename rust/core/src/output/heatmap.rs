@@ -7,7 +7,7 @@ use image::ExtendedColorType;
 use super::colormap::ColorMap;
 use super::legend::{draw_legend, heat_legend_height};
 use super::png::encode_png;
-use super::ImagePlane;
+use crate::image::ImagePlane;
 use crate::{Error, Result};
 
 /// How plane values are mapped onto the colour map. Both scales start at 0, so zero work is

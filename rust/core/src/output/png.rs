@@ -5,8 +5,8 @@ use std::path::Path;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::{ExtendedColorType, ImageEncoder};
 
-use super::atomic::write_atomic;
-use super::ImagePlane;
+use crate::atomic_file::write_atomic;
+use crate::image::ImagePlane;
 use crate::{Error, Result};
 
 /// Writes a mask as an 8-bit grey PNG: value clamped to [0, 1] × 255, rounded (1 = lit = white,

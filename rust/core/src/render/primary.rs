@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::PrimaryRays;
 use crate::geometry::triangle_normal;
-use crate::output::ImagePlane;
+use crate::image::ImagePlane;
 use crate::scene::TriangleSet;
 use crate::trace::{ClosestHitQuery, Counters, NoStats, TraversalStats};
 

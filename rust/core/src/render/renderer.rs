@@ -15,7 +15,7 @@ use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, 
 use crate::build::{build_binned_sah, build_with_visibility, CollapseSettings};
 use crate::bvh::{Bvh, BvhWidth};
 use crate::order::{PreparedOrder, ShadowOrder, SortTables};
-use crate::output::ImagePlane;
+use crate::image::ImagePlane;
 use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::stats::StatsRow;
 use crate::trace::{ClosestHitQuery, TraversalStats};

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
 use crate::geometry::{offset_ray_origin, Ray};
-use crate::output::ImagePlane;
+use crate::image::ImagePlane;
 use crate::sampling::hash_u32;
 use crate::sampling::{hash_combine, stratified_2d};
 use crate::trace::{Counters, NoStats, OcclusionQuery, TraversalStats};
