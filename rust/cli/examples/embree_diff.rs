@@ -7,11 +7,12 @@
 use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::{intersect_triangle, WatertightRay};
+use antumbra_core::order::AnyHitOrder;
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
 };
 use antumbra_core::scene::ImageSize;
-use antumbra_core::trace::{brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats};
+use antumbra_core::trace::{brute_occluded, closest_hit, occluded, NoStats};
 use antumbra_embree::{EmbreeQuality, EmbreeScene};
 use clap::Parser;
 

@@ -13,14 +13,18 @@
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::SrdhSettings;
+use antumbra_core::order::{AnyHitOrder, ShadowOrder};
+use antumbra_core::order::{OrderView, PreparedOrder};
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, srdh_for_light, LightSampler, PrimaryPass,
     PrimaryRays, SamplePlan,
 };
 use antumbra_core::scene::{FrameGeometry, Resolution};
-use antumbra_core::srdh::{occluded_with, SrdhBvh, SrdhSettings};
-use antumbra_core::trace::wide::{BoxKernel, OrderView, PreparedOrder, WideQueries};
-use antumbra_core::trace::{occluded, AnyHitOrder, NoStats, ShadowOrder};
+use antumbra_core::srdh::SrdhBvh;
+use antumbra_core::trace::occluded_with;
+use antumbra_core::trace::wide::{BoxKernel, WideQueries};
+use antumbra_core::trace::{occluded, NoStats};
 
 #[inline(never)]
 fn trace_binary(bvh: &Bvh, rays: &[Ray]) -> usize {

@@ -20,15 +20,15 @@ use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
 use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::{intersect_triangle, Ray, WatertightRay};
+use antumbra_core::order::ShadowOrder;
+use antumbra_core::order::{PreparedOrder, SortTables};
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
     SamplePlan,
 };
 use antumbra_core::scene::ImageSize;
-use antumbra_core::trace::wide::{
-    BoxKernel, ChildBoxTest, PreparedOrder, Scalar, SortTables, WideQueries, WideRay,
-};
-use antumbra_core::trace::{ShadowOrder, TraversalStats};
+use antumbra_core::trace::wide::{BoxKernel, ChildBoxTest, Scalar, WideQueries, WideRay};
+use antumbra_core::trace::TraversalStats;
 use clap::Parser;
 use rayon::prelude::*;
 

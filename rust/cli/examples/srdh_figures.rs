@@ -23,17 +23,21 @@ use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::{
+    rtsah_kernels, ChildOrder as KernelSource, Kernel, KernelSet, RandomKernel, RaySetSource,
+    SrdhSettings, Uniform,
+};
+use antumbra_core::order::{AnyHitOrder, ShadowOrder};
+use antumbra_core::order::{PreparedOrder, SortTables};
 use antumbra_core::render::{
     samples_for, shadow_rays, srdh_for_light, srdh_rays, LightSampler, PrimaryPass, PrimaryRays,
     SamplePlan,
 };
 use antumbra_core::scene::ImageSize;
-use antumbra_core::srdh::{
-    build_srdh, occluded_with, occluding_leaf, rtsah_kernels, Kernel, KernelSet, KernelSource,
-    RandomKernel, RaySet, RaySetSource, SrdhSettings, Uniform,
-};
-use antumbra_core::trace::wide::{BoxKernel, PreparedOrder, SortTables, WideQueries};
-use antumbra_core::trace::{occluded, AnyHitOrder, NoStats, ShadowOrder, TraversalStats};
+use antumbra_core::srdh::{build_srdh, RaySet};
+use antumbra_core::trace::wide::{BoxKernel, WideQueries};
+use antumbra_core::trace::{occluded, NoStats, TraversalStats};
+use antumbra_core::trace::{occluded_with, occluding_leaf};
 use clap::Parser;
 use rayon::prelude::*;
 

@@ -17,13 +17,15 @@ use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
 use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::ShadowOrder;
+use antumbra_core::order::{OrderView, PreparedOrder};
 use antumbra_core::render::{
     representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
     SamplePlan,
 };
 use antumbra_core::scene::ImageSize;
-use antumbra_core::trace::wide::{BoxKernel, OrderView, PreparedOrder, WideQueries};
-use antumbra_core::trace::{NoStats, ShadowOrder};
+use antumbra_core::trace::wide::{BoxKernel, WideQueries};
+use antumbra_core::trace::NoStats;
 use clap::Parser;
 
 #[inline(never)]

@@ -5,15 +5,15 @@
 use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::PreparedOrder;
+use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
 };
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::scene::{FrameGeometry, Resolution};
-use antumbra_core::trace::wide::{BoxKernel, PreparedOrder, WideQueries};
-use antumbra_core::trace::{
-    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats, ShadowOrder,
-};
+use antumbra_core::trace::wide::{BoxKernel, WideQueries};
+use antumbra_core::trace::{brute_closest_hit, brute_occluded, closest_hit, occluded, NoStats};
 use antumbra_scenes::{builtin, SceneParams, BUILTIN_SCENES};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -233,11 +233,12 @@ fn check_tree<const N: usize>(
 /// ray as brute force does.
 #[test]
 fn srdh_trees_match_brute_force_on_every_builtin_scene() {
-    use antumbra_core::render::srdh_rays;
-    use antumbra_core::srdh::{
-        build_srdh, occluded_with, rtsah_kernels, Kernel, RandomKernel, RaySet, RaySetSource,
-        SrdhSettings, Uniform,
+    use antumbra_core::order::{
+        rtsah_kernels, Kernel, RandomKernel, RaySetSource, SrdhSettings, Uniform,
     };
+    use antumbra_core::render::srdh_rays;
+    use antumbra_core::srdh::{build_srdh, RaySet};
+    use antumbra_core::trace::occluded_with;
     for name in BUILTIN_SCENES {
         for rotated in [false, true] {
             let params = SceneParams {

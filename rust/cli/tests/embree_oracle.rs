@@ -8,12 +8,14 @@
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::PreparedOrder;
+use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
 };
 use antumbra_core::scene::{FrameGeometry, Resolution};
-use antumbra_core::trace::wide::{BoxKernel, PreparedOrder, WideQueries};
-use antumbra_core::trace::{closest_hit, occluded, AnyHitOrder, NoStats, ShadowOrder};
+use antumbra_core::trace::wide::{BoxKernel, WideQueries};
+use antumbra_core::trace::{closest_hit, occluded, NoStats};
 use antumbra_embree::{EmbreeQuality, EmbreeScene};
 use antumbra_scenes::{builtin, SceneParams, BUILTIN_SCENES};
 

@@ -1,8 +1,9 @@
 //! Quick build/trace probe on a synthetic scene (many spheres over a ground grid), no scenes crate.
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::AnyHitOrder;
 use antumbra_core::sampling::{hash_u32, unit_float};
-use antumbra_core::trace::{closest_hit, occluded, AnyHitOrder, NoStats, TraversalStats};
+use antumbra_core::trace::{closest_hit, occluded, NoStats, TraversalStats};
 use glam::Vec3;
 use std::time::Instant;
 

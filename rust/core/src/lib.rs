@@ -9,8 +9,8 @@
 //! shadow passes, combine) → [`render::FrameResult`] (images + [`stats::StatsRow`] per pass)
 //! → [`output::write_frame_files`]. [`settings::SCHEMA`] describes every [`render::RenderSettings`] field.
 
-pub mod build;
 pub mod atomic_file;
+pub mod build;
 pub mod bvh;
 pub mod error;
 pub mod geometry;

@@ -6,10 +6,9 @@ mod common;
 
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::AnyHitOrder;
 use antumbra_core::sampling::{hash_u32, unit_float};
-use antumbra_core::trace::{
-    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats,
-};
+use antumbra_core::trace::{brute_closest_hit, brute_occluded, closest_hit, occluded, NoStats};
 use glam::Vec3;
 
 fn r(seed: u32) -> f32 {

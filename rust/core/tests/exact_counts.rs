@@ -15,7 +15,8 @@
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::Bvh;
 use antumbra_core::geometry::Ray;
-use antumbra_core::trace::{closest_hit, occluded, AnyHitOrder, TraversalStats};
+use antumbra_core::order::AnyHitOrder;
+use antumbra_core::trace::{closest_hit, occluded, TraversalStats};
 use glam::Vec3;
 
 fn scene() -> Bvh {

@@ -4,9 +4,9 @@
 mod common;
 
 use antumbra_core::build::BuildSettings;
+use antumbra_core::order::AnyHitOrder;
 use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
 use antumbra_core::scene::LightKind;
-use antumbra_core::trace::AnyHitOrder;
 use glam::{DMat4, DVec3};
 
 fn soft_scene() -> antumbra_core::scene::Scene {

@@ -4,11 +4,10 @@
 
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::{rtsah_kernels, Kernel, KernelSet, RandomKernel, SrdhSettings, Uniform};
 use antumbra_core::sampling::{hash_u32, unit_float};
-use antumbra_core::srdh::{
-    build_srdh, cost::reference_cost, occluded_with, root_candidates, rtsah_kernels, Kernel,
-    KernelSet, RandomKernel, RaySet, SrdhSettings, Uniform,
-};
+use antumbra_core::srdh::{build_srdh, cost::reference_cost, root_candidates, RaySet};
+use antumbra_core::trace::occluded_with;
 use antumbra_core::trace::{brute_occluded, NoStats, TraversalStats};
 use glam::Vec3;
 

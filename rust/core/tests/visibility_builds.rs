@@ -9,9 +9,10 @@ use antumbra_core::build::{
 };
 use antumbra_core::bvh::Bvh;
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::AnyHitOrder;
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::{
-    brute_closest_hit, brute_occluded, closest_hit, occluded, AnyHitOrder, NoStats, TraversalStats,
+    brute_closest_hit, brute_occluded, closest_hit, occluded, NoStats, TraversalStats,
 };
 use glam::Vec3;
 

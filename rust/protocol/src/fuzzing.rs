@@ -1,10 +1,10 @@
 //! The body of the `decode_frame` fuzz target, here so that a plain `#[test]` runs the same code
 //! over the seed corpus and mutated inputs without cargo-fuzz.
 
+use crate::check::check_limits;
 use crate::convert::{missing_meshes, render_settings};
 use crate::error::FrameError;
 use crate::frame::{decode_body, encode_message, read_message, FrameDecoder};
-use crate::check::check_limits;
 use crate::limits::Limits;
 use crate::messages::Request;
 use crate::recording::Replay;

@@ -19,6 +19,7 @@ pub mod limits;
 pub mod messages;
 pub mod recording;
 
+pub use check::check_limits;
 pub use convert::{
     frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,
     planes_from_reply, render_settings, scene_from_frame, scene_to_messages, stats_from_reply,
@@ -29,7 +30,6 @@ pub use frame::{
     decode_body, encode_body, encode_message, encode_message_within, read_frame, read_message,
     write_message, FrameDecoder,
 };
-pub use check::check_limits;
 pub use limits::Limits;
 pub use messages::*;
 pub use recording::{

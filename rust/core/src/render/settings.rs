@@ -3,7 +3,7 @@ use serde::{Deserialize, Serialize};
 use super::VisibilitySource;
 use crate::build::{BuildMethod, BuildSettings, CollapseMethod, CollapseSettings};
 use crate::bvh::BvhWidth;
-use crate::trace::ShadowOrder;
+use crate::order::ShadowOrder;
 
 /// What the passes measure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]

@@ -11,7 +11,8 @@ use super::{LightSampler, PrimaryPass};
 use crate::build::BuildSettings;
 use crate::bvh::Bvh;
 use crate::geometry::Ray;
-use crate::srdh::{build_srdh, RaySet, RaySetSource, SrdhBvh, SrdhSettings};
+use crate::order::{RaySetSource, SrdhSettings};
+use crate::srdh::{build_srdh, RaySet, SrdhBvh};
 
 /// What one light's SRDH preparation made.
 pub struct LightSrdh {

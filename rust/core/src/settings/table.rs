@@ -3,8 +3,8 @@
 use super::{Group, Kind, NamedSettings, Setting, SettingValue as V};
 use crate::build::{BuildMethod, CollapseMethod, SpatialAxes};
 use crate::bvh::BvhWidth;
+use crate::order::ShadowOrder;
 use crate::render::{RenderSettings, StatsMode, VisibilitySource};
-use crate::trace::ShadowOrder;
 use crate::{Error, Result};
 
 const U32_MAX: i64 = u32::MAX as i64;

@@ -1,6 +1,6 @@
 use super::*;
 use crate::build::{BuildMethod, CollapseMethod, SpatialAxes};
-use crate::trace::ShadowOrder;
+use crate::order::ShadowOrder;
 
 fn named(pairs: &[(&str, SettingValue)]) -> NamedSettings {
     NamedSettings(

@@ -10,11 +10,3 @@ mod ray_set;
 
 pub use build::{build_srdh, root_candidates, Candidate, RootCandidates, SrdhBvh, DEFAULT_KERNEL};
 pub use ray_set::{all_hits, RaySet};
-
-// The kernels, the settings and the traversal live with the other orders and the one binary
-// any-hit traversal; named here too, as SRDH's own face.
-pub use crate::order::{
-    ray_key, rtsah_kernels, ChildOrder as KernelSource, Kernel, KernelSet, PackedKernels,
-    RandomKernel, RaySetSource, SrdhSettings, Uniform, DEFAULT_MIN_OCCLUDED,
-};
-pub use crate::trace::{occluded_with, occluding_leaf};

@@ -15,8 +15,6 @@ pub use brute::{brute_closest_hit, brute_occluded};
 pub use closest::closest_hit;
 pub use counters::{Counters, NoStats, TraversalStats};
 pub use query::{BinaryOcclusion, ClosestHitQuery, OcclusionQuery, WideOcclusion};
-// The run settings of the orders, where callers have always found them.
-pub use crate::order::{AnyHitOrder, ShadowOrder};
 
 /// A closest hit: the ray parameter, the triangle id (in the `TriangleSet` the BVH was built
 /// from) and the barycentric weights of its vertices.

@@ -1,10 +1,11 @@
 //! The two queries a pass needs, as traits, so the passes run on any tree: the binary BVH, a
 //! wide BVH of any width, with any child order.
 
-use super::wide::{BoxKernel, OrderView, WideQueries};
-use super::{closest_hit, occluded, AnyHitOrder, Counters, Hit};
+use super::wide::{BoxKernel, WideQueries};
+use super::{closest_hit, occluded, Counters, Hit};
 use crate::bvh::{Bvh, WideBvh};
 use crate::geometry::Ray;
+use crate::order::{AnyHitOrder, OrderView};
 
 /// Closest hit, ties broken by the smaller triangle id.
 pub trait ClosestHitQuery: Sync {

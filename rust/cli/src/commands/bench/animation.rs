@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use antumbra_core::build::BuildMethod;
 use antumbra_core::atomic_file::write_bytes_atomic;
+use antumbra_core::build::BuildMethod;
 use antumbra_core::render::{RenderSettings, Renderer, StatsMode, VisibilitySource};
 use antumbra_core::scene::{ImageSize, Resolution};
 use anyhow::Result;

@@ -6,11 +6,12 @@
 use antumbra_core::build::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
 use antumbra_core::bvh::Bvh;
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::AnyHitOrder;
 use antumbra_core::render::{
     shadow_rays, visibility_flags, PrimaryPass, PrimaryRays, RenderSettings,
 };
 use antumbra_core::scene::{FrameGeometry, Resolution, TriangleRef, TriangleSet};
-use antumbra_core::trace::{occluded, AnyHitOrder, NoStats, TraversalStats};
+use antumbra_core::trace::{occluded, NoStats, TraversalStats};
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use serde::Serialize;

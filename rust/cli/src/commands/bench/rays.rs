@@ -5,15 +5,16 @@
 use antumbra_core::build::{build_binned_sah, CollapseSettings};
 use antumbra_core::bvh::{Bvh, BvhWidth};
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::PreparedOrder;
+use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::render::{
     binary_order, representative_rays, shadow_rays, srdh_for_light, LightSrdh, PrimaryPass,
     PrimaryRays, RenderSettings, ShadowTracer, WideTree,
 };
 use antumbra_core::scene::{FrameGeometry, Resolution};
-use antumbra_core::trace::wide::{BoxKernel, PreparedOrder};
+use antumbra_core::trace::wide::BoxKernel;
 use antumbra_core::trace::{
-    AnyHitOrder, BinaryOcclusion, ClosestHitQuery, NoStats, OcclusionQuery, ShadowOrder,
-    WideOcclusion,
+    BinaryOcclusion, ClosestHitQuery, NoStats, OcclusionQuery, WideOcclusion,
 };
 use anyhow::Result;
 use rayon::prelude::*;

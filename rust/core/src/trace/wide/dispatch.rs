@@ -5,9 +5,10 @@
 #[cfg(target_arch = "x86_64")]
 use super::boxes::{Avx2, Avx512, Sse, WideRay};
 use super::boxes::{BoxKernel, ChildBoxTest, Scalar, ANY_OCTANT};
-use super::{any_hit, closest, OrderView};
+use super::{any_hit, closest};
 use crate::bvh::WideBvh;
 use crate::geometry::Ray;
+use crate::order::OrderView;
 use crate::trace::{Counters, Hit};
 
 /// One query on one tree, run with a box kernel and a ray octant chosen by [`Dispatch`].

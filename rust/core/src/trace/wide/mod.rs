@@ -12,16 +12,10 @@ mod stack;
 
 pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay, ANY_OCTANT};
 
-// The orders the wide traversal reads, where callers have always found them.
-pub use crate::order::{
-    cost, static_orders, ChildHitModel, LightOrder, LoggingOrder, OrderView, Permutation,
-    PreparedOrder, SortSettings, SortTables,
-};
-
 use super::{Counters, Hit, NoStats};
 use crate::bvh::WideBvh;
 use crate::geometry::Ray;
-use crate::order::ShadowOrder;
+use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
 use dispatch::{AnyHit, Closest, Dispatch, Kernels};
 
 /// The queries of a wide BVH of one width, dispatched to a box kernel.
