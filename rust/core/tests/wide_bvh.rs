@@ -6,10 +6,10 @@
 use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::{Bvh, WideBvh, MAX_DEPTH};
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::cost::{expected_cost, order_by_ratio};
 use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::order::{OrderView, PreparedOrder};
 use antumbra_core::sampling::{hash_u32, unit_float};
-use antumbra_core::order::cost::{expected_cost, order_by_ratio};
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
 use antumbra_core::trace::{
     brute_closest_hit, brute_occluded, closest_hit, occluded, NoStats, TraversalStats,
