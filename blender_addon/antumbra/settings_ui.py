@@ -37,8 +37,14 @@ def groups() -> list[tuple[str, str, list[dict]]]:
     return [(g, title, items) for g, (title, items) in out.items()]
 
 
+#: Words the panel's labels spell as people write them.
+_WORDS = {"spp": "Samples per pixel", "osah": "OSAH", "min": "smallest", "refs": "references"}
+
+
 def _label(name: str) -> str:
-    return name.replace("_", " ").capitalize()
+    words = [_WORDS.get(w, w) for w in name.split("_")]
+    text = " ".join(words)
+    return text[0].upper() + text[1:]
 
 
 def _property(s: dict):
