@@ -182,7 +182,8 @@ pub fn sort_for_light<const N: usize>(
     let limit = settings.depth.map_or(u32::MAX, |d| d);
     let counted = bvh.depth.partition_point(|&d| (d as u32) < limit);
     let mut counters = vec![0u32; counted * N];
-    for &first in &stoppers {
+    // With no node above the limit (settings that were not validated) nothing is sorted.
+    for &first in stoppers.iter().filter(|_| counted > 0) {
         let mut pos = tables.leaf_position[first as usize] as usize;
         // Attribute rays stopped below the limit to the deepest counted ancestor's slot.
         while pos / N >= counted {

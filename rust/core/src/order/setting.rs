@@ -137,7 +137,9 @@ impl FromStr for ShadowOrder {
                         }
                     }
                 }
-                Ok(ShadowOrder::Sorted(st))
+                let order = ShadowOrder::Sorted(st);
+                order.validate()?;
+                Ok(order)
             }
             "srdh" => Ok(ShadowOrder::Srdh(SrdhSettings::parse_options(&options)?)),
             other => Err(invalid(format!("unknown order '{other}' (known: {KNOWN})"))),
@@ -195,6 +197,10 @@ impl ShadowOrder {
             ShadowOrder::Sorted(s) if !(s.budget > 0.0 && s.budget <= 1.0) => Err(invalid(
                 format!("sorted: budget must be in (0, 1], got {}", s.budget),
             )),
+            // The root is depth 0: a limit of 0 would sort no node at all.
+            ShadowOrder::Sorted(s) if s.depth == Some(0) => Err(invalid(
+                "sorted: depth must be at least 1 (the root is depth 0), got 0".into(),
+            )),
             ShadowOrder::Srdh(s) => s.validate(),
             _ => Ok(()),
         }
@@ -242,6 +248,7 @@ mod tests {
             "sorted:budget=2",
             "sorted:p=2",
             "sorted:depth=x",
+            "sorted:depth=0",
             "sato:depth=3",
             "sorted:logging",
             "front",
