@@ -64,7 +64,16 @@ pub fn encode_body<T: Serialize + ?Sized>(message: &T) -> Result<Vec<u8>, FrameE
 pub fn decode_body<T: DeserializeOwned>(body: &[u8]) -> Result<T, FrameError> {
     let mut de = rmp_serde::Deserializer::from_read_ref(body);
     de.set_max_depth(MAX_DEPTH);
-    let value = T::deserialize(&mut de).map_err(|e| FrameError::Decode(e.to_string()))?;
+    // The path names the field at fault (`FrameUpdate.camera.lens: invalid type: ...`).
+    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner().to_string();
+        FrameError::Decode(if path == "." || path.is_empty() {
+            inner
+        } else {
+            format!("{path}: {inner}")
+        })
+    })?;
     // The deserializer does not expose its position; a second read that fails on a clean end of
     // input proves the body was consumed, anything else is trailing data.
     match IgnoredAny::deserialize(&mut de) {

@@ -219,6 +219,16 @@ fn garbage_is_a_decode_error_and_the_stream_goes_on() {
 
 #[test]
 fn decode_errors_name_the_problem() {
+    // A value of the wrong type names its path and what was expected.
+    let err = decode_body::<Request>(
+        b"\x81\xa6Render\x83\xa5frame\x01\xaarequest_id\x02\xa6passes\x81\xa5masks\x03",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("Render.passes.masks") && err.contains("expected a boolean"),
+        "{err}"
+    );
     let err = decode_body::<Request>(b"\x81\xa5Hello\x81\xa7version\x01").unwrap_err();
     assert!(err.to_string().contains("client"), "{err}");
     let err = decode_body::<Request>(b"\x81\xa9Undefined\xc0").unwrap_err();
