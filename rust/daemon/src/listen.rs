@@ -38,7 +38,15 @@ fn prepare_socket_dir(socket: &Path) -> Result<(), DaemonError> {
             .map_err(|e| DaemonError::path(dir, format!("cannot create the socket folder: {e}")))?;
         return Ok(());
     }
-    let meta = fs::metadata(dir).map_err(|e| DaemonError::path(dir, e.to_string()))?;
+    // Not followed: a link planted at the folder would take our chmod and our socket elsewhere.
+    let meta = fs::symlink_metadata(dir).map_err(|e| DaemonError::path(dir, e.to_string()))?;
+    if meta.file_type().is_symlink() {
+        return Err(DaemonError::path(
+            dir,
+            "the socket folder is a symbolic link; remove it, or give --socket a path in a \
+             folder of your own",
+        ));
+    }
     if !meta.is_dir() {
         return Err(DaemonError::path(
             dir,
@@ -49,9 +57,33 @@ fn prepare_socket_dir(socket: &Path) -> Result<(), DaemonError> {
         .file_name()
         .and_then(|n| n.to_str())
         .is_some_and(|n| n == "antumbra" || n.starts_with("antumbra-"));
+    // Others who may write the folder could replace the socket and read a client's Hello; the
+    // sticky bit (as on /tmp) stops them. The default folder is ours and narrowed to 0700 below.
+    const STICKY: u32 = 0o1000;
+    if !is_default_dir && meta.mode() & 0o022 != 0 && meta.mode() & STICKY == 0 {
+        return Err(DaemonError::path(
+            dir,
+            format!(
+                "the socket folder is writable by other users (mode {:o}) and not sticky; \
+                 chmod go-w it, or give --socket a path in a folder of your own",
+                meta.mode() & 0o7777
+            ),
+        ));
+    }
+    // SAFETY: getuid has no preconditions and cannot fail.
+    let uid = unsafe { libc::getuid() };
+    // Whoever owns the folder can replace the socket: it must be us, or root (as /tmp).
+    if !is_default_dir && meta.uid() != uid && meta.uid() != 0 {
+        return Err(DaemonError::path(
+            dir,
+            format!(
+                "the socket folder belongs to uid {}, not to this user (uid {uid}); give \
+                 --socket a path in a folder of your own",
+                meta.uid()
+            ),
+        ));
+    }
     if is_default_dir {
-        // SAFETY: getuid has no preconditions and cannot fail.
-        let uid = unsafe { libc::getuid() };
         if meta.uid() != uid {
             return Err(DaemonError::path(
                 dir,
@@ -219,6 +251,41 @@ pub fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn mode(p: &Path) -> u32 {
+        fs::metadata(p).unwrap().mode() & 0o7777
+    }
+
+    #[test]
+    fn a_symlinked_socket_folder_is_refused_and_its_target_untouched() {
+        let tmp = tempfile::tempdir().unwrap();
+        let target = tmp.path().join("elsewhere");
+        fs::create_dir(&target).unwrap();
+        fs::set_permissions(&target, fs::Permissions::from_mode(0o755)).unwrap();
+        let link = tmp.path().join("antumbra");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        let err = bind_unix(&link.join("daemon.sock"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(err.contains("symbolic link"), "{err}");
+        assert_eq!(mode(&target), 0o755, "the link's target was changed");
+        assert!(!target.join("daemon.sock").exists());
+    }
+
+    #[test]
+    fn a_folder_others_can_write_is_refused_unless_sticky() {
+        let tmp = tempfile::tempdir().unwrap();
+        let open = tmp.path().join("open");
+        fs::create_dir(&open).unwrap();
+        fs::set_permissions(&open, fs::Permissions::from_mode(0o777)).unwrap();
+        let err = bind_unix(&open.join("d.sock")).err().unwrap().to_string();
+        assert!(err.contains("writable by other users"), "{err}");
+        // With the sticky bit (as /tmp) no other user can replace our socket file.
+        fs::set_permissions(&open, fs::Permissions::from_mode(0o1777)).unwrap();
+        let bound = bind_unix(&open.join("d.sock")).unwrap();
+        bound.remove_file();
+    }
 
     #[test]
     fn constant_time_eq_compares() {
