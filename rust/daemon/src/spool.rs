@@ -262,7 +262,10 @@ fn failed(e: impl std::fmt::Display) -> JobError {
 
 /// Reads and checks a job's spec.
 pub fn read_job_spec(path: &Path) -> Result<JobSpec, String> {
-    let text = fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut text = String::new();
+    antumbra_protocol::recording::open_regular(path)
+        .and_then(|mut f| std::io::Read::read_to_string(&mut f, &mut text))
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     let spec: JobSpec =
         serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
     if spec.version > 1 {

@@ -157,10 +157,29 @@ fn bad_jobs_get_an_error_file_and_others_still_run() {
     std::fs::create_dir_all(jobs.join("bad-scene")).unwrap();
     std::fs::write(jobs.join("bad-scene/job.json"), b"{}").unwrap();
     std::fs::write(jobs.join("bad-scene/scene.antrec"), b"not a recording").unwrap();
+    // A FIFO as job.json or as the recording: opening one for reading would block the spool
+    // for good (the jobs sort before "good", so "good" finishing shows they did not block).
+    let mkfifo = |p: std::path::PathBuf| {
+        let ok = std::process::Command::new("mkfifo")
+            .arg(&p)
+            .status()
+            .unwrap();
+        assert!(ok.success(), "mkfifo {}", p.display());
+    };
+    std::fs::create_dir_all(jobs.join("fifo-json")).unwrap();
+    mkfifo(jobs.join("fifo-json/job.json"));
+    std::fs::create_dir_all(jobs.join("fifo-scene")).unwrap();
+    std::fs::write(jobs.join("fifo-scene/job.json"), b"{}").unwrap();
+    mkfifo(jobs.join("fifo-scene/scene.antrec"));
     let scenes = vec![tiny_scene(1, 16, 12)];
     submit(spool.path(), "good", &scenes, &JobSpec::default());
     let results = spool.path().join("results");
     wait_for_file(&results.join("good").join(DONE_FILE));
+    for fifo in ["fifo-json", "fifo-scene"] {
+        wait_for_file(&results.join(fifo).join(ERROR_FILE));
+        let e = std::fs::read_to_string(results.join(fifo).join(ERROR_FILE)).unwrap();
+        assert!(e.contains("not a regular file"), "{fifo}: {e}");
+    }
     wait_for_file(&results.join("bad-json").join(ERROR_FILE));
     wait_for_file(&results.join("bad-scene").join(ERROR_FILE));
     let e = std::fs::read_to_string(results.join("bad-json").join(ERROR_FILE)).unwrap();

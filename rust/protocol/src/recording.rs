@@ -145,10 +145,27 @@ pub struct RecordingReader<R: Read> {
     done: bool,
 }
 
+/// Opens `path` for reading only if it is a regular file: a FIFO or device would block the
+/// reader (or never end), so it is refused without waiting for a writer.
+pub fn open_regular(path: &Path) -> std::io::Result<File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)?;
+    if !file.metadata()?.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file",
+        ));
+    }
+    Ok(file)
+}
+
 impl RecordingReader<BufReader<File>> {
     pub fn open(path: impl AsRef<Path>) -> Result<Self, RecordingError> {
         let path = path.as_ref();
-        let file = File::open(path).map_err(|e| RecordingError::from(e).in_file(path))?;
+        let file = open_regular(path).map_err(|e| RecordingError::from(e).in_file(path))?;
         RecordingReader::new(BufReader::new(file)).map_err(|e| e.in_file(path))
     }
 }
