@@ -393,3 +393,53 @@ fn srdh_masks_equal_the_default_and_rows_report_the_light_tree() {
         }
     }
 }
+
+#[test]
+fn light_names_never_fail_a_write_nor_hide_a_plane() {
+    // Named like a heat map, twice the same, too long for an EXR channel, and two that clean
+    // to the same file name.
+    let mut scene = common::boxes_scene(16);
+    let names = ["N_B", "Sun", "Sun", &"x".repeat(300), "a/b", "a_b"];
+    let template = scene.lights[0].clone();
+    scene.lights = names
+        .iter()
+        .map(|n| {
+            let mut l = template.clone();
+            l.name = n.to_string();
+            l
+        })
+        .collect();
+    let result = Renderer::new()
+        .render("names", &scene, &RenderSettings::default())
+        .unwrap();
+    let named = antumbra_core::output::mask_names(&result);
+    let planes: Vec<&str> = named.iter().map(|n| n.plane.as_str()).collect();
+    assert_eq!(&planes[..3], ["shadow.N_B#2", "shadow.Sun", "shadow.Sun#2"]);
+    assert!(planes[3].len() <= 255 && planes[3].starts_with("shadow.xxx"));
+    assert_eq!(&planes[4..], ["shadow.a/b", "shadow.a_b#2"]);
+    let dir = tempfile::tempdir().unwrap();
+    let files = antumbra_core::output::write_frame_files(
+        dir.path(),
+        &result,
+        &antumbra_core::output::Outputs::default(),
+    )
+    .unwrap();
+    let exr = antumbra_core::output::read_exr(&dir.path().join("frame_0001.exr")).unwrap();
+    let channels: std::collections::HashSet<&str> = exr.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(channels.len(), exr.len(), "every plane is its own channel");
+    for (name, mask) in named.iter().zip(&result.masks) {
+        let plane = exr.iter().find(|p| p.name == name.plane).unwrap();
+        assert_eq!(plane.data, mask.data, "{}", name.plane);
+    }
+    let pngs: std::collections::HashSet<&String> =
+        files.files.iter().filter(|f| f.ends_with(".png")).collect();
+    assert_eq!(
+        pngs.len(),
+        files.files.iter().filter(|f| f.ends_with(".png")).count()
+    );
+    assert_eq!(
+        pngs.len(),
+        names.len() + 1 + 6,
+        "a PNG per mask, combined and heat map"
+    );
+}

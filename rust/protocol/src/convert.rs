@@ -413,8 +413,9 @@ pub fn frame_result_reply(
 ) -> FrameResultReply {
     let mut images = Vec::new();
     if passes.masks {
-        for m in &result.masks {
-            images.push(image(m, format!("shadow.{}", m.name)));
+        let names = antumbra_core::output::mask_names(result);
+        for (m, name) in result.masks.iter().zip(names) {
+            images.push(image(m, name.plane));
         }
     }
     if passes.combined {

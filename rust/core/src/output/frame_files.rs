@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use super::names::{file_safe, mask_names};
 use super::{write_exr, write_heatmap_png, write_mask_png, ColorMap, HeatLegend, HeatScale};
 use crate::image::ImagePlane;
 use crate::render::FrameResult;
@@ -33,18 +34,6 @@ impl Default for Outputs {
     }
 }
 
-fn sanitize(name: &str) -> String {
-    name.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
-}
-
 /// The folder and file stem of a frame: `frame_0007`.
 pub fn frame_stem(frame: i32) -> String {
     format!("frame_{frame:04}")
@@ -53,9 +42,9 @@ pub fn frame_stem(frame: i32) -> String {
 /// The planes of a result in the EXR's order, named as the CLI and the protocol name them.
 pub fn planes(result: &FrameResult) -> Vec<ImagePlane> {
     let mut planes: Vec<ImagePlane> = Vec::new();
-    for m in &result.masks {
+    for (m, name) in result.masks.iter().zip(mask_names(result)) {
         let mut m = m.clone();
-        m.name = format!("shadow.{}", m.name);
+        m.name = name.plane;
         planes.push(m);
     }
     planes.push(result.combined.clone());
@@ -91,12 +80,12 @@ pub fn write_frame_files(
     }
     if outputs.png {
         let mut png = |plane: &str| {
-            let name = format!("{stem}_{}.png", sanitize(plane));
+            let name = format!("{stem}_{}.png", file_safe(plane));
             files.push(name.clone());
             dir.join(name)
         };
-        for m in &result.masks {
-            write_mask_png(&png(&format!("shadow_{}", m.name)), m)?;
+        for (m, name) in result.masks.iter().zip(mask_names(result)) {
+            write_mask_png(&png(&name.file), m)?;
         }
         write_mask_png(&png("combined"), &result.combined)?;
         if let Some(h) = &result.heat {

@@ -9,6 +9,7 @@ mod font;
 mod frame_files;
 mod heatmap;
 mod legend;
+mod names;
 mod png;
 
 pub use self::colormap::ColorMap;
@@ -16,6 +17,7 @@ pub use self::exr::{read_exr, write_exr};
 pub use self::frame_files::{frame_stem, planes, write_frame_files, FrameFiles, Outputs};
 pub use self::heatmap::{heatmap_rgb, write_heatmap_png, HeatLegend, HeatScale};
 pub use self::legend::heat_legend_height;
+pub use self::names::{file_safe, mask_names, MaskName, MAX_LIGHT_NAME_BYTES};
 pub use self::png::write_mask_png;
 
 /// Sorted names of everything in a folder, hidden temporary files included (tests check that

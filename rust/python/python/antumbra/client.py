@@ -154,8 +154,8 @@ class Result:
             ``shadow.<light>`` (light order), ``combined``, ``primary.N_B|N_L|N_T``,
             ``shadow.N_B|N_L|N_T``; each a float32 array of shape (height, width), rows top to
             bottom.
-        images: the planes by name (if a light is called ``N_B``, ``N_L`` or ``N_T``, its mask
-            shares a name with a heat map: ``images`` keeps the heat map, ``masks`` the mask).
+        images: the planes by name; every name is unique (a light named like a heat map, or
+            like an earlier light, gets ``#2``, ``#3``, ... after its name).
         masks: the shadow mask of each shadow-casting light, by light name (1 lit, 0 shadowed).
         stats: one dict per pass (the primary pass, then each shadow-casting light) with the
             columns of ``antumbra_core::stats::StatsRow``.
