@@ -10,21 +10,22 @@
 //!
 //! It prints the shadow rays traced; instructions per ray = callgrind's total / rays.
 
-use antumbra_core::build::{build_binned_sah, BuildSettings};
+use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults, SahFrame};
+use antumbra_core::build::BuildSettings;
 use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::SrdhSettings;
 use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::order::{OrderView, PreparedOrder};
 use antumbra_core::render::{
-    representative_rays, samples_for, shadow_rays, srdh_for_light, LightSampler, PrimaryPass,
-    PrimaryRays, SamplePlan,
+    representative_rays, samples_for, shadow_rays, srdh_for_light, LightSampler, SamplePlan,
 };
-use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::scene::ImageSize;
 use antumbra_core::srdh::SrdhBvh;
 use antumbra_core::trace::occluded_with;
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
 use antumbra_core::trace::{occluded, NoStats};
+use clap::Parser;
 
 #[inline(never)]
 fn trace_binary(bvh: &Bvh, rays: &[Ray]) -> usize {
@@ -47,35 +48,37 @@ fn trace_srdh(tree: &SrdhBvh, rays: &[Ray]) -> usize {
         .count()
 }
 
+#[derive(Parser)]
+#[command(about = "Shadow rays of one frame through one traversal and order, for callgrind")]
+struct Cli {
+    /// binary, fbto8, sorted8 or srdh.
+    #[arg(value_parser = ["binary", "fbto8", "sorted8", "srdh"])]
+    mode: String,
+    #[command(flatten)]
+    frame: FrameArgs,
+}
+
 fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let mode = args.first().cloned().unwrap_or_else(|| "binary".into());
-    let name = args.get(1).cloned().unwrap_or_else(|| "city".into());
-    let triangles = args.get(2).map_or(Ok(100_000), |s| s.parse())?;
-    let (w, h) = match args.get(3) {
-        Some(s) => {
-            let (a, b) = s.split_once('x').ok_or(anyhow::anyhow!("size WxH"))?;
-            (a.parse()?, b.parse()?)
-        }
-        None => (160, 160),
-    };
-    let params = antumbra_scenes::SceneParams {
-        triangles,
-        frames: 1,
-        rotated: false,
-    };
-    let anim = antumbra_scenes::builtin(&name, &params)?;
-    let mut scene = anim.frame(*anim.frame_range().start());
-    scene.resolution = Resolution::new(w, h);
-    let g = FrameGeometry::from_scene(&scene)?;
-    let bvh = build_binned_sah(&g.camera.vertices, &BuildSettings::default());
+    let cli = Cli::parse();
+    let mode = cli.mode;
+    let frame = cli.frame.open(FrameDefaults {
+        scene: "city",
+        triangles: 100_000,
+        size: ImageSize::new(160, 160),
+    })?;
+    let SahFrame {
+        shadow_bvh, pass, ..
+    } = frame.sah();
+    let ExampleFrame {
+        name,
+        size,
+        scene,
+        geometry: g,
+    } = frame;
     let shadow_tris = g
         .shadow
         .as_ref()
         .map_or(&g.camera.vertices, |s| &s.vertices);
-    let shadow_bvh = build_binned_sah(shadow_tris, &BuildSettings::default());
-    let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
-    let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
     let s8 = WideBvh::<8>::collapse(&shadow_bvh);
     let (mut rays_traced, mut occluded_rays) = (0, 0);
     for (i, l) in scene
@@ -123,11 +126,12 @@ fn main() -> anyhow::Result<()> {
                 };
                 trace_srdh(&tree, &rays)
             }
-            other => anyhow::bail!("unknown mode '{other}' (binary, fbto8, sorted8, srdh)"),
+            other => unreachable!("clap checks the mode: {other}"),
         };
     }
     println!(
-        "{mode} {name} {triangles} {w}x{h}: {rays_traced} shadow rays ({occluded_rays} occluded)"
+        "{mode} {name} {} {size}: {rays_traced} shadow rays ({occluded_rays} occluded)",
+        g.camera.vertices.len()
     );
     Ok(())
 }

@@ -16,15 +16,14 @@
 //! ray (an occluded ray: the interior nodes on the path to its shallowest occluding leaf; an
 //! unoccluded ray: every interior node it enters, which no order avoids), beside SATO and sorted.
 
-use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
-use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
+use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults, SahFrame};
+use antumbra_core::build::{CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::{intersect_triangle, Ray, WatertightRay};
 use antumbra_core::order::ShadowOrder;
 use antumbra_core::order::{PreparedOrder, SortTables};
 use antumbra_core::render::{
-    representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
-    SamplePlan,
+    representative_rays, samples_for, shadow_rays, LightSampler, SamplePlan,
 };
 use antumbra_core::scene::ImageSize;
 use antumbra_core::trace::wide::{BoxKernel, ChildBoxTest, Scalar, WideQueries, WideRay};
@@ -169,25 +168,21 @@ fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     let (mode, spp) = (cli.mode, cli.spp);
     let collapse = CollapseSettings::new(cli.collapse);
+    let frame = cli.frame.open(FrameDefaults {
+        scene: "bedroom",
+        triangles: 350_000,
+        size: ImageSize::new(512, 512),
+    })?;
+    let SahFrame {
+        shadow_bvh, pass, ..
+    } = frame.sah();
     let ExampleFrame {
         name,
         size,
         scene,
         geometry: g,
-    } = cli.frame.open(FrameDefaults {
-        scene: "bedroom",
-        triangles: 350_000,
-        size: ImageSize::new(512, 512),
-    })?;
+    } = frame;
     let (w, h) = (size.width, size.height);
-    let bvh = build_binned_sah(&g.camera.vertices, &BuildSettings::default());
-    let shadow_tris = g
-        .shadow
-        .as_ref()
-        .map_or(&g.camera.vertices, |s| &s.vertices);
-    let shadow_bvh = build_binned_sah(shadow_tris, &BuildSettings::default());
-    let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
-    let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
     let budgets = [0.001f32, 0.01, 0.05, 0.1, 1.0];
     let lights: Vec<Light> = scene
         .lights
@@ -214,7 +209,9 @@ fn main() -> anyhow::Result<()> {
     println!(
         "{name}: {} triangles ({} casting shadows), {w}x{h}, {} lights, {rays} shadow rays",
         g.camera.vertices.len(),
-        shadow_tris.len(),
+        g.shadow
+            .as_ref()
+            .map_or(g.camera.vertices.len(), |s| s.vertices.len()),
         lights.len()
     );
     let w2 = WideBvh::<2>::collapse(&shadow_bvh);

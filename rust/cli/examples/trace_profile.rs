@@ -13,15 +13,14 @@
 //! of the 8-wide trees (default: the default collapse), and the box kernels to time in turn
 //! (default: auto).
 
-use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
-use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
+use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults, SahFrame};
+use antumbra_core::build::{CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::ShadowOrder;
 use antumbra_core::order::{OrderView, PreparedOrder};
 use antumbra_core::render::{
-    representative_rays, samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays,
-    SamplePlan,
+    representative_rays, samples_for, shadow_rays, LightSampler, SamplePlan,
 };
 use antumbra_core::scene::ImageSize;
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
@@ -85,29 +84,28 @@ fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     let repeat = cli.repeat;
     let collapse = CollapseSettings::new(cli.collapse);
+    let frame = cli.frame.open(FrameDefaults {
+        scene: "bedroom",
+        triangles: 350_000,
+        size: ImageSize::new(256, 256),
+    })?;
+    let SahFrame {
+        bvh,
+        shadow_bvh,
+        camera,
+        pass,
+    } = frame.sah();
     let ExampleFrame {
         name,
         size,
         scene,
         geometry: g,
-    } = cli.frame.open(FrameDefaults {
-        scene: "bedroom",
-        triangles: 350_000,
-        size: ImageSize::new(256, 256),
-    })?;
+    } = frame;
     let (w, h) = (size.width, size.height);
-    let bvh = build_binned_sah(&g.camera.vertices, &BuildSettings::default());
-    let shadow_tris = g
-        .shadow
-        .as_ref()
-        .map_or(&g.camera.vertices, |s| &s.vertices);
-    let shadow_bvh = build_binned_sah(shadow_tris, &BuildSettings::default());
-    let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
     let primary: Vec<Ray> = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| camera.ray(x, y))
         .collect();
-    let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
     let w8 = WideBvh::<8>::collapse_with(&bvh, &collapse);
     let s8 = WideBvh::<8>::collapse_with(&shadow_bvh, &collapse);
     let order: ShadowOrder = "sorted".parse().expect("order");

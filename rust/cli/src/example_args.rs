@@ -1,6 +1,9 @@
 //! The positional arguments the example programs share, `SCENE [TRIS] [WxH]` (each program with
-//! its own defaults), and the first frame of that scene they all start from.
+//! its own defaults), the first frame of that scene they all start from, and its SAH trees.
 
+use antumbra_core::build::{build_binned_sah, BuildSettings};
+use antumbra_core::bvh::Bvh;
+use antumbra_core::render::{PrimaryPass, PrimaryRays};
 use antumbra_core::scene::{FrameGeometry, ImageSize, Resolution, Scene};
 use anyhow::Result;
 use clap::Args;
@@ -50,5 +53,34 @@ impl FrameArgs {
             scene,
             geometry,
         })
+    }
+}
+
+/// The binned-SAH trees of a frame (camera set and shadow set) and its primary pass: where the
+/// profiling programs start.
+pub struct SahFrame {
+    pub bvh: Bvh,
+    pub shadow_bvh: Bvh,
+    pub camera: PrimaryRays,
+    pub pass: PrimaryPass,
+}
+
+impl ExampleFrame {
+    pub fn sah(&self) -> SahFrame {
+        let g = &self.geometry;
+        let bvh = build_binned_sah(&g.camera.vertices, &BuildSettings::default());
+        let shadow_tris = g
+            .shadow
+            .as_ref()
+            .map_or(&g.camera.vertices, |s| &s.vertices);
+        let shadow_bvh = build_binned_sah(shadow_tris, &BuildSettings::default());
+        let camera = PrimaryRays::new(&self.scene.camera, &self.scene.resolution, &g.space);
+        let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+        SahFrame {
+            bvh,
+            shadow_bvh,
+            camera,
+            pass,
+        }
     }
 }
