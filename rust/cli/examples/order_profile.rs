@@ -11,15 +11,14 @@
 //! It prints the shadow rays traced; instructions per ray = callgrind's total / rays.
 
 use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults, SahFrame};
+use antumbra_cli::shadow_lights::{shadow_lights, ShadowLight};
 use antumbra_core::build::BuildSettings;
 use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::SrdhSettings;
 use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::order::{OrderView, PreparedOrder};
-use antumbra_core::render::{
-    representative_rays, samples_for, shadow_rays, srdh_for_light, LightSampler, SamplePlan,
-};
+use antumbra_core::render::{representative_rays, shadow_rays, srdh_for_light};
 use antumbra_core::scene::ImageSize;
 use antumbra_core::srdh::SrdhBvh;
 use antumbra_core::trace::occluded_with;
@@ -81,18 +80,7 @@ fn main() -> anyhow::Result<()> {
         .map_or(&g.camera.vertices, |s| &s.vertices);
     let s8 = WideBvh::<8>::collapse(&shadow_bvh);
     let (mut rays_traced, mut occluded_rays) = (0, 0);
-    for (i, l) in scene
-        .lights
-        .iter()
-        .enumerate()
-        .filter(|(_, l)| l.casts_shadow)
-    {
-        let sampler = LightSampler::new(l, &g.space);
-        let plan = SamplePlan {
-            light_index: i as u32,
-            samples: samples_for(&sampler, 1),
-            seed: 0,
-        };
+    for ShadowLight { sampler, plan } in shadow_lights(&scene, &g.space, 1, 0) {
         let rays = shadow_rays(&pass, &sampler, plan);
         rays_traced += rays.len();
         occluded_rays += match mode.as_str() {

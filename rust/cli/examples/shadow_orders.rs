@@ -17,14 +17,13 @@
 //! unoccluded ray: every interior node it enters, which no order avoids), beside SATO and sorted.
 
 use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults, SahFrame};
+use antumbra_cli::shadow_lights::{shadow_lights, ShadowLight};
 use antumbra_core::build::{CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::{intersect_triangle, Ray, WatertightRay};
 use antumbra_core::order::ShadowOrder;
 use antumbra_core::order::{PreparedOrder, SortTables};
-use antumbra_core::render::{
-    representative_rays, samples_for, shadow_rays, LightSampler, SamplePlan,
-};
+use antumbra_core::render::{representative_rays, shadow_rays};
 use antumbra_core::scene::ImageSize;
 use antumbra_core::trace::wide::{BoxKernel, ChildBoxTest, Scalar, WideQueries, WideRay};
 use antumbra_core::trace::TraversalStats;
@@ -184,25 +183,14 @@ fn main() -> anyhow::Result<()> {
     } = frame;
     let (w, h) = (size.width, size.height);
     let budgets = [0.001f32, 0.01, 0.05, 0.1, 1.0];
-    let lights: Vec<Light> = scene
-        .lights
-        .iter()
-        .enumerate()
-        .filter(|(_, l)| l.casts_shadow)
-        .map(|(i, l)| {
-            let sampler = LightSampler::new(l, &g.space);
-            let plan = SamplePlan {
-                light_index: i as u32,
-                samples: samples_for(&sampler, spp),
-                seed: 0,
-            };
-            Light {
-                rays: shadow_rays(&pass, &sampler, plan),
-                representative: budgets
-                    .iter()
-                    .map(|&b| (b, representative_rays(&pass, &sampler, plan, b)))
-                    .collect(),
-            }
+    let lights: Vec<Light> = shadow_lights(&scene, &g.space, spp, 0)
+        .into_iter()
+        .map(|ShadowLight { sampler, plan }| Light {
+            rays: shadow_rays(&pass, &sampler, plan),
+            representative: budgets
+                .iter()
+                .map(|&b| (b, representative_rays(&pass, &sampler, plan, b)))
+                .collect(),
         })
         .collect();
     let rays: usize = lights.iter().map(|l| l.rays.len()).sum();

@@ -20,6 +20,7 @@
 use std::time::Instant;
 
 use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
+use antumbra_cli::shadow_lights::{shadow_lights, ShadowLight};
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::geometry::Ray;
@@ -30,8 +31,7 @@ use antumbra_core::order::{
 use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::order::{PreparedOrder, SortTables};
 use antumbra_core::render::{
-    samples_for, shadow_rays, srdh_for_light, srdh_rays, LightSampler, PrimaryPass, PrimaryRays,
-    SamplePlan,
+    shadow_rays, srdh_for_light, srdh_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
 };
 use antumbra_core::scene::ImageSize;
 use antumbra_core::srdh::{build_srdh, RaySet};
@@ -188,21 +188,12 @@ fn main() -> anyhow::Result<()> {
         .map_or(&g.camera.vertices, |s| &s.vertices);
     let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
     let pass = PrimaryPass::timed(&camera, &camera_bvh, &g.camera);
-    let lights: Vec<Light> = scene
-        .lights
-        .iter()
-        .enumerate()
-        .filter(|(_, l)| l.casts_shadow)
-        .map(|(i, l)| {
-            let sampler = LightSampler::new(l, &g.space);
-            let plan = SamplePlan {
-                light_index: i as u32,
-                samples: samples_for(&sampler, spp),
-                seed: 0,
-            };
+    let lights: Vec<Light> = shadow_lights(&scene, &g.space, spp, 0)
+        .into_iter()
+        .map(|ShadowLight { sampler, plan }| {
             let rays = shadow_rays(&pass, &sampler, plan);
             Light {
-                name: l.name.clone(),
+                name: scene.lights[plan.light_index as usize].name.clone(),
                 sampler,
                 plan,
                 rays,

@@ -14,14 +14,13 @@
 //! (default: auto).
 
 use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults, SahFrame};
+use antumbra_cli::shadow_lights::{shadow_lights, ShadowLight};
 use antumbra_core::build::{CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::ShadowOrder;
 use antumbra_core::order::{OrderView, PreparedOrder};
-use antumbra_core::render::{
-    representative_rays, samples_for, shadow_rays, LightSampler, SamplePlan,
-};
+use antumbra_core::render::{representative_rays, shadow_rays};
 use antumbra_core::scene::ImageSize;
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
 use antumbra_core::trace::NoStats;
@@ -112,18 +111,7 @@ fn main() -> anyhow::Result<()> {
     // Timed in turn within each repetition so that load changes hit them alike.
     let kernels = cli.kernels;
     let mut lights = Vec::new();
-    for (i, l) in scene
-        .lights
-        .iter()
-        .enumerate()
-        .filter(|(_, l)| l.casts_shadow)
-    {
-        let sampler = LightSampler::new(l, &g.space);
-        let plan = SamplePlan {
-            light_index: i as u32,
-            samples: samples_for(&sampler, 1),
-            seed: 0,
-        };
+    for ShadowLight { sampler, plan } in shadow_lights(&scene, &g.space, 1, 0) {
         let rays = shadow_rays(&pass, &sampler, plan);
         let reps = representative_rays(&pass, &sampler, plan, 0.05);
         let prepared = PreparedOrder::new(&s8, &order, None, &reps, BoxKernel::Auto);
