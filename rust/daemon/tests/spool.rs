@@ -149,28 +149,40 @@ fn restart_skips_finished_frames_and_cleans_temporaries() {
 fn bad_jobs_get_an_error_file_and_others_still_run() {
     let spool = temp_dir("spool-bad");
     let d = TestDaemon::start_with("spool-bad", |c| c.spool = Some(spool.path().to_path_buf()));
-    // Unknown field in job.json.
+    // Each bad job is made in a side folder and renamed into jobs/ whole, as clients must:
+    // a half-made folder in jobs/ is itself a bad job.
     let jobs = spool.path().join("jobs");
-    std::fs::create_dir_all(jobs.join("bad-json")).unwrap();
-    std::fs::write(jobs.join("bad-json/job.json"), br#"{"frmaes": [1]}"#).unwrap();
-    // A recording that is not one.
-    std::fs::create_dir_all(jobs.join("bad-scene")).unwrap();
-    std::fs::write(jobs.join("bad-scene/job.json"), b"{}").unwrap();
-    std::fs::write(jobs.join("bad-scene/scene.antrec"), b"not a recording").unwrap();
-    // A FIFO as job.json or as the recording: opening one for reading would block the spool
-    // for good (the jobs sort before "good", so "good" finishing shows they did not block).
-    let mkfifo = |p: std::path::PathBuf| {
+    let staging = spool.path().join("staging");
+    std::fs::create_dir_all(&jobs).unwrap();
+    let place = |id: &str, make: &dyn Fn(&Path)| {
+        let dir = staging.join(id);
+        std::fs::create_dir_all(&dir).unwrap();
+        make(&dir);
+        std::fs::rename(&dir, jobs.join(id)).unwrap();
+    };
+    let mkfifo = |p: PathBuf| {
         let ok = std::process::Command::new("mkfifo")
             .arg(&p)
             .status()
             .unwrap();
         assert!(ok.success(), "mkfifo {}", p.display());
     };
-    std::fs::create_dir_all(jobs.join("fifo-json")).unwrap();
-    mkfifo(jobs.join("fifo-json/job.json"));
-    std::fs::create_dir_all(jobs.join("fifo-scene")).unwrap();
-    std::fs::write(jobs.join("fifo-scene/job.json"), b"{}").unwrap();
-    mkfifo(jobs.join("fifo-scene/scene.antrec"));
+    // Unknown field in job.json.
+    place("bad-json", &|d| {
+        std::fs::write(d.join("job.json"), br#"{"frmaes": [1]}"#).unwrap()
+    });
+    // A recording that is not one.
+    place("bad-scene", &|d| {
+        std::fs::write(d.join("job.json"), b"{}").unwrap();
+        std::fs::write(d.join("scene.antrec"), b"not a recording").unwrap();
+    });
+    // A FIFO as job.json or as the recording: opening one for reading would block the spool
+    // for good (the jobs sort before "good", so "good" finishing shows they did not block).
+    place("fifo-json", &|d| mkfifo(d.join("job.json")));
+    place("fifo-scene", &|d| {
+        std::fs::write(d.join("job.json"), b"{}").unwrap();
+        mkfifo(d.join("scene.antrec"));
+    });
     let scenes = vec![tiny_scene(1, 16, 12)];
     submit(spool.path(), "good", &scenes, &JobSpec::default());
     let results = spool.path().join("results");
