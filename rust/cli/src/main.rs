@@ -27,6 +27,9 @@ enum Command {
     Record(commands::record::RecordArgs),
     /// Build time and Mrays/s per scene (primary and shadow rays, 1 thread and all threads).
     Bench(commands::bench::BenchArgs),
+    /// Compare methods on the same frames: answers checked, work counted, time measured;
+    /// a report folder with tables, plots and difference heat maps.
+    Compare(commands::compare::CompareArgs),
     /// Run the daemon Blender talks to: a Unix socket (and optional loopback TCP), a spool
     /// folder for batch jobs.
     Serve(commands::serve::ServeArgs),
@@ -40,6 +43,7 @@ fn main() {
         Command::Render(a) => commands::render::run(a),
         Command::Record(a) => commands::record::run(a),
         Command::Bench(a) => commands::bench::run(a),
+        Command::Compare(a) => commands::compare::run(a),
         Command::Serve(a) => commands::serve::run(a),
     };
     if let Err(e) = result {

@@ -4,6 +4,7 @@
 
 mod colormap;
 mod colormap_tables;
+mod difference;
 mod exr;
 mod font;
 mod frame_files;
@@ -13,6 +14,9 @@ mod names;
 mod png;
 
 pub use self::colormap::ColorMap;
+pub use self::difference::{
+    difference_plane, difference_scale, diverging_rgb, write_difference_png,
+};
 pub use self::exr::{read_exr, write_exr};
 pub use self::frame_files::{frame_stem, planes, write_frame_files, FrameFiles, Outputs};
 pub use self::heatmap::{heatmap_rgb, write_heatmap_png, HeatLegend, HeatScale};

@@ -76,6 +76,7 @@ struct GeometryKey {
     objects: Vec<(usize, [u64; 16], bool, bool)>,
 }
 
+#[derive(Clone)]
 struct Cached {
     key: GeometryKey,
     /// Keeps the meshes alive so their addresses in the key cannot be reused.
@@ -94,6 +95,7 @@ struct Cached {
 }
 
 /// The collapsed trees of the cached BVHs for one width.
+#[derive(Clone)]
 struct WideTrees {
     width: BvhWidth,
     collapse: CollapseSettings,
@@ -109,6 +111,7 @@ struct WideTrees {
     collapse_ms: Option<f64>,
 }
 
+#[derive(Clone)]
 struct PerTreeOrder {
     order: ShadowOrder,
     prepared: PreparedOrder,
@@ -131,7 +134,9 @@ struct Prepared {
 }
 
 /// Renders frames, keeping state across them.
-#[derive(Default)]
+/// Cloning copies the state (shared trees are reference counted): `compare` times a frame from
+/// a copy of each method's state before it.
+#[derive(Clone, Default)]
 pub struct Renderer {
     cache: Option<Cached>,
     /// How many times a BVH was built.

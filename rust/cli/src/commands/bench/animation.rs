@@ -9,7 +9,7 @@ use antumbra_core::render::{RenderSettings, Renderer, StatsMode, VisibilitySourc
 use antumbra_core::scene::{ImageSize, Resolution};
 use anyhow::Result;
 
-use crate::line_plot::LinePlot;
+use crate::plots::LinePlot;
 
 const CSV_HEADER: &str =
     "frame,method,primary_mrays,primary_nit,primary_nts,shadow_mrays,build_ms,visibility_ms,rebuilt\n";

@@ -1,5 +1,4 @@
-//! Line plots of per-frame numbers (the benchmarks' animation curves) as SVG, drawn with
-//! plotters: the viewer renders the text, so no font is needed here.
+//! Line plots of per-frame numbers (the benchmarks' and comparisons' curves).
 
 use std::path::Path;
 
@@ -7,8 +6,7 @@ use antumbra_core::atomic_file::write_bytes_atomic;
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 
-/// Width of the legend column right of the plot, so the legend never covers a curve.
-const LEGEND_WIDTH: u32 = 220;
+use super::{draw_legend, LEGEND_WIDTH};
 
 /// A titled plot of named series against the frame number (`first_frame` for each series' first
 /// value), y from 0 to just above the largest value, with ticks on both axes.
@@ -22,11 +20,17 @@ pub struct LinePlot<'a> {
 impl LinePlot<'_> {
     /// Writes the plot as a `width` x `height` SVG file.
     pub fn write_svg(&self, path: &Path, width: u32, height: u32) -> Result<()> {
-        let mut svg = String::new();
-        self.draw(SVGBackend::with_string(&mut svg, (width, height)))
-            .map_err(|e| anyhow!("plotting {}: {e}", path.display()))?;
+        let svg = self.svg(width, height)?;
         write_bytes_atomic(path, svg.as_bytes())?;
         Ok(())
+    }
+
+    /// The plot as SVG text.
+    pub fn svg(&self, width: u32, height: u32) -> Result<String> {
+        let mut svg = String::new();
+        self.draw(SVGBackend::with_string(&mut svg, (width, height)))
+            .map_err(|e| anyhow!("plotting '{}': {e}", self.title))?;
+        Ok(svg)
     }
 
     fn draw<DB: DrawingBackend>(&self, backend: DB) -> Result<(), String> {
@@ -60,7 +64,7 @@ impl LinePlot<'_> {
             .draw()
             .map_err(err)?;
         for (i, (_, values)) in self.series.iter().enumerate() {
-            let color = Palette99::pick(i).stroke_width(2);
+            let color = super::colour(i).stroke_width(2);
             let points = values
                 .iter()
                 .enumerate()
@@ -69,21 +73,7 @@ impl LinePlot<'_> {
                 .draw_series(LineSeries::new(points, color))
                 .map_err(err)?;
         }
-        // The legend in its own column: a line of each series' colour and its name.
-        for (i, (name, _)) in self.series.iter().enumerate() {
-            let y = 50 + 22 * i as i32;
-            let color = Palette99::pick(i).stroke_width(2);
-            legend_area
-                .draw(&PathElement::new(vec![(8, y), (32, y)], color))
-                .map_err(err)?;
-            legend_area
-                .draw(&Text::new(
-                    name.as_str(),
-                    (40, y - 7),
-                    ("sans-serif", 14).into_font().color(&BLACK),
-                ))
-                .map_err(err)?;
-        }
+        draw_legend(&legend_area, self.series.iter().map(|(n, _)| n.as_str())).map_err(err)?;
         root.present().map_err(err)?;
         Ok(())
     }

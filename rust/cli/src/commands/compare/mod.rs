@@ -1,0 +1,112 @@
+//! `antumbra compare`: several methods on the same frames of any scene (built-in, OBJ/glTF, a
+//! recording), their answers checked against the baseline's, their work counted and their time
+//! measured fairly, written as one report folder (see `docs/compare.md`).
+
+mod diff_maps;
+mod html;
+mod report;
+
+use std::path::PathBuf;
+
+use antumbra_core::compare::{default_methods, CompareRow, Comparison, MethodSpec, Mismatch};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::method_args::MethodArgs;
+use crate::scene_args::{frame_at_size, SceneArgs};
+use diff_maps::DiffMaps;
+pub use report::Report;
+
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// A method, LABEL=NAME=VALUE,... with the settings' own names (docs/settings.md), e.g.
+    /// `osah8=build=osah,visibility=previous,width=8,order=sorted`; repeat for more. Default:
+    /// base (binary SAH, front to back), sato8, sorted8, osah8, srdh.
+    #[arg(long = "method", value_name = "LABEL=SETTINGS", value_parser = parse_method)]
+    pub methods: Vec<MethodSpec>,
+    /// The label the others are checked and measured against (default: the first method).
+    #[arg(long)]
+    pub baseline: Option<String>,
+    /// Timed passes per method and frame, interleaved across methods.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
+    /// Output folder: compare.csv, compare.json, summary.md, report.html, plots/, diff/.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Settings every method shares (a method's own settings win), e.g. `--spp 16`.
+    #[command(flatten)]
+    pub common: MethodArgs,
+}
+
+fn parse_method(text: &str) -> Result<MethodSpec, String> {
+    text.parse()
+        .map_err(|e: antumbra_core::Error| e.to_string())
+}
+
+pub fn run(args: CompareArgs) -> Result<()> {
+    let specs = if args.methods.is_empty() {
+        default_methods()
+    } else {
+        args.methods.clone()
+    };
+    let mut comparison = Comparison::new(
+        &specs,
+        &args.common.named,
+        args.baseline.as_deref(),
+        args.repeat,
+    )?;
+    let open = args.scene.open()?;
+    let animation = open.animation.as_ref();
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let frames = open.frames.clone().count();
+    let bar = ProgressBar::new(frames as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {msg}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(format!("compare {}", animation.name()));
+    let mut rows: Vec<CompareRow> = Vec::new();
+    let mut mismatches: Vec<Mismatch> = Vec::new();
+    let mut diffs = DiffMaps::new(&args.out, comparison.baseline());
+    for frame in open.frames.clone() {
+        let scene = frame_at_size(animation, frame, open.size);
+        let result = comparison
+            .frame(animation.name(), &scene)
+            .with_context(|| format!("frame {frame}"))?;
+        diffs.add(&result)?;
+        for m in result.methods {
+            rows.extend(m.rows);
+        }
+        mismatches.extend(result.mismatches);
+        bar.set_message(format!("frame {frame}"));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let report = Report {
+        scene: animation.name(),
+        comparison: &comparison,
+        repeat: args.repeat,
+        rows: &rows,
+        mismatches: &mismatches,
+        diffs: &diffs,
+    };
+    report.write(&args.out)?;
+    println!("{}", report.terminal_table());
+    println!("wrote {}", args.out.display());
+    if !mismatches.is_empty() {
+        let lines: Vec<String> = mismatches.iter().take(20).map(|m| m.to_string()).collect();
+        bail!(
+            "{} answers differ from the baseline '{}':\n  {}{}",
+            mismatches.len(),
+            comparison.baseline(),
+            lines.join("\n  "),
+            if mismatches.len() > 20 { "\n  ..." } else { "" }
+        );
+    }
+    Ok(())
+}

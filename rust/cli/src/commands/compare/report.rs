@@ -1,0 +1,421 @@
+//! The comparison's report folder: `compare.csv` (long form), `compare.json`, `summary.md`,
+//! `plots/*.svg` and `report.html`. The summary tables are made once ([`Table`]) and printed as
+//! Markdown, HTML and on the terminal.
+
+use std::path::Path;
+
+use antumbra_core::atomic_file::write_bytes_atomic;
+use antumbra_core::compare::{
+    pass_summaries, time_summaries, to_csv, CompareRow, Comparison, Figures, JsonRow, Mismatch,
+    PassSummary, TimeSummary,
+};
+use anyhow::{Context, Result};
+use serde::Serialize;
+
+use super::diff_maps::DiffMaps;
+use super::html;
+use crate::plots::{LinePlot, ParetoPlot, StackedBars};
+
+/// Everything a comparison produced.
+pub struct Report<'a> {
+    pub scene: &'a str,
+    pub comparison: &'a Comparison,
+    pub repeat: usize,
+    pub rows: &'a [CompareRow],
+    pub mismatches: &'a [Mismatch],
+    pub diffs: &'a DiffMaps,
+}
+
+/// A table with a title, a header and rows of text.
+pub struct Table {
+    pub title: String,
+    pub note: String,
+    pub header: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    pub fn markdown(&self) -> String {
+        let mut s = format!("## {}\n\n{}\n\n", self.title, self.note);
+        s += &format!("| {} |\n", self.header.join(" | "));
+        s += &format!("|{}\n", "---|".repeat(self.header.len()));
+        for r in &self.rows {
+            s += &format!("| {} |\n", r.join(" | "));
+        }
+        s
+    }
+
+    pub fn plain(&self) -> String {
+        let widths: Vec<usize> = (0..self.header.len())
+            .map(|c| {
+                self.rows
+                    .iter()
+                    .map(|r| r[c].len())
+                    .chain([self.header[c].len()])
+                    .max()
+                    .unwrap_or(0)
+            })
+            .collect();
+        let line = |cells: &[String]| {
+            cells
+                .iter()
+                .zip(&widths)
+                .map(|(c, w)| format!("{c:>w$}"))
+                .collect::<Vec<_>>()
+                .join("  ")
+        };
+        let mut s = format!("{}\n{}\n", self.title, line(&self.header));
+        for r in &self.rows {
+            s += &line(r);
+            s += "\n";
+        }
+        s
+    }
+}
+
+fn f2(x: f64) -> String {
+    format!("{x:.2}")
+}
+
+fn f3(x: f64) -> String {
+    format!("{x:.3}")
+}
+
+#[derive(Serialize)]
+struct JsonMethod<'a> {
+    label: &'a str,
+    spec: String,
+    method: String,
+    settings: antumbra_core::settings::NamedSettings,
+}
+
+#[derive(Serialize)]
+struct JsonMismatch<'a> {
+    frame: i32,
+    label: &'a str,
+    what: &'a str,
+    pixels: usize,
+}
+
+#[derive(Serialize)]
+struct JsonReport<'a> {
+    scene: &'a str,
+    baseline: &'a str,
+    repeat: usize,
+    methods: Vec<JsonMethod<'a>>,
+    mismatches: Vec<JsonMismatch<'a>>,
+    passes: &'a [PassSummary],
+    times: &'a [TimeSummary],
+    rows: Vec<JsonRow<'a>>,
+}
+
+impl Report<'_> {
+    fn figures(&self) -> Figures {
+        Figures::new(self.rows)
+    }
+
+    fn frame_span(&self) -> String {
+        let first = self.rows.iter().map(|r| r.stats.frame).min().unwrap_or(0);
+        let last = self.rows.iter().map(|r| r.stats.frame).max().unwrap_or(0);
+        if first == last {
+            format!("frame {first}")
+        } else {
+            format!("frames {first}-{last}")
+        }
+    }
+
+    pub fn write(&self, out: &Path) -> Result<()> {
+        let specs = self.comparison.specs();
+        let spec_of = |label: &str| {
+            specs
+                .iter()
+                .find(|s| s.label == label)
+                .map(|s| s.to_string())
+                .unwrap_or_default()
+        };
+        write_bytes_atomic(
+            &out.join("compare.csv"),
+            to_csv(self.rows, &spec_of).as_bytes(),
+        )?;
+        let figures = self.figures();
+        let baseline = self.comparison.baseline();
+        let passes = pass_summaries(&figures, baseline);
+        let times = time_summaries(&figures, baseline);
+        let json = JsonReport {
+            scene: self.scene,
+            baseline,
+            repeat: self.repeat,
+            methods: specs
+                .iter()
+                .zip(self.comparison.settings())
+                .map(|(s, settings)| JsonMethod {
+                    label: &s.label,
+                    spec: s.to_string(),
+                    method: settings.method_name(),
+                    settings: settings.to_named(),
+                })
+                .collect(),
+            mismatches: self
+                .mismatches
+                .iter()
+                .map(|m| JsonMismatch {
+                    frame: m.frame,
+                    label: &m.label,
+                    what: &m.what,
+                    pixels: m.pixels,
+                })
+                .collect(),
+            passes: &passes,
+            times: &times,
+            rows: self.rows.iter().map(JsonRow::from).collect(),
+        };
+        let text = serde_json::to_string_pretty(&json)?;
+        write_bytes_atomic(&out.join("compare.json"), text.as_bytes())?;
+        let tables = self.tables(&passes, &times);
+        let mut md = format!("# {}\n\n{}\n\n", self.heading(), self.verdict());
+        for t in &tables {
+            md += &t.markdown();
+            md += "\n";
+        }
+        write_bytes_atomic(&out.join("summary.md"), md.as_bytes())?;
+        let plots = self.plots(&figures, &times)?;
+        let dir = out.join("plots");
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        for (name, _, svg) in &plots {
+            write_bytes_atomic(&dir.join(format!("{name}.svg")), svg.as_bytes())?;
+        }
+        let page = html::page(
+            &self.heading(),
+            &self.verdict(),
+            &tables,
+            &plots,
+            self.diffs,
+            out,
+        )?;
+        write_bytes_atomic(&out.join("report.html"), page.as_bytes())?;
+        Ok(())
+    }
+
+    fn heading(&self) -> String {
+        format!(
+            "antumbra compare: {}, {}, {} timed passes per method and frame",
+            self.scene,
+            self.frame_span(),
+            self.repeat
+        )
+    }
+
+    fn verdict(&self) -> String {
+        if self.mismatches.is_empty() {
+            format!(
+                "Every method's shadow masks and primary hits equal the baseline's ('{}') bit for \
+                 bit on every frame.",
+                self.comparison.baseline()
+            )
+        } else {
+            format!(
+                "{} answers differ from the baseline ('{}'): {}",
+                self.mismatches.len(),
+                self.comparison.baseline(),
+                self.mismatches
+                    .iter()
+                    .take(5)
+                    .map(|m| m.to_string())
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            )
+        }
+    }
+
+    /// The summary tables: methods, work per pass kind, time per frame.
+    pub fn tables(&self, passes: &[PassSummary], times: &[TimeSummary]) -> Vec<Table> {
+        let mut tables = vec![Table {
+            title: "Methods".into(),
+            note: "Settings not named take their defaults (docs/settings.md).".into(),
+            header: vec!["label".into(), "settings".into(), "method".into()],
+            rows: self
+                .comparison
+                .specs()
+                .iter()
+                .zip(self.comparison.settings())
+                .map(|(s, st)| vec![s.label.clone(), format!("`{s}`"), st.method_name()])
+                .collect(),
+        }];
+        for pass in ["shadow", "primary"] {
+            let rows: Vec<Vec<String>> = passes
+                .iter()
+                .filter(|p| p.pass == pass)
+                .map(|p| {
+                    let mut r = vec![p.label.clone(), p.rays.to_string()];
+                    r.extend(p.per_ray.iter().map(|v| f2(*v)));
+                    r.extend(p.ratio.iter().map(|v| f3(*v)));
+                    r.extend(p.mean_frame_ratio.iter().map(|v| f3(*v)));
+                    r.push(f2(p.trace_ms));
+                    r.push(f2(p.mrays_per_s));
+                    r
+                })
+                .collect();
+            if rows.is_empty() {
+                continue;
+            }
+            let mut header: Vec<String> = vec!["method".into(), "rays".into()];
+            for group in ["", " ratio", " mean ratio"] {
+                for n in ["N_B", "N_L", "N_T", "N_box"] {
+                    header.push(format!("{n}{group}"));
+                }
+            }
+            header.push("trace ms".into());
+            header.push("Mrays/s".into());
+            tables.push(Table {
+                title: format!(
+                    "{} rays",
+                    if pass == "shadow" {
+                        "Shadow"
+                    } else {
+                        "Primary"
+                    }
+                ),
+                note: "Work per ray over every frame (and every light); ratio: to the \
+                       baseline's over all rays; mean ratio: the mean of the per-frame ratios. \
+                       Trace ms: per frame, the median of the timed passes."
+                    .into(),
+                header,
+                rows,
+            });
+        }
+        tables.push(Table {
+            title: "Time per frame".into(),
+            note: "Means over frames of the medians of the timed passes (counters compiled \
+                   out, interleaved across methods). Build and rest: the frame less per-light \
+                   preparation and tracing (BVH build or reuse, visible sets, combining)."
+                .into(),
+            header: [
+                "method",
+                "build and rest ms",
+                "preparation ms",
+                "trace ms",
+                "frame ms",
+                "frame ratio",
+            ]
+            .map(String::from)
+            .to_vec(),
+            rows: times
+                .iter()
+                .map(|t| {
+                    vec![
+                        t.label.clone(),
+                        f2(t.build_ms),
+                        f2(t.prep_ms),
+                        f2(t.trace_ms),
+                        f2(t.frame_ms),
+                        f3(t.frame_ratio),
+                    ]
+                })
+                .collect(),
+        });
+        tables
+    }
+
+    /// The time table and the shadow work ratios, for the terminal.
+    pub fn terminal_table(&self) -> String {
+        let figures = self.figures();
+        let baseline = self.comparison.baseline();
+        let passes = pass_summaries(&figures, baseline);
+        let times = time_summaries(&figures, baseline);
+        let tables = self.tables(&passes, &times);
+        let mut s = format!("{}\n{}\n\n", self.heading(), self.verdict());
+        for t in tables
+            .iter()
+            .filter(|t| t.title != "Methods" && t.title != "Primary rays")
+        {
+            s += &t.plain();
+            s += "\n";
+        }
+        s
+    }
+
+    /// `(file stem, caption, svg)` of every plot.
+    fn plots(
+        &self,
+        figures: &Figures,
+        times: &[TimeSummary],
+    ) -> Result<Vec<(String, String, String)>> {
+        let labels: Vec<&str> = figures.labels.iter().map(|(l, _)| l.as_str()).collect();
+        let first = self.rows.iter().map(|r| r.stats.frame).min().unwrap_or(0);
+        let curve = |f: &dyn Fn(&antumbra_core::compare::FrameFigures) -> f64| {
+            labels
+                .iter()
+                .map(|l| (l.to_string(), figures.of(l).map(|(_, x)| f(x)).collect()))
+                .collect::<Vec<(String, Vec<f64>)>>()
+        };
+        let shadow_nb = curve(&|x| x.work.get("shadow").map_or(0.0, |w| w.per_ray()[0]));
+        let frame_ms = curve(&|x| x.frame_ms);
+        let mut plots = vec![
+            (
+                "shadow_nb".to_string(),
+                "Shadow rays: interior nodes entered per ray (N_B), per frame".to_string(),
+                LinePlot {
+                    title: "shadow N_B per ray",
+                    y_label: "N_B per ray",
+                    first_frame: first,
+                    series: &shadow_nb,
+                }
+                .svg(900, 420)?,
+            ),
+            (
+                "frame_ms".to_string(),
+                "Frame time per method (median of the timed passes), per frame".to_string(),
+                LinePlot {
+                    title: "frame time",
+                    y_label: "ms",
+                    first_frame: first,
+                    series: &frame_ms,
+                }
+                .svg(900, 420)?,
+            ),
+        ];
+        let bars: Vec<(String, Vec<f64>)> = times
+            .iter()
+            .map(|t| (t.label.clone(), vec![t.build_ms, t.prep_ms, t.trace_ms]))
+            .collect();
+        plots.push((
+            "time_parts".into(),
+            "Mean frame time split into build (and the rest), per-light preparation and trace"
+                .into(),
+            StackedBars {
+                title: "time per frame",
+                y_label: "ms",
+                parts: &["build and rest", "preparation", "trace"],
+                bars: &bars,
+            }
+            .svg(900, 420)?,
+        ));
+        // Work: nodes entered (N_B + N_L) per ray over every ray of every pass.
+        let points: Vec<(String, (f64, f64))> = times
+            .iter()
+            .map(|t| {
+                let (mut visits, mut rays) = (0.0, 0u64);
+                for (_, f) in figures.of(&t.label) {
+                    for w in f.work.values() {
+                        visits += w.nb + w.nl;
+                        rays += w.rays;
+                    }
+                }
+                (t.label.clone(), (visits / rays.max(1) as f64, t.frame_ms))
+            })
+            .collect();
+        plots.push((
+            "pareto".into(),
+            "Frame time against work (nodes entered per ray, all rays); filled: the Pareto front"
+                .into(),
+            ParetoPlot {
+                title: "time against work",
+                x_label: "nodes entered per ray",
+                y_label: "ms per frame",
+                points: &points,
+            }
+            .svg(900, 420)?,
+        ));
+        Ok(plots)
+    }
+}

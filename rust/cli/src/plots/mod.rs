@@ -1,0 +1,42 @@
+//! Plots as SVG, drawn with plotters: the viewer renders the text, so no font is needed here.
+//! Every plot keeps its legend in a column of its own right of the chart, so it never covers
+//! a mark, and colours series by their index in the same palette.
+
+mod bars;
+mod line;
+mod pareto;
+
+pub use bars::StackedBars;
+pub use line::LinePlot;
+pub use pareto::{pareto_front, ParetoPlot};
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// Width of the legend column right of the plot.
+const LEGEND_WIDTH: u32 = 220;
+
+/// Series `i`'s colour.
+fn colour(i: usize) -> PaletteColor<Palette99> {
+    Palette99::pick(i)
+}
+
+/// A line of each name's colour and the name, one per row.
+fn draw_legend<'a, DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    names: impl Iterator<Item = &'a str>,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    for (i, name) in names.enumerate() {
+        let y = 50 + 22 * i as i32;
+        area.draw(&PathElement::new(
+            vec![(8, y), (32, y)],
+            colour(i).stroke_width(2),
+        ))?;
+        area.draw(&Text::new(
+            name,
+            (40, y - 7),
+            ("sans-serif", 14).into_font().color(&BLACK),
+        ))?;
+    }
+    Ok(())
+}

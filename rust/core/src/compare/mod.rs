@@ -1,0 +1,15 @@
+//! Comparing methods on the same frames: labelled methods ([`MethodSpec`]), the run that
+//! renders every frame with each, checks their answers against the baseline's and times them
+//! fairly ([`Comparison`]), and the summary tables in the papers' forms.
+
+mod method;
+mod run;
+mod summary;
+mod tables;
+
+pub use method::{default_methods, MethodSpec, DEFAULT_METHODS};
+pub use run::{CompareRow, Comparison, FrameComparison, MethodFrame, Mismatch, Timing};
+pub use summary::{
+    pass_summaries, time_summaries, Figures, FrameFigures, PassSummary, TimeSummary, Work,
+};
+pub use tables::{columns, to_csv, JsonRow};

@@ -1,0 +1,331 @@
+//! Runs several methods over the same frames, each keeping its own state across frames (so
+//! OSAH from the previous frame and tree reuse behave as in a real animation): one counted pass
+//! per method and frame for the work, whose answers are checked against the baseline's, then
+//! `repeat` timed passes with counters compiled out, interleaved across methods (A B C A B C)
+//! so that machine drift hits every method alike.
+
+use std::time::Instant;
+
+use super::method::MethodSpec;
+use crate::image::ImagePlane;
+use crate::render::{FrameResult, RenderSettings, Renderer, StatsMode};
+use crate::scene::Scene;
+use crate::settings::NamedSettings;
+use crate::stats::StatsRow;
+use crate::{Error, Result};
+
+/// A time measured `repeat` times: median and spread.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timing {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Timing {
+    pub fn of(samples: &[f64]) -> Timing {
+        if samples.is_empty() {
+            return Timing::default();
+        }
+        let mut s = samples.to_vec();
+        s.sort_by(f64::total_cmp);
+        let n = s.len();
+        let median = if n % 2 == 1 {
+            s[n / 2]
+        } else {
+            0.5 * (s[n / 2 - 1] + s[n / 2])
+        };
+        Timing {
+            median,
+            min: s[0],
+            max: s[n - 1],
+        }
+    }
+}
+
+/// One pass (primary, or one light's shadow pass) of one method on one frame: the counted
+/// pass's statistics with its timing columns replaced by the medians of the timed passes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CompareRow {
+    pub label: String,
+    pub stats: StatsRow,
+    pub build_ms: Timing,
+    pub sort_ms: Timing,
+    pub trace_ms: Timing,
+    /// The whole frame of this method (build, preparation, every pass, combine).
+    pub frame_ms: Timing,
+}
+
+/// A method whose answers differ from the baseline's on a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mismatch {
+    pub frame: i32,
+    pub label: String,
+    /// `light 'NAME'` or `primary ids`.
+    pub what: String,
+    pub pixels: usize,
+}
+
+impl std::fmt::Display for Mismatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(
+            f,
+            "frame {}: method '{}' differs from the baseline on {}: {} pixels",
+            self.frame, self.label, self.what, self.pixels
+        )
+    }
+}
+
+/// One method's result on one frame.
+pub struct MethodFrame {
+    pub label: String,
+    pub rows: Vec<CompareRow>,
+    /// The counted pass's images (masks, heat maps, primary ids).
+    pub result: FrameResult,
+}
+
+/// Every method on one frame.
+pub struct FrameComparison {
+    pub frame: i32,
+    pub methods: Vec<MethodFrame>,
+    pub mismatches: Vec<Mismatch>,
+}
+
+struct Method {
+    spec: MethodSpec,
+    settings: RenderSettings,
+    renderer: Renderer,
+}
+
+/// The methods of a comparison and their state across frames.
+pub struct Comparison {
+    methods: Vec<Method>,
+    baseline: usize,
+    repeat: usize,
+}
+
+impl Comparison {
+    /// `common` holds the settings every method shares (spp, seed); `baseline` is a label
+    /// (default: the first method); `repeat` timed passes per method and frame (at least 1).
+    pub fn new(
+        specs: &[MethodSpec],
+        common: &NamedSettings,
+        baseline: Option<&str>,
+        repeat: usize,
+    ) -> Result<Self> {
+        if specs.is_empty() {
+            return Err(Error::invalid(
+                "method",
+                "a comparison needs at least one method",
+            ));
+        }
+        if repeat == 0 {
+            return Err(Error::invalid("repeat", "must be at least 1"));
+        }
+        let mut methods: Vec<Method> = Vec::new();
+        for spec in specs {
+            if methods.iter().any(|m| m.spec.label == spec.label) {
+                return Err(Error::invalid(
+                    "method",
+                    format!("the label '{}' is used twice", spec.label),
+                ));
+            }
+            methods.push(Method {
+                settings: spec.resolve(common)?,
+                spec: spec.clone(),
+                renderer: Renderer::new(),
+            });
+        }
+        let baseline = match baseline {
+            None => 0,
+            Some(label) => methods
+                .iter()
+                .position(|m| m.spec.label == label)
+                .ok_or_else(|| {
+                    Error::invalid(
+                        "baseline",
+                        format!("'{label}' is not the label of a method"),
+                    )
+                })?,
+        };
+        Ok(Comparison {
+            methods,
+            baseline,
+            repeat,
+        })
+    }
+
+    pub fn labels(&self) -> Vec<&str> {
+        self.methods.iter().map(|m| m.spec.label.as_str()).collect()
+    }
+
+    pub fn specs(&self) -> Vec<&MethodSpec> {
+        self.methods.iter().map(|m| &m.spec).collect()
+    }
+
+    /// The resolved settings of each method, in order.
+    pub fn settings(&self) -> Vec<&RenderSettings> {
+        self.methods.iter().map(|m| &m.settings).collect()
+    }
+
+    pub fn baseline(&self) -> &str {
+        &self.methods[self.baseline].spec.label
+    }
+
+    /// Renders `scene` with every method: the counted pass (advancing each method's state),
+    /// the check against the baseline, then the interleaved timed passes, each from a copy of
+    /// the method's state before this frame so that it builds and prepares what the counted
+    /// pass did.
+    pub fn frame(&mut self, scene_name: &str, scene: &Scene) -> Result<FrameComparison> {
+        let before: Vec<Renderer> = self.methods.iter().map(|m| m.renderer.clone()).collect();
+        let mut counted = Vec::with_capacity(self.methods.len());
+        for m in &mut self.methods {
+            let settings = with_stats(&m.settings, StatsMode::Counts);
+            counted.push(
+                m.renderer
+                    .render(scene_name, scene, &settings)
+                    .map_err(|e| in_method(&m.spec.label, e))?,
+            );
+        }
+        let frame = scene.frame;
+        let mismatches = self.check(frame, &counted);
+        let mut timed: Vec<Vec<(f64, Vec<StatsRow>)>> = vec![Vec::new(); self.methods.len()];
+        for _ in 0..self.repeat {
+            for (i, m) in self.methods.iter().enumerate() {
+                let mut renderer = before[i].clone();
+                let settings = with_stats(&m.settings, StatsMode::TimingOnly);
+                let started = Instant::now();
+                let result = renderer
+                    .render(scene_name, scene, &settings)
+                    .map_err(|e| in_method(&m.spec.label, e))?;
+                let ms = started.elapsed().as_secs_f64() * 1e3;
+                timed[i].push((ms, result.stats));
+            }
+        }
+        let methods = self
+            .methods
+            .iter()
+            .zip(counted)
+            .zip(timed)
+            .map(|((m, result), timed)| MethodFrame {
+                label: m.spec.label.clone(),
+                rows: merge_rows(&m.spec.label, &result.stats, &timed),
+                result,
+            })
+            .collect();
+        Ok(FrameComparison {
+            frame,
+            methods,
+            mismatches,
+        })
+    }
+
+    /// Every method's masks and primary ids against the baseline's, bit for bit.
+    fn check(&self, frame: i32, results: &[FrameResult]) -> Vec<Mismatch> {
+        let base = &results[self.baseline];
+        let mut out = Vec::new();
+        for (m, r) in self.methods.iter().zip(results) {
+            let mut differ = |what: String, pixels: usize| {
+                if pixels > 0 {
+                    out.push(Mismatch {
+                        frame,
+                        label: m.spec.label.clone(),
+                        what,
+                        pixels,
+                    });
+                }
+            };
+            for (a, b) in r.masks.iter().zip(&base.masks) {
+                differ(format!("light '{}'", a.name), differing_pixels(a, b));
+            }
+            if r.masks.len() != base.masks.len() {
+                differ(
+                    "the number of lights".into(),
+                    r.width as usize * r.height as usize,
+                );
+            }
+            let ids = r
+                .primary_ids
+                .iter()
+                .zip(&base.primary_ids)
+                .filter(|(a, b)| a != b)
+                .count()
+                + r.primary_ids.len().abs_diff(base.primary_ids.len());
+            differ("primary ids".into(), ids);
+        }
+        out
+    }
+}
+
+fn with_stats(settings: &RenderSettings, stats: StatsMode) -> RenderSettings {
+    RenderSettings {
+        stats,
+        ..settings.clone()
+    }
+}
+
+fn in_method(label: &str, e: Error) -> Error {
+    Error::invalid(format!("method '{label}'"), e.to_string())
+}
+
+/// Pixels whose values differ in their bits (so -0 and 0, or two NaNs of other payloads, count).
+fn differing_pixels(a: &ImagePlane, b: &ImagePlane) -> usize {
+    a.data
+        .iter()
+        .zip(&b.data)
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count()
+        + a.data.len().abs_diff(b.data.len())
+}
+
+/// The counted rows with the timed passes' medians in their timing columns. The timed passes
+/// produce the same rows in the same order (same passes, same lights).
+fn merge_rows(
+    label: &str,
+    counted: &[StatsRow],
+    timed: &[(f64, Vec<StatsRow>)],
+) -> Vec<CompareRow> {
+    let frame_ms = Timing::of(&timed.iter().map(|(ms, _)| *ms).collect::<Vec<_>>());
+    counted
+        .iter()
+        .enumerate()
+        .map(|(i, row)| {
+            let column = |f: fn(&StatsRow) -> f64| {
+                Timing::of(
+                    &timed
+                        .iter()
+                        .filter_map(|(_, rows)| rows.get(i).map(f))
+                        .collect::<Vec<_>>(),
+                )
+            };
+            let build_ms = column(|r| r.build_ms);
+            let sort_ms = column(|r| r.sort_ms);
+            let trace_ms = column(|r| r.trace_ms);
+            let mut stats = row.clone();
+            stats.build_ms = build_ms.median;
+            stats.sort_ms = sort_ms.median;
+            stats.set_timing(trace_ms.median, true);
+            CompareRow {
+                label: label.to_string(),
+                stats,
+                build_ms,
+                sort_ms,
+                trace_ms,
+                frame_ms,
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn medians_and_spread() {
+        let t = Timing::of(&[3.0, 1.0, 2.0]);
+        assert_eq!((t.median, t.min, t.max), (2.0, 1.0, 3.0));
+        assert_eq!(Timing::of(&[4.0, 1.0, 2.0, 3.0]).median, 2.5);
+        assert_eq!(Timing::of(&[]), Timing::default());
+    }
+}
