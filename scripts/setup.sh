@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what antumbra needs on a fresh Debian 12 machine: Embree (the oracle and the speed
 # reference) and Blender 3.4 from Debian, the X/GL client libraries the bpy module needs even
-# headless, Xvfb (a test drives Blender's UI), the Rust toolchain's components, and a Python
+# headless, Xvfb (a test drives Blender's UI), Chromium and its driver (a test opens the
+# comparison report), the Rust toolchain's components, and a Python
 # venv (.venv) with the tools that build and test the Python client and the bpy 5.0.1 module.
 # Safe to run again.
 set -euo pipefail
@@ -10,7 +11,7 @@ cd "$(dirname "$0")/.."
 need_apt=()
 for pkg in libembree-dev blender python3-numpy \
   libx11-6 libxrender1 libxfixes3 libxi6 libxkbcommon0 libsm6 libice6 libgl1 libxext6 libxt6 \
-  libxcb1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xauth; do
+  libxcb1 libegl1 libegl-mesa0 libgl1-mesa-dri xvfb xauth chromium chromium-driver; do
   dpkg -s "$pkg" >/dev/null 2>&1 || need_apt+=("$pkg")
 done
 if [ ${#need_apt[@]} -gt 0 ]; then
@@ -30,4 +31,4 @@ if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
 .venv/bin/pip install -q --disable-pip-version-check \
-  "maturin==1.16.0" "numpy==1.26.4" "pytest==9.2.0" "ruff==0.17.5" "bpy==5.0.1"
+  "maturin==1.16.0" "numpy==1.26.4" "pytest==9.2.0" "ruff==0.17.5" "bpy==5.0.1" "selenium==4.38.0"

@@ -1,0 +1,206 @@
+//! `antumbra compare` as a user runs it: each method's rows equal that method rendered alone
+//! (counters exact), the answer check fires on a real difference, and the report folder holds
+//! every file it promises.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::{Command, Output};
+
+use antumbra_core::compare::DEFAULT_METHODS;
+use tempfile::TempDir;
+
+fn antumbra() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_antumbra"))
+}
+
+/// A small animated scene with soft lights: three frames of the bedroom.
+const SCENE: [&str; 10] = [
+    "--scene",
+    "bedroom",
+    "--triangles",
+    "3000",
+    "--frames",
+    "1-3",
+    "--size",
+    "40x30",
+    "--spp",
+    "2",
+];
+
+fn ok(out: Output) -> Output {
+    assert!(
+        out.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+type Rows = Vec<BTreeMap<String, String>>;
+
+fn read_csv(path: &Path) -> Rows {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    r.records()
+        .map(|rec| {
+            let rec = rec.unwrap();
+            header
+                .iter()
+                .cloned()
+                .zip(rec.iter().map(String::from))
+                .collect()
+        })
+        .collect()
+}
+
+/// Columns that are measured times (or derived from them), not counts.
+const TIMING: [&str; 6] = [
+    "build_ms",
+    "trace_ms",
+    "mrays_per_s",
+    "timed_without_counters",
+    "sort_ms",
+    "visibility_ms",
+];
+
+#[test]
+fn each_methods_rows_equal_that_method_rendered_alone() {
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path().join("cmp");
+    ok(antumbra()
+        .arg("compare")
+        .args(SCENE)
+        .args(["--repeat", "1", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap());
+    for file in [
+        "compare.csv",
+        "compare.json",
+        "summary.md",
+        "report.html",
+        "plots/shadow_nb.svg",
+        "plots/frame_ms.svg",
+        "plots/time_parts.svg",
+        "plots/pareto.svg",
+        "diff/osah8/frame_0002.png",
+    ] {
+        assert!(out.join(file).is_file(), "{file} missing");
+    }
+    let compared = read_csv(&out.join("compare.csv"));
+    let labels: Vec<&str> = DEFAULT_METHODS
+        .iter()
+        .map(|m| m.split_once('=').unwrap().0)
+        .collect();
+    for (spec, label) in DEFAULT_METHODS.iter().zip(&labels) {
+        // The method alone: its settings as `render` flags.
+        let mut flags = Vec::new();
+        for kv in spec.split_once('=').unwrap().1.split(',') {
+            let (k, v) = kv.split_once('=').unwrap();
+            flags.push(format!("--{}={v}", k.replace('_', "-")));
+        }
+        let alone = tmp.path().join(label);
+        ok(antumbra()
+            .arg("render")
+            .args(SCENE)
+            .args(&flags)
+            .arg("--out")
+            .arg(&alone)
+            .output()
+            .unwrap());
+        let alone = read_csv(&alone.join("stats.csv"));
+        let mine: Rows = compared
+            .iter()
+            .filter(|r| r["label"] == *label)
+            .cloned()
+            .collect();
+        assert_eq!(mine.len(), alone.len(), "{label}: row count");
+        assert!(!mine.is_empty());
+        for (c, a) in mine.iter().zip(&alone) {
+            for (column, value) in a {
+                if TIMING.contains(&column.as_str()) {
+                    continue;
+                }
+                assert_eq!(
+                    &c[column], value,
+                    "{label}: frame {} {} {}: column {column}",
+                    a["frame"], a["pass"], a["light"]
+                );
+            }
+            assert_eq!(c["timed_without_counters"], "true");
+        }
+    }
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("bit for bit on every frame"), "{summary}");
+    for label in &labels {
+        assert!(
+            summary.contains(&format!("| {label} |")),
+            "{label} in summary"
+        );
+    }
+}
+
+#[test]
+fn a_real_difference_fails_naming_frame_light_method_and_pixels() {
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path().join("cmp");
+    // Another seed draws other soft-shadow samples: the masks really differ.
+    let run = antumbra()
+        .arg("compare")
+        .args(SCENE)
+        .args(["--method", "a=seed=0", "--method", "b=seed=7"])
+        .args(["--repeat", "1", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("differ from the baseline 'a'"), "{err}");
+    let line = err
+        .lines()
+        .find(|l| l.contains("method 'b'"))
+        .unwrap_or_else(|| panic!("no line names method b: {err}"));
+    assert!(line.contains("frame 1:"), "{line}");
+    assert!(line.contains("light '"), "{line}");
+    assert!(line.contains(" pixels"), "{line}");
+    let pixels: usize = line
+        .rsplit(": ")
+        .next()
+        .unwrap()
+        .trim_end_matches(" pixels")
+        .parse()
+        .unwrap();
+    assert!(pixels > 0 && pixels <= 40 * 30, "{line}");
+    // The report is still written, and says so.
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("answers differ"), "{summary}");
+}
+
+#[test]
+fn bad_methods_are_refused_before_any_work() {
+    let tmp = TempDir::new().unwrap();
+    for (args, expected) in [
+        (vec!["--method", "x=widht=8"], "'widht' is not a setting"),
+        (
+            vec!["--method", "x=width=8", "--method", "x=width=4"],
+            "used twice",
+        ),
+        (
+            vec!["--method", "x=width=8", "--baseline", "y"],
+            "'y' is not the label",
+        ),
+    ] {
+        let run = antumbra()
+            .arg("compare")
+            .args(SCENE)
+            .args(&args)
+            .arg("--out")
+            .arg(tmp.path())
+            .output()
+            .unwrap();
+        assert!(!run.status.success());
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(err.contains(expected), "{args:?}: {err}");
+    }
+}
