@@ -17,9 +17,6 @@ use crate::listen::{bind_tcp, bind_unix, BoundUnix, Conn};
 use crate::shared::{bump, Shared};
 use crate::{lock, session, spool};
 
-/// Connections served at once; more are refused with `Busy`.
-const MAX_SESSIONS: u64 = 256;
-
 /// A daemon whose sockets are bound; [`run`](Daemon::run) serves until it is stopped.
 pub struct Daemon {
     shared: Arc<Shared>,
@@ -269,11 +266,12 @@ impl Daemon {
                 return;
             }
         };
-        if shared.counters.sessions_live.load(Ordering::Relaxed) >= MAX_SESSIONS {
-            tracing::warn!(max = MAX_SESSIONS, peer = %conn.peer(), "too many sessions; refusing");
+        let max_sessions = shared.config.max_sessions;
+        if shared.counters.sessions_live.load(Ordering::Relaxed) >= max_sessions {
+            tracing::warn!(max = max_sessions, peer = %conn.peer(), "too many sessions; refusing");
             let reply = antumbra_protocol::Reply::Error {
                 code: antumbra_protocol::ErrorCode::Busy,
-                message: format!("the daemon already serves {MAX_SESSIONS} sessions"),
+                message: format!("the daemon already serves {max_sessions} sessions"),
                 session_usable: false,
                 request_id: None,
             };

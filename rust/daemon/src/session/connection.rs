@@ -13,14 +13,11 @@ use super::out::error_reply;
 use super::{recording_path, End, Flow, Next, Session};
 use crate::listen::{constant_time_eq, Conn};
 
-/// How long a TCP client has to send its Hello.
-const HANDSHAKE_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
-
 impl Session<'_> {
     pub(super) fn serve(&mut self, reader: &mut BufReader<Conn>) -> End {
         // A TCP peer must authenticate promptly; a local client may idle before Hello.
         if self.tcp {
-            let _ = reader.get_ref().set_read_timeout(Some(HANDSHAKE_TIMEOUT));
+            let _ = reader.get_ref().set_read_timeout(Some(self.shared.config.handshake_timeout));
         }
         if let Some(end) = self.handshake(reader) {
             return end;
