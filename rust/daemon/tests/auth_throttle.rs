@@ -68,7 +68,10 @@ fn failed_tokens_from_one_address_are_slowed_down_and_logged_once_per_burst() {
         }
     }
     // Three free tries, then a wait that doubles with each failure (up to 2 s).
-    assert!(held_off > 0, "no attempt was held off ({tried} tokens tried)");
+    assert!(
+        held_off > 0,
+        "no attempt was held off ({tried} tokens tried)"
+    );
     assert!(tried < 10, "{tried} of {attempts} tokens were tried");
     // Once the wait is over, the right token gets in.
     let deadline = Instant::now() + Duration::from_secs(10);
