@@ -58,6 +58,25 @@ impl Daemon {
                 "--max-renders must be at least 1".into(),
             ));
         }
+        if config.max_sessions == 0 || config.max_pending_handshakes == 0 {
+            return Err(DaemonError::Config(
+                "--max-sessions and --max-pending-handshakes must be at least 1".into(),
+            ));
+        }
+        if config.handshake_timeout.is_zero() {
+            return Err(DaemonError::Config(
+                "--handshake-timeout-s must be more than 0".into(),
+            ));
+        }
+        // A Hello carries the token, the client's name and a few field names.
+        let token_len = config.token.as_ref().map_or(0, |t| t.len() as u64);
+        if token_len + 1024 > config.handshake_max_frame_bytes {
+            return Err(DaemonError::Config(format!(
+                "handshake_max_frame_bytes ({}) leaves no room for a Hello with the {token_len}-byte \
+                 token; use a shorter token or a larger limit",
+                config.handshake_max_frame_bytes
+            )));
+        }
         if let Some(dir) = &config.record {
             std::fs::create_dir_all(dir)
                 .map_err(|e| DaemonError::path(dir, format!("cannot create: {e}")))?;

@@ -223,3 +223,78 @@ impl Throttle {
         peers.by_ip.retain(|_, p| !quiet(p));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::net::Ipv4Addr;
+
+    fn throttle(allowed: u32) -> Throttle {
+        let mut config = DaemonConfig::new("/nonexistent/socket");
+        config.auth_failures_allowed = allowed;
+        config.auth_backoff = Duration::from_secs(1);
+        config.auth_backoff_max = Duration::from_secs(8);
+        Throttle::new(&config)
+    }
+
+    fn ip(n: u32) -> IpAddr {
+        IpAddr::V4(Ipv4Addr::from(0x7f00_0000 + n))
+    }
+
+    #[test]
+    fn the_wait_doubles_up_to_its_maximum_and_a_success_ends_it() {
+        let t = throttle(3);
+        let t0 = Instant::now();
+        let a = ip(1);
+        for _ in 0..2 {
+            t.failed(a, "wrong token", t0);
+        }
+        assert_eq!(t.check(a, t0), Ok(()));
+        let mut waits = Vec::new();
+        for _ in 0..6 {
+            t.failed(a, "wrong token", t0);
+            waits.push(t.check(a, t0).unwrap_err().as_secs());
+        }
+        assert_eq!(waits, [1, 2, 4, 8, 8, 8]);
+        // Another address is not concerned.
+        assert_eq!(t.check(ip(2), t0), Ok(()));
+        // The wait ends, and a success forgets the failures.
+        assert_eq!(t.check(a, t0 + Duration::from_secs(9)), Ok(()));
+        t.succeeded(a, t0 + Duration::from_secs(9));
+        t.failed(a, "wrong token", t0 + Duration::from_secs(10));
+        assert_eq!(t.check(a, t0 + Duration::from_secs(10)), Ok(()));
+    }
+
+    #[test]
+    fn a_quiet_address_starts_afresh() {
+        let t = throttle(2);
+        let t0 = Instant::now();
+        t.failed(ip(1), "wrong token", t0);
+        let later = t0 + Duration::from_secs(9);
+        t.failed(ip(1), "wrong token", later);
+        assert_eq!(t.check(ip(1), later), Ok(()));
+        // The second failure is summed up; after a window with nothing in it the address goes.
+        t.flush(later + Duration::from_secs(20), false);
+        assert_eq!(lock(&t.peers).by_ip.len(), 1);
+        t.flush(later + Duration::from_secs(40), false);
+        assert!(lock(&t.peers).by_ip.is_empty());
+    }
+
+    #[test]
+    fn a_flood_of_addresses_shares_one_entry_past_the_table_size() {
+        let t = throttle(2);
+        let t0 = Instant::now();
+        let n = MAX_TRACKED_PEERS as u32 + 500;
+        for i in 0..n {
+            t.failed(ip(i), "wrong token", t0);
+        }
+        assert_eq!(lock(&t.peers).by_ip.len(), MAX_TRACKED_PEERS);
+        // The 500 newcomers failed twice together: any new address now waits too.
+        assert!(t.check(ip(n + 1), t0).is_err());
+        assert_eq!(t.check(ip(0), t0), Ok(()));
+        // Once they are quiet the table empties.
+        t.flush(t0 + Duration::from_secs(60), true);
+        assert!(lock(&t.peers).by_ip.is_empty());
+        assert_eq!(t.check(ip(n + 1), t0 + Duration::from_secs(60)), Ok(()));
+    }
+}
