@@ -34,6 +34,24 @@ pub struct DaemonConfig {
     pub write_timeout: Duration,
     /// The name sent in `Welcome`.
     pub server_name: String,
+    /// Sessions served at once: Unix connections, and TCP connections once their `Hello` is
+    /// accepted; more are answered `Busy` and closed.
+    pub max_sessions: u64,
+    /// The largest frame read before a `Hello` is accepted (a `Hello` is a few hundred bytes);
+    /// a larger one is refused from its length prefix and the connection closed.
+    pub handshake_max_frame_bytes: u64,
+    /// How long a TCP client has, from its connection to a valid `Hello`, for all its reads.
+    pub handshake_timeout: Duration,
+    /// TCP connections that may be in their handshake at once; more are closed at once. They
+    /// never hold a session slot, so they cannot keep Unix clients out.
+    pub max_pending_handshakes: usize,
+    /// Failed TCP handshakes (wrong or missing token, ...) one IP address may make before it
+    /// has to wait.
+    pub auth_failures_allowed: u32,
+    /// The first wait after `auth_failures_allowed` failures; each further failure doubles it.
+    pub auth_backoff: Duration,
+    /// The longest wait; an address with no failure for this long starts afresh.
+    pub auth_backoff_max: Duration,
 }
 
 impl DaemonConfig {
@@ -51,6 +69,13 @@ impl DaemonConfig {
             spool_rescan: Duration::from_secs(2),
             write_timeout: Duration::from_secs(120),
             server_name: format!("antumbra-daemon {}", env!("CARGO_PKG_VERSION")),
+            max_sessions: 256,
+            handshake_max_frame_bytes: 64 << 10,
+            handshake_timeout: Duration::from_secs(30),
+            max_pending_handshakes: 16,
+            auth_failures_allowed: 10,
+            auth_backoff: Duration::from_secs(1),
+            auth_backoff_max: Duration::from_secs(60),
         }
     }
 }

@@ -18,6 +18,7 @@
 pub mod cache;
 pub mod config;
 pub mod error;
+mod gate;
 pub mod listen;
 pub mod logging;
 mod server;
@@ -25,6 +26,7 @@ mod session;
 mod shared;
 pub mod slots;
 pub mod spool;
+mod throttle;
 
 use std::sync::{Mutex, MutexGuard};
 

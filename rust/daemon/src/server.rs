@@ -1,7 +1,7 @@
 //! The daemon's front door: binding the sockets, the accept loop that starts a session per
 //! connection, and the orderly stop.
 
-use std::net::{Shutdown, SocketAddr, TcpListener};
+use std::net::{IpAddr, Shutdown, SocketAddr, TcpListener};
 use std::os::fd::AsRawFd;
 use std::path::Path;
 use std::sync::atomic::Ordering;
@@ -9,16 +9,14 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use antumbra_protocol::DaemonStats;
+use antumbra_protocol::{DaemonStats, ErrorCode};
 
 use crate::config::DaemonConfig;
 use crate::error::DaemonError;
+use crate::gate::{self, Admission};
 use crate::listen::{bind_tcp, bind_unix, BoundUnix, Conn};
-use crate::shared::{bump, Shared};
+use crate::shared::Shared;
 use crate::{lock, session, spool};
-
-/// Connections served at once; more are refused with `Busy`.
-const MAX_SESSIONS: u64 = 256;
 
 /// A daemon whose sockets are bound; [`run`](Daemon::run) serves until it is stopped.
 pub struct Daemon {
@@ -59,6 +57,25 @@ impl Daemon {
             return Err(DaemonError::Config(
                 "--max-renders must be at least 1".into(),
             ));
+        }
+        if config.max_sessions == 0 || config.max_pending_handshakes == 0 {
+            return Err(DaemonError::Config(
+                "--max-sessions and --max-pending-handshakes must be at least 1".into(),
+            ));
+        }
+        if config.handshake_timeout.is_zero() {
+            return Err(DaemonError::Config(
+                "--handshake-timeout-s must be more than 0".into(),
+            ));
+        }
+        // A Hello carries the token, the client's name and a few field names.
+        let token_len = config.token.as_ref().map_or(0, |t| t.len() as u64);
+        if token_len + 1024 > config.handshake_max_frame_bytes {
+            return Err(DaemonError::Config(format!(
+                "handshake_max_frame_bytes ({}) leaves no room for a Hello with the {token_len}-byte \
+                 token; use a shorter token or a larger limit",
+                config.handshake_max_frame_bytes
+            )));
         }
         if let Some(dir) = &config.record {
             std::fs::create_dir_all(dir)
@@ -184,6 +201,10 @@ impl Daemon {
                 "sessions still busy after the grace period; leaving them"
             );
         }
+        // What the burst logs still hold.
+        let now = Instant::now();
+        shared.gate.flush(now, true);
+        shared.throttle.flush(now, true);
         drop(spool_lock);
         tracing::info!(stats = ?shared.daemon_stats(), "daemon stopped");
         result
@@ -222,12 +243,15 @@ impl Daemon {
                 return Err(DaemonError::io("poll", e));
             }
             sessions.retain(|t| !t.is_finished());
+            let now = Instant::now();
+            shared.gate.flush(now, false);
+            shared.throttle.flush(now, false);
             if n == 0 {
                 continue;
             }
             loop {
                 match self.unix.listener.accept() {
-                    Ok((s, _)) => self.spawn_session(Conn::Unix(s), sessions, next_id),
+                    Ok((s, _)) => self.spawn_session(Conn::Unix(s), None, sessions, next_id),
                     Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
                     Err(e) => {
                         tracing::warn!(error = %e, "accept failed on the unix socket");
@@ -238,9 +262,9 @@ impl Daemon {
             if let Some((l, _)) = &self.tcp {
                 loop {
                     match l.accept() {
-                        Ok((s, _)) => {
+                        Ok((s, addr)) => {
                             let _ = s.set_nodelay(true);
-                            self.spawn_session(Conn::Tcp(s), sessions, next_id)
+                            self.spawn_session(Conn::Tcp(s), Some(addr.ip()), sessions, next_id)
                         }
                         Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
                         Err(e) => {
@@ -254,7 +278,58 @@ impl Daemon {
         Ok(())
     }
 
-    fn spawn_session(&self, conn: Conn, sessions: &mut Vec<JoinHandle<()>>, next_id: &mut u64) {
+    /// Admits a connection: a Unix one takes a session slot at once; a TCP one from `ip` is
+    /// turned away while its address must wait after failed tokens, or when too many TCP
+    /// connections are in their handshake, and takes a session slot only after its `Hello`.
+    fn admit(&self, conn: Conn, ip: Option<IpAddr>) -> Option<(Conn, Admission)> {
+        let shared = &self.shared;
+        let Some(ip) = ip else {
+            return match gate::admit_session(shared) {
+                Some(slot) => Some((conn, Admission::Session(slot))),
+                None => {
+                    let max = shared.config.max_sessions;
+                    tracing::warn!(max, peer = %conn.peer(), "too many sessions; refusing");
+                    let why = format!("the daemon already serves {max} sessions");
+                    gate::turn_away(conn, ErrorCode::Busy, why);
+                    None
+                }
+            };
+        };
+        let now = Instant::now();
+        if let Err(wait) = shared.throttle.check(ip, now) {
+            let why = format!(
+                "authentication failed: too many failed token attempts from {ip}; try again in \
+                 {:.1} s",
+                wait.as_secs_f64()
+            );
+            gate::turn_away(conn, ErrorCode::InvalidInput, why);
+            return None;
+        }
+        match gate::admit_pending(shared, ip, now) {
+            Some(pending) => Some((conn, Admission::Pending(pending))),
+            None => {
+                let max = shared.config.max_pending_handshakes;
+                shared.gate.refused_pending(ip, max, now);
+                let why = format!(
+                    "the daemon already has {max} TCP connections in their handshake; try again \
+                     later"
+                );
+                gate::turn_away(conn, ErrorCode::Busy, why);
+                None
+            }
+        }
+    }
+
+    fn spawn_session(
+        &self,
+        conn: Conn,
+        ip: Option<IpAddr>,
+        sessions: &mut Vec<JoinHandle<()>>,
+        next_id: &mut u64,
+    ) {
+        let Some((conn, admission)) = self.admit(conn, ip) else {
+            return;
+        };
         let shared = self.shared.clone();
         let id = *next_id;
         *next_id += 1;
@@ -269,39 +344,23 @@ impl Daemon {
                 return;
             }
         };
-        if shared.counters.sessions_live.load(Ordering::Relaxed) >= MAX_SESSIONS {
-            tracing::warn!(max = MAX_SESSIONS, peer = %conn.peer(), "too many sessions; refusing");
-            let reply = antumbra_protocol::Reply::Error {
-                code: antumbra_protocol::ErrorCode::Busy,
-                message: format!("the daemon already serves {MAX_SESSIONS} sessions"),
-                session_usable: false,
-                request_id: None,
-            };
-            if let Ok(bytes) = antumbra_protocol::encode_message(&reply) {
-                let mut conn = conn;
-                let _ = std::io::Write::write_all(&mut conn, &bytes);
-            }
-            return;
-        }
         lock(&shared.sessions).insert(id, waker);
-        bump(&shared.counters.sessions_live);
-        bump(&shared.counters.sessions_total);
         let spawned = std::thread::Builder::new()
             .name(format!("session-{id}"))
             .spawn({
                 let shared = shared.clone();
                 move || {
                     // session::run catches panics per request; this is the last line of defence
-                    // so that the bookkeeping below always runs.
-                    let run = std::panic::AssertUnwindSafe(|| session::run(&shared, conn, id));
-                    if std::panic::catch_unwind(run).is_err() {
+                    // so that the bookkeeping below always runs (the admission is freed when
+                    // dropped, also while unwinding).
+                    let run =
+                        std::panic::AssertUnwindSafe(|| session::run(&shared, conn, id, admission));
+                    let admission = std::panic::catch_unwind(run);
+                    if admission.is_err() {
                         tracing::error!(session = id, "session thread panicked");
                     }
                     lock(&shared.sessions).remove(&id);
-                    shared
-                        .counters
-                        .sessions_live
-                        .fetch_sub(1, Ordering::Relaxed);
+                    drop(admission);
                     // Meshes this session held may now be evictable.
                     shared.cache.trim();
                 }
@@ -311,10 +370,6 @@ impl Daemon {
             Err(e) => {
                 tracing::error!(error = %e, "cannot start a session thread");
                 lock(&shared.sessions).remove(&id);
-                shared
-                    .counters
-                    .sessions_live
-                    .fetch_sub(1, Ordering::Relaxed);
             }
         }
     }

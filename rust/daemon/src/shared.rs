@@ -10,8 +10,10 @@ use antumbra_protocol::DaemonStats;
 
 use crate::cache::MeshCache;
 use crate::config::DaemonConfig;
+use crate::gate::Gate;
 use crate::listen::Conn;
 use crate::slots::RenderSlots;
+use crate::throttle::Throttle;
 
 #[derive(Default)]
 pub(crate) struct Counters {
@@ -37,6 +39,10 @@ pub(crate) struct Shared {
     pub started: Instant,
     /// A clone of each live session's connection, to wake its reader when the daemon stops.
     pub sessions: Mutex<HashMap<u64, Conn>>,
+    /// The TCP connections in their handshake.
+    pub gate: Gate,
+    /// The back-off of addresses after failed TCP handshakes.
+    pub throttle: Throttle,
 }
 
 impl Shared {
@@ -48,6 +54,8 @@ impl Shared {
             stop: Arc::new(AtomicBool::new(false)),
             started: Instant::now(),
             sessions: Mutex::new(HashMap::new()),
+            gate: Gate::default(),
+            throttle: Throttle::new(&config),
             config,
         }
     }

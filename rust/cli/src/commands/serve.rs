@@ -50,6 +50,17 @@ pub struct ServeArgs {
     /// Seconds between rescans of the spool folder (file-system events wake it earlier).
     #[arg(long, default_value_t = 2.0)]
     pub spool_rescan_s: f64,
+    /// Sessions served at once (Unix connections, and TCP ones after their Hello); more are
+    /// answered Busy.
+    #[arg(long, default_value_t = 256)]
+    pub max_sessions: u64,
+    /// Seconds a TCP client has from connecting to a valid Hello, for all its reads.
+    #[arg(long, default_value_t = 30.0)]
+    pub handshake_timeout_s: f64,
+    /// TCP connections that may be in their handshake at once; more are closed at once. They
+    /// never take a session slot.
+    #[arg(long, default_value_t = 16)]
+    pub max_pending_handshakes: usize,
 }
 
 pub fn run(args: ServeArgs) -> Result<()> {
@@ -60,6 +71,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     for (name, v) in [
         ("--shutdown-grace-s", args.shutdown_grace_s),
         ("--spool-rescan-s", args.spool_rescan_s),
+        ("--handshake-timeout-s", args.handshake_timeout_s),
     ] {
         if !(v.is_finite() && v > 0.0 && v < 1e6) {
             bail!("{name}: must be a positive number of seconds, got {v}");
@@ -78,6 +90,9 @@ pub fn run(args: ServeArgs) -> Result<()> {
     config.memory_budget = args.memory_budget_mb.saturating_mul(1 << 20);
     config.shutdown_grace = Duration::from_secs_f64(args.shutdown_grace_s);
     config.spool_rescan = Duration::from_secs_f64(args.spool_rescan_s);
+    config.max_sessions = args.max_sessions;
+    config.handshake_timeout = Duration::from_secs_f64(args.handshake_timeout_s);
+    config.max_pending_handshakes = args.max_pending_handshakes;
     let daemon = Daemon::bind(config)?;
     daemon.stop_on_signals()?;
     let mut out = std::io::stdout().lock();

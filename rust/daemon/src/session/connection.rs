@@ -1,8 +1,9 @@
 //! Reading a session's connection: the handshake (version, and the token on TCP), the request
 //! loop with its per-request panic guard, and the session's recording.
 
-use std::io::BufReader;
+use std::io::{self, BufReader, ErrorKind, Read};
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::time::Instant;
 
 use antumbra_protocol::{
     check_hello, decode_body, read_frame, welcome, ErrorCode, FrameError, RecordingWriter, Reply,
@@ -11,17 +12,31 @@ use antumbra_protocol::{
 
 use super::out::error_reply;
 use super::{recording_path, End, Flow, Next, Session};
+use crate::gate::{self, Admission};
 use crate::listen::{constant_time_eq, Conn};
 
-/// How long a TCP client has to send its Hello.
-const HANDSHAKE_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
+/// Reads under one deadline for all the reads (none: no limit), by narrowing the socket's read
+/// timeout to what is left of it before each read.
+struct Deadline<'a> {
+    reader: &'a mut BufReader<Conn>,
+    deadline: Option<Instant>,
+}
+
+impl Read for Deadline<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if let Some(deadline) = self.deadline {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Err(ErrorKind::TimedOut.into());
+            }
+            self.reader.get_ref().set_read_timeout(Some(left))?;
+        }
+        self.reader.read(buf)
+    }
+}
 
 impl Session<'_> {
     pub(super) fn serve(&mut self, reader: &mut BufReader<Conn>) -> End {
-        // A TCP peer must authenticate promptly; a local client may idle before Hello.
-        if self.tcp {
-            let _ = reader.get_ref().set_read_timeout(Some(HANDSHAKE_TIMEOUT));
-        }
         if let Some(end) = self.handshake(reader) {
             return end;
         }
@@ -55,7 +70,13 @@ impl Session<'_> {
     /// Reads the next request. Frame errors are answered here; those that leave the stream
     /// misaligned (truncated, too large) end the session.
     fn next(&mut self, reader: &mut BufReader<Conn>) -> Next {
-        match read_frame(reader, &self.limits) {
+        let frame = read_frame(reader, &self.limits);
+        self.interpret(frame)
+    }
+
+    /// Decodes a frame read, or says how its error ends the session.
+    fn interpret(&mut self, frame: Result<Vec<u8>, FrameError>) -> Next {
+        match frame {
             Ok(body) => match decode_body::<Request>(&body) {
                 Ok(r) => Next::Request(Box::new(r)),
                 Err(e) => {
@@ -85,28 +106,56 @@ impl Session<'_> {
         }
     }
 
-    /// Waits for `Hello`: the version must match and, on TCP, the token too. Returns why the
-    /// session ends if it does.
+    /// Waits for `Hello`: the version must match and, on TCP, the token too. Until then a frame
+    /// may be only `handshake_max_frame_bytes`, and a TCP client has `handshake_timeout` from its
+    /// connection for all its reads (a local client may idle). Returns why the session ends if
+    /// it does.
     fn handshake(&mut self, reader: &mut BufReader<Conn>) -> Option<End> {
+        let config = &self.shared.config;
+        let mut limits = self.limits.clone();
+        limits.max_frame_bytes = limits.frame_limit().min(config.handshake_max_frame_bytes);
+        let deadline = match &self.admission {
+            Admission::Pending(p) => Some(p.accepted + config.handshake_timeout),
+            Admission::Session(_) => None,
+        };
         loop {
-            let request = match self.next(reader) {
-                Next::Request(r) => *r,
-                Next::Skip if self.tcp => {
+            let frame = read_frame(&mut Deadline { reader, deadline }, &limits);
+            let request = match frame {
+                Err(FrameError::TooLarge { len, max }) => return Some(self.refuse_frame(len, max)),
+                Err(FrameError::Io(e))
+                    if deadline.is_some()
+                        && matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) =>
+                {
+                    return Some(self.too_late())
+                }
+                // On TCP anything but a Hello is a failed attempt, answered once.
+                Err(FrameError::Decode(_) | FrameError::Truncated { .. }) if self.tcp => {
                     return Some(self.refuse("the first message is not Hello"))
                 }
-                Next::Skip => continue,
-                Next::End(end) => return Some(end),
+                frame => match self.interpret(frame) {
+                    Next::Request(r) => *r,
+                    Next::Skip => continue,
+                    Next::End(end) => return Some(end),
+                },
             };
             self.requests += 1;
-            if self.tcp && !self.token_ok(&request) {
-                return Some(self.refuse(match &request {
-                    Request::Hello { token: None, .. } => "Hello carries no token",
-                    Request::Hello { .. } => "wrong token",
-                    _ => "the first message is not Hello",
-                }));
+            if self.tcp {
+                if !self.token_ok(&request) {
+                    return Some(self.refuse(match &request {
+                        Request::Hello { token: None, .. } => "Hello carries no token",
+                        Request::Hello { .. } => "wrong token",
+                        _ => "the first message is not Hello",
+                    }));
+                }
+                if let Admission::Pending(p) = &self.admission {
+                    self.shared.throttle.succeeded(p.ip, Instant::now());
+                }
             }
             match check_hello(&request) {
                 Ok(()) => {
+                    if let Some(end) = self.take_session_slot() {
+                        return Some(end);
+                    }
                     if let Request::Hello { client, .. } = &request {
                         self.client = client.clone();
                     }
@@ -133,6 +182,71 @@ impl Session<'_> {
         }
     }
 
+    /// A TCP connection that said a valid Hello trades its place among the handshakes for a
+    /// session slot; with none free it is answered `Busy` (and the session ends).
+    fn take_session_slot(&mut self) -> Option<End> {
+        if let Admission::Session(_) = self.admission {
+            return None;
+        }
+        match gate::admit_session(self.shared) {
+            Some(slot) => {
+                self.admission = Admission::Session(slot);
+                None
+            }
+            None => {
+                let max = self.shared.config.max_sessions;
+                tracing::warn!(max, "too many sessions; refusing");
+                self.out.send(&error_reply(
+                    ErrorCode::Busy,
+                    format!("the daemon already serves {max} sessions"),
+                    false,
+                    None,
+                ));
+                Some(End::Refused)
+            }
+        }
+    }
+
+    /// Counts a failed TCP handshake against its address (logged once per burst); on the Unix
+    /// socket it is just logged.
+    fn failed(&self, why: &str) {
+        match &self.admission {
+            Admission::Pending(p) => self.shared.throttle.failed(p.ip, why, Instant::now()),
+            Admission::Session(_) => tracing::warn!(reason = why, "handshake refused"),
+        }
+    }
+
+    /// A first frame above `handshake_max_frame_bytes`, refused from its length prefix.
+    fn refuse_frame(&self, len: u64, max: u64) -> End {
+        self.failed("first frame too large");
+        self.out.send(&error_reply(
+            ErrorCode::TooLarge,
+            format!(
+                "a frame of {len} bytes before the handshake: until Hello is accepted a frame may \
+                 be at most {max} bytes (handshake_max_frame_bytes); the connection is closed"
+            ),
+            false,
+            None,
+        ));
+        End::BadFrame
+    }
+
+    /// The TCP handshake's deadline passed before a whole Hello arrived.
+    fn too_late(&self) -> End {
+        let limit = self.shared.config.handshake_timeout.as_secs_f64();
+        self.failed("handshake deadline passed");
+        self.out.send(&error_reply(
+            ErrorCode::InvalidInput,
+            format!(
+                "the handshake did not finish within {limit} s of connecting (handshake_timeout): \
+                 a TCP client must send Hello with the token at once; the connection is closed"
+            ),
+            false,
+            None,
+        ));
+        End::Refused
+    }
+
     fn token_ok(&self, request: &Request) -> bool {
         let expected = self.shared.config.token.as_deref().unwrap_or_default();
         match request {
@@ -144,7 +258,7 @@ impl Session<'_> {
     }
 
     fn refuse(&self, why: &str) -> End {
-        tracing::warn!(reason = why, "tcp client refused: authentication failed");
+        self.failed(why);
         self.out.send(&error_reply(
             ErrorCode::InvalidInput,
             format!(

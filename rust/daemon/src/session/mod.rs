@@ -20,6 +20,7 @@ use std::time::Instant;
 use antumbra_core::scene::Mesh;
 use antumbra_protocol::{CameraState, FrameUpdate, Limits, RecordingWriter, Request};
 
+use crate::gate::Admission;
 use crate::listen::Conn;
 use crate::lock;
 use crate::shared::Shared;
@@ -76,10 +77,12 @@ struct Session<'a> {
     worker: Option<Worker>,
     recorder: Option<RecordingWriter<BufWriter<File>>>,
     requests: u64,
+    /// A session slot, or (a TCP connection before its `Hello`) a place among the handshakes.
+    admission: Admission,
 }
 
-/// Serves one connection to its end.
-pub(crate) fn run(shared: &Arc<Shared>, conn: Conn, id: u64) {
+/// Serves one connection to its end; gives back what admitted it, to be freed by the caller.
+pub(crate) fn run(shared: &Arc<Shared>, conn: Conn, id: u64, admission: Admission) -> Admission {
     let peer = conn.peer();
     let span = tracing::info_span!("session", id, peer = %peer);
     let _enter = span.enter();
@@ -87,7 +90,7 @@ pub(crate) fn run(shared: &Arc<Shared>, conn: Conn, id: u64) {
         Ok(w) => (conn, w),
         Err(e) => {
             tracing::warn!(error = %e, "cannot clone the connection");
-            return;
+            return admission;
         }
     };
     let tcp = read_half.is_tcp();
@@ -112,18 +115,25 @@ pub(crate) fn run(shared: &Arc<Shared>, conn: Conn, id: u64) {
         worker: None,
         recorder: None,
         requests: 0,
+        admission,
     };
-    tracing::info!("connected");
+    // TCP connections that fail their handshake are logged by the throttle, once per burst.
+    if tcp {
+        tracing::debug!("connected");
+    } else {
+        tracing::info!("connected");
+    }
     let started = Instant::now();
     let end = session.serve(&mut reader);
     session.finish(end);
-    tracing::info!(
-        reason = ?end,
-        client = %session.client,
-        requests = session.requests,
-        seconds = started.elapsed().as_secs_f64(),
-        "session ended"
-    );
+    let seconds = started.elapsed().as_secs_f64();
+    if matches!(session.admission, Admission::Session(_)) {
+        tracing::info!(reason = ?end, client = %session.client, requests = session.requests,
+            seconds, "session ended");
+    } else {
+        tracing::debug!(reason = ?end, requests = session.requests, seconds, "session ended");
+    }
+    session.admission
 }
 
 impl Session<'_> {
