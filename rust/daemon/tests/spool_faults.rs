@@ -64,7 +64,7 @@ impl Blocked {
                 std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o755)).unwrap()
             }
             Blocked::Immutable(dir) => {
-                let ok = Command::new("chattr").arg("-i").arg(&dir).status().unwrap();
+                let ok = Command::new("chattr").arg("-i").arg(dir).status().unwrap();
                 assert!(ok.success(), "chattr -i {}", dir.display());
             }
             Blocked::ResultsIsAFile(results) => {
