@@ -7,7 +7,7 @@ use std::os::unix::fs::{DirBuilderExt, MetadataExt};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use antumbra_core::atomic_file::write_bytes_atomic;
+use antumbra_core::atomic_file::{write_bytes_atomic, TEMP_SUFFIX};
 use antumbra_core::output::{frame_stem, write_frame_files, Outputs};
 use antumbra_core::render::FrameResult;
 
@@ -21,6 +21,9 @@ pub(crate) enum WriteError {
     /// A name is not what the daemon writes there (a symbolic link, another user's folder):
     /// never retried, never written through.
     Unsafe(String),
+    /// The data cannot be written anywhere (e.g. a file name the file system refuses): the
+    /// job fails.
+    Invalid(String),
 }
 
 pub(crate) fn io_error(path: &Path, e: impl std::fmt::Display) -> WriteError {
@@ -112,7 +115,7 @@ impl JobResults {
                 .mode(0o755)
                 .create(&temp)
                 .map_err(|e| io_error(&temp, e))?;
-            write_frame_files(&temp, result, outputs).map_err(|e| WriteError::Io(e.to_string()))?;
+            write_frame_files(&temp, result, outputs).map_err(|e| self.classify(e))?;
             sync_dir(&temp);
             // Renaming a folder onto a link fails (ENOTDIR) rather than following it.
             fs::rename(&temp, &fin).map_err(|e| io_error(&fin, e))?;
@@ -169,12 +172,49 @@ impl JobResults {
         self.write_file(ERROR_FILE, format!("{message}\n").as_bytes())
     }
 
+    /// A failed frame write is retried only if the folder itself refuses writes (read-only,
+    /// gone) or the disk is full; otherwise the frame is at fault (e.g. a name too long) and a
+    /// retry would wait for ever.
+    fn classify(&self, e: antumbra_core::Error) -> WriteError {
+        let message = e.to_string();
+        let full = [libc::ENOSPC, libc::EDQUOT]
+            .iter()
+            .any(|code| message.contains(&format!("(os error {code})")));
+        if matches!(e, antumbra_core::Error::Io { .. }) && (full || !self.can_write()) {
+            WriteError::Io(format!("cannot write {message}"))
+        } else {
+            WriteError::Invalid(format!("cannot write the frame: {message}"))
+        }
+    }
+
+    /// Whether a small file can be created and synced in the folder now.
+    fn can_write(&self) -> bool {
+        static N: AtomicU64 = AtomicU64::new(0);
+        let name = format!(
+            ".probe-{}-{}{TEMP_SUFFIX}",
+            std::process::id(),
+            N.fetch_add(1, Ordering::Relaxed)
+        );
+        let path = self.dir.join(name);
+        let ok = fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&path)
+            .and_then(|mut f| {
+                std::io::Write::write_all(&mut f, b"probe")?;
+                f.sync_all()
+            })
+            .is_ok();
+        let _ = fs::remove_file(&path);
+        ok
+    }
+
     /// Writes a small file atomically: a fresh temporary (O_EXCL) renamed over the name, so a
     /// link under the name is replaced, never followed.
     fn write_file(&self, name: &str, bytes: &[u8]) -> Result<(), WriteError> {
         self.verify()?;
         let path = self.dir.join(name);
-        write_bytes_atomic(&path, bytes).map_err(|e| WriteError::Io(e.to_string()))
+        write_bytes_atomic(&path, bytes).map_err(|e| WriteError::Io(format!("cannot write {e}")))
     }
 }
 
@@ -220,7 +260,7 @@ pub(crate) fn write_refusal(
 ) -> Result<(), WriteError> {
     let path = refusal_path(results_root, job);
     write_bytes_atomic(&path, format!("{message}\n").as_bytes())
-        .map_err(|e| WriteError::Io(e.to_string()))
+        .map_err(|e| WriteError::Io(format!("cannot write {e}")))
 }
 
 pub(crate) fn refusal_path(results_root: &Path, job: &str) -> PathBuf {

@@ -142,7 +142,9 @@ pub(crate) fn until_written<T>(
                 }
                 return Ok(v);
             }
-            Err(WriteError::Unsafe(message)) => return Err(JobError::Failed(message)),
+            Err(WriteError::Unsafe(message) | WriteError::Invalid(message)) => {
+                return Err(JobError::Failed(message))
+            }
             Err(WriteError::Io(message)) => {
                 retry += 1;
                 let wait = backoff(shared, retry);
