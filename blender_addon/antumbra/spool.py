@@ -115,8 +115,10 @@ def follow(spool: Path, jid: str, total: int, on_frame, timeout: float | None = 
                 if entry["frame"] not in seen:
                     seen.add(entry["frame"])
                     on_frame(entry["frame"], results / entry["dir"])
-        if (results / "ERROR").exists():
-            raise SpoolError(f"job {jid}: {(results / 'ERROR').read_text().strip()}")
+        # results/<job>.ERROR: the daemon refused to write into an unsafe results/<job>.
+        for error in (results / "ERROR", results.parent / f"{jid}.ERROR"):
+            if error.exists():
+                raise SpoolError(f"job {jid}: {error.read_text().strip()}")
         if (results / "DONE").exists() and len(seen) >= total:
             return
         if timeout is not None and time.monotonic() - start > timeout:

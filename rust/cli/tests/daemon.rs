@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use antumbra_core::output::read_exr;
 use antumbra_core::render::{FrameResult, RenderSettings, Renderer};
 use antumbra_core::scene::{Resolution, Scene};
-use antumbra_daemon::spool::{submit_job, JobSpec, Manifest, DONE_FILE, MANIFEST_FILE};
+use antumbra_daemon::spool::{submit_job, JobSpec, Manifest, DONE_FILE, ERROR_FILE, MANIFEST_FILE};
 use antumbra_protocol::client::Client;
 use antumbra_protocol::{
     planes_from_reply, stats_from_reply, FrameResultReply, NamedSettings, Passes, RecordingWriter,
@@ -50,10 +50,23 @@ impl DaemonProcess {
     }
 
     fn try_spawn(dir: &Path, args: &[&str], limit: Duration) -> Result<DaemonProcess, String> {
+        Self::try_spawn_limited(dir, args, limit, None)
+    }
+
+    /// As `try_spawn`, with the process's address space limited to `address_space` bytes
+    /// (RLIMIT_AS): an allocation past it fails and aborts the daemon, as running out of
+    /// memory does.
+    fn try_spawn_limited(
+        dir: &Path,
+        args: &[&str],
+        limit: Duration,
+        address_space: Option<u64>,
+    ) -> Result<DaemonProcess, String> {
         static N: AtomicU64 = AtomicU64::new(0);
         let socket = dir.join("d.sock");
         let stderr = dir.join(format!("daemon-{}.log", N.fetch_add(1, Ordering::Relaxed)));
-        let mut child = Command::new(env!("CARGO_BIN_EXE_antumbra"))
+        let mut command = Command::new(env!("CARGO_BIN_EXE_antumbra"));
+        command
             .arg("serve")
             .arg("--socket")
             .arg(&socket)
@@ -61,9 +74,24 @@ impl DaemonProcess {
             .env("RUST_LOG", "info")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
-            .stderr(std::fs::File::create(&stderr).unwrap())
-            .spawn()
-            .unwrap();
+            .stderr(std::fs::File::create(&stderr).unwrap());
+        if let Some(bytes) = address_space {
+            use std::os::unix::process::CommandExt;
+            let rlimit = libc::rlimit {
+                rlim_cur: bytes,
+                rlim_max: bytes,
+            };
+            // SAFETY: setrlimit is async-signal-safe; the closure touches nothing else.
+            unsafe {
+                command.pre_exec(move || {
+                    if libc::setrlimit(libc::RLIMIT_AS, &rlimit) != 0 {
+                        return Err(std::io::Error::last_os_error());
+                    }
+                    Ok(())
+                });
+            }
+        }
+        let mut child = command.spawn().unwrap();
         let pid = child.id() as i32;
         let stdout = child.stdout.take().unwrap();
         let child = Arc::new(Mutex::new(child));
@@ -470,6 +498,97 @@ fn spool_job_survives_kill_9_with_every_frame_exactly_once() {
 
 /// `clients` concurrent sessions each send and render `frames` frames of a small city; every
 /// result is checked against the in-process render. Prints throughput and latency.
+/// A frame that needs far more memory than the daemon may map (RLIMIT_AS) kills it each time
+/// the frame starts, as running out of memory does. After N starts (3 by default) the job ends
+/// in ERROR with the reason and the job queued behind it is rendered.
+#[test]
+fn spool_job_that_kills_the_daemon_ends_in_error_after_3_starts() {
+    const ADDRESS_SPACE: u64 = 512 << 20;
+    let dir = temp_dir("spool-oom");
+    let spool = dir.path().join("spool");
+    let spool_arg = spool.to_str().unwrap().to_string();
+    let args = ["--spool", spool_arg.as_str(), "--spool-rescan-s", "0.2"];
+    let write = |scenes: Vec<Scene>| {
+        move |path: &Path| {
+            let mut w = RecordingWriter::create(path).map_err(|e| e.to_string())?;
+            for s in &scenes {
+                w.append_scene(s).map_err(|e| e.to_string())?;
+            }
+            w.finish().map_err(|e| e.to_string())?;
+            Ok(())
+        }
+    };
+    // 2048x2048: a few hundred MB of image planes, far past the address space left.
+    submit_job(
+        &spool,
+        "a-huge",
+        &JobSpec::default(),
+        write(city(2_000, 1, 2048, 2048)),
+    )
+    .unwrap();
+    submit_job(
+        &spool,
+        "b-small",
+        &JobSpec::default(),
+        write(city(2_000, 2, 32, 24)),
+    )
+    .unwrap();
+    let results = spool.join("results");
+    let starts = || {
+        std::fs::read_to_string(results.join("a-huge/attempts.log"))
+            .unwrap_or_default()
+            .lines()
+            .filter(|l| l.starts_with("start "))
+            .count()
+    };
+    for death in 1..=3 {
+        let d = DaemonProcess::try_spawn_limited(
+            dir.path(),
+            &args,
+            Duration::from_secs(120),
+            Some(ADDRESS_SPACE),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let status = d
+            .wait(Duration::from_secs(60))
+            .unwrap_or_else(|| panic!("start {death}: the daemon did not die:\n{}", d.log()));
+        assert!(!status.success(), "{status:?}\n{}", d.log());
+        assert!(d.log().contains("memory allocation"), "{}", d.log());
+        assert!(!results.join("a-huge").join(ERROR_FILE).exists());
+    }
+    // The fourth start gives up on the job and goes on to the next.
+    let d = DaemonProcess::try_spawn_limited(
+        dir.path(),
+        &args,
+        Duration::from_secs(120),
+        Some(ADDRESS_SPACE),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !results.join("b-small").join(DONE_FILE).exists() {
+        if let Some(status) = d.wait(Duration::ZERO) {
+            panic!(
+                "the daemon died again ({status:?}): a crash loop\n{}",
+                d.log()
+            );
+        }
+        assert!(Instant::now() < deadline, "b-small not done:\n{}", d.log());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let e = std::fs::read_to_string(results.join("a-huge").join(ERROR_FILE)).unwrap();
+    assert!(
+        e.contains("frame 1 was started 3 times and never finished"),
+        "{e}"
+    );
+    assert_eq!(starts(), 3, "one start recorded before each death");
+    assert!(d.wait(Duration::ZERO).is_none(), "the daemon still serves");
+    let m: Manifest = serde_json::from_slice(
+        &std::fs::read(results.join("b-small").join(MANIFEST_FILE)).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(m.frames.len(), 2);
+}
+
 fn load_test(clients: usize, frames: i32, max_renders: &str) {
     let dir = temp_dir("load");
     let scenes = Arc::new(city(10_000, frames, 128, 80));

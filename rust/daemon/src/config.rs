@@ -30,6 +30,13 @@ pub struct DaemonConfig {
     pub shutdown_grace: Duration,
     /// How often the spool folder is rescanned when no file-system event arrived.
     pub spool_rescan: Duration,
+    /// Starts of one spool frame without it finishing (the daemon died rendering it) after
+    /// which its job ends in ERROR, so a frame that kills the daemon cannot crash-loop it.
+    pub spool_max_attempts: u32,
+    /// First wait before retrying a failed write of spool results; doubles each retry ...
+    pub spool_retry_min: Duration,
+    /// ... up to this.
+    pub spool_retry_max: Duration,
     /// A write to a client that blocks longer than this ends the session.
     pub write_timeout: Duration,
     /// The name sent in `Welcome`.
@@ -67,6 +74,9 @@ impl DaemonConfig {
             limits: Limits::default(),
             shutdown_grace: Duration::from_secs(10),
             spool_rescan: Duration::from_secs(2),
+            spool_max_attempts: 3,
+            spool_retry_min: Duration::from_secs(1),
+            spool_retry_max: Duration::from_secs(60),
             write_timeout: Duration::from_secs(120),
             server_name: format!("antumbra-daemon {}", env!("CARGO_PKG_VERSION")),
             max_sessions: 256,

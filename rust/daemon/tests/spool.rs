@@ -3,42 +3,13 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
 
 use antumbra_core::output::read_exr;
 use antumbra_core::render::RenderSettings;
 use antumbra_core::scene::Scene;
-use antumbra_daemon::spool::{submit_job, JobSpec, Manifest, DONE_FILE, ERROR_FILE, MANIFEST_FILE};
-use antumbra_protocol::RecordingWriter;
+use antumbra_daemon::spool::{JobSpec, DONE_FILE, ERROR_FILE};
+use common::spool::*;
 use common::*;
-
-fn submit(root: &Path, id: &str, scenes: &[Scene], spec: &JobSpec) -> PathBuf {
-    submit_job(root, id, spec, |path| {
-        let mut w = RecordingWriter::create(path).map_err(|e| e.to_string())?;
-        for s in scenes {
-            w.append_scene(s).map_err(|e| e.to_string())?;
-        }
-        w.finish().map_err(|e| e.to_string())?;
-        Ok(())
-    })
-    .unwrap()
-}
-
-fn wait_for_file(path: &Path) {
-    let deadline = Instant::now() + TIMEOUT;
-    while !path.exists() {
-        assert!(
-            Instant::now() < deadline,
-            "timed out waiting for {}",
-            path.display()
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
-
-fn manifest(results: &Path) -> Manifest {
-    serde_json::from_slice(&std::fs::read(results.join(MANIFEST_FILE)).unwrap()).unwrap()
-}
 
 #[test]
 fn job_is_rendered_into_complete_frame_folders() {

@@ -61,6 +61,17 @@ pub struct ServeArgs {
     /// never take a session slot.
     #[arg(long, default_value_t = 16)]
     pub max_pending_handshakes: usize,
+    /// Starts of a spool frame that never finished (the daemon died rendering it: out of
+    /// memory, a crash) after which its job ends in ERROR and the spool goes on.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    pub spool_max_attempts: u32,
+    /// Seconds before the first retry of a spool result that cannot be written (read-only
+    /// folder, full disk); the wait doubles each retry.
+    #[arg(long, default_value_t = 1.0)]
+    pub spool_retry_min_s: f64,
+    /// Longest wait between retries of a spool result that cannot be written.
+    #[arg(long, default_value_t = 60.0)]
+    pub spool_retry_max_s: f64,
 }
 
 pub fn run(args: ServeArgs) -> Result<()> {
@@ -72,10 +83,19 @@ pub fn run(args: ServeArgs) -> Result<()> {
         ("--shutdown-grace-s", args.shutdown_grace_s),
         ("--spool-rescan-s", args.spool_rescan_s),
         ("--handshake-timeout-s", args.handshake_timeout_s),
+        ("--spool-retry-min-s", args.spool_retry_min_s),
+        ("--spool-retry-max-s", args.spool_retry_max_s),
     ] {
         if !(v.is_finite() && v > 0.0 && v < 1e6) {
             bail!("{name}: must be a positive number of seconds, got {v}");
         }
+    }
+    if args.spool_retry_min_s > args.spool_retry_max_s {
+        bail!(
+            "--spool-retry-min-s ({}) must not exceed --spool-retry-max-s ({})",
+            args.spool_retry_min_s,
+            args.spool_retry_max_s
+        );
     }
     let mut config = DaemonConfig::new(args.socket.unwrap_or_else(default_socket_path));
     if let Some(tcp) = &args.tcp {
@@ -93,6 +113,9 @@ pub fn run(args: ServeArgs) -> Result<()> {
     config.max_sessions = args.max_sessions;
     config.handshake_timeout = Duration::from_secs_f64(args.handshake_timeout_s);
     config.max_pending_handshakes = args.max_pending_handshakes;
+    config.spool_max_attempts = args.spool_max_attempts;
+    config.spool_retry_min = Duration::from_secs_f64(args.spool_retry_min_s);
+    config.spool_retry_max = Duration::from_secs_f64(args.spool_retry_max_s);
     let daemon = Daemon::bind(config)?;
     daemon.stop_on_signals()?;
     let mut out = std::io::stdout().lock();

@@ -21,6 +21,8 @@ pub const TIMEOUT: Duration = Duration::from_secs(60);
 
 pub use tempfile::TempDir;
 
+pub mod spool;
+
 /// A unique empty folder under the system's temp dir (named after `tag`), removed on drop.
 pub fn temp_dir(tag: &str) -> TempDir {
     tempfile::Builder::new()

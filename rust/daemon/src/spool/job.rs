@@ -1,0 +1,181 @@
+//! One job: its results folder checked, its frames rendered in order, each start recorded
+//! first, each failed write retried, and its end (`DONE` or `ERROR`) written.
+
+use std::collections::HashSet;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::time::Instant;
+
+use antumbra_core::render::Renderer;
+use antumbra_core::scene::Animation;
+use antumbra_protocol::RecordedAnimation;
+use antumbra_protocol::{check_limits, frame_update_from_scene, render_settings, Request};
+
+use super::attempts::Attempts;
+use super::results::{link_message, JobResults, WriteError};
+use super::retry::{until_written, Status};
+use super::{failed, read_job_spec, JobError, SpoolDirs, JOB_FILE, SCENE_FILE};
+use crate::shared::{bump, Shared};
+use crate::slots::Acquired;
+
+/// Renders job `id`, and writes its `ERROR` if it fails. Returns `Refused` if its results
+/// folder is not safe to write into (the caller writes `results/<id>.ERROR`).
+pub(super) fn run_job(
+    shared: &Shared,
+    dirs: &SpoolDirs,
+    status: &mut Status,
+    id: &str,
+) -> Result<(), JobError> {
+    let dir = dirs.results.join(id);
+    let results = until_written(shared, status, id, None, || JobResults::open(&dir)).map_err(
+        |e| match e {
+            JobError::Failed(m) => JobError::Refused(m),
+            e => e,
+        },
+    )?;
+    let mut job = Job {
+        shared,
+        status,
+        id,
+        results: &results,
+    };
+    match job.render(dirs) {
+        Err(JobError::Failed(message)) => {
+            tracing::error!(job = %id, error = %message, "job failed");
+            job.write(None, || results.write_error(&message))?;
+            Err(JobError::Failed(message))
+        }
+        r => r,
+    }
+}
+
+struct Job<'a> {
+    shared: &'a Shared,
+    status: &'a mut Status,
+    id: &'a str,
+    results: &'a JobResults,
+}
+
+impl Job<'_> {
+    /// A write of the job's results, retried until it works.
+    fn write<T>(
+        &mut self,
+        frame: Option<i32>,
+        write: impl FnMut() -> Result<T, WriteError>,
+    ) -> Result<T, JobError> {
+        until_written(self.shared, self.status, self.id, frame, write)
+    }
+
+    fn render(&mut self, dirs: &SpoolDirs) -> Result<(), JobError> {
+        let (shared, id, results) = (self.shared, self.id, self.results);
+        let job_dir = dirs.jobs.join(id);
+        if job_dir
+            .symlink_metadata()
+            .is_ok_and(|m| m.file_type().is_symlink())
+        {
+            return Err(failed(format!(
+                "{} (a job must be a real folder renamed into jobs/)",
+                link_message(&job_dir)
+            )));
+        }
+        let spec = read_job_spec(&job_dir.join(JOB_FILE)).map_err(JobError::Failed)?;
+        let settings = render_settings(&spec.settings)
+            .map_err(|e| failed(format!("job.json settings: {e}")))?;
+        let anim = RecordedAnimation::open(job_dir.join(SCENE_FILE)).map_err(failed)?;
+        let mut seen = HashSet::new();
+        let frames: Vec<i32> = spec
+            .frames
+            .clone()
+            .unwrap_or_else(|| anim.recorded_frames().collect())
+            .into_iter()
+            .filter(|f| seen.insert(*f))
+            .collect();
+        if frames.is_empty() {
+            return Err(failed("job.json: no frames to render"));
+        }
+        let label = spec.name.clone().unwrap_or_else(|| id.to_string());
+        let mut todo = Vec::new();
+        for &f in &frames {
+            if !self.write(None, || results.frame_done(f))? {
+                todo.push(f);
+            }
+        }
+        let mut attempts = self.write(None, || Attempts::load(results))?;
+        tracing::info!(job = %id, frames = frames.len(), todo = todo.len(), "job started");
+        let t0 = Instant::now();
+        let mut renderer = Renderer::new();
+        for frame in todo {
+            if shared.stopping() {
+                return Err(JobError::Stopped);
+            }
+            let starts = attempts.starts(frame);
+            if starts >= shared.config.spool_max_attempts {
+                bump(&shared.counters.renders_failed);
+                return Err(failed(format!(
+                    "frame {frame} was started {starts} times and never finished: the daemon \
+                     stopped while rendering it (out of memory or a crash?)"
+                )));
+            }
+            let scene = anim.frame(frame);
+            let update = frame_update_from_scene(&scene)
+                .map_err(|e| failed(format!("frame {frame}: {e}")))?;
+            check_limits(&Request::FrameUpdate(update), &shared.config.limits).map_err(failed)?;
+            // On disk before the render: a frame that kills the daemon is counted.
+            self.write(Some(frame), || attempts.record_start(results, frame))?;
+            self.status.rendering(id, frame);
+            let r = self.render_frame(
+                &mut renderer,
+                frame,
+                &label,
+                &scene,
+                &settings,
+                &spec.outputs,
+            );
+            if let Err(JobError::Stopped) = r {
+                attempts.record_stopped(results, frame);
+            }
+            r?;
+            self.write(Some(frame), || results.write_manifest(id, &frames, false))?;
+            tracing::info!(job = %id, frame, "frame finished");
+        }
+        self.write(None, || results.write_manifest(id, &frames, true))?;
+        self.write(None, || results.write_done(id, frames.len()))?;
+        tracing::info!(job = %id, frames = frames.len(), seconds = t0.elapsed().as_secs_f64(), "job done");
+        Ok(())
+    }
+
+    /// Renders one frame in a render slot and writes its folder.
+    fn render_frame(
+        &mut self,
+        renderer: &mut Renderer,
+        frame: i32,
+        label: &str,
+        scene: &antumbra_core::scene::Scene,
+        settings: &antumbra_core::render::RenderSettings,
+        outputs: &antumbra_core::output::Outputs,
+    ) -> Result<(), JobError> {
+        let shared = self.shared;
+        let slot = match shared.slots.acquire(&shared.stop, |_| {}) {
+            Acquired::Slot(s, _) => s,
+            Acquired::GaveUp => return Err(JobError::Stopped),
+        };
+        let result = catch_unwind(AssertUnwindSafe(|| renderer.render(label, scene, settings)));
+        drop(slot);
+        let result = match result {
+            Ok(Ok(r)) => r,
+            Ok(Err(e)) => {
+                bump(&shared.counters.renders_failed);
+                return Err(failed(format!("frame {frame}: {e}")));
+            }
+            Err(_) => {
+                bump(&shared.counters.renders_failed);
+                return Err(failed(format!(
+                    "frame {frame}: internal error in the renderer"
+                )));
+            }
+        };
+        let results = self.results;
+        self.write(Some(frame), || results.write_frame(&result, outputs))?;
+        bump(&shared.counters.renders_done);
+        Ok(())
+    }
+}
