@@ -115,9 +115,10 @@ pub struct BenchRow {
 }
 
 /// N_B, N_L, N_T and N_box per ray of one kind of pass, as the statistics rows compute them
-/// (so they equal `render`'s columns of the same rays).
+/// (so they equal `render`'s columns of the same rays), and the exact totals.
 #[derive(Debug, Default, Serialize)]
 pub struct PassWork {
+    pub totals: TraversalStats,
     pub nb_per_ray: f64,
     pub nl_per_ray: f64,
     pub nt_per_ray: f64,
@@ -132,6 +133,7 @@ impl PassWork {
         };
         row.set_work(totals);
         PassWork {
+            totals: *totals,
             nb_per_ray: row.nb_per_ray,
             nl_per_ray: row.nl_per_ray,
             nt_per_ray: row.nt_per_ray,
