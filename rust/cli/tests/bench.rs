@@ -212,7 +212,9 @@ fn bench_measures_every_frame_of_a_recording_with_render_s_counters() {
         .filter(|l| l.starts_with("bedroom "))
         .collect();
     assert_eq!(rows.len(), 2, "{table}");
-    assert!(rows.iter().all(|r| r.split_whitespace().nth(1) == Some("3")));
+    assert!(rows
+        .iter()
+        .all(|r| r.split_whitespace().nth(1) == Some("3")));
 }
 
 #[test]
@@ -248,7 +250,9 @@ fn methods_on_frames(scene: &Path, frames: &[i64], dir: &Path) {
         let mine: Vec<&Value> = rows.iter().filter(|r| r["method"] == method).collect();
         let named: Vec<&str> = mine.iter().map(|r| r["camera"].as_str().unwrap()).collect();
         assert_eq!(named, cameras, "{method}");
-        assert!(mine.iter().all(|r| r["primary_nit"].as_f64().unwrap() > 0.0));
+        assert!(mine
+            .iter()
+            .all(|r| r["primary_nit"].as_f64().unwrap() > 0.0));
     }
     let range = format!("{}-{}", frames[0], frames[frames.len() - 1]);
     let stats = render_stats(scene, &dir.join("sah"), &["--frames", &range]);

@@ -32,7 +32,9 @@ impl BenchScene {
         let kind = SceneKind::of(name);
         let range = animation.frame_range();
         let frames: RangeInclusive<i32> = match (&asked, kind) {
-            (Some(a), SceneKind::Recording) if a.start() < range.start() || a.end() > range.end() => {
+            (Some(a), SceneKind::Recording)
+                if a.start() < range.start() || a.end() > range.end() =>
+            {
                 bail!(
                     "{name}: --frames {}-{} asks for frames it does not hold (it recorded frames {}-{})",
                     a.start(),
