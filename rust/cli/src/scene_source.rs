@@ -8,23 +8,40 @@ use antumbra_protocol::RecordedAnimation;
 use antumbra_scenes::{builtin, load_file, SceneParams};
 use anyhow::Result;
 
+/// What a scene argument names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneKind {
+    Builtin,
+    /// An OBJ/glTF file: one static scene.
+    File,
+    /// A session recording: its own frames, each with its camera.
+    Recording,
+}
+
+impl SceneKind {
+    /// A name with an extension or a slash is a path; `.antrec` is a recording.
+    pub fn of(name_or_path: &str) -> SceneKind {
+        let path = Path::new(name_or_path);
+        match path.extension() {
+            Some(e) if e.eq_ignore_ascii_case("antrec") => SceneKind::Recording,
+            Some(_) => SceneKind::File,
+            None if name_or_path.contains('/') => SceneKind::File,
+            None => SceneKind::Builtin,
+        }
+    }
+}
+
 pub fn open_scene(name_or_path: &str, triangles: usize, frames: i32) -> Result<Box<dyn Animation>> {
     let path = Path::new(name_or_path);
-    let looks_like_file = path.extension().is_some() || name_or_path.contains('/');
-    let is_recording = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("antrec"));
     let params = SceneParams {
         triangles,
         frames,
         ..SceneParams::default()
     };
-    Ok(if is_recording {
+    Ok(match SceneKind::of(name_or_path) {
         // The recording's own frames; --frames picks among them.
-        Box::new(RecordedAnimation::open(path)?)
-    } else if looks_like_file {
-        load_file(path, frames)?
-    } else {
-        builtin(name_or_path, &params)?
+        SceneKind::Recording => Box::new(RecordedAnimation::open(path)?),
+        SceneKind::File => load_file(path, frames)?,
+        SceneKind::Builtin => builtin(name_or_path, &params)?,
     })
 }

@@ -25,10 +25,12 @@ pub const RECORDING_MAGIC: &[u8; 8] = b"ANTREC1\n";
 
 #[derive(Debug, Error)]
 pub enum RecordingError {
-    #[error("{path}: {source}")]
+    /// The inner error is in the message, not the source chain, so that printing the chain
+    /// (`{:#}`) names the problem once.
+    #[error("{path}: {error}")]
     File {
         path: String,
-        source: Box<RecordingError>,
+        error: Box<RecordingError>,
     },
     #[error("{0}")]
     Io(#[from] std::io::Error),
@@ -50,7 +52,7 @@ impl RecordingError {
     fn in_file(self, path: &Path) -> Self {
         RecordingError::File {
             path: path.display().to_string(),
-            source: Box::new(self),
+            error: Box::new(self),
         }
     }
 }

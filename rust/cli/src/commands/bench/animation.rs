@@ -10,11 +10,12 @@ use antumbra_core::scene::{ImageSize, Resolution};
 use anyhow::Result;
 
 use crate::plots::LinePlot;
+use crate::scene_source::open_scene;
 
 const CSV_HEADER: &str =
     "frame,method,primary_mrays,primary_nit,primary_nts,shadow_mrays,build_ms,visibility_ms,rebuilt\n";
 
-/// Renders `frames` frames of `scene_name` with each method and writes the per-frame primary
+/// Renders the first `frames` frames of `scene_name` (any scene `open_scene` opens) with each method and writes the per-frame primary
 /// Mrays/s (and work) as `animation.csv` and `animation.svg`.
 pub(super) fn animation_curve(
     scene_name: &str,
@@ -25,12 +26,7 @@ pub(super) fn animation_curve(
     out: &Path,
 ) -> Result<()> {
     std::fs::create_dir_all(out)?;
-    let params = antumbra_scenes::SceneParams {
-        triangles,
-        frames,
-        ..Default::default()
-    };
-    let anim = antumbra_scenes::builtin(scene_name, &params)?;
+    let anim = open_scene(scene_name, triangles, frames)?;
     let configs = [
         ("SAH", BuildMethod::Sah, VisibilitySource::Previous),
         ("SBVH", BuildMethod::Sbvh, VisibilitySource::Previous),

@@ -1,5 +1,5 @@
 //! `antumbra bench --methods ...`: the OSAH paper's comparison (its Tables 3-4) on our scenes:
-//! per scene and viewpoint, build ms, references and traversal work (N_IT = triangle tests,
+//! per scene and viewpoint (a built-in scene's paper viewpoints, or frames), build ms, references and traversal work (N_IT = triangle tests,
 //! N_TS = nodes entered) and Mrays/s for primary and shadow rays, each build method beside SAH.
 //! Visibility-driven builds get the exact visible set of the same primary rays, as in the paper.
 
@@ -10,20 +10,23 @@ use antumbra_core::order::AnyHitOrder;
 use antumbra_core::render::{
     shadow_rays, visibility_flags, PrimaryPass, PrimaryRays, RenderSettings,
 };
-use antumbra_core::scene::{FrameGeometry, Resolution, TriangleRef, TriangleSet};
+use antumbra_core::scene::{FrameGeometry, Resolution, Scene, TriangleRef, TriangleSet};
 use antumbra_core::trace::{occluded, NoStats, TraversalStats};
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::frames::BenchScene;
 use super::reference::Reference;
 use super::{best_of, print_json, timed, BenchArgs, SweepArgs};
+use crate::scene_source::SceneKind;
 use crate::shadow_lights::shadow_lights;
 
 /// One method on one viewpoint.
 #[derive(Debug, Default, Serialize)]
 pub struct MethodRow {
     pub scene: String,
+    /// The viewpoint's name, or "frame N" for a frame's own camera.
     pub camera: String,
     pub method: String,
     pub osah_w: f32,
@@ -123,6 +126,9 @@ fn or_setting<T: Copy>(list: &[T], value: T) -> Vec<T> {
 /// returns its build ms.
 type ReferenceBuild<'a> = &'a dyn Fn(&[[glam::Vec3; 3]]) -> Result<f64>;
 
+/// The animation length a built-in scene's paper viewpoints are defined on.
+const VIEWPOINT_FRAMES: i32 = 24;
+
 /// Measures every variant on every viewpoint of `scene_name`.
 fn method_rows(
     scene_name: &str,
@@ -131,27 +137,54 @@ fn method_rows(
     variants: &Variants,
     reference: Option<ReferenceBuild>,
 ) -> Result<Vec<MethodRow>> {
-    let params = antumbra_scenes::SceneParams {
-        triangles: args.triangles,
-        frames: 24,
-        ..Default::default()
-    };
-    let anim = antumbra_scenes::builtin(scene_name, &params)?;
+    let opened = BenchScene::open(
+        scene_name,
+        args.triangles,
+        args.frames.as_deref(),
+        VIEWPOINT_FRAMES,
+    )?;
     let mut rows = Vec::new();
-    for (camera_name, camera) in antumbra_scenes::viewpoints(scene_name, &params)? {
-        let mut scene = anim.frame(*anim.frame_range().start());
-        scene.camera = camera;
+    for (camera_name, mut scene) in viewpoints(scene_name, &opened, args.triangles)? {
         scene.resolution = Resolution::new(args.size.width, args.size.height);
         let label = format!("{scene_name}/{camera_name}");
         let view = View::prepare(label, &scene, settings, &variants.settings)?;
         for (method, build) in variants.each() {
             let mut row = view.measure(method, &build, args.repeat, reference)?;
-            row.scene = anim.name().to_string();
+            row.scene = opened.animation.name().to_string();
             row.camera = camera_name.clone();
             rows.push(row);
         }
     }
     Ok(rows)
+}
+
+/// The viewpoints of a scene, named: a built-in scene's paper viewpoints on its first frame
+/// (unless `--frames` picks frames), else each frame measured with its own camera.
+fn viewpoints(name: &str, opened: &BenchScene, triangles: usize) -> Result<Vec<(String, Scene)>> {
+    let anim = opened.animation.as_ref();
+    if opened.kind == SceneKind::Builtin && !opened.asked {
+        let params = antumbra_scenes::SceneParams {
+            triangles,
+            frames: VIEWPOINT_FRAMES,
+            ..Default::default()
+        };
+        let first = anim.frame(*anim.frame_range().start());
+        return Ok(antumbra_scenes::viewpoints(name, &params)?
+            .into_iter()
+            .map(|(camera_name, camera)| {
+                let scene = Scene {
+                    camera,
+                    ..first.clone()
+                };
+                (camera_name, scene)
+            })
+            .collect());
+    }
+    Ok(opened
+        .frames
+        .iter()
+        .map(|&f| (format!("frame {f}"), anim.frame(f)))
+        .collect())
 }
 
 /// One viewpoint: its geometry, camera rays, their visible set and the shadow rays of the SAH

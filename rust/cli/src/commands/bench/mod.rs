@@ -1,8 +1,9 @@
-//! `antumbra bench`: build time and Mrays/s per scene on exactly the rays a frame traces
+//! `antumbra bench`: build time, Mrays/s and work per frame on exactly the rays a frame traces
 //! ([`rays`]), build methods side by side ([`methods`]) or over an animation ([`animation`]),
 //! optionally beside Embree on the same triangles and rays ([`reference`]).
 
 mod animation;
+mod frames;
 mod methods;
 mod rays;
 mod reference;
@@ -19,9 +20,14 @@ use crate::method_args::MethodArgs;
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// Scenes to measure (default: every built-in scene).
+    /// Scenes to measure: built-in names, OBJ/glTF files or recordings (.antrec) (default:
+    /// every built-in scene).
     #[arg(long, num_args = 1..)]
     pub scene: Vec<String>,
+    /// Frames to measure, "A-B" or "N" (default: every frame of a recording, the first frame
+    /// of anything else; with --methods a built-in scene's paper viewpoints).
+    #[arg(long)]
+    pub frames: Option<String>,
     /// Triangle budget of built-in scenes.
     #[arg(long, default_value_t = 350_000)]
     pub triangles: usize,
@@ -59,7 +65,8 @@ pub struct BenchArgs {
 #[derive(Args, Debug)]
 pub struct SweepArgs {
     /// Compare build methods on each scene's viewpoints instead (the OSAH paper's tables),
-    /// e.g. sah,sbvh,abvh,osah,vsah; the first is the reference of the ratios.
+    /// e.g. sah,sbvh,abvh,osah,vsah; the first is the reference of the ratios. A file's or a
+    /// recording's viewpoints are its frames' cameras.
     #[arg(long, value_delimiter = ',')]
     pub methods: Vec<BuildMethod>,
     /// OSAH weights w to sweep with --methods (default: --osah-w).
@@ -74,10 +81,12 @@ pub struct SweepArgs {
 pub fn run(args: BenchArgs) -> Result<()> {
     check_compare(args.compare.as_deref())?;
     let settings = bench_settings(&args.method)?;
-    let scenes = scene_names(&args.scene);
+    let scenes = frames::scene_names(&args.scene);
     if let Some(frames) = args.animation {
         for name in &scenes {
-            let out = args.out.join(name);
+            // A file's folder is named by its stem (a path would escape --out).
+            let stem = std::path::Path::new(name).file_stem();
+            let out = args.out.join(stem.unwrap_or(name.as_ref()));
             animation::animation_curve(name, args.triangles, args.size, frames, &settings, &out)?;
         }
         return Ok(());
@@ -109,18 +118,6 @@ fn check_compare(compare: Option<&str>) -> Result<()> {
             "--compare embree: this antumbra was built without the 'embree' feature (cargo build --features embree)"
         ),
         Some(c) => bail!("--compare: unknown tracer '{c}' (known: embree)"),
-    }
-}
-
-/// The scenes asked for, or every built-in scene.
-fn scene_names(asked: &[String]) -> Vec<String> {
-    if asked.is_empty() {
-        antumbra_scenes::BUILTIN_SCENES
-            .iter()
-            .map(|s| s.to_string())
-            .collect()
-    } else {
-        asked.to_vec()
     }
 }
 

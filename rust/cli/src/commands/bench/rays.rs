@@ -1,6 +1,6 @@
-//! `antumbra bench`'s main table: per scene, SAH build time and Mrays/s on exactly the rays a
-//! frame traces (camera rays, then every light's shadow rays in its order), on one thread and
-//! on all, optionally beside Embree timed in turn on the same triangles and rays.
+//! `antumbra bench`'s main table: per scene and frame, SAH build time, Mrays/s and work per ray
+//! on exactly the rays a frame traces (camera rays, then every light's shadow rays in its
+//! order), on one thread and on all, optionally beside Embree timed in turn on the same rays.
 
 use antumbra_core::build::{build_binned_sah, CollapseSettings};
 use antumbra_core::bvh::{Bvh, BvhWidth};
@@ -11,18 +11,19 @@ use antumbra_core::render::{
     binary_order, representative_rays, shadow_rays, srdh_for_light, LightSrdh, PrimaryPass,
     PrimaryRays, RenderSettings, ShadowTracer, WideTree,
 };
-use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::scene::{Animation, FrameGeometry, Resolution};
+use antumbra_core::stats::StatsRow;
 use antumbra_core::trace::wide::BoxKernel;
 use antumbra_core::trace::{
-    BinaryOcclusion, ClosestHitQuery, NoStats, OcclusionQuery, WideOcclusion,
+    BinaryOcclusion, ClosestHitQuery, NoStats, OcclusionQuery, TraversalStats, WideOcclusion,
 };
 use anyhow::Result;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::frames::BenchScene;
 use super::reference::Reference;
 use super::{best_of, best_of_in_turn, mrays, print_json, BenchArgs};
-use crate::scene_source::open_scene;
 use crate::shadow_lights::{shadow_lights, ShadowLight};
 
 /// Runs `$body` with `$o` bound to the concrete occlusion query of one light of a frame (its
@@ -82,6 +83,7 @@ macro_rules! with_occluder {
 #[derive(Debug, Default, Serialize)]
 pub struct BenchRow {
     pub scene: String,
+    pub frame: i32,
     /// Builder / width / shadow order, as in the statistics tables.
     pub method: String,
     pub triangles: usize,
@@ -93,6 +95,10 @@ pub struct BenchRow {
     pub shadow_rays: usize,
     pub shadow_occluded: f64,
     pub shadow_mrays: f64,
+    /// Work of the camera rays, counted on the tree that is timed.
+    pub primary_work: PassWork,
+    /// Work of every light's shadow rays together, each light in its order.
+    pub shadow_work: PassWork,
     /// Collapse to the wide tree (not in `build_ms`).
     pub collapse_ms: f64,
     /// Per light, logging + sorting ms of a sorted order (one thread for the sorting, the
@@ -108,14 +114,45 @@ pub struct BenchRow {
     pub embree_agreement: Option<f64>,
 }
 
-/// Two rows per scene (one thread, all threads), printed as a table or JSON.
+/// N_B, N_L, N_T and N_box per ray of one kind of pass, as the statistics rows compute them
+/// (so they equal `render`'s columns of the same rays), and the exact totals.
+#[derive(Debug, Default, Serialize)]
+pub struct PassWork {
+    pub totals: TraversalStats,
+    pub nb_per_ray: f64,
+    pub nl_per_ray: f64,
+    pub nt_per_ray: f64,
+    pub nbox_per_ray: f64,
+}
+
+impl PassWork {
+    fn of(totals: &TraversalStats, rays: usize) -> PassWork {
+        let mut row = StatsRow {
+            rays: rays as u64,
+            ..StatsRow::default()
+        };
+        row.set_work(totals);
+        PassWork {
+            totals: *totals,
+            nb_per_ray: row.nb_per_ray,
+            nl_per_ray: row.nl_per_ray,
+            nt_per_ray: row.nt_per_ray,
+            nbox_per_ray: row.nbox_per_ray,
+        }
+    }
+}
+
+/// Two rows per scene and frame (one thread, all threads), printed as a table or JSON.
 pub(super) fn run(args: &BenchArgs, scenes: &[String], settings: &RenderSettings) -> Result<()> {
     let all = rayon::current_num_threads();
     let mut rows = Vec::new();
     for name in scenes {
-        let frame = Frame::prepare(name, args, settings)?;
-        for threads in [1, all] {
-            rows.push(frame.timed_row(threads, args, settings)?);
+        let scene = BenchScene::open(name, args.triangles, args.frames.as_deref(), 1)?;
+        for &f in &scene.frames {
+            let frame = Frame::prepare(scene.animation.as_ref(), f, args, settings)?;
+            for threads in [1, all] {
+                rows.push(frame.timed_row(threads, args, settings)?);
+            }
         }
     }
     if args.json {
@@ -133,9 +170,10 @@ struct LightRays {
     srdh: Option<LightSrdh>,
 }
 
-/// The first frame of a scene with its trees and rays, ready to be timed.
+/// One frame of a scene with its trees and rays, ready to be timed, and their counted work.
 struct Frame {
     scene: String,
+    frame: i32,
     geometry: FrameGeometry,
     bvh: Bvh,
     /// The tree of the shadow-casting triangles when they are not the camera's.
@@ -148,12 +186,18 @@ struct Frame {
     /// Every light's rays in turn, and antumbra's answer for each.
     shadow: Vec<Ray>,
     answers: Vec<bool>,
+    primary_work: TraversalStats,
+    shadow_work: TraversalStats,
 }
 
 impl Frame {
-    fn prepare(name: &str, args: &BenchArgs, s: &RenderSettings) -> Result<Frame> {
-        let anim = open_scene(name, args.triangles, 1)?;
-        let mut scene = anim.frame(*anim.frame_range().start());
+    fn prepare(
+        anim: &dyn Animation,
+        number: i32,
+        args: &BenchArgs,
+        s: &RenderSettings,
+    ) -> Result<Frame> {
+        let mut scene = anim.frame(number);
         scene.resolution = Resolution::new(args.size.width, args.size.height);
         let geometry = FrameGeometry::from_scene(&scene)?;
         let bvh = build_binned_sah(&geometry.camera.vertices, &s.build_settings);
@@ -163,12 +207,20 @@ impl Frame {
             .shadow
             .as_ref()
             .map(|set| build_binned_sah(&set.vertices, &s.build_settings));
+        let wide_camera =
+            (s.width != BvhWidth::Two).then(|| WideTree::collapse(&bvh, s.width, &s.collapse));
+        // Counted on the tree the timed loop traces (the timed loop has no counters).
+        let primary_work = match &wide_camera {
+            Some(t) => PrimaryPass::counted(&primary_gen, t, &geometry.camera),
+            None => PrimaryPass::counted(&primary_gen, &bvh, &geometry.camera),
+        }
+        .totals;
         let mut frame = Frame {
             scene: anim.name().to_string(),
+            frame: number,
             primary: camera_rays(&primary_gen, args.size.width, args.size.height),
             binary: binary_order(s.width, &s.shadow_order),
-            wide_camera: (s.width != BvhWidth::Two)
-                .then(|| WideTree::collapse(&bvh, s.width, &s.collapse)),
+            wide_camera,
             geometry,
             bvh,
             shadow_bvh,
@@ -176,6 +228,8 @@ impl Frame {
             lights: Vec::new(),
             shadow: Vec::new(),
             answers: Vec::new(),
+            primary_work,
+            shadow_work: TraversalStats::default(),
         };
         let srdh = matches!(s.shadow_order, ShadowOrder::Srdh(_));
         frame.wide_shadow = (frame.binary.is_none() && !srdh)
@@ -189,7 +243,7 @@ impl Frame {
             .iter()
             .flat_map(|l| l.rays.iter().copied())
             .collect();
-        frame.answers = frame.occlusion_answers();
+        (frame.answers, frame.shadow_work) = frame.counted_occlusion();
         Ok(frame)
     }
 
@@ -240,19 +294,27 @@ impl Frame {
         }
     }
 
-    fn occlusion_answers(&self) -> Vec<bool> {
-        self.lights
-            .iter()
-            .flat_map(|light| {
-                with_occluder!(self, light, |o| {
-                    light
-                        .rays
-                        .par_iter()
-                        .map(|r| o.occluded(r, &mut NoStats))
-                        .collect::<Vec<bool>>()
-                })
-            })
-            .collect()
+    /// Every shadow ray's answer, and the work of all of them, counted.
+    fn counted_occlusion(&self) -> (Vec<bool>, TraversalStats) {
+        let mut answers = Vec::with_capacity(self.shadow.len());
+        let mut total = TraversalStats::default();
+        for light in &self.lights {
+            let (a, work): (Vec<bool>, Vec<TraversalStats>) = with_occluder!(self, light, |o| {
+                light
+                    .rays
+                    .par_iter()
+                    .map(|r| {
+                        let mut w = TraversalStats::default();
+                        (o.occluded(r, &mut w), w)
+                    })
+                    .unzip()
+            });
+            answers.extend(a);
+            for w in work {
+                total += w;
+            }
+        }
+        (answers, total)
     }
 
     /// The row's counts, before anything is timed.
@@ -260,6 +322,7 @@ impl Frame {
         let occluded = self.answers.iter().filter(|a| **a).count();
         BenchRow {
             scene: self.scene.clone(),
+            frame: self.frame,
             method: method_name(s),
             triangles: self.geometry.camera.vertices.len(),
             threads,
@@ -270,6 +333,8 @@ impl Frame {
             primary_rays: self.primary.len(),
             shadow_rays: self.shadow.len(),
             shadow_occluded: occluded as f64 / self.shadow.len().max(1) as f64,
+            primary_work: PassWork::of(&self.primary_work, self.primary.len()),
+            shadow_work: PassWork::of(&self.shadow_work, self.shadow.len()),
             collapse_ms: self.wide_camera.as_ref().map_or(0.0, |t| t.collapse_ms()),
             sort_ms_per_light: self
                 .lights
@@ -414,8 +479,18 @@ fn method_name(s: &RenderSettings) -> String {
 fn print_table(rows: &[BenchRow]) {
     let embree = rows.iter().any(|r| r.embree_build_ms.is_some());
     print!(
-        "{:<16} {:>9} {:>3} {:>9} {:>9} {:>8} {:>8} {:>7}",
-        "scene", "tris", "thr", "build ms", "MB", "prim Mr/s", "shad Mr/s", "occl"
+        "{:<16} {:>5} {:>9} {:>3} {:>9} {:>9} {:>8} {:>8} {:>7} | {} | {}",
+        "scene",
+        "frame",
+        "tris",
+        "thr",
+        "build ms",
+        "MB",
+        "prim Mr/s",
+        "shad Mr/s",
+        "occl",
+        work_header("prim"),
+        work_header("shad")
     );
     if embree {
         print!(
@@ -426,15 +501,18 @@ fn print_table(rows: &[BenchRow]) {
     println!();
     for r in rows {
         print!(
-            "{:<16} {:>9} {:>3} {:>9.1} {:>9.1} {:>8.2} {:>8.2} {:>6.1}%",
+            "{:<16} {:>5} {:>9} {:>3} {:>9.1} {:>9.1} {:>8.2} {:>8.2} {:>6.1}% | {} | {}",
             r.scene,
+            r.frame,
             r.triangles,
             r.threads,
             r.build_ms,
             r.bvh_bytes as f64 / 1e6,
             r.primary_mrays,
             r.shadow_mrays,
-            r.shadow_occluded * 100.0
+            r.shadow_occluded * 100.0,
+            work_cells(&r.primary_work),
+            work_cells(&r.shadow_work)
         );
         if let (Some(b), Some(p), Some(s), Some(a)) = (
             r.embree_build_ms,
@@ -454,7 +532,23 @@ fn print_table(rows: &[BenchRow]) {
         }
         println!();
     }
+    println!("{WORK_LEGEND}");
     if embree {
         println!("build x = antumbra build / Embree build (quality per --embree-quality, default medium); shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays)");
     }
+}
+
+const WORK_LEGEND: &str = "work per ray, counted on the timed trees: N_B interior nodes entered, N_L leaves entered, N_T ray/triangle tests, N_box ray/box tests";
+
+/// The work columns' names for one kind of pass.
+fn work_header(pass: &str) -> String {
+    ["N_B", "N_L", "N_T", "N_box"]
+        .map(|c| format!("{:>10}", format!("{pass} {c}")))
+        .join(" ")
+}
+
+fn work_cells(w: &PassWork) -> String {
+    [w.nb_per_ray, w.nl_per_ray, w.nt_per_ray, w.nbox_per_ray]
+        .map(|x| format!("{x:>10.2}"))
+        .join(" ")
 }
