@@ -26,10 +26,10 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use antumbra_core::atomic_file::write_bytes_atomic;
-use antumbra_core::render::Renderer;
+use antumbra_core::render::{all_output_planes, Renderer};
 use antumbra_core::scene::Animation;
 use antumbra_protocol::{
-    check_limits, frame_update_from_scene, render_settings, NamedSettings, RecordedAnimation,
+    check_limits, check_render_memory, frame_update_from_scene, render_settings, NamedSettings, RecordedAnimation,
     Request,
 };
 use notify::Watcher;
@@ -314,6 +314,8 @@ fn run_job(shared: &Shared, dirs: &SpoolDirs, id: &str) -> Result<(), JobError> 
         let update =
             frame_update_from_scene(&scene).map_err(|e| failed(format!("frame {frame}: {e}")))?;
         check_limits(&Request::FrameUpdate(update), &shared.config.limits).map_err(failed)?;
+        let planes = all_output_planes(&scene, &settings);
+        check_render_memory(&scene, &settings, planes, &shared.config.limits).map_err(failed)?;
         let slot = match shared.slots.acquire(&shared.stop, |_| {}) {
             Acquired::Slot(s, _) => s,
             Acquired::GaveUp => return Err(JobError::Stopped),

@@ -15,6 +15,7 @@ use std::sync::Arc;
 use antumbra_core::scene::{Animation, Mesh, Scene};
 use thiserror::Error;
 
+use crate::check::check_limits;
 use crate::convert::{mesh_from_upload, scene_from_frame, scene_to_messages};
 use crate::error::{FrameError, ProtocolError};
 use crate::frame::{read_message, write_message};
@@ -254,8 +255,10 @@ impl Replay {
         }
     }
 
-    /// Applies one request; returns the scene of a `FrameUpdate`.
+    /// Applies one request, checked against the limits as a daemon checks it on the socket;
+    /// returns the scene of a `FrameUpdate`.
     pub fn apply(&mut self, request: &Request) -> Result<Option<Scene>, ProtocolError> {
+        check_limits(request, &self.limits)?;
         match request {
             Request::UploadMesh(upload) => {
                 if !self.meshes.contains_key(&upload.hash) {
