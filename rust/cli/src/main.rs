@@ -40,7 +40,7 @@ fn main() {
         Command::Render(a) => commands::render::run(a),
         Command::Record(a) => commands::record::run(a),
         Command::Bench(a) => commands::bench::run(a),
-        Command::Serve(a) => commands::serve::run(a),
+        Command::Serve(a) => commands::serve::run(a, allocator::release_freed_memory),
     };
     if let Err(e) = result {
         eprintln!("antumbra: error: {e:#}");

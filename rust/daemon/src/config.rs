@@ -34,6 +34,9 @@ pub struct DaemonConfig {
     pub write_timeout: Duration,
     /// The name sent in `Welcome`.
     pub server_name: String,
+    /// Gives the allocator's free memory back to the system; called when sessions have ended.
+    /// Default [`crate::memory::trim_system_allocator`] (glibc); `antumbra serve` sets mimalloc's.
+    pub release_memory: fn(),
 }
 
 impl DaemonConfig {
@@ -51,6 +54,7 @@ impl DaemonConfig {
             spool_rescan: Duration::from_secs(2),
             write_timeout: Duration::from_secs(120),
             server_name: format!("antumbra-daemon {}", env!("CARGO_PKG_VERSION")),
+            release_memory: crate::memory::trim_system_allocator,
         }
     }
 }

@@ -20,6 +20,7 @@ pub mod config;
 pub mod error;
 pub mod listen;
 pub mod logging;
+pub mod memory;
 mod server;
 mod session;
 mod shared;

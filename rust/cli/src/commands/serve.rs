@@ -57,7 +57,9 @@ pub struct ServeArgs {
     pub spool_rescan_s: f64,
 }
 
-pub fn run(args: ServeArgs) -> Result<()> {
+/// Runs the daemon; `release_memory` gives the process allocator's free memory back to the
+/// system when sessions end.
+pub fn run(args: ServeArgs, release_memory: fn()) -> Result<()> {
     init_logging(match args.log_format {
         LogFormatArg::Text => LogFormat::Text,
         LogFormatArg::Json => LogFormat::Json,
@@ -82,6 +84,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     config.max_renders = args.max_renders;
     config.memory_budget = args.memory_budget_mb.saturating_mul(1 << 20);
     config.limits.max_render_bytes = args.render_memory_mb.saturating_mul(1 << 20);
+    config.release_memory = release_memory;
     config.shutdown_grace = Duration::from_secs_f64(args.shutdown_grace_s);
     config.spool_rescan = Duration::from_secs_f64(args.spool_rescan_s);
     let daemon = Daemon::bind(config)?;
