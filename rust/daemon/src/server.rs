@@ -223,8 +223,7 @@ impl Daemon {
             }
             // Joined, an ended session's thread has also freed its thread-local memory: give
             // what it held back to the system.
-            let (ended, live): (Vec<_>, Vec<_>) =
-                sessions.drain(..).partition(|t| t.is_finished());
+            let (ended, live): (Vec<_>, Vec<_>) = sessions.drain(..).partition(|t| t.is_finished());
             *sessions = live;
             if !ended.is_empty() {
                 for t in ended {

@@ -29,8 +29,8 @@ use antumbra_core::atomic_file::write_bytes_atomic;
 use antumbra_core::render::{all_output_planes, Renderer};
 use antumbra_core::scene::Animation;
 use antumbra_protocol::{
-    check_limits, check_render_memory, frame_update_from_scene, render_settings, NamedSettings, RecordedAnimation,
-    Request,
+    check_limits, check_render_memory, frame_update_from_scene, render_settings, NamedSettings,
+    RecordedAnimation, Request,
 };
 use notify::Watcher;
 use serde::{Deserialize, Serialize};

@@ -8,7 +8,9 @@ use std::time::{Duration, Instant};
 
 use antumbra_core::render::RenderSettings;
 use antumbra_daemon::spool::{submit_job, JobSpec, DONE_FILE, ERROR_FILE};
-use antumbra_protocol::{ErrorCode, NamedSettings, Passes, RecordingWriter, RenderRequest, Request};
+use antumbra_protocol::{
+    ErrorCode, NamedSettings, Passes, RecordingWriter, RenderRequest, Request,
+};
 use common::*;
 
 /// A budget far below what a 2048x2048 frame needs (about 0.9 GiB with counters) and far above
@@ -18,14 +20,20 @@ const SMALL_BUDGET: u64 = 64 << 20;
 fn wait_for_file(path: &Path) {
     let deadline = Instant::now() + TIMEOUT;
     while !path.exists() {
-        assert!(Instant::now() < deadline, "timed out waiting for {}", path.display());
+        assert!(
+            Instant::now() < deadline,
+            "timed out waiting for {}",
+            path.display()
+        );
         std::thread::sleep(Duration::from_millis(20));
     }
 }
 
 #[test]
 fn a_render_over_the_memory_budget_is_refused_and_the_session_goes_on() {
-    let d = TestDaemon::start_with("render-memory", |c| c.limits.max_render_bytes = SMALL_BUDGET);
+    let d = TestDaemon::start_with("render-memory", |c| {
+        c.limits.max_render_bytes = SMALL_BUDGET
+    });
     let mut other = Bystander::new(&d);
     let mut c = d.client("big");
     // Only the combined pass is asked for: the per-pixel buffers of the passes still count.

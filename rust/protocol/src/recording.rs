@@ -24,34 +24,41 @@ use crate::messages::Request;
 
 pub const RECORDING_MAGIC: &[u8; 8] = b"ANTREC1\n";
 
+/// Each message holds its cause's text (no `source()` chain), so a report prints it once.
 #[derive(Debug, Error)]
 pub enum RecordingError {
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     File {
         path: String,
-        source: Box<RecordingError>,
+        error: Box<RecordingError>,
     },
     #[error("{0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     #[error("not an antumbra recording: it does not start with \"ANTREC1\\n\"")]
     BadMagic,
-    #[error("message {index}: {source}")]
-    Frame { index: usize, source: FrameError },
-    #[error("message {index} ({kind}): {source}")]
+    #[error("message {index}: {error}")]
+    Frame { index: usize, error: FrameError },
+    #[error("message {index} ({kind}): {error}")]
     Protocol {
         index: usize,
         kind: &'static str,
-        source: ProtocolError,
+        error: ProtocolError,
     },
     #[error("the recording holds no FrameUpdate")]
     NoFrames,
+}
+
+impl From<std::io::Error> for RecordingError {
+    fn from(e: std::io::Error) -> Self {
+        RecordingError::Io(e)
+    }
 }
 
 impl RecordingError {
     fn in_file(self, path: &Path) -> Self {
         RecordingError::File {
             path: path.display().to_string(),
-            source: Box::new(self),
+            error: Box::new(self),
         }
     }
 }
@@ -109,10 +116,10 @@ impl<W: Write> RecordingWriter<W> {
     /// then its `FrameUpdate`.
     pub fn append_scene(&mut self, scene: &Scene) -> Result<(), RecordingError> {
         let (uploads, update) =
-            scene_to_messages(scene).map_err(|source| RecordingError::Protocol {
+            scene_to_messages(scene).map_err(|error| RecordingError::Protocol {
                 index: self.written,
                 kind: "FrameUpdate",
-                source,
+                error,
             })?;
         for request in uploads.iter().chain([&update]) {
             if let Request::UploadMesh(u) = request {
@@ -122,7 +129,7 @@ impl<W: Write> RecordingWriter<W> {
             }
             let index = self.written;
             self.append(request)
-                .map_err(|source| RecordingError::Frame { index, source })?;
+                .map_err(|error| RecordingError::Frame { index, error })?;
         }
         Ok(())
     }
@@ -214,12 +221,12 @@ impl<R: Read> RecordingReader<R> {
                 self.done = true;
                 Ok(None)
             }
-            Err(source) => {
+            Err(error) => {
                 // A bad frame may have left the reader mid-stream; nothing after it is trusted.
                 self.done = true;
                 Err(RecordingError::Frame {
                     index: self.index,
-                    source,
+                    error,
                 })
             }
         }
@@ -282,11 +289,11 @@ fn replay_reader<R: Read>(mut reader: RecordingReader<R>) -> Result<Vec<Scene>, 
         match replay.apply(&request) {
             Ok(Some(scene)) => scenes.push(scene),
             Ok(None) => {}
-            Err(source) => {
+            Err(error) => {
                 return Err(RecordingError::Protocol {
                     index,
                     kind: request.kind(),
-                    source,
+                    error,
                 })
             }
         }

@@ -6,9 +6,9 @@ use anyhow::Result;
 use clap::Args;
 
 use super::render::render_frames;
-use antumbra_protocol::DEFAULT_MAX_RENDER_BYTES;
 use crate::method_args::MethodArgs;
 use crate::scene_source::open_scene;
+use antumbra_protocol::DEFAULT_MAX_RENDER_BYTES;
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {

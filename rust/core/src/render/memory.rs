@@ -5,7 +5,7 @@
 use std::fmt;
 use std::mem::size_of;
 
-use super::{RenderSettings, ShadowRayOutcome, StatsMode, SurfacePoint};
+use super::{RenderSettings, ShadowRayOutcome, StatsMode, SurfacePoint, VisibilitySource};
 use crate::build::BuildMethod;
 use crate::bvh::BvhWidth;
 use crate::geometry::Ray;
@@ -14,10 +14,13 @@ use crate::scene::{Scene, TriangleRef};
 use crate::trace::TraversalStats;
 
 /// Peak bytes of one tree build per triangle reference: primitive references, partition
-/// scratch, nodes and the leaf triangle list (calibrated against peak RSS; see `docs/daemon.md`).
-const BUILD_BYTES_PER_REF: u64 = 160;
-/// A collapsed wide tree, its triangle rows and per-tree orders, per reference.
-const WIDE_BYTES_PER_REF: u64 = 64;
+/// scratch, nodes, the leaf triangle list and the meshes' own arrays (calibrated against peak
+/// RSS, measured 282 bytes per world triangle with the set; see `docs/daemon.md`).
+const BUILD_BYTES_PER_REF: u64 = 224;
+/// A collapsed wide tree, its triangle rows and per-light sorting tables, per reference.
+const WIDE_BYTES_PER_REF: u64 = 128;
+/// The process itself: code, thread stacks, allocator caches.
+const PROCESS_BYTES: u64 = 32 << 20;
 /// A representative ray of a light's preparation (SRDH, sorting): the ray, its hit list and
 /// the logged nodes, beyond `size_of::<Ray>()`.
 const PREP_BYTES_PER_RAY: u64 = 64;
@@ -37,7 +40,7 @@ pub struct RenderMemory {
     pub world_triangles: u64,
     /// Planes the caller copies out after the render (a reply, image files).
     pub output_planes: u64,
-    /// Per-pixel buffers of the passes and the planes of the result.
+    /// Per-pixel buffers of the passes, the planes of the result and the process itself.
     pub image_bytes: u64,
     /// Triangle sets and trees.
     pub geometry_bytes: u64,
@@ -109,9 +112,9 @@ fn prep_rays(settings: &RenderSettings, pixels: u64) -> u64 {
         ShadowOrder::Srdh(s) => match s.rays {
             RaySetSource::All => pixels.saturating_mul(spp),
             RaySetSource::Budget(f) => share(f).saturating_mul(spp),
-            RaySetSource::Prepass { width, height } => {
-                (width as u64 * height as u64).min(pixels).saturating_mul(spp)
-            }
+            RaySetSource::Prepass { width, height } => (width as u64 * height as u64)
+                .min(pixels)
+                .saturating_mul(spp),
         },
         _ => 0,
     }
@@ -134,16 +137,26 @@ pub fn estimate_render_bytes(
     let lights = scene.lights.iter().filter(|l| l.casts_shadow).count() as u64;
 
     let (passes, result) = pass_bytes_per_pixel(settings, lights);
-    // Copying planes out happens after the passes are freed; the result is alive in both.
-    let per_pixel = passes.max(2 * PLANE * output_planes) + result;
-    let image_bytes = pixels.saturating_mul(per_pixel);
+    // Planes are copied out after the passes end, but the allocator does not hand the passes'
+    // freed buffers to those copies (measured), so the two add up.
+    let per_pixel = passes + result + 2 * PLANE * output_planes;
+    // An eighth more for what the per-pixel sizes leave out (parallel collection, allocator
+    // rounding), and the process itself.
+    let image_bytes = pixels
+        .saturating_mul(per_pixel + per_pixel / 8)
+        .saturating_add(PROCESS_BYTES);
 
     let triangles = |pick: fn(&crate::scene::Object) -> bool| -> u64 {
         scene
             .objects
             .iter()
             .filter(|o| pick(o))
-            .map(|o| scene.meshes.get(o.mesh).map_or(0, |m| m.triangles.len() as u64))
+            .map(|o| {
+                scene
+                    .meshes
+                    .get(o.mesh)
+                    .map_or(0, |m| m.triangles.len() as u64)
+            })
             .sum()
     };
     let camera = triangles(|o| o.visible_to_camera);
@@ -172,16 +185,24 @@ pub fn estimate_render_bytes(
         1.0
     };
     let refs = |n: u64| (n as f64 * growth).ceil() as u64;
-    let trees = if settings.build.uses_visibility() {
-        2
-    } else {
-        1
-    };
-    let wide = settings.width != BvhWidth::Two || !matches!(settings.shadow_order.binary(), Some(_));
+    // Exact and prepass visible sets are traced through one more (SAH) tree.
+    let visibility_tree = settings.build.uses_visibility()
+        && matches!(
+            settings.visibility,
+            VisibilitySource::Exact | VisibilitySource::Prepass { .. }
+        );
+    let wide =
+        settings.width != BvhWidth::Two || !matches!(settings.shadow_order.binary(), Some(_));
     let per_ref = BUILD_BYTES_PER_REF + if wide { WIDE_BYTES_PER_REF } else { 0 };
+    let extra_tree = if visibility_tree {
+        camera.saturating_mul(BUILD_BYTES_PER_REF)
+    } else {
+        0
+    };
     let geometry_bytes = world_triangles
         .saturating_mul(set_bytes)
-        .saturating_add(refs(world_triangles).saturating_mul(per_ref * trees));
+        .saturating_add(refs(world_triangles).saturating_mul(per_ref))
+        .saturating_add(extra_tree);
 
     let rays = prep_rays(settings, pixels);
     let light_bytes = if lights == 0 || rays == 0 {
