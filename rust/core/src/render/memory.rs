@@ -93,7 +93,8 @@ fn pass_bytes_per_pixel(settings: &RenderSettings, lights: u64) -> (u64, u64) {
     let t = size_of::<TraversalStats>() as u64;
     let counted = settings.stats != StatsMode::TimingOnly;
     // The result: masks, combined, primary ids and objects, and heat maps when counting.
-    let result = PLANE * (lights + 3) + if counted { PLANE * HEAT_PLANES } else { 0 };
+    let result = PLANE.saturating_mul(lights.saturating_add(3))
+        + if counted { PLANE * HEAT_PLANES } else { 0 };
     let passes = if counted {
         // Primary hits and work, the summed shadow work, one light's per-pixel results and work.
         s + 3 * t + size_of::<(f32, ShadowRayOutcome, TraversalStats)>() as u64
@@ -139,11 +140,13 @@ pub fn estimate_render_bytes(
     let (passes, result) = pass_bytes_per_pixel(settings, lights);
     // Planes are copied out after the passes end, but the allocator does not hand the passes'
     // freed buffers to those copies (measured), so the two add up.
-    let per_pixel = passes + result + 2 * PLANE * output_planes;
+    let per_pixel = passes
+        .saturating_add(result)
+        .saturating_add(output_planes.saturating_mul(2 * PLANE));
     // An eighth more for what the per-pixel sizes leave out (parallel collection, allocator
     // rounding), and the process itself.
     let image_bytes = pixels
-        .saturating_mul(per_pixel + per_pixel / 8)
+        .saturating_mul(per_pixel.saturating_add(per_pixel / 8))
         .saturating_add(PROCESS_BYTES);
 
     let triangles = |pick: fn(&crate::scene::Object) -> bool| -> u64 {
@@ -239,4 +242,68 @@ pub fn all_output_planes(scene: &Scene, settings: &RenderSettings) -> u64 {
         0
     };
     lights + 2 + heat
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use glam::{DMat4, DVec3};
+
+    use super::*;
+    use crate::scene::{Camera, Light, LightKind, Mesh, Object, Resolution};
+
+    fn scene(objects: usize, width: u32, height: u32) -> Scene {
+        let mesh = Mesh::new(
+            "tri",
+            vec![
+                [0.0, 0.0, 0.0].into(),
+                [1.0, 0.0, 0.0].into(),
+                [0.0, 1.0, 0.0].into(),
+            ],
+            vec![[0, 1, 2]],
+        );
+        Scene {
+            frame: 3,
+            meshes: vec![Arc::new(mesh)],
+            objects: (0..objects)
+                .map(|i| Object::new(format!("o{i}"), 0, DMat4::IDENTITY))
+                .collect(),
+            camera: Camera::look_at(DVec3::new(0.0, -5.0, 2.0), DVec3::ZERO, DVec3::Z),
+            lights: vec![Light::new(
+                "sun",
+                DMat4::IDENTITY,
+                LightKind::Sun { angle: 0.0 },
+            )],
+            resolution: Resolution::new(width, height),
+        }
+    }
+
+    #[test]
+    fn the_estimate_follows_pixels_instances_and_splits() {
+        let s = RenderSettings::default();
+        let small = estimate_render_bytes(&scene(1, 64, 64), &s, 1);
+        let big = estimate_render_bytes(&scene(1, 8192, 8192), &s, 1);
+        assert_eq!((big.width, big.height, big.lights), (8192, 8192, 1));
+        // 8192x8192 with counters needs well over the default 8 GiB budget (issue 24).
+        assert!(big.total() > 8 << 30, "{big}");
+        assert!(small.total() < 64 << 20, "{small}");
+        // Every instance of a mesh is a world triangle of its own.
+        let many = estimate_render_bytes(&scene(1000, 64, 64), &s, 1);
+        assert_eq!(many.world_triangles, 1000);
+        assert!(many.geometry_bytes >= 1000 * small.geometry_bytes);
+        let sbvh = RenderSettings {
+            build: BuildMethod::Sbvh,
+            ..s.clone()
+        };
+        assert!(
+            estimate_render_bytes(&scene(1000, 64, 64), &sbvh, 1).geometry_bytes
+                > many.geometry_bytes
+        );
+        // Huge inputs saturate rather than overflow.
+        let mut huge = scene(1, u32::MAX, u32::MAX);
+        huge.resolution.percentage = u32::MAX;
+        assert!(estimate_render_bytes(&huge, &s, u64::MAX).total() > 1 << 60);
+        assert!(big.to_string().contains("8192x8192 pixels"), "{big}");
+    }
 }
