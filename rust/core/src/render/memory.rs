@@ -194,8 +194,9 @@ pub fn estimate_render_bytes(
             settings.visibility,
             VisibilitySource::Exact | VisibilitySource::Prepass { .. }
         );
-    let wide =
-        settings.width != BvhWidth::Two || !matches!(settings.shadow_order.binary(), Some(_));
+    let wide = settings.width != BvhWidth::Two
+        || (settings.shadow_order.binary().is_none()
+            && !matches!(settings.shadow_order, ShadowOrder::Srdh(_)));
     let per_ref = BUILD_BYTES_PER_REF + if wide { WIDE_BYTES_PER_REF } else { 0 };
     let extra_tree = if visibility_tree {
         camera.saturating_mul(BUILD_BYTES_PER_REF)
