@@ -22,6 +22,13 @@ pub fn keep_freed_memory() {
     unsafe { libmimalloc_sys::mi_option_set(PURGE_DELAY, KEEP_FREED_MS) };
 }
 
+/// Returns freed memory to the kernel now, purging what the delay would keep: for the daemon,
+/// whose sessions end and leave it idle (mimalloc purges only when it is next called).
+pub fn release_freed_memory() {
+    // SAFETY: mimalloc's collection is thread-safe; `force` also purges the delayed memory.
+    unsafe { libmimalloc_sys::mi_collect(true) };
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

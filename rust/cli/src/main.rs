@@ -44,7 +44,7 @@ fn main() {
         Command::Record(a) => commands::record::run(a),
         Command::Bench(a) => commands::bench::run(a),
         Command::Compare(a) => commands::compare::run(a),
-        Command::Serve(a) => commands::serve::run(a),
+        Command::Serve(a) => commands::serve::run(a, allocator::release_freed_memory),
     };
     if let Err(e) = result {
         eprintln!("antumbra: error: {e:#}");

@@ -59,6 +59,9 @@ pub struct DaemonConfig {
     pub auth_backoff: Duration,
     /// The longest wait; an address with no failure for this long starts afresh.
     pub auth_backoff_max: Duration,
+    /// Gives the allocator's free memory back to the system; called when sessions have ended.
+    /// Default [`crate::memory::trim_system_allocator`] (glibc); `antumbra serve` sets mimalloc's.
+    pub release_memory: fn(),
 }
 
 impl DaemonConfig {
@@ -86,6 +89,7 @@ impl DaemonConfig {
             auth_failures_allowed: 10,
             auth_backoff: Duration::from_secs(1),
             auth_backoff_max: Duration::from_secs(60),
+            release_memory: crate::memory::trim_system_allocator,
         }
     }
 }

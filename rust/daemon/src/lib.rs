@@ -21,6 +21,7 @@ pub mod error;
 mod gate;
 pub mod listen;
 pub mod logging;
+pub mod memory;
 mod server;
 mod session;
 mod shared;

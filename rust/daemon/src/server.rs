@@ -242,7 +242,16 @@ impl Daemon {
                 }
                 return Err(DaemonError::io("poll", e));
             }
-            sessions.retain(|t| !t.is_finished());
+            // Joined, an ended session's thread has also freed its thread-local memory: give
+            // what it held back to the system.
+            let (ended, live): (Vec<_>, Vec<_>) = sessions.drain(..).partition(|t| t.is_finished());
+            *sessions = live;
+            if !ended.is_empty() {
+                for t in ended {
+                    let _ = t.join();
+                }
+                (shared.config.release_memory)();
+            }
             let now = Instant::now();
             shared.gate.flush(now, false);
             shared.throttle.flush(now, false);
@@ -363,6 +372,7 @@ impl Daemon {
                     drop(admission);
                     // Meshes this session held may now be evictable.
                     shared.cache.trim();
+                    (shared.config.release_memory)();
                 }
             });
         match spawned {

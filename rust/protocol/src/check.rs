@@ -1,10 +1,14 @@
-//! The request checks against the daemon's [`Limits`]: counts and sizes, before any work.
+//! The request checks against the daemon's [`Limits`]: counts and sizes, and a frame's estimated
+//! render memory, before any work.
 
 use std::collections::HashSet;
 
+use antumbra_core::render::{estimate_render_bytes, RenderMemory, RenderSettings, StatsMode};
+use antumbra_core::scene::Scene;
+
 use crate::error::ProtocolError;
 use crate::limits::Limits;
-use crate::messages::Request;
+use crate::messages::{Passes, Request};
 
 fn check(
     what: impl FnOnce() -> String,
@@ -94,4 +98,40 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
         | Request::Close
         | Request::Shutdown => Ok(()),
     }
+}
+
+/// The image planes a reply with `passes` copies out of a frame's result.
+pub fn reply_planes(passes: &Passes, scene: &Scene, settings: &RenderSettings) -> u64 {
+    let lights = scene.lights.iter().filter(|l| l.casts_shadow).count() as u64;
+    let heat = settings.stats != StatsMode::TimingOnly;
+    [
+        (passes.masks, lights),
+        (passes.combined, 1),
+        (passes.heat_maps && heat, 6),
+        (passes.object_ids, 1),
+    ]
+    .iter()
+    .filter(|(on, _)| *on)
+    .map(|(_, n)| n)
+    .sum()
+}
+
+/// Checks a frame's estimated peak memory (rendering, then copying `output_planes` planes out)
+/// against `limits.max_render_bytes` before any work; the error names the frame, the sizes the
+/// estimate follows from and the budget.
+pub fn check_render_memory(
+    scene: &Scene,
+    settings: &RenderSettings,
+    output_planes: u64,
+    limits: &Limits,
+) -> Result<RenderMemory, ProtocolError> {
+    let estimate = estimate_render_bytes(scene, settings, output_planes);
+    if estimate.total() > limits.max_render_bytes {
+        return Err(ProtocolError::RenderMemory {
+            frame: scene.frame,
+            estimate,
+            limit: limits.max_render_bytes,
+        });
+    }
+    Ok(estimate)
 }

@@ -1,6 +1,7 @@
 //! Errors of the protocol layer. Every message names the mesh, object, frame or field at fault so
 //! the daemon can send it to Blender as is (see [`ProtocolError::to_reply`]).
 
+use antumbra_core::render::{format_bytes, RenderMemory};
 use thiserror::Error;
 
 use crate::messages::{ErrorCode, Reply};
@@ -97,6 +98,17 @@ pub enum ProtocolError {
         limit: u64,
         limit_name: &'static str,
     },
+    /// A render estimated to need more memory than the budget; refused before any work.
+    #[error(
+        "frame {frame}: the render needs {estimate}, over the render memory budget of {} \
+         (max_render_bytes)",
+        format_bytes(*limit)
+    )]
+    RenderMemory {
+        frame: i32,
+        estimate: RenderMemory,
+        limit: u64,
+    },
     /// A core validation error found in one frame's data.
     #[error("frame {frame}: {error}")]
     InFrame {
@@ -120,7 +132,9 @@ impl ProtocolError {
         match self {
             ProtocolError::VersionMismatch { .. } => ErrorCode::VersionMismatch,
             ProtocolError::UnknownMesh { .. } => ErrorCode::UnknownMesh,
-            ProtocolError::LimitExceeded { .. } => ErrorCode::LimitExceeded,
+            ProtocolError::LimitExceeded { .. } | ProtocolError::RenderMemory { .. } => {
+                ErrorCode::LimitExceeded
+            }
             ProtocolError::Invalid { .. }
             | ProtocolError::HashMismatch { .. }
             | ProtocolError::InFrame { .. }

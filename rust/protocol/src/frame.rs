@@ -4,8 +4,8 @@
 //! skipped).
 //!
 //! Readers check the length against [`Limits::max_frame_bytes`] before they allocate anything,
-//! and grow their buffer only as bytes actually arrive, so neither a huge prefix nor a slow
-//! sender of a large frame makes them reserve memory that is not backed by received data.
+//! and allocate at most twice the bytes that actually arrived, so neither a huge prefix nor a
+//! slow sender of a large frame makes them reserve memory that is not backed by received data.
 
 use std::io::{ErrorKind, Read, Write};
 use std::ops::Range;
@@ -22,7 +22,7 @@ pub const LENGTH_PREFIX_BYTES: usize = 4;
 /// hostile input (arrays in arrays in ...) far from the stack limit.
 const MAX_DEPTH: usize = 32;
 
-/// First read chunk of a body; later chunks double with what has arrived.
+/// First read chunk of a body; later chunks are as large as what has arrived.
 const FIRST_CHUNK: u64 = 64 * 1024;
 
 /// Encodes `message` as one frame: length prefix and body.
@@ -118,26 +118,59 @@ fn read_prefix<R: Read>(r: &mut R) -> Result<u32, FrameError> {
     Ok(u32::from_le_bytes(prefix))
 }
 
+/// Reads from `r` into `buf` until it holds `upto` bytes; `Truncated` (of a `len`-byte body of
+/// which `before` bytes came earlier) if the stream ends first.
+fn fill<R: Read>(
+    r: &mut R,
+    buf: &mut Vec<u8>,
+    upto: usize,
+    len: u64,
+    before: u64,
+) -> Result<(), FrameError> {
+    while buf.len() < upto {
+        let n = r
+            .by_ref()
+            .take((upto - buf.len()) as u64)
+            .read_to_end(buf)?;
+        if n == 0 {
+            return Err(FrameError::Truncated {
+                expected: len,
+                got: before + buf.len() as u64,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Reads one frame's body from a blocking reader.
+///
+/// The first half of a large body arrives into chunks, each as large as all before it, so no
+/// byte is copied and no buffer is outgrown while the body grows; once half has arrived the
+/// whole body is allocated (at most twice what arrived) and the rest is read into it. A frame
+/// that never ends so costs about the bytes sent, not the three times of a doubling buffer.
 pub fn read_frame<R: Read>(r: &mut R, limits: &Limits) -> Result<Vec<u8>, FrameError> {
     let len = read_prefix(r)? as u64;
     let max = limits.frame_limit();
     if len > max {
         return Err(FrameError::TooLarge { len, max });
     }
-    let mut body = Vec::new();
-    while (body.len() as u64) < len {
-        let remaining = len - body.len() as u64;
-        let chunk = remaining.min((body.len() as u64).max(FIRST_CHUNK));
-        body.reserve_exact(chunk as usize);
-        let n = r.by_ref().take(chunk).read_to_end(&mut body)?;
-        if n == 0 {
-            return Err(FrameError::Truncated {
-                expected: len,
-                got: body.len() as u64,
-            });
-        }
+    let mut chunks: Vec<Vec<u8>> = Vec::new();
+    let mut got = 0u64;
+    while got < len && (got == 0 || got * 2 < len) {
+        let size = (len - got).min(got.max(FIRST_CHUNK)) as usize;
+        let mut chunk = Vec::with_capacity(size);
+        fill(r, &mut chunk, size, len, got)?;
+        got += size as u64;
+        chunks.push(chunk);
     }
+    if got == len && chunks.len() <= 1 {
+        return Ok(chunks.pop().unwrap_or_default());
+    }
+    let mut body = Vec::with_capacity(len as usize);
+    for chunk in chunks {
+        body.extend_from_slice(&chunk);
+    }
+    fill(r, &mut body, len as usize, len, 0)?;
     Ok(body)
 }
 

@@ -19,7 +19,7 @@ pub mod limits;
 pub mod messages;
 pub mod recording;
 
-pub use check::check_limits;
+pub use check::{check_limits, check_render_memory, reply_planes};
 pub use convert::{
     frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,
     planes_from_reply, render_settings, scene_from_frame, scene_to_messages, stats_from_reply,
@@ -30,7 +30,7 @@ pub use frame::{
     decode_body, encode_body, encode_message, encode_message_within, read_frame, read_message,
     write_message, FrameDecoder,
 };
-pub use limits::Limits;
+pub use limits::{Limits, DEFAULT_MAX_RENDER_BYTES};
 pub use messages::*;
 pub use recording::{
     replay_scenes, RecordedAnimation, RecordingError, RecordingReader, RecordingWriter, Replay,

@@ -5,6 +5,9 @@ use serde::{Deserialize, Serialize};
 
 const GIB: u64 = 1 << 30;
 
+/// The default render memory budget ([`Limits::max_render_bytes`]).
+pub const DEFAULT_MAX_RENDER_BYTES: u64 = 8 * GIB;
+
 /// The largest body a 4-byte length prefix can announce; larger limits are clamped to it.
 pub const MAX_FRAME_BYTES_CEILING: u64 = u32::MAX as u64;
 
@@ -21,6 +24,9 @@ pub struct Limits {
     pub max_image_pixels: u64,
     pub max_spp: u32,
     pub max_lights: u32,
+    /// Most bytes one render is estimated to need at its peak
+    /// ([`antumbra_core::render::estimate_render_bytes`]); default 8 GiB.
+    pub max_render_bytes: u64,
 }
 
 impl Default for Limits {
@@ -34,6 +40,9 @@ impl Default for Limits {
             // Core's RenderSettings::validate allows at most 4096.
             max_spp: 4096,
             max_lights: 1024,
+            // Fixed rather than a share of the machine's memory, so a frame refused on one daemon
+            // is refused on every one; it holds a 4096x4096 frame with every pass and counters.
+            max_render_bytes: DEFAULT_MAX_RENDER_BYTES,
         }
     }
 }

@@ -15,6 +15,7 @@ use std::sync::Arc;
 use antumbra_core::scene::{Animation, Mesh, Scene};
 use thiserror::Error;
 
+use crate::check::check_limits;
 use crate::convert::{mesh_from_upload, scene_from_frame, scene_to_messages};
 use crate::error::{FrameError, ProtocolError};
 use crate::frame::{read_message, write_message};
@@ -33,19 +34,25 @@ pub enum RecordingError {
         error: Box<RecordingError>,
     },
     #[error("{0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     #[error("not an antumbra recording: it does not start with \"ANTREC1\\n\"")]
     BadMagic,
-    #[error("message {index}: {source}")]
-    Frame { index: usize, source: FrameError },
-    #[error("message {index} ({kind}): {source}")]
+    #[error("message {index}: {error}")]
+    Frame { index: usize, error: FrameError },
+    #[error("message {index} ({kind}): {error}")]
     Protocol {
         index: usize,
         kind: &'static str,
-        source: ProtocolError,
+        error: ProtocolError,
     },
     #[error("the recording holds no FrameUpdate")]
     NoFrames,
+}
+
+impl From<std::io::Error> for RecordingError {
+    fn from(e: std::io::Error) -> Self {
+        RecordingError::Io(e)
+    }
 }
 
 impl RecordingError {
@@ -110,10 +117,10 @@ impl<W: Write> RecordingWriter<W> {
     /// then its `FrameUpdate`.
     pub fn append_scene(&mut self, scene: &Scene) -> Result<(), RecordingError> {
         let (uploads, update) =
-            scene_to_messages(scene).map_err(|source| RecordingError::Protocol {
+            scene_to_messages(scene).map_err(|error| RecordingError::Protocol {
                 index: self.written,
                 kind: "FrameUpdate",
-                source,
+                error,
             })?;
         for request in uploads.iter().chain([&update]) {
             if let Request::UploadMesh(u) = request {
@@ -123,7 +130,7 @@ impl<W: Write> RecordingWriter<W> {
             }
             let index = self.written;
             self.append(request)
-                .map_err(|source| RecordingError::Frame { index, source })?;
+                .map_err(|error| RecordingError::Frame { index, error })?;
         }
         Ok(())
     }
@@ -215,12 +222,12 @@ impl<R: Read> RecordingReader<R> {
                 self.done = true;
                 Ok(None)
             }
-            Err(source) => {
+            Err(error) => {
                 // A bad frame may have left the reader mid-stream; nothing after it is trusted.
                 self.done = true;
                 Err(RecordingError::Frame {
                     index: self.index,
-                    source,
+                    error,
                 })
             }
         }
@@ -256,8 +263,10 @@ impl Replay {
         }
     }
 
-    /// Applies one request; returns the scene of a `FrameUpdate`.
+    /// Applies one request, checked against the limits as a daemon checks it on the socket;
+    /// returns the scene of a `FrameUpdate`.
     pub fn apply(&mut self, request: &Request) -> Result<Option<Scene>, ProtocolError> {
+        check_limits(request, &self.limits)?;
         match request {
             Request::UploadMesh(upload) => {
                 if !self.meshes.contains_key(&upload.hash) {
@@ -281,11 +290,11 @@ fn replay_reader<R: Read>(mut reader: RecordingReader<R>) -> Result<Vec<Scene>, 
         match replay.apply(&request) {
             Ok(Some(scene)) => scenes.push(scene),
             Ok(None) => {}
-            Err(source) => {
+            Err(error) => {
                 return Err(RecordingError::Protocol {
                     index,
                     kind: request.kind(),
-                    source,
+                    error,
                 })
             }
         }

@@ -139,17 +139,20 @@ fn settings() -> impl Strategy<Value = NamedSettings> {
 fn limits() -> impl Strategy<Value = Limits> {
     (
         (any::<u64>(), any::<u64>(), any::<u64>(), any::<u64>()),
-        (any::<u64>(), any::<u32>(), any::<u32>()),
+        (any::<u64>(), any::<u32>(), any::<u32>(), any::<u64>()),
     )
-        .prop_map(|((fb, tri, meshes, objects), (px, spp, lights))| Limits {
-            max_frame_bytes: fb,
-            max_triangles_per_mesh: tri,
-            max_meshes: meshes,
-            max_objects: objects,
-            max_image_pixels: px,
-            max_spp: spp,
-            max_lights: lights,
-        })
+        .prop_map(
+            |((fb, tri, meshes, objects), (px, spp, lights, render))| Limits {
+                max_frame_bytes: fb,
+                max_triangles_per_mesh: tri,
+                max_meshes: meshes,
+                max_objects: objects,
+                max_image_pixels: px,
+                max_spp: spp,
+                max_lights: lights,
+                max_render_bytes: render,
+            },
+        )
 }
 
 fn stats_row() -> impl Strategy<Value = StatsRowState> {

@@ -105,6 +105,7 @@ pub fn limits<'py>(py: Python<'py>, l: &Limits) -> PyResult<Bound<'py, PyDict>> 
             max_image_pixels,
             max_spp,
             max_lights,
+            max_render_bytes,
         ]
     ))
 }

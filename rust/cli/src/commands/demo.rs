@@ -8,6 +8,7 @@ use clap::Args;
 use super::render::render_frames;
 use crate::method_args::MethodArgs;
 use crate::scene_source::open_scene;
+use antumbra_protocol::DEFAULT_MAX_RENDER_BYTES;
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
@@ -32,7 +33,14 @@ pub fn run(args: DemoArgs) -> Result<()> {
     let scene = open_scene(&args.scene, args.triangles, frames)?;
     let mut settings = args.method.settings()?;
     settings.stats = antumbra_core::render::StatsMode::CountsAndTiming;
-    let rows = render_frames(scene.as_ref(), 1..=frames, None, &settings, &args.out)?;
+    let rows = render_frames(
+        scene.as_ref(),
+        1..=frames,
+        None,
+        &settings,
+        &args.out,
+        DEFAULT_MAX_RENDER_BYTES,
+    )?;
     println!(
         "\n{:>5}  {:8} {:14} {:>9} {:>9} {:>9} {:>7} {:>7} {:>7}",
         "frame", "pass", "light", "rays", "Mrays/s", "occluded", "N_B", "N_L", "N_T"

@@ -2,9 +2,10 @@
 
 use std::path::{Path, PathBuf};
 
-use antumbra_core::render::{RenderSettings, Renderer};
+use antumbra_core::render::{all_output_planes, RenderSettings, Renderer};
 use antumbra_core::scene::{Animation, ImageSize};
 use antumbra_core::stats::{write_csv, write_json, StatsRow};
+use antumbra_protocol::{check_render_memory, Limits, DEFAULT_MAX_RENDER_BYTES};
 use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -22,6 +23,10 @@ pub struct RenderArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Memory one frame may need at its peak, in MiB, estimated before it is rendered; a bigger
+    /// frame stops the run with an error (as the daemon refuses it).
+    #[arg(long, default_value_t = DEFAULT_MAX_RENDER_BYTES >> 20)]
+    pub render_memory_mb: u64,
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
@@ -33,6 +38,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         size,
         &args.method.settings()?,
         &args.out,
+        args.render_memory_mb.saturating_mul(1 << 20),
     )?;
     println!(
         "wrote {} frames, {} statistics rows to {}",
@@ -46,14 +52,20 @@ pub fn run(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// Renders `frames`, writing images per frame and the statistics of all frames into `out`.
+/// Renders `frames`, writing images per frame and the statistics of all frames into `out`. A
+/// frame estimated to need more than `memory_budget` bytes stops the run before it is rendered.
 pub fn render_frames(
     scene: &dyn Animation,
     frames: std::ops::RangeInclusive<i32>,
     size: Option<ImageSize>,
     settings: &RenderSettings,
     out: &Path,
+    memory_budget: u64,
 ) -> Result<Vec<StatsRow>> {
+    let limits = Limits {
+        max_render_bytes: memory_budget,
+        ..Limits::default()
+    };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let bar = ProgressBar::new(frames.clone().count() as u64);
     bar.set_style(
@@ -66,6 +78,8 @@ pub fn render_frames(
     let mut rows = Vec::new();
     for frame in frames {
         let s = frame_at_size(scene, frame, size);
+        check_render_memory(&s, settings, all_output_planes(&s, settings), &limits)
+            .map_err(|e| anyhow::anyhow!("{e}; --render-memory-mb sets the budget"))?;
         let result = renderer
             .render(scene.name(), &s, settings)
             .with_context(|| format!("frame {frame}"))?;

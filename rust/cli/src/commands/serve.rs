@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use antumbra_daemon::listen::{parse_tcp_addr, read_token_file};
 use antumbra_daemon::{default_socket_path, init_logging, Daemon, DaemonConfig, LogFormat};
+use antumbra_protocol::DEFAULT_MAX_RENDER_BYTES;
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 
@@ -41,6 +42,10 @@ pub struct ServeArgs {
     /// Memory budget of the shared mesh cache in MiB (meshes no session uses are evicted).
     #[arg(long, default_value_t = 4096)]
     pub memory_budget_mb: u64,
+    /// Memory one render may need at its peak, in MiB, estimated before it starts (images,
+    /// triangles, trees); a bigger render is refused with LimitExceeded.
+    #[arg(long, default_value_t = DEFAULT_MAX_RENDER_BYTES >> 20)]
+    pub render_memory_mb: u64,
     /// Log format on stderr (level from RUST_LOG, default info).
     #[arg(long, value_enum, default_value = "text")]
     pub log_format: LogFormatArg,
@@ -74,7 +79,9 @@ pub struct ServeArgs {
     pub spool_retry_max_s: f64,
 }
 
-pub fn run(args: ServeArgs) -> Result<()> {
+/// Runs the daemon; `release_memory` gives the process allocator's free memory back to the
+/// system when sessions end.
+pub fn run(args: ServeArgs, release_memory: fn()) -> Result<()> {
     init_logging(match args.log_format {
         LogFormatArg::Text => LogFormat::Text,
         LogFormatArg::Json => LogFormat::Json,
@@ -108,6 +115,8 @@ pub fn run(args: ServeArgs) -> Result<()> {
     config.record = args.record;
     config.max_renders = args.max_renders;
     config.memory_budget = args.memory_budget_mb.saturating_mul(1 << 20);
+    config.limits.max_render_bytes = args.render_memory_mb.saturating_mul(1 << 20);
+    config.release_memory = release_memory;
     config.shutdown_grace = Duration::from_secs_f64(args.shutdown_grace_s);
     config.spool_rescan = Duration::from_secs_f64(args.spool_rescan_s);
     config.max_sessions = args.max_sessions;

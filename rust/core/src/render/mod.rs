@@ -5,6 +5,7 @@
 mod camera_rays;
 mod light_tracer;
 mod lights;
+mod memory;
 mod primary;
 mod renderer;
 mod settings;
@@ -18,6 +19,7 @@ pub use light_tracer::{
     binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
 };
 pub use lights::{LightSample, LightSampler};
+pub use memory::{all_output_planes, estimate_render_bytes, format_bytes, RenderMemory};
 pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, OBJECT_PLANE};
 pub use settings::{RenderSettings, StatsMode, MAX_SPP};

@@ -8,8 +8,8 @@ use std::sync::{Arc, OnceLock};
 
 use antumbra_core::scene::Mesh;
 use antumbra_protocol::{
-    check_limits, mesh_from_upload, render_settings, scene_from_frame, ErrorCode, FrameUpdate,
-    Reply, Request, UploadMesh,
+    check_limits, check_render_memory, mesh_from_upload, render_settings, reply_planes,
+    scene_from_frame, ErrorCode, FrameUpdate, Reply, Request, UploadMesh,
 };
 
 use super::out::{error_reply, protocol_error};
@@ -204,6 +204,11 @@ impl Session<'_> {
                 return fail(self, protocol_error(&e, Some(request_id)));
             }
         };
+        let planes = reply_planes(&r.passes, &scene, &settings);
+        if let Err(e) = check_render_memory(&scene, &settings, planes, &self.limits) {
+            tracing::warn!(request_id, error = %e, "render refused");
+            return fail(self, protocol_error(&e, Some(request_id)));
+        }
         let ctl = Arc::new(RenderCtl {
             cancel: AtomicBool::new(false),
             started: AtomicBool::new(false),

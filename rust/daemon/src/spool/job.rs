@@ -5,10 +5,12 @@ use std::collections::HashSet;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
-use antumbra_core::render::Renderer;
+use antumbra_core::render::{all_output_planes, Renderer};
 use antumbra_core::scene::Animation;
 use antumbra_protocol::RecordedAnimation;
-use antumbra_protocol::{check_limits, frame_update_from_scene, render_settings, Request};
+use antumbra_protocol::{
+    check_limits, check_render_memory, frame_update_from_scene, render_settings, Request,
+};
 
 use super::attempts::Attempts;
 use super::results::{link_message, JobResults, WriteError};
@@ -119,6 +121,9 @@ impl Job<'_> {
             let update = frame_update_from_scene(&scene)
                 .map_err(|e| failed(format!("frame {frame}: {e}")))?;
             check_limits(&Request::FrameUpdate(update), &shared.config.limits).map_err(failed)?;
+            let planes = all_output_planes(&scene, &settings);
+            check_render_memory(&scene, &settings, planes, &shared.config.limits)
+                .map_err(failed)?;
             // On disk before the render: a frame that kills the daemon is counted.
             self.write(Some(frame), || attempts.record_start(results, frame))?;
             self.status.rendering(id, frame);

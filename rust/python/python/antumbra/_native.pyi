@@ -75,7 +75,7 @@ class _SessionMethods:
     @property
     def limits(self) -> dict[str, int]:
         """max_frame_bytes, max_triangles_per_mesh, max_meshes, max_objects,
-        max_image_pixels, max_spp, max_lights."""
+        max_image_pixels, max_spp, max_lights, max_render_bytes."""
     @property
     def closed(self) -> bool: ...
     @property

@@ -1,0 +1,310 @@
+//! A frame's peak memory, estimated from its sizes alone before any work: image planes and
+//! per-pixel buffers, triangle sets and trees, one light's preparation. Callers check it against
+//! a budget so that a request too big for the machine is refused instead of aborting the process.
+
+use std::fmt;
+use std::mem::size_of;
+
+use super::{RenderSettings, ShadowRayOutcome, StatsMode, SurfacePoint, VisibilitySource};
+use crate::build::BuildMethod;
+use crate::bvh::BvhWidth;
+use crate::geometry::Ray;
+use crate::order::{RaySetSource, ShadowOrder};
+use crate::scene::{Scene, TriangleRef};
+use crate::trace::TraversalStats;
+
+/// Peak bytes of one tree build per triangle reference: primitive references, partition
+/// scratch, nodes, the leaf triangle list and the meshes' own arrays (calibrated against peak
+/// RSS, measured 282 bytes per world triangle with the set; see `docs/daemon.md`).
+const BUILD_BYTES_PER_REF: u64 = 224;
+/// A collapsed wide tree, its triangle rows and per-light sorting tables, per reference.
+const WIDE_BYTES_PER_REF: u64 = 128;
+/// The process itself: code, thread stacks, allocator caches.
+const PROCESS_BYTES: u64 = 32 << 20;
+/// A representative ray of a light's preparation (SRDH, sorting): the ray, its hit list and
+/// the logged nodes, beyond `size_of::<Ray>()`.
+const PREP_BYTES_PER_RAY: u64 = 64;
+/// A float plane: one f32 per pixel.
+const PLANE: u64 = 4;
+/// Heat-map planes: N_B, N_L, N_T of primary and of shadow rays.
+const HEAT_PLANES: u64 = 6;
+
+/// What a frame is estimated to need at its peak, in bytes, and the sizes it follows from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderMemory {
+    pub width: u64,
+    pub height: u64,
+    /// Lights that cast shadows: one mask and one shadow pass each.
+    pub lights: u64,
+    /// Triangles in the frame's camera and shadow sets (every object times its mesh).
+    pub world_triangles: u64,
+    /// Planes the caller copies out after the render (a reply, image files).
+    pub output_planes: u64,
+    /// Per-pixel buffers of the passes, the planes of the result and the process itself.
+    pub image_bytes: u64,
+    /// Triangle sets and trees.
+    pub geometry_bytes: u64,
+    /// One light's preparation (its representative rays, SRDH tree or sorting), freed per light.
+    pub light_bytes: u64,
+}
+
+impl RenderMemory {
+    pub fn total(&self) -> u64 {
+        self.image_bytes
+            .saturating_add(self.geometry_bytes)
+            .saturating_add(self.light_bytes)
+    }
+}
+
+/// Bytes as GiB or MiB with one decimal, for messages.
+pub fn format_bytes(bytes: u64) -> String {
+    const MIB: f64 = (1u64 << 20) as f64;
+    let mib = bytes as f64 / MIB;
+    if mib >= 1024.0 {
+        format!("{:.1} GiB", mib / 1024.0)
+    } else {
+        format!("{mib:.1} MiB")
+    }
+}
+
+impl fmt::Display for RenderMemory {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "about {} ({}x{} pixels with {} shadow light(s) and {} output plane(s): {}; {} world \
+             triangles: {} of geometry and trees; {} for one light's preparation)",
+            format_bytes(self.total()),
+            self.width,
+            self.height,
+            self.lights,
+            self.output_planes,
+            format_bytes(self.image_bytes),
+            self.world_triangles,
+            format_bytes(self.geometry_bytes),
+            format_bytes(self.light_bytes),
+        )
+    }
+}
+
+/// Bytes per pixel of the passes at their peak (the shadow pass of the last light, while the
+/// primary pass and the summed work are alive), and of the result's own planes.
+fn pass_bytes_per_pixel(settings: &RenderSettings, lights: u64) -> (u64, u64) {
+    let s = size_of::<Option<SurfacePoint>>() as u64;
+    let t = size_of::<TraversalStats>() as u64;
+    let counted = settings.stats != StatsMode::TimingOnly;
+    // The result: masks, combined, primary ids and objects, and heat maps when counting.
+    let result = PLANE.saturating_mul(lights.saturating_add(3))
+        + if counted { PLANE * HEAT_PLANES } else { 0 };
+    let passes = if counted {
+        // Primary hits and work, the summed shadow work, one light's per-pixel results and work.
+        s + 3 * t + size_of::<(f32, ShadowRayOutcome, TraversalStats)>() as u64
+    } else {
+        s + size_of::<(f32, ShadowRayOutcome)>() as u64
+    };
+    (passes, result)
+}
+
+/// Representative rays one light's preparation traces (the largest over the frame's lights).
+fn prep_rays(settings: &RenderSettings, pixels: u64) -> u64 {
+    let spp = settings.spp.max(1) as u64;
+    let share = |f: f32| (pixels as f64 * f.clamp(0.0, 1.0) as f64).ceil() as u64;
+    match &settings.shadow_order {
+        ShadowOrder::Sorted(s) => share(s.budget).saturating_mul(spp),
+        ShadowOrder::Srdh(s) => match s.rays {
+            RaySetSource::All => pixels.saturating_mul(spp),
+            RaySetSource::Budget(f) => share(f).saturating_mul(spp),
+            RaySetSource::Prepass { width, height } => (width as u64 * height as u64)
+                .min(pixels)
+                .saturating_mul(spp),
+        },
+        _ => 0,
+    }
+}
+
+/// Estimates the peak memory of rendering `scene` with `settings` when the caller then copies
+/// `output_planes` planes out of the result (each copied and encoded once). An upper bound
+/// within about 2x of the measured peak for frames whose images or triangles dominate.
+pub fn estimate_render_bytes(
+    scene: &Scene,
+    settings: &RenderSettings,
+    output_planes: u64,
+) -> RenderMemory {
+    let (w, h) = (
+        scene.resolution.x as u64 * scene.resolution.percentage as u64 / 100,
+        scene.resolution.y as u64 * scene.resolution.percentage as u64 / 100,
+    );
+    let (width, height) = (w.max(1), h.max(1));
+    let pixels = width.saturating_mul(height);
+    let lights = scene.lights.iter().filter(|l| l.casts_shadow).count() as u64;
+
+    let (passes, result) = pass_bytes_per_pixel(settings, lights);
+    // Planes are copied out after the passes end, but the allocator does not hand the passes'
+    // freed buffers to those copies (measured), so the two add up.
+    let per_pixel = passes
+        .saturating_add(result)
+        .saturating_add(output_planes.saturating_mul(2 * PLANE));
+    // An eighth more for what the per-pixel sizes leave out (parallel collection, allocator
+    // rounding), and the process itself.
+    let image_bytes = pixels
+        .saturating_mul(per_pixel.saturating_add(per_pixel / 8))
+        .saturating_add(PROCESS_BYTES);
+
+    let triangles = |pick: fn(&crate::scene::Object) -> bool| -> u64 {
+        scene
+            .objects
+            .iter()
+            .filter(|o| pick(o))
+            .map(|o| {
+                scene
+                    .meshes
+                    .get(o.mesh)
+                    .map_or(0, |m| m.triangles.len() as u64)
+            })
+            .sum()
+    };
+    let camera = triangles(|o| o.visible_to_camera);
+    let separate_shadow_set = scene
+        .objects
+        .iter()
+        .any(|o| o.visible_to_camera != o.casts_shadow);
+    let shadow = if separate_shadow_set {
+        triangles(|o| o.casts_shadow)
+    } else {
+        0
+    };
+    let world_triangles = camera + shadow;
+    // Per triangle of a set: its render-space vertices and reference, gathered per object and
+    // then joined (twice at the peak).
+    let set_bytes = 2 * (size_of::<[glam::Vec3; 3]>() + size_of::<TriangleRef>()) as u64;
+    // Spatial splits add up to `max_growth` references; visibility-driven builds trace their
+    // visible set with one more tree.
+    let splits = matches!(
+        settings.build,
+        BuildMethod::Sbvh | BuildMethod::Abvh | BuildMethod::Osah
+    ) && settings.build_settings.spatial.enabled;
+    let growth = if splits {
+        1.0 + settings.build_settings.spatial.max_growth.clamp(0.0, 64.0) as f64
+    } else {
+        1.0
+    };
+    let refs = |n: u64| (n as f64 * growth).ceil() as u64;
+    // Exact and prepass visible sets are traced through one more (SAH) tree.
+    let visibility_tree = settings.build.uses_visibility()
+        && matches!(
+            settings.visibility,
+            VisibilitySource::Exact | VisibilitySource::Prepass { .. }
+        );
+    let wide = settings.width != BvhWidth::Two
+        || (settings.shadow_order.binary().is_none()
+            && !matches!(settings.shadow_order, ShadowOrder::Srdh(_)));
+    let per_ref = BUILD_BYTES_PER_REF + if wide { WIDE_BYTES_PER_REF } else { 0 };
+    let extra_tree = if visibility_tree {
+        camera.saturating_mul(BUILD_BYTES_PER_REF)
+    } else {
+        0
+    };
+    let geometry_bytes = world_triangles
+        .saturating_mul(set_bytes)
+        .saturating_add(refs(world_triangles).saturating_mul(per_ref))
+        .saturating_add(extra_tree);
+
+    let rays = prep_rays(settings, pixels);
+    let light_bytes = if lights == 0 || rays == 0 {
+        0
+    } else {
+        let per_ray = size_of::<Ray>() as u64 + PREP_BYTES_PER_RAY;
+        // A light's own SRDH tree is built over the shadow set.
+        let own_tree = if matches!(settings.shadow_order, ShadowOrder::Srdh(_)) {
+            (if separate_shadow_set { shadow } else { camera }).saturating_mul(BUILD_BYTES_PER_REF)
+        } else {
+            0
+        };
+        rays.saturating_mul(per_ray).saturating_add(own_tree)
+    };
+    RenderMemory {
+        width,
+        height,
+        lights,
+        world_triangles,
+        output_planes,
+        image_bytes,
+        geometry_bytes,
+        light_bytes,
+    }
+}
+
+/// The planes a frame's files or a full reply hold: every mask, the combined image, the heat
+/// maps when counting and the object ids.
+pub fn all_output_planes(scene: &Scene, settings: &RenderSettings) -> u64 {
+    let lights = scene.lights.iter().filter(|l| l.casts_shadow).count() as u64;
+    let heat = if settings.stats != StatsMode::TimingOnly {
+        HEAT_PLANES
+    } else {
+        0
+    };
+    lights + 2 + heat
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use glam::{DMat4, DVec3};
+
+    use super::*;
+    use crate::scene::{Camera, Light, LightKind, Mesh, Object, Resolution};
+
+    fn scene(objects: usize, width: u32, height: u32) -> Scene {
+        let mesh = Mesh::new(
+            "tri",
+            vec![
+                [0.0, 0.0, 0.0].into(),
+                [1.0, 0.0, 0.0].into(),
+                [0.0, 1.0, 0.0].into(),
+            ],
+            vec![[0, 1, 2]],
+        );
+        Scene {
+            frame: 3,
+            meshes: vec![Arc::new(mesh)],
+            objects: (0..objects)
+                .map(|i| Object::new(format!("o{i}"), 0, DMat4::IDENTITY))
+                .collect(),
+            camera: Camera::look_at(DVec3::new(0.0, -5.0, 2.0), DVec3::ZERO, DVec3::Z),
+            lights: vec![Light::new(
+                "sun",
+                DMat4::IDENTITY,
+                LightKind::Sun { angle: 0.0 },
+            )],
+            resolution: Resolution::new(width, height),
+        }
+    }
+
+    #[test]
+    fn the_estimate_follows_pixels_instances_and_splits() {
+        let s = RenderSettings::default();
+        let small = estimate_render_bytes(&scene(1, 64, 64), &s, 1);
+        let big = estimate_render_bytes(&scene(1, 8192, 8192), &s, 1);
+        assert_eq!((big.width, big.height, big.lights), (8192, 8192, 1));
+        // 8192x8192 with counters needs well over the default 8 GiB budget (issue 24).
+        assert!(big.total() > 8 << 30, "{big}");
+        assert!(small.total() < 64 << 20, "{small}");
+        // Every instance of a mesh is a world triangle of its own.
+        let many = estimate_render_bytes(&scene(1000, 64, 64), &s, 1);
+        assert_eq!(many.world_triangles, 1000);
+        assert!(many.geometry_bytes >= 1000 * small.geometry_bytes);
+        let sbvh = RenderSettings {
+            build: BuildMethod::Sbvh,
+            ..s.clone()
+        };
+        assert!(
+            estimate_render_bytes(&scene(1000, 64, 64), &sbvh, 1).geometry_bytes
+                > many.geometry_bytes
+        );
+        // Huge inputs saturate rather than overflow.
+        let mut huge = scene(1, u32::MAX, u32::MAX);
+        huge.resolution.percentage = u32::MAX;
+        assert!(estimate_render_bytes(&huge, &s, u64::MAX).total() > 1 << 60);
+        assert!(big.to_string().contains("8192x8192 pixels"), "{big}");
+    }
+}
