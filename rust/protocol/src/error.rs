@@ -121,6 +121,11 @@ impl ProtocolError {
             ProtocolError::VersionMismatch { .. } => ErrorCode::VersionMismatch,
             ProtocolError::UnknownMesh { .. } => ErrorCode::UnknownMesh,
             ProtocolError::LimitExceeded { .. } => ErrorCode::LimitExceeded,
+            ProtocolError::InFrame {
+                error: antumbra_core::Error::Cancelled,
+                ..
+            }
+            | ProtocolError::Core(antumbra_core::Error::Cancelled) => ErrorCode::Cancelled,
             ProtocolError::Invalid { .. }
             | ProtocolError::HashMismatch { .. }
             | ProtocolError::InFrame { .. }
