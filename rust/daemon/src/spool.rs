@@ -26,6 +26,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use antumbra_core::atomic_file::write_bytes_atomic;
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::render::Renderer;
 use antumbra_core::scene::Animation;
 use antumbra_protocol::{
@@ -314,16 +315,19 @@ fn run_job(shared: &Shared, dirs: &SpoolDirs, id: &str) -> Result<(), JobError> 
         let update =
             frame_update_from_scene(&scene).map_err(|e| failed(format!("frame {frame}: {e}")))?;
         check_limits(&Request::FrameUpdate(update), &shared.config.limits).map_err(failed)?;
-        let slot = match shared.slots.acquire(&shared.stop, |_| {}) {
+        let mut slot = match shared.slots.acquire(|| shared.stopping(), None, |_| {}) {
             Acquired::Slot(s, _) => s,
-            Acquired::GaveUp => return Err(JobError::Stopped),
+            _ => return Err(JobError::Stopped),
         };
+        // A stopping daemon cancels the frame; it is rendered again on the next start.
+        let stop = CancelToken::from_flag(shared.stop.clone());
         let result = catch_unwind(AssertUnwindSafe(|| {
-            renderer.render(&label, &scene, &settings)
+            slot.install(|| renderer.render_cancellable(&label, &scene, &settings, &stop))
         }));
         drop(slot);
         let result = match result {
             Ok(Ok(r)) => r,
+            Ok(Err(antumbra_core::Error::Cancelled)) => return Err(JobError::Stopped),
             Ok(Err(e)) => {
                 bump(&shared.counters.renders_failed);
                 return Err(failed(format!("frame {frame}: {e}")));

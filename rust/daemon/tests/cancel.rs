@@ -66,7 +66,9 @@ fn cancel(c: &mut Client, request_id: u64) -> String {
                 message: m,
             }) if id == request_id => message = Some(m),
             Ok(Reply::Progress { .. }) => {}
-            other => panic!("cancel of render {request_id}: expected Ack and Cancelled, got {other:?}"),
+            other => {
+                panic!("cancel of render {request_id}: expected Ack and Cancelled, got {other:?}")
+            }
         }
     }
     message.unwrap()
@@ -191,7 +193,7 @@ fn a_queued_render_hears_its_place_and_gives_up_at_its_deadline() {
     };
     assert_eq!((code, usable, id), (ErrorCode::Busy, true, Some(31)));
     assert!(message.contains("place 1 in the queue"), "{message}");
-    assert!(message.contains("waited"), "{message}");
+    assert!(message.contains("after waiting"), "{message}");
     cancel(&mut a, 1);
     // Now it renders.
     c.send(&render_request(1, 1, 32)).unwrap();

@@ -38,6 +38,10 @@ pub struct ServeArgs {
     /// Renders that run at once (over all sessions and the spool); more wait in a queue.
     #[arg(long, default_value_t = 2)]
     pub max_renders: usize,
+    /// Seconds a render may wait for a render slot; past it the request is answered Busy with
+    /// its place in the queue.
+    #[arg(long, default_value_t = 300.0)]
+    pub queue_wait_s: f64,
     /// Memory budget of the shared mesh cache in MiB (meshes no session uses are evicted).
     #[arg(long, default_value_t = 4096)]
     pub memory_budget_mb: u64,
@@ -60,6 +64,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     for (name, v) in [
         ("--shutdown-grace-s", args.shutdown_grace_s),
         ("--spool-rescan-s", args.spool_rescan_s),
+        ("--queue-wait-s", args.queue_wait_s),
     ] {
         if !(v.is_finite() && v > 0.0 && v < 1e6) {
             bail!("{name}: must be a positive number of seconds, got {v}");
@@ -75,6 +80,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     config.spool = args.spool;
     config.record = args.record;
     config.max_renders = args.max_renders;
+    config.queue_wait = Duration::from_secs_f64(args.queue_wait_s);
     config.memory_budget = args.memory_budget_mb.saturating_mul(1 << 20);
     config.shutdown_grace = Duration::from_secs_f64(args.shutdown_grace_s);
     config.spool_rescan = Duration::from_secs_f64(args.spool_rescan_s);

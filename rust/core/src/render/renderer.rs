@@ -477,7 +477,13 @@ fn primary_pass(
     let (counted, timed) = counted_timed(settings);
     let trace = |counted: bool| match wide_camera {
         Some(t) => trace_primary(counted, &rays, t, &geometry.camera, cancel),
-        None => trace_primary(counted, &rays, &*cached.camera_bvh, &geometry.camera, cancel),
+        None => trace_primary(
+            counted,
+            &rays,
+            &*cached.camera_bvh,
+            &geometry.camera,
+            cancel,
+        ),
     };
     let primary = trace(counted)?;
     let mut row = rows.row(
