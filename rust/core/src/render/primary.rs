@@ -159,7 +159,7 @@ pub(crate) const TILE: usize = 64;
 /// load per tile, so a cancelled pass skips its remaining pixels within a tile of work.
 #[inline]
 pub(crate) fn tile_stopped(i: usize, stopped: &mut bool, cancel: &CancelToken) -> bool {
-    if i % TILE == 0 && !*stopped {
+    if i.is_multiple_of(TILE) && !*stopped {
         *stopped = cancel.is_cancelled();
     }
     *stopped
