@@ -162,7 +162,7 @@ fn next_position(c: &mut Client, request_id: u64, previous: Option<u32>) -> u32 
 
 #[test]
 fn a_queued_render_hears_its_place_and_gives_up_at_its_deadline() {
-    let wait = Duration::from_secs(4);
+    let wait = Duration::from_secs(8);
     let d = TestDaemon::start_with("cancel-queue", |c| {
         c.max_renders = 1;
         c.queue_wait = wait;
