@@ -34,6 +34,9 @@ pub enum Error {
     /// Files that could not be read or written.
     #[error("{path}: {message}")]
     Io { path: String, message: String },
+    /// The render was stopped through its [`crate::cancel::CancelToken`].
+    #[error("the render was cancelled")]
+    Cancelled,
 }
 
 impl Error {

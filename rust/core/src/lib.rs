@@ -12,6 +12,7 @@
 pub mod atomic_file;
 pub mod build;
 pub mod bvh;
+pub mod cancel;
 pub mod compare;
 pub mod error;
 pub mod geometry;

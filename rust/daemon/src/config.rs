@@ -21,6 +21,9 @@ pub struct DaemonConfig {
     pub record: Option<PathBuf>,
     /// Renders that may run at once, over all sessions and the spool; more wait in a queue.
     pub max_renders: usize,
+    /// How long a render may wait in the queue for a render slot; past it the request is
+    /// answered `Busy` with its place in the queue and the time waited.
+    pub queue_wait: Duration,
     /// Bytes of mesh data the shared cache keeps; meshes that no live session uses are evicted,
     /// least recently used first, to stay below it.
     pub memory_budget: u64,
@@ -73,6 +76,7 @@ impl DaemonConfig {
             spool: None,
             record: None,
             max_renders: 2,
+            queue_wait: Duration::from_secs(300),
             memory_budget: 4096 << 20,
             limits: Limits::default(),
             shutdown_grace: Duration::from_secs(10),

@@ -135,6 +135,11 @@ impl ProtocolError {
             ProtocolError::LimitExceeded { .. } | ProtocolError::RenderMemory { .. } => {
                 ErrorCode::LimitExceeded
             }
+            ProtocolError::InFrame {
+                error: antumbra_core::Error::Cancelled,
+                ..
+            }
+            | ProtocolError::Core(antumbra_core::Error::Cancelled) => ErrorCode::Cancelled,
             ProtocolError::Invalid { .. }
             | ProtocolError::HashMismatch { .. }
             | ProtocolError::InFrame { .. }

@@ -39,6 +39,10 @@ pub struct ServeArgs {
     /// Renders that run at once (over all sessions and the spool); more wait in a queue.
     #[arg(long, default_value_t = 2)]
     pub max_renders: usize,
+    /// Seconds a render may wait for a render slot; past it the request is answered Busy with
+    /// its place in the queue.
+    #[arg(long, default_value_t = 300.0)]
+    pub queue_wait_s: f64,
     /// Memory budget of the shared mesh cache in MiB (meshes no session uses are evicted).
     #[arg(long, default_value_t = 4096)]
     pub memory_budget_mb: u64,
@@ -92,6 +96,7 @@ pub fn run(args: ServeArgs, release_memory: fn()) -> Result<()> {
         ("--handshake-timeout-s", args.handshake_timeout_s),
         ("--spool-retry-min-s", args.spool_retry_min_s),
         ("--spool-retry-max-s", args.spool_retry_max_s),
+        ("--queue-wait-s", args.queue_wait_s),
     ] {
         if !(v.is_finite() && v > 0.0 && v < 1e6) {
             bail!("{name}: must be a positive number of seconds, got {v}");
@@ -114,6 +119,7 @@ pub fn run(args: ServeArgs, release_memory: fn()) -> Result<()> {
     config.spool = args.spool;
     config.record = args.record;
     config.max_renders = args.max_renders;
+    config.queue_wait = Duration::from_secs_f64(args.queue_wait_s);
     config.memory_budget = args.memory_budget_mb.saturating_mul(1 << 20);
     config.limits.max_render_bytes = args.render_memory_mb.saturating_mul(1 << 20);
     config.release_memory = release_memory;

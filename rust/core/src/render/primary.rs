@@ -6,10 +6,12 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::PrimaryRays;
+use crate::cancel::CancelToken;
 use crate::geometry::triangle_normal;
 use crate::image::ImagePlane;
 use crate::scene::TriangleSet;
 use crate::trace::{ClosestHitQuery, Counters, NoStats, TraversalStats};
+use crate::Result;
 
 /// What a primary ray found: the hit point and the unit geometric normal turned to face the
 /// camera (so "the light's side" is well defined for both faces of a triangle).
@@ -40,43 +42,82 @@ impl PrimaryPass {
         bvh: &impl ClosestHitQuery,
         triangles: &TriangleSet,
     ) -> Self {
+        Self::counted_cancellable(rays, bvh, triangles, &CancelToken::new())
+            .expect("a new token is never cancelled")
+    }
+
+    /// As [`counted`](Self::counted), stopping with [`crate::Error::Cancelled`] once `cancel`
+    /// is set (read once per tile of [`TILE`] pixels).
+    pub fn counted_cancellable(
+        rays: &PrimaryRays,
+        bvh: &impl ClosestHitQuery,
+        triangles: &TriangleSet,
+        cancel: &CancelToken,
+    ) -> Result<Self> {
         let start = Instant::now();
         let (surfaces, work): (Vec<_>, Vec<_>) = pixels(rays)
-            .map(|(x, y)| {
-                let mut stats = TraversalStats::default();
-                let s = trace_pixel(rays, bvh, triangles, x, y, &mut stats);
-                (s, stats)
-            })
+            .map_init(
+                || false,
+                |stopped, (i, x, y)| {
+                    let mut stats = TraversalStats::default();
+                    if tile_stopped(i, stopped, cancel) {
+                        return (None, stats);
+                    }
+                    let s = trace_pixel(rays, bvh, triangles, x, y, &mut stats);
+                    (s, stats)
+                },
+            )
             .unzip();
+        cancel.check()?;
         let trace_ms = start.elapsed().as_secs_f64() * 1e3;
         let mut totals = TraversalStats::default();
         for w in &work {
             totals += *w;
         }
-        PrimaryPass {
+        Ok(PrimaryPass {
             width: rays.width,
             height: rays.height,
             surfaces,
             work,
             totals,
             trace_ms,
-        }
+        })
     }
 
     /// Traces with counters compiled out: the timed path.
     pub fn timed(rays: &PrimaryRays, bvh: &impl ClosestHitQuery, triangles: &TriangleSet) -> Self {
+        Self::timed_cancellable(rays, bvh, triangles, &CancelToken::new())
+            .expect("a new token is never cancelled")
+    }
+
+    /// As [`timed`](Self::timed), stopping with [`crate::Error::Cancelled`] once `cancel` is set.
+    pub fn timed_cancellable(
+        rays: &PrimaryRays,
+        bvh: &impl ClosestHitQuery,
+        triangles: &TriangleSet,
+        cancel: &CancelToken,
+    ) -> Result<Self> {
         let start = Instant::now();
         let surfaces: Vec<_> = pixels(rays)
-            .map(|(x, y)| trace_pixel(rays, bvh, triangles, x, y, &mut NoStats))
+            .map_init(
+                || false,
+                |stopped, (i, x, y)| {
+                    if tile_stopped(i, stopped, cancel) {
+                        return None;
+                    }
+                    trace_pixel(rays, bvh, triangles, x, y, &mut NoStats)
+                },
+            )
             .collect();
-        PrimaryPass {
+        cancel.check()?;
+        Ok(PrimaryPass {
             width: rays.width,
             height: rays.height,
             surfaces,
             work: Vec::new(),
             totals: TraversalStats::default(),
             trace_ms: start.elapsed().as_secs_f64() * 1e3,
-        }
+        })
     }
 
     pub fn ray_count(&self) -> u64 {
@@ -111,12 +152,26 @@ pub(crate) fn heat_planes(
     ]
 }
 
-fn pixels(rays: &PrimaryRays) -> impl IndexedParallelIterator<Item = (u32, u32)> {
+/// Pixels a pass traces between two reads of its cancel flag (and the least a thread takes).
+pub(crate) const TILE: usize = 64;
+
+/// Whether the pass was cancelled, as seen at the first pixel of pixel `i`'s tile: one atomic
+/// load per tile, so a cancelled pass skips its remaining pixels within a tile of work.
+#[inline]
+pub(crate) fn tile_stopped(i: usize, stopped: &mut bool, cancel: &CancelToken) -> bool {
+    if i.is_multiple_of(TILE) && !*stopped {
+        *stopped = cancel.is_cancelled();
+    }
+    *stopped
+}
+
+/// Each pixel as (index, x, y), row-major.
+fn pixels(rays: &PrimaryRays) -> impl IndexedParallelIterator<Item = (usize, u32, u32)> {
     let w = rays.width;
     (0..rays.width * rays.height)
         .into_par_iter()
-        .with_min_len(64)
-        .map(move |i| (i % w, i / w))
+        .with_min_len(TILE)
+        .map(move |i| (i as usize, i % w, i / w))
 }
 
 #[inline]

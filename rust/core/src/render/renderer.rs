@@ -14,6 +14,7 @@ use super::VisibilitySource;
 use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
 use crate::build::{build_binned_sah, build_with_visibility, CollapseSettings};
 use crate::bvh::{Bvh, BvhWidth};
+use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
 use crate::order::{PreparedOrder, ShadowOrder, SortTables};
 use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
@@ -82,6 +83,9 @@ struct Cached {
     /// Keeps the meshes alive so their addresses in the key cannot be reused.
     _meshes: Vec<Arc<Mesh>>,
     build: (crate::build::BuildMethod, crate::build::BuildSettings),
+    /// Whether a finished frame has reported these trees' build (a cancelled render leaves
+    /// the report to the next render that uses them, so it reads as a fresh render's).
+    reported: bool,
     geometry: Arc<FrameGeometry>,
     camera_bvh: Arc<Bvh>,
     shadow_bvh: Option<Arc<Bvh>>,
@@ -177,10 +181,25 @@ impl Renderer {
         scene: &Scene,
         settings: &RenderSettings,
     ) -> Result<FrameResult> {
+        self.render_cancellable(scene_name, scene, settings, &CancelToken::new())
+    }
+
+    /// As [`render`](Self::render), stopping with [`crate::Error::Cancelled`] soon after
+    /// `cancel` is set: it is read per tile of every pass, between lights and between build
+    /// stages. A cancelled render keeps only whole trees it finished, so the next render gives
+    /// what a fresh renderer gives.
+    pub fn render_cancellable(
+        &mut self,
+        scene_name: &str,
+        scene: &Scene,
+        settings: &RenderSettings,
+        cancel: &CancelToken,
+    ) -> Result<FrameResult> {
         settings.validate()?;
         scene.validate()?;
-        let prepared = self.prepare(scene, settings)?;
-        self.prepare_wide(settings);
+        cancel.check()?;
+        let prepared = self.prepare(scene, settings, cancel)?;
+        self.prepare_wide(settings, cancel)?;
         let cached = self.cache.as_ref().expect("prepared above");
         let rows = Rows {
             scene_name,
@@ -193,17 +212,36 @@ impl Renderer {
                 .and_then(|w| w.collapse_ms)
                 .unwrap_or(0.0),
         };
-        let (primary, primary_row) = primary_pass(cached, scene, settings, &rows);
-        let shadows = shadow_passes(cached, &primary, scene, settings, &rows);
+        let (primary, primary_row) = primary_pass(cached, scene, settings, &rows, cancel)?;
+        let shadows = shadow_passes(cached, &primary, scene, settings, &rows, cancel)?;
         let result = combine(scene, cached, primary, primary_row, shadows, settings);
         self.previous_visible = result.visible.clone();
         self.frames_rendered += 1;
+        self.mark_reported();
         Ok(result)
+    }
+
+    /// After a finished frame: the trees' build, collapse and per-tree order times have been
+    /// reported, so frames that reuse them report none.
+    fn mark_reported(&mut self) {
+        let Some(c) = self.cache.as_mut() else { return };
+        c.reported = true;
+        if let Some(w) = &mut c.wide {
+            w.collapse_ms = None;
+            if let Some(p) = &mut w.per_tree_order {
+                p.ms = None;
+            }
+        }
     }
 
     /// Builds geometry and BVHs unless the cached ones still hold: same geometry, same build
     /// settings and, for visibility-driven builds, the same visible-set input.
-    fn prepare(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<Prepared> {
+    fn prepare(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        cancel: &CancelToken,
+    ) -> Result<Prepared> {
         let key = key_of(scene);
         let build_key = (settings.build, settings.build_settings);
         let reusable = self.cache.as_ref().filter(|c| c.key == key);
@@ -224,11 +262,12 @@ impl Renderer {
         if let Some(c) = &self.cache {
             if c.key == key && c.build == build_key && c.visible_input == visible_input {
                 return Ok(Prepared {
-                    rebuilt: false,
+                    rebuilt: !c.reported,
                     visibility_ms,
                 });
             }
         }
+        cancel.check()?;
         let method = settings.build;
         let build_for = |set: &TriangleSet| {
             let flags = visible_input.as_ref().map(|v| visibility_flags(set, v));
@@ -249,6 +288,7 @@ impl Renderer {
             (bvh, info)
         };
         let (camera_bvh, camera_info) = build_for(&geometry.camera);
+        cancel.check()?;
         // VSAH answers only the camera rays it was built for: shadow rays get a complete tree.
         let complete = |set: &TriangleSet| {
             let info = BvhInfo {
@@ -275,6 +315,7 @@ impl Renderer {
             key,
             _meshes: scene.meshes.clone(),
             build: build_key,
+            reported: false,
             geometry,
             camera_bvh: Arc::new(camera_bvh),
             shadow_bvh,
@@ -322,20 +363,17 @@ impl Renderer {
     }
 
     /// Collapses the cached BVHs to the settings' width when a pass will read a wide tree, and
-    /// makes the sorting tables when the order sorts per light. Reuses what the cache holds.
-    fn prepare_wide(&mut self, settings: &RenderSettings) {
-        let Some(c) = self.cache.as_mut() else { return };
+    /// makes the sorting tables when the order sorts per light. Reuses what the cache holds;
+    /// each piece is stored whole, so a cancel between them leaves the cache consistent.
+    fn prepare_wide(&mut self, settings: &RenderSettings, cancel: &CancelToken) -> Result<()> {
+        let Some(c) = self.cache.as_mut() else {
+            return Ok(());
+        };
         let srdh = matches!(settings.shadow_order, ShadowOrder::Srdh(_));
         let needed = settings.width != BvhWidth::Two
             || (binary_order(settings.width, &settings.shadow_order).is_none() && !srdh);
         if !needed {
-            return;
-        }
-        if let Some(w) = &mut c.wide {
-            w.collapse_ms = None;
-            if let Some(p) = &mut w.per_tree_order {
-                p.ms = None;
-            }
+            return Ok(());
         }
         if c.wide.as_ref().map(|w| (w.width, w.collapse))
             != Some((settings.width, settings.collapse))
@@ -356,6 +394,7 @@ impl Renderer {
                 per_tree_order: None,
                 collapse_ms: Some(collapse_ms),
             });
+            cancel.check()?;
         }
         let w = c.wide.as_mut().expect("collapsed above");
         let tree = w.shadow.as_ref().unwrap_or(&w.camera);
@@ -364,6 +403,7 @@ impl Renderer {
         }
         let order = &settings.shadow_order;
         if order.is_per_tree() && w.per_tree_order.as_ref().map(|p| &p.order) != Some(order) {
+            cancel.check()?;
             let start = Instant::now();
             let prepared = tree.prepare(order, None, &[]);
             w.per_tree_order = Some(PerTreeOrder {
@@ -372,6 +412,7 @@ impl Renderer {
                 ms: Some(start.elapsed().as_secs_f64() * 1e3),
             });
         }
+        Ok(())
     }
 
     /// The geometry and BVHs of the last frame (for tests and tools that trace their own rays).
@@ -429,7 +470,8 @@ fn primary_pass(
     scene: &Scene,
     settings: &RenderSettings,
     rows: &Rows,
-) -> (PrimaryPass, StatsRow) {
+    cancel: &CancelToken,
+) -> Result<(PrimaryPass, StatsRow)> {
     let wide_camera = cached
         .wide
         .as_ref()
@@ -439,10 +481,16 @@ fn primary_pass(
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
     let (counted, timed) = counted_timed(settings);
     let trace = |counted: bool| match wide_camera {
-        Some(t) => trace_primary(counted, &rays, t, &geometry.camera),
-        None => trace_primary(counted, &rays, &*cached.camera_bvh, &geometry.camera),
+        Some(t) => trace_primary(counted, &rays, t, &geometry.camera, cancel),
+        None => trace_primary(
+            counted,
+            &rays,
+            &*cached.camera_bvh,
+            &geometry.camera,
+            cancel,
+        ),
     };
-    let primary = trace(counted);
+    let primary = trace(counted)?;
     let mut row = rows.row(
         "primary",
         "",
@@ -455,13 +503,13 @@ fn primary_pass(
         primary.surfaces.iter().filter(|s| s.is_some()).count() as f64 / row.rays.max(1) as f64;
     row.set_work(&primary.totals);
     if counted && timed {
-        let t = trace(false);
+        let t = trace(false)?;
         debug_assert_eq!(t.surfaces, primary.surfaces);
         row.set_timing(t.trace_ms, true);
     } else {
         row.set_timing(primary.trace_ms, !counted);
     }
-    (primary, row)
+    Ok((primary, row))
 }
 
 /// Whether a frame's passes count work, and whether they are timed without counters.
@@ -488,7 +536,8 @@ fn shadow_passes(
     scene: &Scene,
     settings: &RenderSettings,
     rows: &Rows,
-) -> ShadowPasses {
+    cancel: &CancelToken,
+) -> Result<ShadowPasses> {
     let geometry = &cached.geometry;
     let wide = cached.wide.as_ref();
     let shadow_bvh = cached.shadow_bvh.as_ref().unwrap_or(&cached.camera_bvh);
@@ -516,6 +565,7 @@ fn shadow_passes(
         if !light.casts_shadow {
             continue;
         }
+        cancel.check()?;
         let sampler = LightSampler::new(light, &geometry.space);
         let plan = SamplePlan {
             light_index: index as u32,
@@ -530,16 +580,17 @@ fn shadow_passes(
             first: out.rows.is_empty(),
         };
         let tracing = light_tracing(&trees, &settings.shadow_order, settings.width, &light_rays);
+        cancel.check()?;
         let tracer = tracing.tracer();
         let pass_of = |counted: bool| {
             let (i, spp, seed) = (plan.light_index, plan.samples, plan.seed);
             if counted {
-                ShadowPass::counted(primary, &tracer, &sampler, i, spp, seed)
+                ShadowPass::counted_cancellable(primary, &tracer, &sampler, i, spp, seed, cancel)
             } else {
-                ShadowPass::timed(primary, &tracer, &sampler, i, spp, seed)
+                ShadowPass::timed_cancellable(primary, &tracer, &sampler, i, spp, seed, cancel)
             }
         };
-        let pass = pass_of(counted);
+        let pass = pass_of(counted)?;
         let mut r = rows.row(
             "shadow",
             &light.name,
@@ -558,7 +609,7 @@ fn shadow_passes(
         r.unreached = pass.outcome.unreached;
         r.set_work(&pass.totals);
         if counted && timed {
-            let t = pass_of(false);
+            let t = pass_of(false)?;
             debug_assert_eq!(t.mask, pass.mask);
             r.set_timing(t.trace_ms, true);
         } else {
@@ -570,7 +621,7 @@ fn shadow_passes(
         out.rows.push(r);
         out.masks.push(pass.mask);
     }
-    out
+    Ok(out)
 }
 
 /// The frame's result: the masks and their mean, heat maps when counting, the primary hits
@@ -629,10 +680,11 @@ fn trace_primary(
     rays: &PrimaryRays,
     tree: &impl ClosestHitQuery,
     triangles: &crate::scene::TriangleSet,
-) -> PrimaryPass {
+    cancel: &CancelToken,
+) -> Result<PrimaryPass> {
     if counted {
-        PrimaryPass::counted(rays, tree, triangles)
+        PrimaryPass::counted_cancellable(rays, tree, triangles, cancel)
     } else {
-        PrimaryPass::timed(rays, tree, triangles)
+        PrimaryPass::timed_cancellable(rays, tree, triangles, cancel)
     }
 }

@@ -4,12 +4,15 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use super::primary::{tile_stopped, TILE};
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
+use crate::cancel::CancelToken;
 use crate::geometry::{offset_ray_origin, Ray};
 use crate::image::ImagePlane;
 use crate::sampling::hash_u32;
 use crate::sampling::{hash_combine, stratified_2d};
 use crate::trace::{Counters, NoStats, OcclusionQuery, TraversalStats};
+use crate::Result;
 
 /// What happened to the shadow samples of one light, counted over a frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -63,29 +66,52 @@ impl ShadowPass {
         spp: u32,
         seed: u32,
     ) -> Self {
+        let never = CancelToken::new();
+        Self::counted_cancellable(primary, tracer, light, light_index, spp, seed, &never)
+            .expect("a new token is never cancelled")
+    }
+
+    /// As [`counted`](Self::counted), stopping with [`crate::Error::Cancelled`] once `cancel`
+    /// is set (read once per tile of pixels).
+    pub fn counted_cancellable(
+        primary: &PrimaryPass,
+        tracer: &impl OcclusionQuery,
+        light: &LightSampler,
+        light_index: u32,
+        spp: u32,
+        seed: u32,
+        cancel: &CancelToken,
+    ) -> Result<Self> {
         let start = Instant::now();
         let n = samples_for(light, spp);
         let results: Vec<(f32, ShadowRayOutcome, TraversalStats)> = primary
             .surfaces
             .par_iter()
             .enumerate()
-            .with_min_len(64)
-            .map_init(Vec::new, |scratch, (pixel, s)| {
-                let mut stats = TraversalStats::default();
-                let (v, o) = shade_pixel(
-                    s,
-                    pixel,
-                    tracer,
-                    light,
-                    light_index,
-                    n,
-                    seed,
-                    scratch,
-                    &mut stats,
-                );
-                (v, o, stats)
-            })
+            .with_min_len(TILE)
+            .map_init(
+                || (Vec::new(), false),
+                |(scratch, stopped), (pixel, s)| {
+                    let mut stats = TraversalStats::default();
+                    if tile_stopped(pixel, stopped, cancel) {
+                        return (1.0, ShadowRayOutcome::default(), stats);
+                    }
+                    let (v, o) = shade_pixel(
+                        s,
+                        pixel,
+                        tracer,
+                        light,
+                        light_index,
+                        n,
+                        seed,
+                        scratch,
+                        &mut stats,
+                    );
+                    (v, o, stats)
+                },
+            )
             .collect();
+        cancel.check()?;
         let trace_ms = start.elapsed().as_secs_f64() * 1e3;
         let mut mask = ImagePlane::new(light.name.clone(), primary.width, primary.height);
         let mut work = Vec::with_capacity(results.len());
@@ -97,13 +123,13 @@ impl ShadowPass {
             totals += w;
             work.push(w);
         }
-        ShadowPass {
+        Ok(ShadowPass {
             mask,
             work,
             totals,
             outcome,
             trace_ms,
-        }
+        })
     }
 
     /// `tracer` is the tree with this light's child order.
@@ -115,27 +141,49 @@ impl ShadowPass {
         spp: u32,
         seed: u32,
     ) -> Self {
+        let never = CancelToken::new();
+        Self::timed_cancellable(primary, tracer, light, light_index, spp, seed, &never)
+            .expect("a new token is never cancelled")
+    }
+
+    /// As [`timed`](Self::timed), stopping with [`crate::Error::Cancelled`] once `cancel` is set.
+    pub fn timed_cancellable(
+        primary: &PrimaryPass,
+        tracer: &impl OcclusionQuery,
+        light: &LightSampler,
+        light_index: u32,
+        spp: u32,
+        seed: u32,
+        cancel: &CancelToken,
+    ) -> Result<Self> {
         let start = Instant::now();
         let n = samples_for(light, spp);
         let results: Vec<(f32, ShadowRayOutcome)> = primary
             .surfaces
             .par_iter()
             .enumerate()
-            .with_min_len(64)
-            .map_init(Vec::new, |scratch, (pixel, s)| {
-                shade_pixel(
-                    s,
-                    pixel,
-                    tracer,
-                    light,
-                    light_index,
-                    n,
-                    seed,
-                    scratch,
-                    &mut NoStats,
-                )
-            })
+            .with_min_len(TILE)
+            .map_init(
+                || (Vec::new(), false),
+                |(scratch, stopped), (pixel, s)| {
+                    if tile_stopped(pixel, stopped, cancel) {
+                        return (1.0, ShadowRayOutcome::default());
+                    }
+                    shade_pixel(
+                        s,
+                        pixel,
+                        tracer,
+                        light,
+                        light_index,
+                        n,
+                        seed,
+                        scratch,
+                        &mut NoStats,
+                    )
+                },
+            )
             .collect();
+        cancel.check()?;
         let trace_ms = start.elapsed().as_secs_f64() * 1e3;
         let mut mask = ImagePlane::new(light.name.clone(), primary.width, primary.height);
         let mut outcome = ShadowRayOutcome::default();
@@ -143,13 +191,13 @@ impl ShadowPass {
             *d = v;
             outcome += o;
         }
-        ShadowPass {
+        Ok(ShadowPass {
             mask,
             work: Vec::new(),
             totals: TraversalStats::default(),
             outcome,
             trace_ms,
-        }
+        })
     }
 }
 

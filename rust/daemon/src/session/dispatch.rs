@@ -2,10 +2,11 @@
 //! session's render worker.
 
 use std::collections::{HashMap, HashSet};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::mpsc::TrySendError;
 use std::sync::{Arc, OnceLock};
 
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::scene::Mesh;
 use antumbra_protocol::{
     check_limits, check_render_memory, mesh_from_upload, render_settings, reply_planes,
@@ -59,7 +60,7 @@ impl Session<'_> {
             Request::Render(r) => self.render(r),
             Request::Cancel { request_id } => {
                 if let Some(ctl) = lock(&self.controls).get(&request_id) {
-                    ctl.cancel.store(true, Ordering::Relaxed);
+                    ctl.cancel.cancel();
                     tracing::info!(request_id, "cancel requested");
                 }
                 self.out.send(&Reply::Ack);
@@ -210,7 +211,7 @@ impl Session<'_> {
             return fail(self, protocol_error(&e, Some(request_id)));
         }
         let ctl = Arc::new(RenderCtl {
-            cancel: AtomicBool::new(false),
+            cancel: CancelToken::new(),
             started: AtomicBool::new(false),
         });
         let job = Job {

@@ -167,14 +167,14 @@ impl Session<'_> {
             // The client is gone or the stream is unusable: nobody reads the results.
             End::Gone | End::BadFrame | End::Refused | End::Internal => {
                 for ctl in lock(&self.controls).values() {
-                    ctl.cancel.store(true, Ordering::Relaxed);
+                    ctl.cancel.cancel();
                 }
             }
             // The daemon stops: the render under way finishes, the queued ones are cancelled.
             End::Stopped => {
                 for ctl in lock(&self.controls).values() {
                     if !ctl.started.load(Ordering::Relaxed) {
-                        ctl.cancel.store(true, Ordering::Relaxed);
+                        ctl.cancel.cancel();
                     }
                 }
             }

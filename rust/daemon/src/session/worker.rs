@@ -9,6 +9,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::render::{RenderSettings, Renderer};
 use antumbra_core::scene::Scene;
 use antumbra_protocol::{
@@ -27,7 +28,8 @@ const STAGES: u32 = 2;
 
 /// A render's controls, shared by the reader (Cancel), the worker and the session's end.
 pub(super) struct RenderCtl {
-    pub(super) cancel: AtomicBool,
+    /// Read by the renderer per tile, between lights and build stages.
+    pub(super) cancel: CancelToken,
     pub(super) started: AtomicBool,
 }
 
@@ -111,6 +113,7 @@ impl WorkerCtx {
         });
     }
 
+    /// Ends a cancelled render; `when` says at which point, and whether it held a slot.
     fn cancelled(&self, job: &Job, when: &str) {
         bump(&self.shared.counters.renders_cancelled);
         let why = if self.shared.stopping() {
@@ -127,8 +130,33 @@ impl WorkerCtx {
         self.out.send(&error_reply(
             ErrorCode::Cancelled,
             format!(
-                "Render frame {} (request {}): {why}",
+                "Render frame {} (request {}): {why} {when}",
                 job.scene.frame, job.request_id
+            ),
+            true,
+            Some(job.request_id),
+        ));
+    }
+
+    /// Ends a render whose wait for a slot reached `queue_wait`.
+    fn queue_timed_out(&self, job: &Job, position: usize, waited: std::time::Duration) {
+        bump(&self.shared.counters.renders_failed);
+        let limit = self.shared.config.queue_wait.as_secs_f64();
+        tracing::warn!(
+            request_id = job.request_id,
+            position,
+            waited_s = waited.as_secs_f64(),
+            "render gave up waiting for a slot"
+        );
+        self.out.send(&error_reply(
+            ErrorCode::Busy,
+            format!(
+                "Render frame {} (request {}): every render slot stayed busy; after waiting \
+                 {:.1} s it was at place {position} in the queue (the limit is {limit} s, \
+                 queue_wait); try again later",
+                job.scene.frame,
+                job.request_id,
+                waited.as_secs_f64()
             ),
             true,
             Some(job.request_id),
@@ -138,30 +166,50 @@ impl WorkerCtx {
     fn render(&self, renderer: &mut Renderer, job: &Job) {
         let id = job.request_id;
         let frame = job.scene.frame;
-        if job.ctl.cancel.load(Ordering::Relaxed) {
+        let cancel = &job.ctl.cancel;
+        if cancel.is_cancelled() {
             return self.cancelled(job, "before it started");
         }
-        let acquired = self.shared.slots.acquire(&job.ctl.cancel, |position| {
-            let total = position.try_into().unwrap_or(u32::MAX);
-            self.progress(id, "queued", 0, total);
-        });
-        let slot = match acquired {
+        let max_wait = Some(self.shared.config.queue_wait);
+        let acquired = self.shared.slots.acquire(
+            || cancel.is_cancelled(),
+            max_wait,
+            |position| {
+                let total = position.try_into().unwrap_or(u32::MAX);
+                self.progress(id, "queued", 0, total);
+            },
+        );
+        let mut slot = match acquired {
             Acquired::Slot(slot, _) => slot,
-            Acquired::GaveUp => return self.cancelled(job, "while queued"),
+            Acquired::GaveUp => return self.cancelled(job, "while queued (it left the queue)"),
+            Acquired::TimedOut { position, waited } => {
+                return self.queue_timed_out(job, position, waited)
+            }
         };
         job.ctl.started.store(true, Ordering::Relaxed);
-        if job.ctl.cancel.load(Ordering::Relaxed) {
-            return self.cancelled(job, "before it started");
+        if cancel.is_cancelled() {
+            drop(slot);
+            return self.cancelled(job, "before it started; its render slot is free");
         }
         self.progress(id, "render", 0, STAGES);
         let t0 = Instant::now();
         let result = catch_unwind(AssertUnwindSafe(|| {
-            renderer.render(&self.label, &job.scene, &job.settings)
+            slot.install(|| {
+                renderer.render_cancellable(&self.label, &job.scene, &job.settings, cancel)
+            })
         }));
+        // The slot is free as soon as the render stops, finished or cancelled.
         drop(slot);
         let render_ms = t0.elapsed().as_secs_f64() * 1e3;
         let result = match result {
             Ok(Ok(r)) => r,
+            Ok(Err(antumbra_core::Error::Cancelled)) => {
+                let when = format!(
+                    "after {:.1} s of rendering; its render slot is free",
+                    render_ms / 1e3
+                );
+                return self.cancelled(job, &when);
+            }
             Ok(Err(e)) => {
                 bump(&self.shared.counters.renders_failed);
                 let e = ProtocolError::InFrame { frame, error: e };
@@ -183,8 +231,8 @@ impl WorkerCtx {
                 return;
             }
         };
-        if job.ctl.cancel.load(Ordering::Relaxed) {
-            return self.cancelled(job, "after rendering");
+        if cancel.is_cancelled() {
+            return self.cancelled(job, "after rendering; its render slot is free");
         }
         self.progress(id, "encode", 1, STAGES);
         let reply = Reply::FrameResult(frame_result_reply(&result, id, &job.passes));

@@ -5,6 +5,7 @@ use std::collections::HashSet;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::render::{all_output_planes, Renderer};
 use antumbra_core::scene::Animation;
 use antumbra_protocol::RecordedAnimation;
@@ -159,14 +160,19 @@ impl Job<'_> {
         outputs: &antumbra_core::output::Outputs,
     ) -> Result<(), JobError> {
         let shared = self.shared;
-        let slot = match shared.slots.acquire(&shared.stop, |_| {}) {
+        let mut slot = match shared.slots.acquire(|| shared.stopping(), None, |_| {}) {
             Acquired::Slot(s, _) => s,
-            Acquired::GaveUp => return Err(JobError::Stopped),
+            _ => return Err(JobError::Stopped),
         };
-        let result = catch_unwind(AssertUnwindSafe(|| renderer.render(label, scene, settings)));
+        // A stopping daemon cancels the frame; it is rendered again on the next start.
+        let stop = CancelToken::from_flag(shared.stop.clone());
+        let result = catch_unwind(AssertUnwindSafe(|| {
+            slot.install(|| renderer.render_cancellable(label, scene, settings, &stop))
+        }));
         drop(slot);
         let result = match result {
             Ok(Ok(r)) => r,
+            Ok(Err(antumbra_core::Error::Cancelled)) => return Err(JobError::Stopped),
             Ok(Err(e)) => {
                 bump(&shared.counters.renders_failed);
                 return Err(failed(format!("frame {frame}: {e}")));
