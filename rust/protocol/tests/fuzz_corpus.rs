@@ -42,7 +42,7 @@ fn fuzz(target: &str, words: &[&str], seed: u64, body: fn(&[u8])) {
         body(&mutate(&mut rng, &seeds, words));
     }
     for n in 0..512 {
-        let noise: Vec<u8> = (0..n).map(|_| rng.next() as u8).collect();
+        let noise: Vec<u8> = (0..n).map(|_| rng.next_u64() as u8).collect();
         body(&noise);
     }
 }

@@ -5,7 +5,7 @@
 pub struct Rng(pub u64);
 
 impl Rng {
-    pub fn next(&mut self) -> u64 {
+    pub fn next_u64(&mut self) -> u64 {
         self.0 ^= self.0 >> 12;
         self.0 ^= self.0 << 25;
         self.0 ^= self.0 >> 27;
@@ -13,7 +13,7 @@ impl Rng {
     }
 
     pub fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
+        (self.next_u64() % n.max(1) as u64) as usize
     }
 }
 
@@ -26,14 +26,14 @@ pub fn mutate(rng: &mut Rng, seeds: &[Vec<u8>], words: &[&str]) -> Vec<u8> {
         let at = rng.below(len + 1);
         match rng.below(10) {
             0 if len > 0 => data[at.min(len - 1)] ^= 1 << rng.below(8),
-            1 if len > 0 => data[at.min(len - 1)] = rng.next() as u8,
+            1 if len > 0 => data[at.min(len - 1)] = rng.next_u64() as u8,
             2 if len > 0 => {
                 const INTERESTING: [u8; 8] = [0x00, 0x7f, 0x80, 0xff, 0xc1, 0xdd, 0xc6, 0x90];
                 data[at.min(len - 1)] = INTERESTING[rng.below(8)];
             }
             3 => {
                 let n = 1 + rng.below(8);
-                let bytes: Vec<u8> = (0..n).map(|_| rng.next() as u8).collect();
+                let bytes: Vec<u8> = (0..n).map(|_| rng.next_u64() as u8).collect();
                 data.splice(at..at, bytes);
             }
             4 => {
