@@ -19,15 +19,23 @@ fn order_text() -> impl Strategy<Value = String> {
     ];
     let share = prop_oneof![Just(0.0f64), Just(1.0), Just(-0.5), Just(2.0), 0.0f64..1.5];
     let size = (0u32..5000, 0u32..5000).prop_map(|(w, h)| format!("{w}x{h}"));
+    // A share as a number or a percentage ("5%").
+    let budget = prop_oneof![
+        share.clone().prop_map(|f| f.to_string()),
+        (-5i64..150).prop_map(|p| format!("{p}%")),
+        Just("NaN".to_string()),
+    ];
     let sorted = (
         prop_oneof![
             Just(""),
             Just(":logging=sato"),
             Just(":logging=fbto"),
-            Just(":p=area")
+            Just(":p=area"),
+            Just(":p=1"),
+            Just(":logging=fbto:p=1"),
         ],
         proptest::option::of(int.clone()),
-        proptest::option::of(share.clone()),
+        proptest::option::of(budget),
     )
         .prop_map(|(l, d, b)| {
             let mut t = format!("sorted{l}");
@@ -44,8 +52,14 @@ fn order_text() -> impl Strategy<Value = String> {
         proptest::option::of(int.clone()),
         proptest::option::of(int.clone()),
         proptest::option::of(0.0f64..1.5),
+        proptest::option::of(prop_oneof![
+            Just("all"),
+            Just("constant"),
+            Just("directional"),
+            Just("none")
+        ]),
     )
-        .prop_map(|(rays, bins, leaf, occ)| {
+        .prop_map(|(rays, bins, leaf, occ, kernels)| {
             let mut t = "srdh".to_string();
             if let Some(r) = rays {
                 t += &format!(":rays={r}");
@@ -59,6 +73,9 @@ fn order_text() -> impl Strategy<Value = String> {
             if let Some(o) = occ {
                 t += &format!(":min_occluded={o}");
             }
+            if let Some(k) = kernels {
+                t += &format!(":kernels={k}");
+            }
             t
         });
     prop_oneof![
@@ -66,6 +83,11 @@ fn order_text() -> impl Strategy<Value = String> {
         Just("fbto".to_string()),
         Just("sato".to_string()),
         Just("rtsah".to_string()),
+        Just("near".to_string()),
+        // An option an order does not take, and options in no key=value form.
+        Just("sato:depth=3".to_string()),
+        Just("sorted:depth".to_string()),
+        Just("srdh::bins=8".to_string()),
         int.prop_map(|s| format!("random:seed={s}")),
         sorted,
         srdh,
@@ -126,8 +148,65 @@ fn cheap(n: &NamedSettings) -> bool {
     n.get("spp").is_none_or(|v| v.as_int() <= 64)
 }
 
+/// A command-line word for setting `i` (`--leaf-size WORD`): its own kind of value near and past
+/// its range, or other text.
+fn flag_text(i: usize) -> BoxedStrategy<String> {
+    let own = value_for(i).prop_map(|v| v.to_string());
+    prop_oneof![
+        3 => own,
+        1 => prop_oneof![
+            Just("4294967296".to_string()),
+            Just("-0".to_string()),
+            Just(" 3".to_string()),
+            Just("1e400".to_string()),
+            Just("inf".to_string()),
+            Just("".to_string()),
+            "[ -~]{0,12}",
+        ],
+    ]
+    .boxed()
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 160, ..ProptestConfig::default() })]
+
+    /// The CLI's path (`--order sorted:depth=0`, `--build srdh`, `--bins 1`): each flag's word is
+    /// parsed alone, then the flags together resolve and render, or the error names the setting.
+    #[test]
+    fn any_flag_words_render_or_name_their_setting(
+        flags in proptest::collection::vec(
+            (0..SCHEMA.len()).prop_flat_map(|i| (Just(i), flag_text(i))),
+            1..4,
+        )
+    ) {
+        let mut named = NamedSettings::new();
+        for (i, text) in &flags {
+            let spec = &SCHEMA[*i];
+            match spec.parse(text) {
+                Ok(v) => named.insert(spec.name, v),
+                Err(e) => prop_assert!(
+                    e.to_string().starts_with(&format!("{}:", spec.name)),
+                    "--{} {text:?}: {e}", spec.name
+                ),
+            }
+        }
+        match named.resolve() {
+            Ok(settings) => {
+                if cheap(&named) {
+                    let scene = common::boxes_scene(12);
+                    let r = Renderer::new().render("fuzz", &scene, &settings);
+                    prop_assert!(r.is_ok(), "{flags:?}: {:?}", r.err());
+                }
+            }
+            Err(e) => {
+                let msg = e.to_string();
+                prop_assert!(
+                    named.0.keys().any(|k| msg.starts_with(&format!("{k}:"))),
+                    "{flags:?}: the error names no given setting: {msg}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn any_settings_map_resolves_and_renders_or_names_its_fault(n in settings_map()) {

@@ -1,11 +1,15 @@
-//! Writes the seed corpus of the `decode_frame` fuzz target: a few valid framed request streams.
+//! Writes the seed corpora of the fuzz targets from real valid inputs: framed request streams
+//! (`decode_frame`), recordings of a tiny scene (`recording`), settings maps and flags
+//! (`settings`, with its dictionary `settings.dict`).
 //!
 //! `cargo run -p antumbra-protocol --example write_fuzz_corpus` (from the workspace root); the
-//! files go to `rust/protocol/fuzz/corpus/decode_frame/`.
+//! files go to `rust/protocol/fuzz/corpus/<target>/`.
 
 use std::path::Path;
 
+use antumbra_core::render::RenderSettings;
 use antumbra_core::scene::{Camera, Light, LightKind, Mesh, Object, Resolution, Scene};
+use antumbra_core::settings::SCHEMA;
 use antumbra_protocol::*;
 use glam::{DMat4, DVec3, Vec3};
 use std::sync::Arc;
@@ -30,9 +34,158 @@ fn scene() -> Scene {
     }
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/decode_frame");
+type Res = Result<(), Box<dyn std::error::Error>>;
+
+fn main() -> Res {
+    let fuzz = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz");
+    decode_frame(&fuzz.join("corpus/decode_frame"))?;
+    recording(&fuzz.join("corpus/recording"))?;
+    settings(&fuzz)?;
+    println!(
+        "wrote the seed corpora to {}",
+        fuzz.join("corpus").display()
+    );
+    Ok(())
+}
+
+/// The tiny scene at `frame`, its object moved a little each frame (the mesh stays the same).
+fn scene_at(frame: i32) -> Scene {
+    let mut s = scene();
+    s.frame = frame;
+    s.objects[0].world_from_object =
+        DMat4::from_translation(DVec3::new(0.1 * f64::from(frame), 0.0, 0.0));
+    s
+}
+
+/// What `antumbra record` writes (scenes only) and what `antumbra serve --record` writes (a
+/// whole session: hello, uploads, frames, renders).
+fn recording(dir: &Path) -> Res {
+    std::fs::create_dir_all(dir)?;
+    let mut w = RecordingWriter::new(Vec::new())?;
+    for frame in 1..=2 {
+        w.append_scene(&scene_at(frame))?;
+    }
+    std::fs::write(dir.join("record.antrec"), w.finish()?)?;
+
+    let mut w = RecordingWriter::new(Vec::new())?;
+    w.append(&Request::Hello {
+        version: PROTOCOL_VERSION,
+        client: "blender 4.2".into(),
+        token: None,
+    })?;
+    for frame in [3, 5] {
+        w.append_scene(&scene_at(frame))?;
+        w.append(&Request::Render(RenderRequest {
+            frame,
+            settings: NamedSettings::new().with("spp", 4i64),
+            passes: Passes::default(),
+            request_id: frame as u64,
+        }))?;
+    }
+    w.append(&Request::Close)?;
+    std::fs::write(dir.join("session.antrec"), w.finish()?)?;
+    Ok(())
+}
+
+/// Settings maps as a spool job (JSON) and the wire (MessagePack) carry them, command-line flags,
+/// and bare values of the text settings.
+fn settings(fuzz: &Path) -> Res {
+    let dir = fuzz.join("corpus/settings");
     std::fs::create_dir_all(&dir)?;
+    let maps = [
+        ("defaults", RenderSettings::default().to_named()),
+        (
+            "osah",
+            NamedSettings::new()
+                .with("spp", 8i64)
+                .with("build", "osah")
+                .with("osah_w", 0.5)
+                .with("spatial_splits", false)
+                .with("visibility", "prepass:64x48"),
+        ),
+        (
+            "srdh",
+            NamedSettings::new().with("build", "srdh").with(
+                "order",
+                "srdh:rays=16x16:bins=32:leaf=1:kernels=all:min_occluded=0.2",
+            ),
+        ),
+        (
+            "sorted",
+            NamedSettings::new()
+                .with("order", "sorted:logging=fbto:p=area:depth=4:budget=0.01")
+                .with("width", 8i64)
+                .with("collapse", "greedy")
+                .with("leaf_size", 4i64)
+                .with("min_leaf_size", 2i64),
+        ),
+    ];
+    for (name, map) in &maps {
+        std::fs::write(dir.join(format!("{name}.json")), serde_json::to_vec(map)?)?;
+        std::fs::write(dir.join(format!("{name}.msgpack")), encode_body(map)?)?;
+    }
+    std::fs::write(
+        dir.join("flags.txt"),
+        "--spp 8\n--build sbvh\n--order sorted:depth=4:budget=5%\n--visibility exact\n\
+         --width 4\n--spatial-splits false\n--split-alpha 0.1\n--timing on\n",
+    )?;
+    std::fs::write(
+        dir.join("values.txt"),
+        "srdh:rays=all:bins=8:kernels=constant\nsrdh:rays=0.05:leaf=4\nrandom:seed=7\n\
+         near\nprepass:16x16\n16x16\nsbvh\ngreedy\nobject\n8\n",
+    )?;
+    // libFuzzer's dictionary: the settings' names and the order grammar's words.
+    let mut words: Vec<String> = SCHEMA.iter().map(|s| s.name.to_string()).collect();
+    words.extend(
+        SCHEMA
+            .iter()
+            .map(|s| format!("--{}", s.name.replace('_', "-"))),
+    );
+    words.extend(
+        [
+            "stored",
+            "fbto",
+            "near",
+            "sato",
+            "rtsah",
+            "random",
+            "sorted",
+            "srdh",
+            ":seed=",
+            ":logging=",
+            ":p=",
+            "area",
+            ":depth=",
+            ":budget=",
+            ":rays=",
+            "all",
+            ":bins=",
+            ":leaf=",
+            ":kernels=",
+            "constant",
+            "directional",
+            ":min_occluded=",
+            "prepass:",
+            "previous",
+            "exact",
+            "x",
+            "%",
+            "0",
+            "-1",
+            "4294967296",
+            "NaN",
+            "inf",
+            "1e39",
+        ]
+        .map(String::from),
+    );
+    let dict: String = words.iter().map(|w| format!("{:?}\n", w)).collect();
+    std::fs::write(fuzz.join("settings.dict"), dict)?;
+    Ok(())
+}
+
+fn decode_frame(dir: &Path) -> Res {
+    std::fs::create_dir_all(dir)?;
     let hello = Request::Hello {
         version: PROTOCOL_VERSION,
         client: "blender 4.2".into(),
@@ -85,6 +238,5 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         std::fs::write(dir.join(format!("{name}.bin")), bytes)?;
     }
-    println!("wrote the seed corpus to {}", dir.display());
     Ok(())
 }

@@ -1,113 +1,131 @@
-//! Runs the `decode_frame` fuzz target's body over the committed seed corpus and 20,000
-//! deterministic mutations of it, so CI exercises the decoder without cargo-fuzz.
+//! Bounded fuzzing in CI: runs each fuzz target's body (`antumbra_protocol::fuzzing`) over its
+//! committed seed corpus and 20,000 deterministic mutations of it, without cargo-fuzz.
 
 use std::path::Path;
 
-use antumbra_protocol::fuzzing::decode_frame;
-use antumbra_protocol::{FrameDecoder, Limits, Request};
+use antumbra_core::settings::{NamedSettings, SCHEMA};
+use antumbra_protocol::fuzzing::{self, mutate, Rng};
+use antumbra_protocol::recording::{replay_scenes_from, RECORDING_MAGIC};
+use antumbra_protocol::{decode_body, FrameDecoder, Limits, Request};
 
-fn corpus() -> Vec<Vec<u8>> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/decode_frame");
+const MUTATIONS: usize = 20_000;
+
+fn fuzz_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz")
+}
+
+fn corpus(target: &str) -> Vec<(String, Vec<u8>)> {
+    let dir = fuzz_dir().join("corpus").join(target);
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| e.unwrap().path())
         .collect();
     files.sort();
-    files.iter().map(|p| std::fs::read(p).unwrap()).collect()
+    assert!(files.len() >= 2, "the {target} seed corpus is missing");
+    files
+        .iter()
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, std::fs::read(p).unwrap())
+        })
+        .collect()
 }
 
-/// xorshift64*: deterministic, no dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+/// The seeds, then `MUTATIONS` mutations of them and some pure noise, through `body`.
+fn fuzz(target: &str, words: &[&str], seed: u64, body: fn(&[u8])) {
+    let seeds: Vec<Vec<u8>> = corpus(target).into_iter().map(|(_, b)| b).collect();
+    for s in &seeds {
+        body(s);
     }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
+    let mut rng = Rng(seed);
+    for _ in 0..MUTATIONS {
+        body(&mutate(&mut rng, &seeds, words));
     }
-}
-
-fn mutate(rng: &mut Rng, seeds: &[Vec<u8>]) -> Vec<u8> {
-    let mut data = seeds[rng.below(seeds.len())].clone();
-    for _ in 0..1 + rng.below(4) {
-        let len = data.len();
-        let at = rng.below(len + 1);
-        match rng.below(9) {
-            0 if len > 0 => data[at.min(len - 1)] ^= 1 << rng.below(8),
-            1 if len > 0 => data[at.min(len - 1)] = rng.next() as u8,
-            2 if len > 0 => {
-                const INTERESTING: [u8; 8] = [0x00, 0x7f, 0x80, 0xff, 0xc1, 0xdd, 0xc6, 0x90];
-                data[at.min(len - 1)] = INTERESTING[rng.below(8)];
-            }
-            3 => {
-                let n = 1 + rng.below(8);
-                let bytes: Vec<u8> = (0..n).map(|_| rng.next() as u8).collect();
-                data.splice(at..at, bytes);
-            }
-            4 => {
-                let end = (at + 1 + rng.below(16)).min(len);
-                data.drain(at.min(end)..end);
-            }
-            5 => data.truncate(at),
-            6 if len > 0 => {
-                // Duplicate a range (repeated frames, repeated fields).
-                let end = (at + 1 + rng.below(64)).min(len);
-                let piece = data[at.min(end)..end].to_vec();
-                let to = rng.below(data.len() + 1);
-                data.splice(to..to, piece);
-            }
-            7 => {
-                // Splice in part of another seed.
-                let other = &seeds[rng.below(seeds.len())];
-                let from = rng.below(other.len());
-                let end = (from + rng.below(128)).min(other.len());
-                data.splice(at..at, other[from..end].iter().copied());
-            }
-            _ if len >= 4 => {
-                // Rewrite a length prefix-sized word with a boundary value.
-                let at = at.min(len - 4);
-                let v: u32 =
-                    [0, 1, 0x7fff_ffff, u32::MAX, (len as u32).wrapping_sub(3)][rng.below(5)];
-                data[at..at + 4].copy_from_slice(&v.to_le_bytes());
-            }
-            _ => {}
-        }
+    for n in 0..512 {
+        let noise: Vec<u8> = (0..n).map(|_| rng.next_u64() as u8).collect();
+        body(&noise);
     }
-    data
 }
 
 #[test]
-fn seed_corpus_holds_valid_requests() {
-    let seeds = corpus();
-    assert!(seeds.len() >= 5, "the seed corpus is missing");
-    for seed in &seeds {
+fn decode_frame_seeds_hold_valid_requests() {
+    for (name, seed) in corpus("decode_frame") {
         let mut d = FrameDecoder::new(&Limits::default());
-        d.push(seed);
+        d.push(&seed);
         let mut count = 0;
         while let Some(_r) = d.next_message::<Request>().unwrap() {
             count += 1;
         }
-        assert!(count > 0);
-        assert_eq!(d.buffered(), 0);
-        decode_frame(seed);
+        assert!(count > 0, "{name}");
+        assert_eq!(d.buffered(), 0, "{name}");
     }
 }
 
 #[test]
 fn decoder_survives_mutated_inputs() {
-    let seeds = corpus();
-    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-    for _ in 0..20_000 {
-        let input = mutate(&mut rng, &seeds);
-        decode_frame(&input);
+    fuzz(
+        "decode_frame",
+        &[],
+        0x9e37_79b9_7f4a_7c15,
+        fuzzing::decode_frame,
+    );
+}
+
+#[test]
+fn recording_seeds_are_real_recordings() {
+    for (name, seed) in corpus("recording") {
+        assert!(seed.starts_with(RECORDING_MAGIC), "{name}");
+        let scenes = replay_scenes_from(&seed[..]).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(scenes.len(), 2, "{name}");
     }
-    // Pure noise too.
-    for n in 0..512 {
-        let input: Vec<u8> = (0..n).map(|_| rng.next() as u8).collect();
-        decode_frame(&input);
+}
+
+#[test]
+fn recording_reader_survives_mutated_inputs() {
+    fuzz("recording", &[], 0x2545_f491_4f6c_dd1d, fuzzing::recording);
+    // A valid header over garbage, and a header cut short.
+    fuzzing::recording(b"");
+    fuzzing::recording(&RECORDING_MAGIC[..5]);
+    fuzzing::recording(&[0xff; 64]);
+}
+
+/// The settings target's words: every setting's name and flag, and the order grammar's words.
+fn settings_words() -> Vec<String> {
+    let dict = std::fs::read_to_string(fuzz_dir().join("settings.dict")).unwrap();
+    let words: Vec<String> = dict
+        .lines()
+        .filter_map(|l| l.strip_prefix('"')?.strip_suffix('"').map(String::from))
+        .collect();
+    for s in SCHEMA {
+        assert!(
+            words.iter().any(|w| w == s.name),
+            "{} is not in settings.dict",
+            s.name
+        );
     }
+    words
+}
+
+#[test]
+fn settings_seeds_resolve() {
+    for (name, seed) in corpus("settings") {
+        let named: Option<NamedSettings> = if name.ends_with(".json") {
+            Some(serde_json::from_slice(&seed).unwrap())
+        } else if name.ends_with(".msgpack") {
+            Some(decode_body(&seed).unwrap())
+        } else {
+            None
+        };
+        if let Some(named) = named {
+            named.resolve().unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+        fuzzing::settings(&seed);
+    }
+}
+
+#[test]
+fn settings_parsers_survive_mutated_inputs() {
+    let words = settings_words();
+    let words: Vec<&str> = words.iter().map(String::as_str).collect();
+    fuzz("settings", &words, 0xd1b5_4a32_d192_ed03, fuzzing::settings);
 }

@@ -1,5 +1,5 @@
-//! The body of the `decode_frame` fuzz target, here so that a plain `#[test]` runs the same code
-//! over the seed corpus and mutated inputs without cargo-fuzz.
+//! The `decode_frame` target: arbitrary bytes as a peer's stream, through the three readers and
+//! the daemon's checks of every request decoded.
 
 use crate::check::check_limits;
 use crate::convert::{missing_meshes, render_settings};
