@@ -156,12 +156,20 @@ fn unfinished_frames_and_ended_sessions_give_their_memory_back() {
     d.wait_sessions_ended();
     let baseline = d.rss_mib();
     let chunk = vec![0u8; 1 << 20];
+    let hello = antumbra_protocol::encode_message(&Request::Hello {
+        version: antumbra_protocol::PROTOCOL_VERSION,
+        client: "memory-test".into(),
+        token: None,
+    })
+    .unwrap();
     for _ in 0..ROUNDS {
-        // Three clients each announce a frame a little larger than what they send, send 50 MB
-        // of it and leave: the daemon buffers each body, then the stream ends inside it.
+        // Three clients each say Hello (before it a frame may be only 64 KiB), announce a
+        // frame a little larger than what they send, send 50 MB of it and leave: the daemon
+        // buffers each body, then the stream ends inside it.
         let mut clients: Vec<UnixStream> = (0..3)
             .map(|_| {
                 let mut s = UnixStream::connect(&d.socket).unwrap();
+                s.write_all(&hello).unwrap();
                 let len = ((FRAME_MIB + 1) << 20) as u32;
                 s.write_all(&len.to_le_bytes()).unwrap();
                 s
