@@ -319,17 +319,15 @@ impl Replay {
         let index = self.applied;
         self.applied += 1;
         match request {
-            Request::UploadMesh(upload) => {
-                if !self.meshes.contains_key(&upload.hash) {
-                    let mesh = mesh_from_upload(&upload, &self.limits).map_err(|source| {
-                        RecordingError::Protocol {
-                            index,
-                            kind: "UploadMesh",
-                            source,
-                        }
-                    })?;
-                    self.meshes.insert(upload.hash, Arc::new(mesh));
-                }
+            Request::UploadMesh(upload) if !self.meshes.contains_key(&upload.hash) => {
+                let mesh = mesh_from_upload(&upload, &self.limits).map_err(|source| {
+                    RecordingError::Protocol {
+                        index,
+                        kind: "UploadMesh",
+                        source,
+                    }
+                })?;
+                self.meshes.insert(upload.hash, Arc::new(mesh));
             }
             Request::FrameUpdate(update) => self.frames.push((index, update)),
             _ => {}
