@@ -1,10 +1,10 @@
 //! Recordings (`.antrec`): a session's requests saved to a file so a scene sent from Blender can
 //! be rendered again without Blender (`antumbra render --scene FILE.antrec`).
 //!
-//! Format: the 8 bytes `ANTREC2\n` (the version), then framed [`Request`]s exactly as on the
-//! socket (4-byte LE length + MessagePack body), until the end of the file. Replaying stores every
+//! Format: the 8 bytes `ANTREC1\n` (version 1), then framed [`Request`]s exactly as on the socket
+//! (4-byte LE length + MessagePack body), until the end of the file. Replaying stores every
 //! `UploadMesh` of the file, then builds each `FrameUpdate`'s scene, so a frame may come before the
-//! meshes it uses; every other request is skipped. Version 1 files are read the same way.
+//! meshes it uses (as the add-on sends them); every other request is skipped.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::fs::File;
@@ -22,10 +22,10 @@ use crate::frame::{read_message, write_message};
 use crate::limits::{Limits, MAX_FRAME_BYTES_CEILING};
 use crate::messages::{FrameUpdate, Request};
 
-/// The version this antumbra writes; it reads every version from 1 up to it. Version 2 holds an
-/// upload of every mesh its frames use (a daemon also records meshes it already held), anywhere
-/// in the file; version 1 kept the order the client sent, and might lack meshes.
-pub const RECORDING_VERSION: u8 = 2;
+/// The version this antumbra writes; it reads every version from 1 up to it. (Replaying
+/// regardless of order needed no new version: it reads every file the in-order replay read, to
+/// the same scenes.)
+pub const RECORDING_VERSION: u8 = 1;
 pub const RECORDING_MAGIC: &[u8; 8] = &magic(RECORDING_VERSION);
 
 const fn magic(version: u8) -> [u8; 8] {
