@@ -629,6 +629,93 @@ fn sessions_are_recorded_and_replay() {
     }
 }
 
+/// Sends a frame as the add-on does: its update first, then the meshes the daemon says it lacks.
+/// Returns how many meshes were uploaded.
+fn send_frame_first(c: &mut Client, scene: &Scene) -> usize {
+    let update = frame_update_from_scene(scene).unwrap();
+    let missing = match c.call(&Request::FrameUpdate(update)).unwrap() {
+        Reply::FrameAccepted { meshes_missing, .. } => meshes_missing,
+        other => panic!("FrameUpdate: {}", other.kind()),
+    };
+    for h in &missing {
+        let mesh = scene
+            .meshes
+            .iter()
+            .find(|m| m.content_hash() == *h)
+            .unwrap();
+        let reply = c
+            .call(&Request::UploadMesh(upload_from_mesh(mesh)))
+            .unwrap();
+        assert!(
+            matches!(reply, Reply::MeshStored { .. }),
+            "{}",
+            reply.kind()
+        );
+    }
+    missing.len()
+}
+
+#[test]
+fn recordings_replay_whatever_the_order_and_what_the_daemon_held() {
+    let rec = temp_dir("rec2");
+    let rec_dir = rec.path().join("recordings");
+    let d = TestDaemon::start_with("record2", |c| c.record = Some(rec_dir.clone()));
+    let scenes = city_frames(3_000, 3, 48, 32);
+    // Two sessions in a row: the second finds every mesh in the cache and uploads none.
+    let mut sessions = Vec::new();
+    for name in ["first", "second"] {
+        let mut c = d.client(name);
+        let mut uploaded = 0;
+        let mut results = Vec::new();
+        for (i, s) in scenes.iter().enumerate() {
+            uploaded += send_frame_first(&mut c, s);
+            results.push(render_reply(&mut c, s.frame, i as u64));
+        }
+        c.close().unwrap();
+        d.wait_for_stats("the session to end", |s| s.sessions == 0);
+        sessions.push((name, uploaded, results));
+    }
+    let distinct: std::collections::HashSet<u64> = scenes
+        .iter()
+        .flat_map(|s| s.meshes.iter().map(|m| m.content_hash()))
+        .collect();
+    assert_eq!(sessions[0].1, distinct.len());
+    assert_eq!(sessions[1].1, 0);
+
+    let mut files: Vec<_> = std::fs::read_dir(&rec_dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 2, "{files:?}");
+    for (file, (name, _, results)) in files.iter().zip(&sessions) {
+        // Each file alone replays to the daemon's own images, bit for bit.
+        let replayed = replay_scenes(file).unwrap();
+        assert_eq!(replayed.len(), scenes.len());
+        let expected = render_in_process(name, &replayed, &RenderSettings::default());
+        for (reply, want) in results.iter().zip(&expected) {
+            assert_same_result(reply, want);
+        }
+        // Each mesh the frames use is in the file once.
+        let uploads: Vec<u64> = antumbra_protocol::RecordingReader::open(file)
+            .unwrap()
+            .filter_map(|r| match r.unwrap() {
+                Request::UploadMesh(u) => Some(u.hash),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(uploads.len(), distinct.len(), "{}", file.display());
+        assert_eq!(
+            uploads
+                .iter()
+                .copied()
+                .collect::<std::collections::HashSet<_>>(),
+            distinct
+        );
+    }
+}
+
 #[test]
 fn shutdown_request_stops_the_daemon_after_current_requests() {
     let d = TestDaemon::start("shutdown");

@@ -1,9 +1,10 @@
 //! Recordings (`.antrec`): a session's requests saved to a file so a scene sent from Blender can
 //! be rendered again without Blender (`antumbra render --scene FILE.antrec`).
 //!
-//! Format: the 8 bytes `ANTREC1\n`, then framed [`Request`]s exactly as on the socket (4-byte LE
-//! length + MessagePack body), until the end of the file. Replaying applies `UploadMesh` and
-//! `FrameUpdate` in order; every other request is skipped.
+//! Format: the 8 bytes `ANTREC1\n` (version 1), then framed [`Request`]s exactly as on the socket
+//! (4-byte LE length + MessagePack body), until the end of the file. Replaying stores every
+//! `UploadMesh` of the file, then builds each `FrameUpdate`'s scene, so a frame may come before the
+//! meshes it uses (as the add-on sends them); every other request is skipped.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::fs::File;
@@ -20,9 +21,27 @@ use crate::convert::{mesh_from_upload, scene_from_frame, scene_to_messages};
 use crate::error::{FrameError, ProtocolError};
 use crate::frame::{read_message, write_message};
 use crate::limits::{Limits, MAX_FRAME_BYTES_CEILING};
-use crate::messages::Request;
+use crate::messages::{FrameUpdate, Request};
 
-pub const RECORDING_MAGIC: &[u8; 8] = b"ANTREC1\n";
+/// The version this antumbra writes; it reads every version from 1 up to it. (Replaying
+/// regardless of order needed no new version: it reads every file the in-order replay read, to
+/// the same scenes.)
+pub const RECORDING_VERSION: u8 = 1;
+pub const RECORDING_MAGIC: &[u8; 8] = &magic(RECORDING_VERSION);
+
+const fn magic(version: u8) -> [u8; 8] {
+    let mut m = *b"ANTREC0\n";
+    m[6] = b'0' + version;
+    m
+}
+
+/// The headers of every version this antumbra reads, as an error names them.
+fn known_magics() -> String {
+    let quoted: Vec<String> = (1..=RECORDING_VERSION)
+        .map(|v| format!("{:?}", String::from_utf8_lossy(&magic(v))))
+        .collect();
+    quoted.join(" or ")
+}
 
 #[derive(Debug, Error)]
 pub enum RecordingError {
@@ -35,8 +54,13 @@ pub enum RecordingError {
     },
     #[error("{0}")]
     Io(std::io::Error),
-    #[error("not an antumbra recording: it does not start with \"ANTREC1\\n\"")]
+    #[error("not an antumbra recording: it does not start with {}", known_magics())]
     BadMagic,
+    #[error(
+        "a recording of version {0}, newer than this antumbra reads (up to {RECORDING_VERSION}): \
+         replay it with a newer antumbra"
+    )]
+    NewerVersion(char),
     #[error("message {index}: {error}")]
     Frame { index: usize, error: FrameError },
     #[error("message {index} ({kind}): {error}")]
@@ -44,6 +68,16 @@ pub enum RecordingError {
         index: usize,
         kind: &'static str,
         error: ProtocolError,
+    },
+    #[error(
+        "message {index} (FrameUpdate): frame {frame}: object '{object}' uses mesh {hash:#018x}, \
+         which the recording never uploads"
+    )]
+    MissingMesh {
+        index: usize,
+        frame: i32,
+        object: String,
+        hash: u64,
     },
     #[error("the recording holds no FrameUpdate")]
     NoFrames,
@@ -108,6 +142,11 @@ impl<W: Write> RecordingWriter<W> {
         Ok(())
     }
 
+    /// Whether the recording holds an upload of this mesh.
+    pub fn has_mesh(&self, hash: u64) -> bool {
+        self.uploaded.contains(&hash)
+    }
+
     /// Requests appended so far.
     pub fn written(&self) -> usize {
         self.written
@@ -117,10 +156,10 @@ impl<W: Write> RecordingWriter<W> {
     /// then its `FrameUpdate`.
     pub fn append_scene(&mut self, scene: &Scene) -> Result<(), RecordingError> {
         let (uploads, update) =
-            scene_to_messages(scene).map_err(|error| RecordingError::Protocol {
+            scene_to_messages(scene).map_err(|source| RecordingError::Protocol {
                 index: self.written,
                 kind: "FrameUpdate",
-                error,
+                error: source,
             })?;
         for request in uploads.iter().chain([&update]) {
             if let Request::UploadMesh(u) = request {
@@ -130,7 +169,10 @@ impl<W: Write> RecordingWriter<W> {
             }
             let index = self.written;
             self.append(request)
-                .map_err(|error| RecordingError::Frame { index, error })?;
+                .map_err(|source| RecordingError::Frame {
+                    index,
+                    error: source,
+                })?;
         }
         Ok(())
     }
@@ -149,6 +191,7 @@ impl<W: Write> RecordingWriter<W> {
 /// Reads the requests of a recording in order.
 pub struct RecordingReader<R: Read> {
     r: R,
+    version: u8,
     limits: Limits,
     index: usize,
     done: bool,
@@ -191,21 +234,33 @@ impl<R: Read> RecordingReader<R> {
     }
 
     pub fn with_limits(mut r: R, limits: Limits) -> Result<Self, RecordingError> {
-        let mut magic = [0u8; 8];
-        match r.read_exact(&mut magic) {
-            Ok(()) if &magic == RECORDING_MAGIC => {}
-            Ok(()) => return Err(RecordingError::BadMagic),
+        let mut header = [0u8; 8];
+        match r.read_exact(&mut header) {
+            Ok(()) => {}
             Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
                 return Err(RecordingError::BadMagic)
             }
             Err(e) => return Err(e.into()),
         }
+        let version = match header[6].checked_sub(b'0') {
+            Some(v @ 1..=9) if header == magic(v) => v,
+            _ => return Err(RecordingError::BadMagic),
+        };
+        if version > RECORDING_VERSION {
+            return Err(RecordingError::NewerVersion(header[6] as char));
+        }
         Ok(RecordingReader {
             r,
+            version,
             limits,
             index: 0,
             done: false,
         })
+    }
+
+    /// The file's format version (from its header).
+    pub fn version(&self) -> u8 {
+        self.version
     }
 
     /// The next request, `None` at the end of the recording.
@@ -222,12 +277,12 @@ impl<R: Read> RecordingReader<R> {
                 self.done = true;
                 Ok(None)
             }
-            Err(error) => {
+            Err(source) => {
                 // A bad frame may have left the reader mid-stream; nothing after it is trusted.
                 self.done = true;
                 Err(RecordingError::Frame {
                     index: self.index,
-                    error,
+                    error: source,
                 })
             }
         }
@@ -246,60 +301,90 @@ impl<R: Read> Iterator for RecordingReader<R> {
     }
 }
 
-/// Replays requests: keeps the uploaded meshes and turns each `FrameUpdate` into a [`Scene`].
-/// Meshes with the same hash are the same `Arc` in every scene, so a renderer reuses its BVHs
-/// for frames whose geometry did not change.
+/// Replays requests whatever their order: stores every upload's mesh and keeps every
+/// `FrameUpdate`, then [`scenes`](Self::scenes) builds the frames from all the meshes. Meshes with
+/// the same hash are the same `Arc` in every scene, so a renderer reuses its BVHs for frames whose
+/// geometry did not change.
 #[derive(Default)]
 pub struct Replay {
     pub meshes: HashMap<u64, Arc<Mesh>>,
     pub limits: Limits,
+    /// The frame updates with their message index, in order.
+    frames: Vec<(usize, FrameUpdate)>,
+    /// Requests applied so far (the next one's message index).
+    applied: usize,
 }
 
 impl Replay {
     pub fn new(limits: Limits) -> Self {
         Replay {
-            meshes: HashMap::new(),
             limits,
+            ..Replay::default()
         }
     }
 
-    /// Applies one request, checked against the limits as a daemon checks it on the socket;
-    /// returns the scene of a `FrameUpdate`.
-    pub fn apply(&mut self, request: &Request) -> Result<Option<Scene>, ProtocolError> {
-        check_limits(request, &self.limits)?;
+    /// Applies the next request of the recording: stores an upload's mesh (checked as the daemon
+    /// checks it; the first upload of a hash wins), keeps a `FrameUpdate`, skips the rest.
+    pub fn apply(&mut self, request: Request) -> Result<(), RecordingError> {
+        let index = self.applied;
+        self.applied += 1;
+        // Checked as a daemon checks it on the socket, so a crafted file cannot ask for more.
+        check_limits(&request, &self.limits).map_err(|error| RecordingError::Protocol {
+            index,
+            kind: request.kind(),
+            error,
+        })?;
         match request {
-            Request::UploadMesh(upload) => {
-                if !self.meshes.contains_key(&upload.hash) {
-                    let mesh = mesh_from_upload(upload, &self.limits)?;
-                    self.meshes.insert(upload.hash, Arc::new(mesh));
-                }
-                Ok(None)
+            Request::UploadMesh(upload) if !self.meshes.contains_key(&upload.hash) => {
+                let mesh = mesh_from_upload(&upload, &self.limits).map_err(|source| {
+                    RecordingError::Protocol {
+                        index,
+                        kind: "UploadMesh",
+                        error: source,
+                    }
+                })?;
+                self.meshes.insert(upload.hash, Arc::new(mesh));
             }
-            Request::FrameUpdate(update) => scene_from_frame(update, &self.meshes).map(Some),
-            _ => Ok(None),
+            Request::FrameUpdate(update) => self.frames.push((index, update)),
+            _ => {}
         }
+        Ok(())
+    }
+
+    /// The scene of every `FrameUpdate` applied, in order, each with its meshes from the whole
+    /// recording.
+    pub fn scenes(&self) -> Result<Vec<Scene>, RecordingError> {
+        self.frames
+            .iter()
+            .map(|(index, update)| {
+                scene_from_frame(update, &self.meshes).map_err(|source| match source {
+                    ProtocolError::UnknownMesh {
+                        frame,
+                        object,
+                        hash,
+                    } => RecordingError::MissingMesh {
+                        index: *index,
+                        frame,
+                        object,
+                        hash,
+                    },
+                    source => RecordingError::Protocol {
+                        index: *index,
+                        kind: "FrameUpdate",
+                        error: source,
+                    },
+                })
+            })
+            .collect()
     }
 }
 
 fn replay_reader<R: Read>(mut reader: RecordingReader<R>) -> Result<Vec<Scene>, RecordingError> {
     let mut replay = Replay::new(reader.limits().clone());
-    let mut scenes = Vec::new();
     while let Some(request) = reader.next_request()? {
-        // The reader counted this request already.
-        let index = reader.index - 1;
-        match replay.apply(&request) {
-            Ok(Some(scene)) => scenes.push(scene),
-            Ok(None) => {}
-            Err(error) => {
-                return Err(RecordingError::Protocol {
-                    index,
-                    kind: request.kind(),
-                    error,
-                })
-            }
-        }
+        replay.apply(request)?;
     }
-    Ok(scenes)
+    replay.scenes()
 }
 
 /// The scene of every `FrameUpdate` in a recording, in file order.

@@ -134,3 +134,73 @@ fn bad_recordings_say_what_is_wrong() {
     let scenes = replay_scenes_from(&w.finish().unwrap()[..]).unwrap();
     assert!(RecordedAnimation::from_scenes("empty", scenes).is_err());
 }
+
+/// A recording of these requests, in this order.
+fn recording_of(requests: &[Request]) -> Vec<u8> {
+    let mut w = RecordingWriter::new(Vec::new()).unwrap();
+    for r in requests {
+        w.append(r).unwrap();
+    }
+    w.finish().unwrap()
+}
+
+#[test]
+fn frames_before_their_uploads_replay() {
+    // As the add-on sends them: each frame, then the meshes the daemon said it lacks.
+    let scenes: Vec<_> = (1..=3).map(common::tiny_scene).collect();
+    let mut requests = Vec::new();
+    let mut sent = std::collections::HashSet::new();
+    for s in &scenes {
+        let (uploads, update) = scene_to_messages(s).unwrap();
+        requests.push(update);
+        for u in uploads {
+            if let Request::UploadMesh(m) = &u {
+                if sent.insert(m.hash) {
+                    requests.push(u);
+                }
+            }
+        }
+    }
+    assert_eq!(requests[0].kind(), "FrameUpdate");
+    let replayed = replay_scenes_from(&recording_of(&requests)[..]).unwrap();
+    assert_eq!(replayed.len(), 3);
+    for (a, b) in scenes.iter().zip(&replayed) {
+        common::assert_same_scene(a, b);
+    }
+    assert!(Arc::ptr_eq(&replayed[0].meshes[0], &replayed[2].meshes[0]));
+}
+
+#[test]
+fn a_mesh_never_uploaded_is_named() {
+    let (uploads, update) = scene_to_messages(&common::tiny_scene(4)).unwrap();
+    let Request::UploadMesh(lost) = &uploads[1] else {
+        panic!("{:?}", uploads[1].kind())
+    };
+    let e = replay_scenes_from(&recording_of(&[update, uploads[0].clone()])[..])
+        .err()
+        .unwrap()
+        .to_string();
+    let hash = format!("{:#018x}", lost.hash);
+    assert!(
+        e.contains("message 0 (FrameUpdate)")
+            && e.contains("frame 4")
+            && e.contains(&hash)
+            && e.contains("never uploads"),
+        "{e}"
+    );
+}
+
+#[test]
+fn newer_versions_are_refused_naming_theirs() {
+    let mut w = RecordingWriter::new(Vec::new()).unwrap();
+    w.append_scene(&common::tiny_scene(0)).unwrap();
+    let mut bytes = w.finish().unwrap();
+    assert_eq!(&bytes[..8], b"ANTREC1\n");
+    assert_eq!(RecordingReader::new(&bytes[..]).unwrap().version(), 1);
+    bytes[6] = b'2';
+    let e = replay_scenes_from(&bytes[..]).err().unwrap().to_string();
+    assert!(e.contains("version 2") && e.contains("newer"), "{e}");
+    bytes[6] = b'0';
+    let e = replay_scenes_from(&bytes[..]).err().unwrap().to_string();
+    assert!(e.contains("not an antumbra recording"), "{e}");
+}

@@ -1,17 +1,16 @@
-//! Reading a session's connection: the handshake (version, and the token on TCP), the request
-//! loop with its per-request panic guard, and the session's recording.
+//! Reading a session's connection: the handshake (version, and the token on TCP) and the request
+//! loop with its per-request panic guard.
 
 use std::io::{self, BufReader, ErrorKind, Read};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
 use antumbra_protocol::{
-    check_hello, decode_body, read_frame, welcome, ErrorCode, FrameError, RecordingWriter, Reply,
-    Request,
+    check_hello, decode_body, read_frame, welcome, ErrorCode, FrameError, Reply, Request,
 };
 
 use super::out::error_reply;
-use super::{recording_path, End, Flow, Next, Session};
+use super::{End, Flow, Next, Session};
 use crate::gate::{self, Admission};
 use crate::listen::{constant_time_eq, Conn};
 
@@ -48,9 +47,14 @@ impl Session<'_> {
                 Next::End(end) => return end,
             };
             self.requests += 1;
-            self.record(&request);
+            let upload = self.record(&request);
             let kind = request.kind();
-            match catch_unwind(AssertUnwindSafe(|| self.handle(request))) {
+            let flow = catch_unwind(AssertUnwindSafe(|| self.handle(request)));
+            // An upload is recorded once stored, from what the daemon holds.
+            if let Some(hash) = upload {
+                self.record_meshes([hash]);
+            }
+            match flow {
                 Ok(Flow::Continue) => {}
                 Ok(Flow::End(end)) => return end,
                 Err(_) => {
@@ -269,43 +273,5 @@ impl Session<'_> {
             None,
         ));
         End::Refused
-    }
-
-    fn start_recording(&mut self) {
-        let Some(dir) = &self.shared.config.record else {
-            return;
-        };
-        let path = recording_path(dir, self.id);
-        match RecordingWriter::create(&path) {
-            Ok(w) => {
-                tracing::info!(path = %path.display(), "recording the session");
-                self.recorder = Some(w);
-            }
-            Err(e) => tracing::warn!(error = %e, "cannot record the session"),
-        }
-    }
-
-    /// Appends a request to the recording (a Hello without its token).
-    fn record(&mut self, request: &Request) {
-        let Some(w) = &mut self.recorder else {
-            return;
-        };
-        let result = match request {
-            Request::Hello {
-                version, client, ..
-            } => w.append(&Request::Hello {
-                version: *version,
-                client: client.clone(),
-                token: None,
-            }),
-            other => w.append(other),
-        };
-        if let Err(e) = result
-            .map_err(|e| e.to_string())
-            .and_then(|()| w.flush().map_err(|e| e.to_string()))
-        {
-            tracing::warn!(error = %e, "recording failed; stopping it");
-            self.recorder = None;
-        }
     }
 }

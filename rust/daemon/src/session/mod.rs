@@ -7,6 +7,7 @@
 mod connection;
 mod dispatch;
 mod out;
+mod recording;
 mod worker;
 
 use std::collections::{HashMap, VecDeque};

@@ -131,6 +131,7 @@ pub fn decode_frame(data: &[u8]) {
             }
             _ => {}
         }
-        let _ = replay.apply(&request);
+        let _ = replay.apply(request);
     }
+    let _ = replay.scenes();
 }
