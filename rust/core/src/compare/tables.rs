@@ -121,7 +121,9 @@ mod tests {
             trace_ms: Timing::of(&[0.5]),
             frame_ms: Timing::of(&[3.0, 4.0, 5.0]),
         };
-        let text = to_csv(&[row.clone()], &|l| format!("{l}=width=2,order=fbto"));
+        let text = to_csv(std::slice::from_ref(&row), &|l| {
+            format!("{l}=width=2,order=fbto")
+        });
         let mut r = csv::Reader::from_reader(text.as_bytes());
         let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
         assert_eq!(header, columns());
