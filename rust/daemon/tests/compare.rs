@@ -79,7 +79,7 @@ fn compare_equals_core_comparison_over_frames() {
         assert_eq!(sent.meshes_uploaded, if frame == 1 { 2 } else { 0 });
         let before = renders_done(&mut c);
         let reply = c
-            .compare(&mut Blocking, request(frame, 10 + frame as u64))
+            .compare(&mut Blocking, request(frame, 10 + frame as u64), None)
             .unwrap();
         assert_eq!(
             renders_done(&mut c),

@@ -467,8 +467,10 @@ impl Connection {
     }
 
     /// Renders a frame sent with frame_update with every method (see `compare::compare_request`
-    /// for `methods`); returns `{frame, methods, rows, mismatches}`.
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None))]
+    /// for `methods`); returns `{frame, methods, rows, mismatches}`. `timeout`: seconds to wait
+    /// for the result (None: no limit).
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
         py: Python<'py>,
@@ -477,10 +479,12 @@ impl Connection {
         baseline: Option<String>,
         repeat: u32,
         settings: Option<&Bound<'py, PyDict>>,
+        timeout: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let mut wait = PyWait::new(py);
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
+            let within = duration(timeout, "timeout")?;
             let mut request = compare_request(frame, methods, baseline, repeat, settings)?;
             antumbra_protocol::check_limits(&Request::Compare(request.clone()), &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
@@ -489,7 +493,7 @@ impl Connection {
             request.request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
             let reply = state
                 .client
-                .compare(&mut wait, request)
+                .compare(&mut wait, request, within)
                 .map_err(|e| wait.error(e))?;
             Ok(compare_reply_to_py(py, reply)?)
         })()

@@ -314,7 +314,9 @@ impl LocalSession {
 
     /// Renders a frame sent with frame_update with every method, as the daemon does (one
     /// comparison kept while the methods stay the same); returns what `Connection.compare` does.
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None))]
+    /// `timeout` is accepted and unused, as in `render`.
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
         py: Python<'py>,
@@ -323,7 +325,9 @@ impl LocalSession {
         baseline: Option<String>,
         repeat: u32,
         settings: Option<&Bound<'py, PyDict>>,
+        timeout: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let _ = timeout;
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
             let mut request = compare_request(frame, methods, baseline, repeat, settings)?;

@@ -104,14 +104,24 @@ impl Client {
     }
 
     /// Renders a frame sent before with every method of `request`; its one reply is the
-    /// result (or an error).
+    /// result (or an error), awaited at most `within` (None: for ever; a comparison of many
+    /// methods may take long, and sends no progress).
     pub fn compare(
         &mut self,
         wait: &mut impl Wait,
         request: CompareRequest,
+        within: Option<Duration>,
     ) -> Result<CompareResultReply, ClientError> {
         let request_id = request.request_id;
-        match self.request(wait, &Request::Compare(request))? {
+        let frame = request.frame;
+        self.send_with(wait, &Request::Compare(request))?;
+        let deadline = within.map(|d| Instant::now() + d);
+        let reply = self.recv_within(
+            wait,
+            &format!("the result of Compare frame {frame}"),
+            deadline,
+        )?;
+        match self.error_of(reply)? {
             Reply::CompareResult(r) if r.request_id == request_id => Ok(r),
             other => Err(self.unexpected("Compare", &other)),
         }

@@ -126,6 +126,7 @@ class _SessionMethods:
         baseline: str | None = None,
         repeat: int = 3,
         settings: Mapping[str, Any] | None = None,
+        timeout: float | None = None,
     ) -> RawComparison: ...
     def cancel(self, request_id: int | None = None) -> bool: ...
     def stats(self) -> dict[str, Any]:

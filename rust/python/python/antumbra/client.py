@@ -350,6 +350,7 @@ class _Session:
         *,
         baseline: str | None = None,
         repeat: int = 3,
+        timeout: float | None = None,
         **settings: Any,
     ) -> Any:
         """Renders a frame sent with :meth:`frame_update` with every method, as
@@ -365,6 +366,9 @@ class _Session:
             baseline: the label whose answers the others must equal (default: the first).
             repeat: timed passes per method, interleaved across methods; timings are their
                 median and spread, work counters come from one counted pass.
+            timeout: seconds to wait for the result (None: no limit). The comparison sends no
+                progress and cannot be stopped once started: Ctrl-C ends the wait and the
+                session (connect again).
             settings: settings every method shares (``spp``, ``seed``), by name.
 
         Returns:
@@ -376,7 +380,7 @@ class _Session:
             AnswersDiffer: a method's masks or primary ids differ from the baseline's on this
                 frame; it names frame, method, light and pixels, and carries the rows.
         """
-        raw = self._native.compare(frame, methods, baseline, repeat, settings)
+        raw = self._native.compare(frame, methods, baseline, repeat, settings, timeout)
         rows = _rows_frame(raw["rows"])
         mismatches = list(raw["mismatches"])
         if mismatches:
