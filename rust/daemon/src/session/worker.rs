@@ -297,14 +297,22 @@ impl WorkerCtx {
         let reply = Reply::CompareResult(result);
         match encode_message_within(&reply, &self.out.limits) {
             Ok(bytes) => {
+                // Counted before the reply goes out, so a client that asks for Stats after the
+                // result sees it; taken back if the client left.
+                bump(&self.shared.counters.renders_done);
                 if self.out.send_frame(&bytes) {
-                    bump(&self.shared.counters.renders_done);
                     tracing::info!(
                         request_id = id,
                         frame,
                         compare_ms = t0.elapsed().as_secs_f64() * 1e3,
                         "frame compared"
                     );
+                } else {
+                    self.shared
+                        .counters
+                        .renders_done
+                        .fetch_sub(1, Ordering::Relaxed);
+                    bump(&self.shared.counters.renders_cancelled);
                 }
             }
             Err(e) => fail(error_reply(
