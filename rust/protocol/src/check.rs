@@ -81,16 +81,31 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
                 "max_image_pixels",
             )
         }
-        Request::Render(render) => check(
+        Request::Render(render) => check_spp(
             || format!("Render frame {}: settings.spp", render.frame),
-            // A wrong type passes here and is named when the settings are resolved.
-            render.settings.get("spp").map_or(
-                antumbra_core::render::RenderSettings::default().spp as u64,
-                |v| v.as_int().max(0) as u64,
-            ),
-            limits.max_spp as u64,
-            "max_spp",
+            &render.settings,
+            limits,
         ),
+        Request::Compare(c) => {
+            check_spp(
+                || format!("Compare frame {}: settings.spp", c.frame),
+                &c.settings,
+                limits,
+            )?;
+            for m in &c.methods {
+                check_spp(
+                    || format!("Compare frame {}: method '{}': spp", c.frame, m.label),
+                    &m.settings,
+                    limits,
+                )?;
+            }
+            check(
+                || format!("Compare frame {}: repeat", c.frame),
+                c.repeat as u64,
+                MAX_COMPARE_REPEAT,
+                "max_compare_repeat",
+            )
+        }
         Request::Hello { .. }
         | Request::CameraPath { .. }
         | Request::Cancel { .. }
@@ -98,6 +113,26 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
         | Request::Close
         | Request::Shutdown => Ok(()),
     }
+}
+
+/// Timed passes a `Compare` may ask for per method (a fixed bound, not a configurable limit).
+pub const MAX_COMPARE_REPEAT: u64 = 100;
+
+fn check_spp(
+    what: impl FnOnce() -> String,
+    settings: &crate::messages::NamedSettings,
+    limits: &Limits,
+) -> Result<(), ProtocolError> {
+    check(
+        what,
+        // A wrong type passes here and is named when the settings are resolved.
+        settings.get("spp").map_or(
+            antumbra_core::render::RenderSettings::default().spp as u64,
+            |v| v.as_int().max(0) as u64,
+        ),
+        limits.max_spp as u64,
+        "max_spp",
+    )
 }
 
 /// The image planes a reply with `passes` copies out of a frame's result.

@@ -10,6 +10,7 @@ pub mod bytes;
 pub mod check;
 #[cfg(unix)]
 pub mod client;
+pub mod compare;
 pub mod convert;
 pub mod error;
 pub mod frame;
@@ -20,6 +21,10 @@ pub mod messages;
 pub mod recording;
 
 pub use check::{check_limits, check_render_memory, reply_planes};
+pub use compare::{
+    compare_result_reply, CompareMethod, CompareRequest, CompareResultReply, CompareRowState,
+    MismatchState,
+};
 pub use convert::{
     frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,
     planes_from_reply, render_settings, scene_from_frame, scene_to_messages, stats_from_reply,

@@ -16,6 +16,7 @@ pub use antumbra_core::settings::NamedSettings;
 use serde::{Deserialize, Serialize};
 use serde_bytes::ByteBuf;
 
+use crate::compare::{CompareRequest, CompareResultReply};
 use crate::limits::Limits;
 
 /// The protocol version this crate speaks; `Hello` must carry it. Version 2: mesh hashes are
@@ -46,6 +47,9 @@ pub enum Request {
     /// Render a frame that was sent with `FrameUpdate`. Replies: zero or more `Progress`, then
     /// `FrameResult` (or `Error`).
     Render(RenderRequest),
+    /// Render a frame that was sent with `FrameUpdate` with several methods, compared (see
+    /// `docs/protocol.md`). Reply: `CompareResult` (or `Error`).
+    Compare(CompareRequest),
     /// Cancel a running render. Reply: `Ack`; the render itself ends with
     /// `Error { code: Cancelled }` (or its result, if it finished first).
     Cancel { request_id: u64 },
@@ -86,13 +90,14 @@ pub enum Reply {
         total: u32,
     },
     FrameResult(FrameResultReply),
+    CompareResult(CompareResultReply),
     DaemonStats(DaemonStats),
     Error {
         code: ErrorCode,
         message: String,
         /// False when the daemon will close the connection after this reply.
         session_usable: bool,
-        /// The `request_id` of the `Render` this error ends (`Cancelled`, or a failed render);
+        /// The `request_id` of the `Render` or `Compare` this error ends (`Cancelled`, or a failed render);
         /// nil for errors of other requests.
         #[serde(default)]
         request_id: Option<u64>,
@@ -309,6 +314,7 @@ impl Request {
             Request::FrameUpdate(_) => "FrameUpdate",
             Request::CameraPath { .. } => "CameraPath",
             Request::Render(_) => "Render",
+            Request::Compare(_) => "Compare",
             Request::Cancel { .. } => "Cancel",
             Request::Stats => "Stats",
             Request::Close => "Close",
@@ -327,6 +333,7 @@ impl Reply {
             Reply::Ack => "Ack",
             Reply::Progress { .. } => "Progress",
             Reply::FrameResult(_) => "FrameResult",
+            Reply::CompareResult(_) => "CompareResult",
             Reply::DaemonStats(_) => "DaemonStats",
             Reply::Error { .. } => "Error",
         }

@@ -258,6 +258,27 @@ fn request() -> impl Strategy<Value = Request> {
                     request_id,
                 })
             ),
+        (
+            (any::<i32>(), any::<u64>(), settings()),
+            vec((name(), settings()), 0..3),
+            proptest::option::of(name()),
+            any::<u32>()
+        )
+            .prop_map(
+                |((frame, request_id, settings), methods, baseline, repeat)| {
+                    Request::Compare(CompareRequest {
+                        frame,
+                        request_id,
+                        settings,
+                        methods: methods
+                            .into_iter()
+                            .map(|(label, settings)| CompareMethod { label, settings })
+                            .collect(),
+                        baseline,
+                        repeat,
+                    })
+                }
+            ),
         any::<u64>().prop_map(|request_id| Request::Cancel { request_id }),
         Just(Request::Stats),
         Just(Request::Close),
@@ -285,6 +306,43 @@ fn image() -> impl Strategy<Value = Image> {
         width,
         height,
         data,
+    })
+}
+
+fn timing() -> impl Strategy<Value = antumbra_core::compare::Timing> {
+    (f64s(), f64s(), f64s()).prop_map(|(median, min, max)| antumbra_core::compare::Timing {
+        median,
+        min,
+        max,
+    })
+}
+
+fn compare_row() -> impl Strategy<Value = CompareRowState> {
+    (
+        name(),
+        stats_row(),
+        [timing(), timing(), timing(), timing()],
+    )
+        .prop_map(
+            |(label, stats, [build_ms, sort_ms, trace_ms, frame_ms])| CompareRowState {
+                label,
+                stats,
+                build_ms,
+                sort_ms,
+                trace_ms,
+                frame_ms,
+            },
+        )
+}
+
+fn mismatch() -> impl Strategy<Value = MismatchState> {
+    (any::<i32>(), name(), name(), any::<u32>()).prop_map(|(frame, label, what, pixels)| {
+        MismatchState {
+            frame,
+            label,
+            what,
+            pixels: pixels as usize,
+        }
     })
 }
 
@@ -332,6 +390,21 @@ fn reply() -> impl Strategy<Value = Reply> {
                     })
                 }
             ),
+        (
+            (any::<u64>(), any::<i32>()),
+            vec(name(), 0..3),
+            vec(compare_row(), 0..3),
+            vec(mismatch(), 0..3),
+        )
+            .prop_map(|((request_id, frame), methods, rows, mismatches)| {
+                Reply::CompareResult(CompareResultReply {
+                    request_id,
+                    frame,
+                    methods,
+                    rows,
+                    mismatches,
+                })
+            }),
         (
             (any::<u32>(), any::<u64>(), any::<u64>(), any::<u64>()),
             (any::<u64>(), any::<u64>(), any::<u64>(), f64s()),

@@ -16,6 +16,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
 
 use crate::arrays::mesh_from_arrays;
+use crate::compare::{compare_reply_to_py, compare_request};
 use crate::error::{ClientError, ClientResult, IntoPyResult};
 use crate::recording::Recorder;
 use crate::result::{daemon_stats, frame_result_to_py, limits as limits_dict};
@@ -461,6 +462,40 @@ impl Connection {
             self.active_render.store(0, Ordering::SeqCst);
             let result = result.map_err(|e| wait.error(e))?;
             frame_result_to_py(py, result)
+        })()
+        .py_result(py)
+    }
+
+    /// Renders a frame sent with frame_update with every method (see `compare::compare_request`
+    /// for `methods`); returns `{frame, methods, rows, mismatches}`. `timeout`: seconds to wait
+    /// for the result (None: no limit).
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
+    fn compare<'py>(
+        &self,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+        methods: Option<&Bound<'py, PyAny>>,
+        baseline: Option<String>,
+        repeat: u32,
+        settings: Option<&Bound<'py, PyDict>>,
+        timeout: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mut wait = PyWait::new(py);
+        (|| {
+            let frame = scene::frame_number(frame, "frame")?;
+            let within = duration(timeout, "timeout")?;
+            let mut request = compare_request(frame, methods, baseline, repeat, settings)?;
+            antumbra_protocol::check_limits(&Request::Compare(request.clone()), &self.limits)
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let mut guard = self.lock()?;
+            let state = Self::state(&mut guard)?;
+            request.request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
+            let reply = state
+                .client
+                .compare(&mut wait, request, within)
+                .map_err(|e| wait.error(e))?;
+            Ok(compare_reply_to_py(py, reply)?)
         })()
         .py_result(py)
     }

@@ -9,6 +9,7 @@
 //! these classes (`antumbra.Client`, `antumbra.LocalSession`) and defines the exceptions.
 
 mod arrays;
+mod compare;
 mod connection;
 mod error;
 mod files;
@@ -135,6 +136,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(colorize_heat, m)?)?;
     m.add_class::<settings::RenderSettings>()?;
     m.add_function(wrap_pyfunction!(settings::settings_schema, m)?)?;
+    m.add_function(wrap_pyfunction!(compare::default_methods, m)?)?;
+    m.add_function(wrap_pyfunction!(compare::compare_columns, m)?)?;
     m.add_class::<connection::Connection>()?;
     m.add_class::<local::LocalSession>()?;
     m.add("PROTOCOL_VERSION", antumbra_protocol::PROTOCOL_VERSION)?;

@@ -8,12 +8,13 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::time::Instant;
 
+use antumbra_core::compare::Comparison;
 use antumbra_core::render::Renderer;
 use antumbra_core::scene::Mesh;
 use antumbra_protocol::{
-    check_limits, frame_result_reply, mesh_from_upload, missing_meshes, render_settings,
-    scene_from_frame, upload_from_mesh, CameraState, DaemonStats, ErrorCode, FrameUpdate, Limits,
-    ProtocolError, Request,
+    check_limits, compare_result_reply, frame_result_reply, mesh_from_upload, missing_meshes,
+    render_settings, scene_from_frame, upload_from_mesh, CameraState, CompareRequest, DaemonStats,
+    ErrorCode, FrameUpdate, Limits, ProtocolError, Request,
 };
 
 /// The progress stages, as the daemon reports them: ("render", 0, 2), then ("encode", 1, 2).
@@ -22,6 +23,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
 
 use crate::arrays::mesh_from_arrays;
+use crate::compare::{compare_reply_to_py, compare_request};
 use crate::error::{ClientError, ClientResult, IntoPyResult};
 use crate::recording::Recorder;
 use crate::result::{daemon_stats, frame_result_to_py, limits as limits_dict};
@@ -33,6 +35,8 @@ struct LocalState {
     frames: HashMap<i32, FrameUpdate>,
     cameras: BTreeMap<i32, CameraState>,
     renderer: Renderer,
+    /// The last `Compare`'s request and comparison, kept while its methods stay the same.
+    comparison: Option<(CompareRequest, Comparison)>,
     stats: DaemonStats,
     recorder: Option<Recorder>,
     closed: bool,
@@ -97,6 +101,7 @@ impl LocalSession {
                 frames: HashMap::new(),
                 cameras: BTreeMap::new(),
                 renderer: Renderer::new(),
+                comparison: None,
                 stats: DaemonStats {
                     sessions: 1,
                     sessions_total: 1,
@@ -307,6 +312,75 @@ impl LocalSession {
         .py_result(py)
     }
 
+    /// Renders a frame sent with frame_update with every method, as the daemon does (one
+    /// comparison kept while the methods stay the same); returns what `Connection.compare` does.
+    /// `timeout` is accepted and unused, as in `render`.
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
+    fn compare<'py>(
+        &self,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+        methods: Option<&Bound<'py, PyAny>>,
+        baseline: Option<String>,
+        repeat: u32,
+        settings: Option<&Bound<'py, PyDict>>,
+        timeout: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let _ = timeout;
+        (|| {
+            let frame = scene::frame_number(frame, "frame")?;
+            let mut request = compare_request(frame, methods, baseline, repeat, settings)?;
+            check_limits(&Request::Compare(request.clone()), &self.limits)
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
+            request.request_id = request_id;
+            let mut state = self.lock()?;
+            let state = &mut *state;
+            let update = state.frames.get(&frame).ok_or_else(|| {
+                request_error(
+                    ErrorCode::InvalidInput,
+                    format!(
+                        "Compare frame {frame} (request {request_id}): no FrameUpdate for frame \
+                         {frame} in this session"
+                    ),
+                    request_id,
+                )
+            })?;
+            let scene = scene_from_frame(update, &state.meshes).map_err(|e| {
+                state.stats.renders_failed += 1;
+                render_error(&e, request_id)
+            })?;
+            if !matches!(&state.comparison, Some((last, _)) if last.same_comparison(&request)) {
+                state.comparison = None;
+                let c = request
+                    .comparison()
+                    .map_err(|e| render_error(&e, request_id))?;
+                state.comparison = Some((request, c));
+            }
+            let Some((_, comparison)) = state.comparison.as_mut() else {
+                unreachable!("set above")
+            };
+            let label = self.label.as_str();
+            let result = py.detach(|| comparison.frame(label, &scene));
+            let result = match result {
+                Ok(r) => compare_result_reply(comparison, r, request_id),
+                Err(error) => {
+                    // Some methods may have advanced past this frame: start afresh next time.
+                    state.comparison = None;
+                    state.stats.renders_failed += 1;
+                    return Err(render_error(
+                        &ProtocolError::InFrame { frame, error },
+                        request_id,
+                    ));
+                }
+            };
+            state.stats.renders_done += 1;
+            Ok(compare_reply_to_py(py, result)?)
+        })()
+        .py_result(py)
+    }
+
     /// In-process renders cannot be cancelled mid-way; always False.
     #[pyo3(signature = (request_id = None))]
     fn cancel(&self, request_id: Option<u64>) -> bool {
@@ -371,6 +445,7 @@ impl LocalSession {
             state.meshes.clear();
             state.frames.clear();
             state.renderer = Renderer::new();
+            state.comparison = None;
             Ok(())
         })()
         .py_result(py)

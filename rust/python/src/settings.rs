@@ -59,8 +59,9 @@ fn value(name: &str, v: &Bound<'_, PyAny>) -> ClientResult<Option<SettingValue>>
     }))
 }
 
-/// The checked settings of keyword arguments.
-pub fn from_kwargs(kwargs: Option<&Bound<'_, PyDict>>) -> ClientResult<NamedSettings> {
+/// The settings given in keyword arguments, checked (names, values and how they combine) but
+/// without the defaults of those left out: a method's or a comparison's own settings.
+pub fn given(kwargs: Option<&Bound<'_, PyDict>>) -> ClientResult<NamedSettings> {
     let mut given = NamedSettings::new();
     if let Some(kwargs) = kwargs {
         for (k, v) in kwargs.iter() {
@@ -72,7 +73,15 @@ pub fn from_kwargs(kwargs: Option<&Bound<'_, PyDict>>) -> ClientResult<NamedSett
             }
         }
     }
-    let settings = given
+    given
+        .resolve()
+        .map_err(|e| ClientError::invalid(e.to_string()))?;
+    Ok(given)
+}
+
+/// The checked settings of keyword arguments.
+pub fn from_kwargs(kwargs: Option<&Bound<'_, PyDict>>) -> ClientResult<NamedSettings> {
+    let settings = given(kwargs)?
         .resolve()
         .map_err(|e| ClientError::invalid(e.to_string()))?;
     Ok(settings.to_named())

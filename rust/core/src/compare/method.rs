@@ -46,17 +46,7 @@ impl FromStr for MethodSpec {
             .split_once('=')
             .ok_or_else(|| invalid(spec, "expected LABEL=SETTINGS, e.g. base=build=sah,width=2"))?;
         let label = label.trim();
-        let label_ok = !label.is_empty()
-            && label.len() <= 64
-            && label
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
-        if !label_ok {
-            return Err(invalid(
-                spec,
-                format!("the label '{label}' must be 1-64 letters, digits, '-', '_' or '.'"),
-            ));
-        }
+        check_label(spec, label)?;
         let mut settings = NamedSettings::new();
         for part in rest.split(',').map(str::trim).filter(|p| !p.is_empty()) {
             let (name, value) = part
@@ -93,7 +83,34 @@ impl fmt::Display for MethodSpec {
     }
 }
 
+/// The label is a word of letters, digits, `-`, `_` and `.` (it names files).
+fn check_label(spec: &str, label: &str) -> Result<()> {
+    let label_ok = !label.is_empty()
+        && label.len() <= 64
+        && label
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+    if label_ok {
+        Ok(())
+    } else {
+        Err(invalid(
+            spec,
+            format!("the label '{label}' must be 1-64 letters, digits, '-', '_' or '.'"),
+        ))
+    }
+}
+
 impl MethodSpec {
+    /// A method from a label and settings given apart (a client's map); the label is checked
+    /// as in `LABEL=SETTINGS`, the settings when the method is resolved.
+    pub fn new(label: &str, settings: NamedSettings) -> Result<Self> {
+        check_label(label, label)?;
+        Ok(MethodSpec {
+            label: label.to_string(),
+            settings,
+        })
+    }
+
     /// The render settings of this method: `common` (the comparison's shared settings, such as
     /// spp and seed), overridden by the method's own.
     pub fn resolve(&self, common: &NamedSettings) -> Result<RenderSettings> {

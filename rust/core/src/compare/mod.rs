@@ -12,4 +12,4 @@ pub use run::{CompareRow, Comparison, FrameComparison, MethodFrame, Mismatch, Ti
 pub use summary::{
     pass_summaries, time_summaries, Figures, FrameFigures, PassSummary, TimeSummary, Work,
 };
-pub use tables::{columns, to_csv, JsonRow};
+pub use tables::{cells, columns, to_csv, JsonRow};

@@ -6,6 +6,8 @@
 
 use std::time::Instant;
 
+use serde::{Deserialize, Serialize};
+
 use super::method::MethodSpec;
 use crate::image::ImagePlane;
 use crate::render::{FrameResult, RenderSettings, Renderer, StatsMode};
@@ -15,7 +17,8 @@ use crate::stats::StatsRow;
 use crate::{Error, Result};
 
 /// A time measured `repeat` times: median and spread.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Timing {
     pub median: f64,
     pub min: f64,
@@ -45,7 +48,8 @@ impl Timing {
 
 /// One pass (primary, or one light's shadow pass) of one method on one frame: the counted
 /// pass's statistics with its timing columns replaced by the medians of the timed passes.
-#[derive(Clone, Debug, PartialEq)]
+/// Also the protocol's wire form (named MessagePack map, as [`StatsRow`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CompareRow {
     pub label: String,
     pub stats: StatsRow,
@@ -56,8 +60,8 @@ pub struct CompareRow {
     pub frame_ms: Timing,
 }
 
-/// A method whose answers differ from the baseline's on a frame.
-#[derive(Clone, Debug, PartialEq)]
+/// A method whose answers differ from the baseline's on a frame (also the wire form).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Mismatch {
     pub frame: i32,
     pub label: String,

@@ -40,20 +40,38 @@ fn cell_text(c: Cell) -> String {
     }
 }
 
+/// One row's cells by column, in the order of [`columns`]; `settings` is its method's spec.
+pub fn cells<'a>(r: &'a CompareRow, settings: &'a str) -> Vec<(&'static str, Cell<'a>)> {
+    let mut out = vec![
+        (LEAD[0], Cell::Text(&r.label)),
+        (LEAD[1], Cell::Text(settings)),
+    ];
+    out.extend(r.stats.cells());
+    let spread = [
+        r.build_ms.min,
+        r.build_ms.max,
+        r.sort_ms.min,
+        r.sort_ms.max,
+        r.trace_ms.min,
+        r.trace_ms.max,
+        r.frame_ms.median,
+        r.frame_ms.min,
+        r.frame_ms.max,
+    ];
+    out.extend(SPREAD.iter().zip(spread).map(|(n, x)| (*n, Cell::Real(x))));
+    out
+}
+
 /// `rows` as CSV text; `settings` gives each label's method spec as typed.
 pub fn to_csv(rows: &[CompareRow], settings: &dyn Fn(&str) -> String) -> String {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record(columns()).expect("writing to memory");
     for r in rows {
-        let mut record = vec![r.label.clone(), settings(&r.label)];
-        record.extend(r.stats.cells().into_iter().map(|(_, c)| cell_text(c)));
-        for t in [r.build_ms, r.sort_ms, r.trace_ms] {
-            record.push(t.min.to_string());
-            record.push(t.max.to_string());
-        }
-        for x in [r.frame_ms.median, r.frame_ms.min, r.frame_ms.max] {
-            record.push(x.to_string());
-        }
+        let spec = settings(&r.label);
+        let record: Vec<String> = cells(r, &spec)
+            .into_iter()
+            .map(|(_, c)| cell_text(c))
+            .collect();
         w.write_record(&record).expect("writing to memory");
     }
     String::from_utf8(w.into_inner().expect("writing to memory")).expect("CSV of UTF-8 cells")
@@ -103,7 +121,9 @@ mod tests {
             trace_ms: Timing::of(&[0.5]),
             frame_ms: Timing::of(&[3.0, 4.0, 5.0]),
         };
-        let text = to_csv(&[row], &|l| format!("{l}=width=2,order=fbto"));
+        let text = to_csv(std::slice::from_ref(&row), &|l| {
+            format!("{l}=width=2,order=fbto")
+        });
         let mut r = csv::Reader::from_reader(text.as_bytes());
         let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
         assert_eq!(header, columns());
@@ -115,5 +135,7 @@ mod tests {
         assert_eq!(get("rays"), "7");
         assert_eq!(get("build_ms_max"), "2");
         assert_eq!(get("frame_ms"), "4");
+        let names: Vec<&str> = cells(&row, "").iter().map(|(n, _)| *n).collect();
+        assert_eq!(names, columns());
     }
 }

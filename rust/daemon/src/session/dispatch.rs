@@ -27,6 +27,10 @@ impl Session<'_> {
                     bump(&self.shared.counters.renders_failed);
                     Some(r.request_id)
                 }
+                Request::Compare(c) => {
+                    bump(&self.shared.counters.renders_failed);
+                    Some(c.request_id)
+                }
                 _ => None,
             };
             tracing::warn!(request = request.kind(), error = %e, "request refused");
@@ -58,6 +62,7 @@ impl Session<'_> {
                 self.out.send(&Reply::Ack);
             }
             Request::Render(r) => self.render(r),
+            Request::Compare(c) => self.compare(c),
             Request::Cancel { request_id } => {
                 if let Some(ctl) = lock(&self.controls).get(&request_id) {
                     ctl.cancel.cancel();
@@ -118,7 +123,10 @@ impl Session<'_> {
 
     /// The meshes of a frame by hash, from the working set or the cache, and the hashes found
     /// in neither (in order of first use).
-    fn frame_meshes(&mut self, update: &FrameUpdate) -> (HashMap<u64, Arc<Mesh>>, Vec<u64>) {
+    pub(super) fn frame_meshes(
+        &mut self,
+        update: &FrameUpdate,
+    ) -> (HashMap<u64, Arc<Mesh>>, Vec<u64>) {
         let mut found = HashMap::new();
         let mut missing = Vec::new();
         for o in &update.objects {
@@ -220,6 +228,7 @@ impl Session<'_> {
             settings,
             passes: r.passes,
             ctl: ctl.clone(),
+            compare: None,
         };
         let tx = self.worker().tx.clone();
         lock(&self.controls).insert(request_id, ctl);

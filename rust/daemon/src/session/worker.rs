@@ -10,10 +10,12 @@ use std::thread::JoinHandle;
 use std::time::Instant;
 
 use antumbra_core::cancel::CancelToken;
+use antumbra_core::compare::Comparison;
 use antumbra_core::render::{RenderSettings, Renderer};
 use antumbra_core::scene::Scene;
 use antumbra_protocol::{
-    encode_message_within, frame_result_reply, ErrorCode, Passes, ProtocolError, Reply,
+    compare_result_reply, encode_message_within, frame_result_reply, CompareRequest, ErrorCode,
+    Passes, ProtocolError, Reply,
 };
 
 use super::out::{error_reply, protocol_error, Out};
@@ -39,6 +41,8 @@ pub(super) struct Job {
     pub(super) settings: RenderSettings,
     pub(super) passes: Passes,
     pub(super) ctl: Arc<RenderCtl>,
+    /// A `Compare` rather than a `Render` (then `settings` and `passes` are unused).
+    pub(super) compare: Option<CompareRequest>,
 }
 
 pub(super) type Controls = Arc<Mutex<HashMap<u64, Arc<RenderCtl>>>>;
@@ -92,8 +96,12 @@ struct WorkerCtx {
 impl WorkerCtx {
     fn run(self, rx: Receiver<Job>) {
         let mut renderer = Renderer::new();
+        let mut comparison = None;
         for job in rx {
-            self.render(&mut renderer, &job);
+            match &job.compare {
+                Some(request) => self.compare(&mut comparison, &job, request),
+                None => self.render(&mut renderer, &job),
+            }
             let mut controls = lock(&self.controls);
             if controls
                 .get(&job.request_id)
@@ -272,6 +280,109 @@ impl WorkerCtx {
                     Some(id),
                 ));
             }
+        }
+    }
+
+    /// A `Compare`: the session's comparison (rebuilt when the request's methods differ from
+    /// the last one's, so each method keeps its state across frames) renders the frame with
+    /// every method in one render slot.
+    fn compare(
+        &self,
+        state: &mut Option<(CompareRequest, Comparison)>,
+        job: &Job,
+        request: &CompareRequest,
+    ) {
+        let id = job.request_id;
+        let frame = job.scene.frame;
+        let cancel = &job.ctl.cancel;
+        if cancel.is_cancelled() {
+            return self.cancelled(job, "before it started");
+        }
+        let acquired = self.shared.slots.acquire(
+            || cancel.is_cancelled(),
+            Some(self.shared.config.queue_wait),
+            |position| {
+                let total = position.try_into().unwrap_or(u32::MAX);
+                self.progress(id, "queued", 0, total);
+            },
+        );
+        let mut slot = match acquired {
+            Acquired::Slot(slot, _) => slot,
+            Acquired::GaveUp => return self.cancelled(job, "while queued (it left the queue)"),
+            Acquired::TimedOut { position, waited } => {
+                return self.queue_timed_out(job, position, waited)
+            }
+        };
+        job.ctl.started.store(true, Ordering::Relaxed);
+        let fail = |reply: Reply| {
+            bump(&self.shared.counters.renders_failed);
+            self.out.send(&reply);
+        };
+        if !matches!(state, Some((last, _)) if last.same_comparison(request)) {
+            *state = None;
+            match request.comparison() {
+                Ok(c) => *state = Some((request.clone(), c)),
+                Err(e) => return fail(protocol_error(&e, Some(id))),
+            }
+        }
+        let Some((_, comparison)) = state.as_mut() else {
+            unreachable!("set above")
+        };
+        let t0 = Instant::now();
+        // Runs on the slot's own thread pool, as renders do.
+        let result = catch_unwind(AssertUnwindSafe(|| {
+            slot.install(|| comparison.frame(&self.label, &job.scene))
+        }));
+        drop(slot);
+        let result = match result {
+            Ok(Ok(r)) => compare_result_reply(comparison, r, id),
+            Ok(Err(e)) => {
+                // Some methods may have advanced past this frame: start afresh next time.
+                *state = None;
+                let e = ProtocolError::InFrame { frame, error: e };
+                tracing::warn!(request_id = id, error = %e, "compare failed");
+                return fail(protocol_error(&e, Some(id)));
+            }
+            Err(_) => {
+                *state = None;
+                tracing::error!(request_id = id, frame, "compare panicked");
+                return fail(error_reply(
+                    ErrorCode::Internal,
+                    format!("Compare frame {frame} (request {id}): internal error in the renderer"),
+                    true,
+                    Some(id),
+                ));
+            }
+        };
+        let reply = Reply::CompareResult(result);
+        match encode_message_within(&reply, &self.out.limits) {
+            Ok(bytes) => {
+                // Counted before the reply goes out, so a client that asks for Stats after the
+                // result sees it; taken back if the client left.
+                bump(&self.shared.counters.renders_done);
+                if self.out.send_frame(&bytes) {
+                    tracing::info!(
+                        request_id = id,
+                        frame,
+                        compare_ms = t0.elapsed().as_secs_f64() * 1e3,
+                        "frame compared"
+                    );
+                } else {
+                    self.shared
+                        .counters
+                        .renders_done
+                        .fetch_sub(1, Ordering::Relaxed);
+                    bump(&self.shared.counters.renders_cancelled);
+                }
+            }
+            Err(e) => fail(error_reply(
+                e.code(),
+                format!(
+                    "Compare frame {frame} (request {id}): the result is too large to send ({e})"
+                ),
+                true,
+                Some(id),
+            )),
         }
     }
 }

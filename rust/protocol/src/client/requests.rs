@@ -7,8 +7,9 @@ use antumbra_core::scene::Scene;
 
 use super::{Blocking, Client, ClientError, Interrupt, Wait};
 use crate::{
-    frame_update_from_scene, upload_from_mesh, CameraState, DaemonStats, FrameResultReply,
-    FrameUpdate, NamedSettings, Passes, RenderRequest, Reply, Request, UploadMesh,
+    frame_update_from_scene, upload_from_mesh, CameraState, CompareRequest, CompareResultReply,
+    DaemonStats, FrameResultReply, FrameUpdate, NamedSettings, Passes, RenderRequest, Reply,
+    Request, UploadMesh,
 };
 
 /// How long to wait for a cancelled render to end after the caller interrupted the wait.
@@ -99,6 +100,30 @@ impl Client {
         match self.request(wait, &Request::Stats)? {
             Reply::DaemonStats(s) => Ok(s),
             other => Err(self.unexpected("Stats", &other)),
+        }
+    }
+
+    /// Renders a frame sent before with every method of `request`; its one reply is the
+    /// result (or an error), awaited at most `within` (None: for ever; a comparison of many
+    /// methods may take long, and sends no progress).
+    pub fn compare(
+        &mut self,
+        wait: &mut impl Wait,
+        request: CompareRequest,
+        within: Option<Duration>,
+    ) -> Result<CompareResultReply, ClientError> {
+        let request_id = request.request_id;
+        let frame = request.frame;
+        self.send_with(wait, &Request::Compare(request))?;
+        let deadline = within.map(|d| Instant::now() + d);
+        let reply = self.recv_within(
+            wait,
+            &format!("the result of Compare frame {frame}"),
+            deadline,
+        )?;
+        match self.error_of(reply)? {
+            Reply::CompareResult(r) if r.request_id == request_id => Ok(r),
+            other => Err(self.unexpected("Compare", &other)),
         }
     }
 

@@ -8,12 +8,14 @@ Two sessions with the same methods:
 
 A frame: ``upload_mesh`` each mesh the session lacks, ``frame_update`` the scene state (objects,
 camera, lights, resolution, with Blender's field names), then ``render`` it into a
-:class:`Result` of float32 numpy images. See ``docs/python.md``.
+:class:`Result` of float32 numpy images, or ``compare`` methods on it. See ``docs/python.md``.
 """
 
 from . import errors
 from ._native import __version__
 from .client import (
+    COMPARE_COLUMNS,
+    DEFAULT_METHODS,
     DEFAULT_PASSES,
     PROTOCOL_VERSION,
     Client,
@@ -32,6 +34,7 @@ from .client import (
     write_stats_json,
 )
 from .errors import (
+    AnswersDiffer,
     AntumbraError,
     ConnectionLost,
     DaemonError,
@@ -44,8 +47,11 @@ from .errors import (
 )
 
 __all__ = [
+    "COMPARE_COLUMNS",
+    "DEFAULT_METHODS",
     "DEFAULT_PASSES",
     "PROTOCOL_VERSION",
+    "AnswersDiffer",
     "AntumbraError",
     "Client",
     "ConnectionLost",

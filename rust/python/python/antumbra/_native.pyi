@@ -63,6 +63,18 @@ def settings_schema() -> list[dict[str, Any]]:
     """One dict per render setting: name, type, default, group, group_title, help, expected,
     and min/max/open, choices or syntax by type."""
 
+def default_methods() -> list[str]:
+    """The methods compare uses when none are given, as LABEL=NAME=VALUE,... (baseline first)."""
+
+def compare_columns() -> list[str]:
+    """The columns of compare's rows, in order (those of compare.csv)."""
+
+class RawComparison(TypedDict):
+    frame: int
+    methods: list[str]
+    rows: list[dict[str, Any]]
+    mismatches: list[dict[str, Any]]
+
 class RenderSettings:
     """Render settings by name (settings_schema()), checked when made (InvalidInput names a
     bad setting); the rest take their defaults."""
@@ -107,6 +119,15 @@ class _SessionMethods:
         progress: Progress | None = None,
         timeout: float | None = None,
     ) -> RawResult: ...
+    def compare(
+        self,
+        frame: int,
+        methods: Mapping[str, Mapping[str, Any]] | Iterable[str] | None = None,
+        baseline: str | None = None,
+        repeat: int = 3,
+        settings: Mapping[str, Any] | None = None,
+        timeout: float | None = None,
+    ) -> RawComparison: ...
     def cancel(self, request_id: int | None = None) -> bool: ...
     def stats(self) -> dict[str, Any]:
         """sessions, sessions_total, meshes_cached, bytes_cached, renders_done,

@@ -26,9 +26,11 @@ import numpy as np
 from . import _native
 from ._native import Connection as _Connection
 from ._native import LocalSession as _LocalSession
-from .errors import AntumbraError, DaemonTimeout, DaemonUnavailable
+from .errors import AnswersDiffer, AntumbraError, DaemonTimeout, DaemonUnavailable
 
 __all__ = [
+    "COMPARE_COLUMNS",
+    "DEFAULT_METHODS",
     "DEFAULT_PASSES",
     "PROTOCOL_VERSION",
     "Client",
@@ -51,6 +53,13 @@ PROTOCOL_VERSION: int = _native.PROTOCOL_VERSION
 
 #: The passes ``render`` returns unless told otherwise.
 DEFAULT_PASSES: tuple[str, ...] = ("masks", "combined", "heat_maps", "visible")
+
+#: The methods ``compare`` uses when none are given (``LABEL=NAME=VALUE,...``), the
+#: baseline first: antumbra-core's, as ``antumbra compare`` uses them.
+DEFAULT_METHODS: tuple[str, ...] = tuple(_native.default_methods())
+
+#: The columns of ``compare``'s rows, in order: those of ``compare.csv``.
+COMPARE_COLUMNS: tuple[str, ...] = tuple(_native.compare_columns())
 
 #: The image of the ``object_ids`` pass.
 OBJECT_PLANE = "primary.object"
@@ -228,6 +237,15 @@ class Result:
         )
 
 
+def _rows_frame(rows: list[dict[str, Any]]) -> Any:
+    """Rows as a pandas DataFrame with the columns in order when pandas imports, else as is."""
+    try:
+        import pandas as pd
+    except ImportError:
+        return rows
+    return pd.DataFrame(rows, columns=list(COMPARE_COLUMNS))
+
+
 class _Session:
     """The methods both sessions share; ``self._native`` is a ``_native.Connection`` or a
     ``_native.LocalSession``."""
@@ -324,6 +342,52 @@ class _Session:
         checked = _native.RenderSettings(**settings)
         raw = self._native.render(frame, checked, passes, progress, timeout)
         return Result._from_native(dict(raw), passes)
+
+    def compare(
+        self,
+        frame: int,
+        methods: Mapping[str, Mapping[str, Any]] | Iterable[str] | None = None,
+        *,
+        baseline: str | None = None,
+        repeat: int = 3,
+        timeout: float | None = None,
+        **settings: Any,
+    ) -> Any:
+        """Renders a frame sent with :meth:`frame_update` with every method, as
+        ``antumbra compare`` does: one request for all methods (the frame and its meshes are
+        sent once), each method keeping its own state across the frames of the session
+        (previous-frame visibility, tree reuse) while the methods stay the same.
+
+        Args:
+            methods: ``{label: {setting: value}}``, or ``LABEL=NAME=VALUE,...`` strings
+                (``"osah8=build=osah,visibility=previous,width=8,order=sorted"``); None:
+                :data:`DEFAULT_METHODS`. A bad label, setting or value raises
+                :class:`InvalidInput` naming it before anything is sent.
+            baseline: the label whose answers the others must equal (default: the first).
+            repeat: timed passes per method, interleaved across methods; timings are their
+                median and spread, work counters come from one counted pass.
+            timeout: seconds to wait for the result (None: no limit). The comparison sends no
+                progress and cannot be stopped once started: Ctrl-C ends the wait and the
+                session (connect again).
+            settings: settings every method shares (``spp``, ``seed``), by name.
+
+        Returns:
+            One row per method x pass x light with the columns of ``compare.csv``
+            (:data:`COMPARE_COLUMNS`): a pandas DataFrame when pandas imports, else a list of
+            dicts.
+
+        Raises:
+            AnswersDiffer: a method's masks or primary ids differ from the baseline's on this
+                frame; it names frame, method, light and pixels, and carries the rows.
+        """
+        raw = self._native.compare(frame, methods, baseline, repeat, settings, timeout)
+        rows = _rows_frame(raw["rows"])
+        mismatches = list(raw["mismatches"])
+        if mismatches:
+            raise AnswersDiffer(
+                "; ".join(m["message"] for m in mismatches), mismatches=mismatches, rows=rows
+            )
+        return rows
 
     def cancel(self, request_id: int | None = None) -> bool:
         """Cancels the render in progress on this session (call it from another thread);

@@ -10,7 +10,8 @@
     ├── ConnectionLost      (also ConnectionError) the connection broke or the client is closed
     ├── ProtocolMismatch    the daemon speaks another protocol version, or sent the unexpected
     ├── DaemonTimeout       (also TimeoutError) no reply in time
-    └── SessionBusy         another thread is using the session
+    ├── SessionBusy         another thread is using the session
+    └── AnswersDiffer       compare(): a method's masks or primary ids differ from the baseline's
 
 The native module raises these classes (it imports this module), so the socket session
 (``Client``) and the in-process session (``LocalSession``) raise the same ones for the same
@@ -23,6 +24,7 @@ from __future__ import annotations
 from typing import Any
 
 __all__ = [
+    "AnswersDiffer",
     "AntumbraError",
     "ConnectionLost",
     "DaemonError",
@@ -112,3 +114,19 @@ class DaemonTimeout(AntumbraError, TimeoutError):
 
 class SessionBusy(AntumbraError):
     """Another thread is using this session (one request at a time, except ``cancel()``)."""
+
+
+class AnswersDiffer(AntumbraError):
+    """``compare()``: a method's masks or primary ids differ from the baseline's on the frame.
+    The message names frame, method, light (or primary ids) and the number of differing pixels.
+
+    Attributes:
+        mismatches: dicts ``frame``, ``label``, ``what`` (``"light 'NAME'"`` or
+            ``"primary ids"``), ``pixels``, ``message``.
+        rows: the comparison's rows all the same (as ``compare()`` returns them).
+    """
+
+    def __init__(self, message: str, mismatches: list[dict[str, Any]], rows: Any) -> None:
+        super().__init__(message)
+        self.mismatches = mismatches
+        self.rows = rows

@@ -1,0 +1,105 @@
+//! The `Compare` request: one frame rendered with several methods by antumbra-core's
+//! [`Comparison`], whose rows and mismatches travel back as the core's own serde forms.
+
+use antumbra_core::compare::{default_methods, Comparison, FrameComparison, MethodSpec};
+use serde::{Deserialize, Serialize};
+
+use crate::error::ProtocolError;
+use crate::messages::NamedSettings;
+
+pub use antumbra_core::compare::{CompareRow as CompareRowState, Mismatch as MismatchState};
+
+/// One labelled method: the settings it changes over the request's common ones.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CompareMethod {
+    pub label: String,
+    #[serde(default)]
+    pub settings: NamedSettings,
+}
+
+fn default_repeat() -> u32 {
+    3
+}
+
+/// Render a frame sent with `FrameUpdate` with every method. The session keeps one comparison
+/// while `settings`, `methods`, `baseline` and `repeat` stay the same, so each method keeps its
+/// state across frames (previous-frame visibility, tree reuse) as `antumbra compare` does.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CompareRequest {
+    pub frame: i32,
+    /// Chosen by the client; echoed in `CompareResult`.
+    pub request_id: u64,
+    /// The settings every method shares (spp, seed), by name.
+    #[serde(default)]
+    pub settings: NamedSettings,
+    /// In order; empty: antumbra-core's default methods.
+    #[serde(default)]
+    pub methods: Vec<CompareMethod>,
+    /// The label whose answers the others must equal; nil: the first method.
+    #[serde(default)]
+    pub baseline: Option<String>,
+    /// Timed passes per method (at least 1).
+    #[serde(default = "default_repeat")]
+    pub repeat: u32,
+}
+
+/// The reply to `Compare`: one row per method x pass x light, and the methods whose masks or
+/// primary ids differ from the baseline's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CompareResultReply {
+    pub request_id: u64,
+    pub frame: i32,
+    /// Each method's spec as `LABEL=NAME=VALUE,...` (the `settings` column of compare.csv).
+    pub methods: Vec<String>,
+    pub rows: Vec<CompareRowState>,
+    pub mismatches: Vec<MismatchState>,
+}
+
+impl CompareRequest {
+    /// The methods this request names (the defaults when none).
+    pub fn specs(&self) -> Result<Vec<MethodSpec>, ProtocolError> {
+        if self.methods.is_empty() {
+            return Ok(default_methods());
+        }
+        self.methods
+            .iter()
+            .map(|m| MethodSpec::new(&m.label, m.settings.clone()).map_err(ProtocolError::Core))
+            .collect()
+    }
+
+    /// A fresh comparison of this request's methods; an unknown setting or a bad value is an
+    /// error naming the method and the setting.
+    pub fn comparison(&self) -> Result<Comparison, ProtocolError> {
+        Comparison::new(
+            &self.specs()?,
+            &self.settings,
+            self.baseline.as_deref(),
+            self.repeat as usize,
+        )
+        .map_err(ProtocolError::Core)
+    }
+
+    /// Whether a comparison built for `other` serves this request too (same methods, common
+    /// settings, baseline and repeat): then the methods' state carries over.
+    pub fn same_comparison(&self, other: &CompareRequest) -> bool {
+        self.settings == other.settings
+            && self.methods == other.methods
+            && self.baseline == other.baseline
+            && self.repeat == other.repeat
+    }
+}
+
+/// The reply for one compared frame.
+pub fn compare_result_reply(
+    comparison: &Comparison,
+    result: FrameComparison,
+    request_id: u64,
+) -> CompareResultReply {
+    CompareResultReply {
+        request_id,
+        frame: result.frame,
+        methods: comparison.specs().iter().map(|s| s.to_string()).collect(),
+        rows: result.methods.into_iter().flat_map(|m| m.rows).collect(),
+        mismatches: result.mismatches,
+    }
+}
