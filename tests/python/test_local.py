@@ -396,6 +396,22 @@ def test_area_and_spot_lights(scene):
     assert list(r.masks) == ["Sun", "Lamp", "Area", "Spot"]
 
 
+def test_lights_of_one_name_keep_every_mask(scene):
+    """Two lights named Sun and one named like a heat map keep a mask each, under the unique
+    names the planes use (Sun, Sun#2, N_B#2), so no mask is lost in the dict."""
+    session, hashes = scene
+    sun, lamp = lights()
+    twin = dict(lamp, name="Sun")
+    heat = dict(lamp, name="N_B", matrix_world=translation(0.5, 0.5, 6.0))
+    session.frame_update(2, objects(hashes, 2), camera(2), [sun, twin, heat], RESOLUTION)
+    r = session.render(2, spp=1)
+    assert list(r.masks) == ["Sun", "Sun#2", "N_B#2"]
+    for name, array in r.masks.items():
+        assert array is r.images[f"shadow.{name}"]
+    # The sun's and the lamp's masks, not one of them twice.
+    assert not np.array_equal(r.masks["Sun"], r.masks["Sun#2"])
+
+
 def test_recording(scene, tmp_path):
     session, hashes = scene
     path = tmp_path / "session.antrec"

@@ -165,7 +165,8 @@ class Result:
             bottom.
         images: the planes by name; every name is unique (a light named like a heat map, or
             like an earlier light, gets ``#2``, ``#3``, ... after its name).
-        masks: the shadow mask of each shadow-casting light, by light name (1 lit, 0 shadowed).
+        masks: the shadow mask of each shadow-casting light (1 lit, 0 shadowed), by the light's
+            part of its plane name: the light's name, made unique as in ``images``.
         stats: one dict per pass (the primary pass, then each shadow-casting light) with the
             columns of ``antumbra_core::stats::StatsRow``.
         visible: the visible set, a uint32 array of shape (k, 2) of (object index, triangle
@@ -189,8 +190,9 @@ class Result:
         stats = list(raw["stats"])
         masks: dict[str, np.ndarray] = {}
         if "masks" in passes:
-            lights = [row["light"] for row in stats if row["pass"] == "shadow"]
-            masks = {light: array for light, (_, array) in zip(lights, planes, strict=False)}
+            # The masks come first, one per shadow row, named shadow.<unique light name>.
+            count = sum(1 for row in stats if row["pass"] == "shadow")
+            masks = {name.removeprefix("shadow."): array for name, array in planes[:count]}
         return cls(
             frame=raw["frame"],
             width=raw["width"],
