@@ -1,7 +1,7 @@
 //! Stacked bars: one bar per item (a method), split into named parts (build, preparation,
 //! trace) whose heights add up to the item's total.
 
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use plotters::prelude::*;
 
 use super::{colour, draw_legend, LEGEND_WIDTH};
@@ -17,10 +17,7 @@ pub struct StackedBars<'a> {
 
 impl StackedBars<'_> {
     pub fn svg(&self, width: u32, height: u32) -> Result<String> {
-        let mut svg = String::new();
-        self.draw(SVGBackend::with_string(&mut svg, (width, height)))
-            .map_err(|e| anyhow!("plotting '{}': {e}", self.title))?;
-        Ok(svg)
+        super::to_svg(self.title, width, height, |b| self.draw(b))
     }
 
     fn draw<DB: DrawingBackend>(&self, backend: DB) -> Result<(), String> {

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use antumbra_core::atomic_file::write_bytes_atomic;
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use plotters::prelude::*;
 
 use super::{draw_legend, LEGEND_WIDTH};
@@ -27,10 +27,7 @@ impl LinePlot<'_> {
 
     /// The plot as SVG text.
     pub fn svg(&self, width: u32, height: u32) -> Result<String> {
-        let mut svg = String::new();
-        self.draw(SVGBackend::with_string(&mut svg, (width, height)))
-            .map_err(|e| anyhow!("plotting '{}': {e}", self.title))?;
-        Ok(svg)
+        super::to_svg(self.title, width, height, |b| self.draw(b))
     }
 
     fn draw<DB: DrawingBackend>(&self, backend: DB) -> Result<(), String> {

@@ -16,6 +16,19 @@ use plotters::prelude::*;
 /// Width of the legend column right of the plot.
 const LEGEND_WIDTH: u32 = 220;
 
+/// The plot `draw` makes on a `width` x `height` SVG canvas, as SVG text.
+fn to_svg(
+    title: &str,
+    width: u32,
+    height: u32,
+    draw: impl FnOnce(SVGBackend) -> Result<(), String>,
+) -> anyhow::Result<String> {
+    let mut svg = String::new();
+    draw(SVGBackend::with_string(&mut svg, (width, height)))
+        .map_err(|e| anyhow::anyhow!("plotting '{title}': {e}"))?;
+    Ok(svg)
+}
+
 /// Series `i`'s colour.
 fn colour(i: usize) -> PaletteColor<Palette99> {
     Palette99::pick(i)

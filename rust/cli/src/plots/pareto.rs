@@ -1,7 +1,7 @@
 //! A scatter of named points (a method's work against its time, both lower is better) with
 //! the Pareto front marked: the points no other point beats on both axes.
 
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use plotters::prelude::*;
 
 use super::{colour, draw_legend, LEGEND_WIDTH};
@@ -30,10 +30,7 @@ pub struct ParetoPlot<'a> {
 
 impl ParetoPlot<'_> {
     pub fn svg(&self, width: u32, height: u32) -> Result<String> {
-        let mut svg = String::new();
-        self.draw(SVGBackend::with_string(&mut svg, (width, height)))
-            .map_err(|e| anyhow!("plotting '{}': {e}", self.title))?;
-        Ok(svg)
+        super::to_svg(self.title, width, height, |b| self.draw(b))
     }
 
     fn draw<DB: DrawingBackend>(&self, backend: DB) -> Result<(), String> {

@@ -198,10 +198,11 @@ impl Report<'_> {
 
     fn heading(&self) -> String {
         format!(
-            "antumbra compare: {}, {}, {} timed passes per method and frame",
+            "antumbra compare: {}, {}, {} timed pass{} per method and frame",
             self.scene,
             self.frame_span(),
-            self.repeat
+            self.repeat,
+            if self.repeat == 1 { "" } else { "es" }
         )
     }
 
