@@ -368,11 +368,12 @@ impl Daemon {
                     if admission.is_err() {
                         tracing::error!(session = id, "session thread panicked");
                     }
-                    lock(&shared.sessions).remove(&id);
                     drop(admission);
                     // Meshes this session held may now be evictable.
                     shared.cache.trim();
                     (shared.config.release_memory)();
+                    // Counted as ended only once what it held has been given back.
+                    lock(&shared.sessions).remove(&id);
                 }
             });
         match spawned {
