@@ -60,7 +60,7 @@ def _blender_command(kind: str, out: Path) -> list[str]:
     return ["blender", "-b", "--factory-startup", "-noaudio", "-P", str(SCRIPT), *args]
 
 
-@pytest.fixture(params=["bpy", "blender"])
+@pytest.fixture(params=[pytest.param("bpy", marks=pytest.mark.bpy), "blender"])
 def blender_kind(request) -> str:
     kind = request.param
     if kind == "bpy" and not _has_bpy():
