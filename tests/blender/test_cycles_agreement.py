@@ -144,7 +144,7 @@ def compare(out: Path) -> dict:
             ((cycles_ids >= 0) & (ant_ids >= 0) & ~both_ground & ids_equal).sum()
         ),
         "excluded_id_disagreement": int(((cycles_ids >= 0) & (ant_ids >= 0) & ~ids_equal).sum()),
-        "excluded_back_facing": int((both_ground & ~facing).sum()),
+        "excluded_back_facing": int((both_ground & (not facing)).sum()),
         # Sensitivity: the same comparisons with antumbra's ids mirrored (left-right, upside
         # down) and its mask inverted or upside down.
         "id_agreement_mirrored": (cycles_ids == ant_ids[:, ::-1]).mean(),
