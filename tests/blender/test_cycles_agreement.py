@@ -19,7 +19,7 @@ antumbra through the add-on's exporter (a ``LocalSession``). This test compares 
 
 Why a subprocess per Blender: Blender's state is process-wide (``read_factory_settings`` would
 reset any other test's scene), and the same script then runs unchanged in both Blenders the
-add-on supports: the ``bpy`` 5.0 module (``python cycles_scene.py`` with the Python running
+add-on supports: the ``bpy`` module, 5.0 or 5.3 (``python cycles_scene.py`` with the Python running
 pytest) and Debian's Blender 3.4 (``blender -b -P``). A missing Blender fails its variant (never
 a skip). The passes come back as Blender's own multilayer EXR, read with ``antumbra.read_exr``.
 

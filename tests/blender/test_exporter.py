@@ -1,8 +1,9 @@
-"""The exporter, the render job and the operators' error paths inside the bpy 5.0.1 module:
-modifiers, shape keys and geometry-node instances come from the evaluated depsgraph; hidden and
-non-casting objects are handled; Blender's camera and light fields arrive; meshes that did not
-change are neither read again nor sent again; cancelling leaves complete frames only; bad input
-and a missing daemon are reported with the object or the fix named."""
+"""The exporter, the render job and the operators' error paths inside the bpy module (5.0.1 in
+``.venv``, 5.3 in ``.venv-bpy53``): modifiers, shape keys and geometry-node instances come from
+the evaluated depsgraph; hidden and non-casting objects are handled; Blender's camera and light
+fields arrive; meshes that did not change are neither read again nor sent again; cancelling
+leaves complete frames only; bad input and a missing daemon are reported with the object or the
+fix named."""
 
 from __future__ import annotations
 
