@@ -34,7 +34,7 @@ ANTUMBRA_BIN="$PWD/target/debug/antumbra" .venv/bin/pytest tests/blender -q
 # A leg of the version matrix: its venv gets the wheel and runs pytest ARGS. A venv that setup
 # could not make (no such Python on this machine) is reported as not run, never as passed.
 matrix_leg() { # TITLE VENV PYTEST_ARGS...
-  local title=$1 venv=$2 start=$SECONDS
+  local title=$1 venv=$2
   shift 2
   echo "== $title"
   if [ ! -x "$venv/bin/python" ]; then
@@ -43,7 +43,6 @@ matrix_leg() { # TITLE VENV PYTEST_ARGS...
   fi
   "$venv/bin/pip" install -q --disable-pip-version-check --no-deps --force-reinstall target/wheels/antumbra-*.whl
   ANTUMBRA_BIN="$PWD/target/debug/antumbra" "$venv/bin/pytest" -q "$@"
-  echo "$title: $((SECONDS - start)) s"
 }
 # No Blender on 3.10 (the registry has no bpy for it). test_compare_report.py is left out there: it
 # drives the command line's report in Chromium through selenium and uses no client code.
