@@ -38,7 +38,7 @@ fi
 # no venv and scripts/test.sh says the leg was not run.
 matrix_python() {
   local found
-  found=$(ls -d "${PYENV_ROOT:-$HOME/.pyenv}"/versions/"$1".*/bin/python"$1" 2>/dev/null | sort -V | tail -1)
+  found=$(ls -d "${PYENV_ROOT:-$HOME/.pyenv}"/versions/"$1".*/bin/python"$1" 2>/dev/null | sort -V | tail -1 || true)
   [ -n "$found" ] || found=$(command -v "python$1" || true)
   echo "$found"
 }
@@ -48,7 +48,7 @@ matrix_venv() { # DIR PYTHON_VERSION PACKAGES...
   if [ ! -x "$dir/bin/python" ]; then
     python=$(matrix_python "$version")
     if [ -z "$python" ]; then
-      echo "setup: no Python $version (pyenv install $version): $dir not made" >&2
+      echo "setup: no Python $version under pyenv or on PATH: $dir not made, its test leg will not run" >&2
       return 0
     fi
     echo "setup: creating $dir (Python $version)"
