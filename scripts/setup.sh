@@ -3,8 +3,9 @@
 # reference) and Blender 3.4 from Debian, the X/GL client libraries the bpy module needs even
 # headless, Xvfb (a test drives Blender's UI), Chromium and its driver (a test opens the
 # comparison report), the Rust toolchain's components, and a Python
-# venv (.venv) with the tools that build and test the Python client and the bpy 5.0.1 module.
-# Safe to run again.
+# venv (.venv) with the tools that build and test the Python client and the bpy 5.0.1 module,
+# and the version matrix's venvs (docs/blender.md): .venv-bpy53 (pyenv's Python 3.13, bpy 5.3)
+# and .venv-py310 (pyenv's Python 3.10, the client alone). Safe to run again.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -32,3 +33,28 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/pip install -q --disable-pip-version-check \
   "maturin==1.16.0" "numpy==1.26.4" "pytest==9.2.0" "ruff==0.17.5" "bpy==5.0.1" "selenium==4.38.0"
+
+# The version matrix: each venv needs its Python from pyenv (or PATH); a machine without it gets
+# no venv and scripts/test.sh says the leg was not run.
+matrix_python() {
+  local found
+  found=$(ls -d "${PYENV_ROOT:-$HOME/.pyenv}"/versions/"$1".*/bin/python"$1" 2>/dev/null | sort -V | tail -1 || true)
+  [ -n "$found" ] || found=$(command -v "python$1" || true)
+  echo "$found"
+}
+matrix_venv() { # DIR PYTHON_VERSION PACKAGES...
+  local dir=$1 version=$2 python
+  shift 2
+  if [ ! -x "$dir/bin/python" ]; then
+    python=$(matrix_python "$version")
+    if [ -z "$python" ]; then
+      echo "setup: no Python $version under pyenv or on PATH: $dir not made, its test leg will not run" >&2
+      return 0
+    fi
+    echo "setup: creating $dir (Python $version)"
+    "$python" -m venv "$dir"
+  fi
+  "$dir/bin/pip" install -q --disable-pip-version-check "$@"
+}
+matrix_venv .venv-bpy53 3.13 "bpy==5.3.0" "numpy==2.5.5" "pytest==9.2.0"
+matrix_venv .venv-py310 3.10 "numpy==1.23.5" "pytest==9.2.0"

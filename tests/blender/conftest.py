@@ -3,7 +3,9 @@ scene as a recording and as a .blend, and running Debian's ``blender -b``.
 
 These tests need what ``scripts/test.sh`` prepares: ``blender_addon/build.py`` run (the zips in
 ``dist/`` and the client unpacked beside the add-on), Debian's ``blender`` on PATH and the
-``bpy`` 5.0.1 module in the venv. A missing piece is a failure, never a skip.
+``bpy`` module in the venv (5.0.1 in ``.venv``). A missing piece is a failure, never a skip.
+Tests marked ``bpy`` run in the ``bpy`` module of the Python running pytest; ``-m bpy`` runs
+only those, as the version matrix does in ``.venv-bpy53`` (bpy 5.3, docs/blender.md).
 """
 
 from __future__ import annotations
@@ -21,6 +23,10 @@ ADDON = REPO / "blender_addon"
 DIST = REPO / "dist"
 #: The built-in scene the tests render: small, animated, two lights (sun and window).
 SCENE, TRIANGLES, FRAMES, SIZE = "bedroom", 12000, 10, (96, 54)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "bpy: runs in the bpy module of the Python running pytest")
 
 
 def _binary() -> Path:

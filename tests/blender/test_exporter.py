@@ -1,8 +1,9 @@
-"""The exporter, the render job and the operators' error paths inside the bpy 5.0.1 module:
-modifiers, shape keys and geometry-node instances come from the evaluated depsgraph; hidden and
-non-casting objects are handled; Blender's camera and light fields arrive; meshes that did not
-change are neither read again nor sent again; cancelling leaves complete frames only; bad input
-and a missing daemon are reported with the object or the fix named."""
+"""The exporter, the render job and the operators' error paths inside the bpy module (5.0.1 in
+``.venv``, 5.3 in ``.venv-bpy53``): modifiers, shape keys and geometry-node instances come from
+the evaluated depsgraph; hidden and non-casting objects are handled; Blender's camera and light
+fields arrive; meshes that did not change are neither read again nor sent again; cancelling
+leaves complete frames only; bad input and a missing daemon are reported with the object or the
+fix named."""
 
 from __future__ import annotations
 
@@ -97,6 +98,7 @@ def by_name(frame_export):
     return {o["name"]: o for o in frame_export.objects}
 
 
+@pytest.mark.bpy
 def test_modifiers_and_shape_keys_are_evaluated():
     scene = empty_scene()
     arrayed = add_mesh(scene, "Arrayed", CUBE_V, CUBE_F)
@@ -118,6 +120,7 @@ def test_modifiers_and_shape_keys_are_evaluated():
     assert e.triangles == 36 + 2
 
 
+@pytest.mark.bpy
 def test_geometry_node_instances_are_objects():
     scene = empty_scene()
     cube = add_mesh(scene, "Cube", CUBE_V, CUBE_F)
@@ -144,6 +147,7 @@ def test_geometry_node_instances_are_objects():
     assert len({o["name"] for o in e.objects}) == len(e.objects)
 
 
+@pytest.mark.bpy
 def test_hidden_and_non_casting_objects_and_lights():
     scene = empty_scene()
     add_mesh(scene, "Ground", *GROUND)
@@ -173,6 +177,7 @@ def test_hidden_and_non_casting_objects_and_lights():
     assert (lights["Panel"]["shape"], lights["Panel"]["size_y"]) == ("RECTANGLE", 0.5)
 
 
+@pytest.mark.bpy
 def test_camera_fields_and_unsupported_cameras():
     scene = empty_scene()
     add_mesh(scene, "Ground", *GROUND)
@@ -199,6 +204,7 @@ def test_camera_fields_and_unsupported_cameras():
         export_now(scene)
 
 
+@pytest.mark.bpy
 def test_unchanged_meshes_are_neither_read_nor_sent_again():
     scene = empty_scene()
     add_mesh(scene, "Ground", *GROUND)
@@ -228,6 +234,7 @@ def test_unchanged_meshes_are_neither_read_nor_sent_again():
         assert sent == [["Bent", "Ground", "Mover"], ["Bent"]]
 
 
+@pytest.mark.bpy
 def test_non_finite_vertex_names_object_and_frame():
     scene = empty_scene()
     add_mesh(scene, "Fine", *GROUND)
@@ -256,6 +263,7 @@ def animated_scene():
     return scene
 
 
+@pytest.mark.bpy
 def test_cancelled_job_keeps_complete_frames_only(link, short_tmp):
     scene = animated_scene()
     out = short_tmp / "out"
@@ -282,6 +290,7 @@ def test_cancelled_job_keeps_complete_frames_only(link, short_tmp):
     assert tuple(combined.size) == (48, 32)
 
 
+@pytest.mark.bpy
 def test_job_reconnects_after_the_daemon_dies(link, short_tmp):
     scene = animated_scene()
 
@@ -316,6 +325,7 @@ def registered(monkeypatch, short_tmp, antumbra_bin):
     addon.unregister()
 
 
+@pytest.mark.bpy
 def test_operator_reports_the_broken_object(registered):
     scene = empty_scene()
     add_mesh(scene, "Broken", [(0, 0, 0), (1, 0, 0), (0, 1, float("nan"))], [(0, 1, 2)])
@@ -325,6 +335,7 @@ def test_operator_reports_the_broken_object(registered):
     assert scene.antumbra.status.startswith("failed: frame 1: object 'Broken'")
 
 
+@pytest.mark.bpy
 def test_operator_without_daemon_says_how_to_start_one(registered, short_tmp):
     registered["socket"] = str(short_tmp / "nobody.sock")
     registered["auto"] = False
@@ -343,6 +354,7 @@ def test_operator_without_daemon_says_how_to_start_one(registered, short_tmp):
     assert Path(registered["socket"]).exists() is False
 
 
+@pytest.mark.bpy
 def test_triangles_equal_blenders_loop_triangles():
     """The numpy split of triangles and quads (and the cached n-gon split) equals Blender's own
     ``loop_triangles``, concave quads included."""
@@ -371,6 +383,7 @@ def test_triangles_equal_blenders_loop_triangles():
     assert concave > 0
 
 
+@pytest.mark.bpy
 def test_panel_properties_follow_the_settings_schema(registered):
     """Every setting of the client's schema is a property of the panel's method settings, with
     the schema's default and range, and the panel's values are the settings a render takes."""

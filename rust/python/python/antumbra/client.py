@@ -19,7 +19,7 @@ import time
 import weakref
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Self
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from . import _native
 from ._native import Connection as _Connection
 from ._native import LocalSession as _LocalSession
 from .errors import AnswersDiffer, AntumbraError, DaemonTimeout, DaemonUnavailable
+
+if TYPE_CHECKING:  # typing.Self is Python 3.11+; annotations are not evaluated at run time
+    from typing import Self
 
 __all__ = [
     "COMPARE_COLUMNS",
