@@ -99,9 +99,7 @@ def test_heat_is_the_render_of_the_method_alone(session, recording):
     # Result's images are.
     alone = antumbra.LocalSession()
     frame = send(alone, recording, 0)
-    result = alone.render(
-        frame, passes=["heat_maps"], build="sah", width=2, order="fbto", **COMMON
-    )
+    result = alone.render(frame, passes=["heat_maps"], build="sah", width=2, order="fbto", **COMMON)
     alone.close()
     assert np.array_equal(cf.heat["base"], result.images["shadow.N_B"])
     without = compare(session, recording, 1, images=False)

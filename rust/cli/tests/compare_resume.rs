@@ -37,14 +37,20 @@ fn the_records_of_a_cli_run_write_its_report_byte_for_byte() {
     let out = tmp.path().join("cli");
     let run = Command::new(env!("CARGO_BIN_EXE_antumbra"))
         .args(["compare", "--scene", "bedroom", "--triangles", "3000"])
-        .args(["--frames", "1-2", "--size", "40x30", "--spp", "2", "--repeat", "1"])
+        .args([
+            "--frames", "1-2", "--size", "40x30", "--spp", "2", "--repeat", "1",
+        ])
         .args(["--method", "base=width=2,order=fbto"])
         .args(["--method", "s4=width=4,order=sorted"])
         .arg("--out")
         .arg(&out)
         .output()
         .unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
     let copy = tmp.path().join("copy");
     copy_tree(&out.join("frames"), &copy.join("frames"));
     copy_tree(&out.join("diff"), &copy.join("diff"));

@@ -74,7 +74,10 @@ fn frames_recorded_reopened_and_written_again_byte_for_byte() {
     for label in ["sorted4", "osah4"] {
         assert!(out.join(format!("diff/{label}/frame_0003.png")).is_file());
     }
-    assert!(!out.join("diff/base").exists(), "no difference of the baseline with itself");
+    assert!(
+        !out.join("diff/base").exists(),
+        "no difference of the baseline with itself"
+    );
     drop(folder);
 
     // Resumed: the frames recorded are listed, the missing one is added.
@@ -93,7 +96,10 @@ fn frames_recorded_reopened_and_written_again_byte_for_byte() {
     }
     fresh.write().unwrap();
     for (file, bytes) in REPORT.iter().zip(&written) {
-        assert!(read(&other, file) == *bytes, "{file} differs after the reopen");
+        assert!(
+            read(&other, file) == *bytes,
+            "{file} differs after the reopen"
+        );
     }
     let csv = String::from_utf8(read(&out, "compare.csv")).unwrap();
     let mut r = csv.lines().skip(1).map(|l| l.split(',').next().unwrap());
@@ -103,7 +109,10 @@ fn frames_recorded_reopened_and_written_again_byte_for_byte() {
         assert!(csv.lines().any(|l| l.starts_with(&format!("{m},"))), "{m}");
     }
     let json = String::from_utf8(read(&out, "compare.json")).unwrap();
-    assert!(json.contains("\"spp\": 2"), "shared settings in compare.json");
+    assert!(
+        json.contains("\"spp\": 2"),
+        "shared settings in compare.json"
+    );
 }
 
 #[test]
@@ -116,7 +125,10 @@ fn a_folder_of_another_comparison_is_refused_naming_what_differs() {
         Err(e) => format!("{e:#}"),
     };
     let e = refused(setup(&METHODS[..2], None, 3));
-    assert!(e.contains("methods: recorded") && !e.contains("repeat"), "{e}");
+    assert!(
+        e.contains("methods: recorded") && !e.contains("repeat"),
+        "{e}"
+    );
     let e = refused(setup(&METHODS, Some("osah4"), 1));
     assert!(e.contains("baseline: recorded 'base', now 'osah4'"), "{e}");
     assert!(e.contains("repeat: recorded 3, now 1"), "{e}");
@@ -134,7 +146,10 @@ fn frames_of_another_comparison_are_refused() {
     let frames = compare(1..=2);
     let mut folder = ReportFolder::open(tmp.path(), setup(&METHODS, None, 2)).unwrap();
     let e = format!("{:#}", folder.add(frames[0].clone()).unwrap_err());
-    assert!(e.contains("repeat: the report has 2, the frame has 1"), "{e}");
+    assert!(
+        e.contains("repeat: the report has 2, the frame has 1"),
+        "{e}"
+    );
     let mut folder = ReportFolder::create(tmp.path(), setup(&METHODS, None, 1)).unwrap();
     folder.add(frames[0].clone()).unwrap();
     let mut other = frames[1].clone();
