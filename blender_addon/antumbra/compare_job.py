@@ -12,6 +12,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import bpy
+
 from . import compare_results
 from .jobs import FrameDone, RenderJob
 
@@ -21,6 +23,17 @@ COMPARE_DIR = "compare"
 
 def report_dir(out_dir: Path) -> Path:
     return out_dir / COMPARE_DIR
+
+
+def scene_name(scene) -> str:
+    """What the report calls the scene: the .blend's name and the scene's."""
+    blend = Path(bpy.data.filepath).stem or "unsaved"
+    return f"{blend}:{scene.name}"
+
+
+def baseline_of(methods: list[str], baseline: str | None) -> str:
+    """The baseline's label: the one given, or the first method's."""
+    return baseline or methods[0].partition("=")[0]
 
 
 @dataclass

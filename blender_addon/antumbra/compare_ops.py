@@ -10,13 +10,7 @@ from pathlib import Path
 import bpy
 
 from . import client_loader, compare_results, properties, results
-from .compare_job import CompareJob, report_dir
-
-
-def scene_name(scene) -> str:
-    """What the report calls the scene: the .blend's name and the scene's."""
-    blend = Path(bpy.data.filepath).stem or "unsaved"
-    return f"{blend}:{scene.name}"
+from .compare_job import CompareJob, report_dir, scene_name
 
 
 def make_job(scene, frames: list[int], link, out_dir: Path) -> CompareJob:
