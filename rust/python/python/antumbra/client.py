@@ -130,9 +130,7 @@ def colorize_heat(array: np.ndarray, max: float | None = None) -> tuple[np.ndarr
     return _native.colorize_heat(array, max)
 
 
-def colorize_difference(
-    array: np.ndarray, scale: float | None = None
-) -> tuple[np.ndarray, float]:
+def colorize_difference(array: np.ndarray, scale: float | None = None) -> tuple[np.ndarray, float]:
     """A difference image (float32 (h, w), e.g. one method's node visits minus the baseline's)
     as the comparison's PNGs draw it: blue at ``-scale``, white at 0, red at ``+scale``
     (default: the largest absolute difference, at least 1). Returns the sRGB uint8 array of
