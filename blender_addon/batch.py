@@ -5,6 +5,8 @@
         setting, named as ``antumbra render`` names it: ``--help`` lists them)
         [--scale 1.0] [--no-heat-maps]
         [--socket PATH] [--binary PATH] [--spool DIR] [--restart]
+    blender -b scene.blend -P blender_addon/batch.py -- --frames 1-100 --out DIR
+        --compare [LABEL=NAME=VALUE,... ...] [--baseline LABEL] [--repeat R] [settings]
 
 Prints one line per frame and a summary, writes ``frame_NNNN.exr``, PNGs and
 ``frame_NNNN.stats.json`` per frame and ``stats.csv``/``stats.json`` for all finished frames into
@@ -14,6 +16,15 @@ everything again). The exit status is 0 only if every frame was rendered.
 The daemon: the one at ``--socket`` (or the default socket) if it runs, otherwise one started for
 the batch (``--binary``, ``$ANTUMBRA_BIN``, the add-on's bundled copy, or ``antumbra`` on PATH)
 and stopped at the end. If it dies mid-run the batch restarts it and renders the frame again.
+
+With ``--compare`` the batch compares methods instead (``docs/compare.md``): every frame is
+rendered with each method (``LABEL=NAME=VALUE,...``; ``--compare`` alone: the default methods;
+the settings flags set what the methods leave out), their answers are checked against the
+baseline's, and the report (``compare.csv``, ``compare.json``, ``summary.md``, ``report.html``,
+``diff/``) is written into DIR/compare. A run over a half-done report compares only the frames
+it lacks (first comparing once more, and discarding, the frame before the first of them, so
+each method's state is what one run would have). The exit status is 1, the mismatches printed,
+when a method's answers differ from the baseline's.
 
 With ``--spool DIR`` the frames are exported once into a job in the daemon's spool folder
 (``antumbra serve --spool DIR``; one is started for the batch if none watches DIR), the daemon
@@ -34,7 +45,8 @@ from pathlib import Path
 import bpy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from antumbra import client_loader, daemon, results, settings_ui, spool
+from antumbra import client_loader, compare_results, daemon, results, settings_ui, spool
+from antumbra.compare_job import CompareJob, baseline_of, report_dir, scene_name
 from antumbra.jobs import RenderJob
 from antumbra.options import RenderOptions
 
@@ -64,10 +76,26 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--binary", default="", help="the antumbra executable")
     parser.add_argument("--spool", type=Path, help="render through this spool folder")
     parser.add_argument("--restart", action="store_true", help="render finished frames again")
+    parser.add_argument(
+        "--compare",
+        nargs="*",
+        metavar="LABEL=NAME=VALUE,...",
+        help="compare these methods (none given: the default methods) into OUT/compare",
+    )
+    parser.add_argument("--baseline", help="--compare: the baseline's label (default: the first)")
+    parser.add_argument(
+        "--repeat", type=int, default=3, help="--compare: timed passes per method and frame"
+    )
     settings_ui.add_arguments(parser)
     args = parser.parse_args(argv)
     if not 0.0 < args.scale <= 1.0:
         parser.error("--scale must be in (0, 1]")
+    if args.compare is None and (args.baseline or args.repeat != 3):
+        parser.error("--baseline and --repeat go with --compare")
+    if args.compare is not None and args.spool:
+        parser.error("--compare renders through a session, not a spool")
+    if args.repeat < 1:
+        parser.error("--repeat must be at least 1")
     problem = settings_ui.check(settings_ui.from_arguments(args))
     if problem:
         parser.error(problem)
@@ -93,8 +121,10 @@ def run(argv: list[str]) -> int:
         binary=args.binary,
         socket_path=args.socket,
         client_name="antumbra-batch",
-        on_log=lambda line: print(f"antumbra: {line}", flush=True),
+        on_log=_say,
     )
+    if args.compare is not None:
+        return run_compare(args, scene, frames, options, out, client, link)
 
     def progress(job: RenderJob, done):
         n = len(job.done) + len(job.skipped)
@@ -150,6 +180,70 @@ def run(argv: list[str]) -> int:
         print("antumbra: error: stopped before the last frame", file=sys.stderr, flush=True)
         return 1
     return 0
+
+
+def run_compare(args, scene, frames, options, out: Path, client, link) -> int:
+    methods = args.compare or list(client.DEFAULT_METHODS)
+    baseline = baseline_of(methods, args.baseline)
+    folder = report_dir(out)
+    try:
+        report = client.CompareReport(
+            folder, scene=scene_name(scene), methods=methods, baseline=baseline, repeat=args.repeat
+        )
+    except client.InvalidInput as e:
+        raise SystemExit(str(e)) from None
+
+    def progress(job: CompareJob, done):
+        n = len(job.done) + len(job.skipped)
+        print(
+            f"antumbra: frame {done.frame} ({n}/{len(job.frames)}) {done.seconds:.2f} s | "
+            + " | ".join(done.stats_lines),
+            flush=True,
+        )
+
+    job = CompareJob(
+        scene=scene,
+        frames=frames,
+        options=options,
+        link=link,
+        out_dir=folder,
+        load_images=False,
+        on_frame=progress,
+        methods=methods,
+        baseline=baseline,
+        repeat=args.repeat,
+        report=report,
+    )
+    if not args.restart:
+        job.skip_finished(set(report.frames()))
+        if job.skipped:
+            _say(f"resuming: {len(job.skipped)} frame(s) already compared")
+    _say(
+        f"{Path(bpy.data.filepath).name or '(unsaved scene)'}: {len(job.pending)} frame(s) to "
+        f"compare, {len(methods)} methods against {baseline}, "
+        + options.describe(settings_ui.defaults())
+    )
+    start = time.perf_counter()
+    try:
+        job.run()
+    finally:
+        link.close()
+    html = report.write()
+    again = ", ".join(str(f) for f in job.warmed) or "none"
+    _say(
+        f"summary: {len(job.done)} compared, {len(job.skipped)} already done, "
+        f"{len(job.pending)} not compared, compared again for the methods' state: {again}, "
+        f"{time.perf_counter() - start:.1f} s; report {html}"
+    )
+    for line in compare_results.frame_lines(job.rows, baseline, job.mismatches):
+        _say(f"  {line}")
+    for m in job.mismatches:
+        print(f"antumbra: error: {m['message']}", file=sys.stderr, flush=True)
+    if job.error:
+        print(f"antumbra: error: {job.error}", file=sys.stderr, flush=True)
+    if job.pending and not job.error:
+        print("antumbra: error: stopped before the last frame", file=sys.stderr, flush=True)
+    return 1 if job.mismatches or job.error or job.pending else 0
 
 
 def run_spool(args, scene, frames, options, out: Path, client) -> int:

@@ -116,7 +116,9 @@ class RenderJob:
                 self._collect(work)
             except Exception as e:  # noqa: BLE001 - reported, job ends
                 return self._fail(f"frame {work.frame}: writing results: {e}")
-            self.pending.popleft()
+            # A frame done before the pending one (a comparison's warm-up) leaves it pending.
+            if self.pending and self.pending[0] == work.frame:
+                self.pending.popleft()
             self._retries = 0
             return False
         return self._failed_frame(work)
@@ -131,12 +133,16 @@ class RenderJob:
     def cancel(self):
         """Stops after the frame in flight (which the daemon is asked to abandon)."""
         self.cancelled = True
-        client = self.link.client
+        client = self._cancel_target()
         if client is not None and self._work is not None:
             try:
                 client.cancel()
             except Exception:  # noqa: BLE001 - nothing in flight, or the daemon is gone
                 pass
+
+    def _cancel_target(self):
+        """The session whose request in flight ``cancel`` stops."""
+        return self.link.client
 
     # -- inside a step ----------------------------------------------------------------------
 
@@ -160,11 +166,7 @@ class RenderJob:
     def _send_and_render(self, work: _Work):
         """On the worker thread: everything that waits for the daemon."""
         try:
-            if self._reconnect:
-                self._reconnect = False
-                session = self.link.reconnect()
-            else:
-                session = self.link.session()
+            session = self._session()
             e = work.export
             if self._camera_path is not None and self._camera_path_sent_to is not session:
                 session.camera_path(self._camera_path)
@@ -173,11 +175,20 @@ class RenderJob:
             for h in missing:
                 mesh = e.meshes[h]
                 session.upload_mesh(mesh.name, mesh.positions, mesh.triangles)
-            work.result = session.render(
-                e.frame, progress=self._progress, **self.options.render_kwargs()
-            )
+            work.result = self._request(session, e.frame)
         except BaseException as error:  # noqa: BLE001 - handed to the main thread
             work.error = error
+
+    def _session(self):
+        """On the worker thread: the session to send the frame on (a new one after a loss)."""
+        if self._reconnect:
+            self._reconnect = False
+            return self.link.reconnect()
+        return self.link.session()
+
+    def _request(self, session, frame: int):
+        """On the worker thread: what the job asks of the daemon for a frame it has sent."""
+        return session.render(frame, progress=self._progress, **self.options.render_kwargs())
 
     def _progress(self, stage: str, done: int, total: int):
         self.stage = (stage, done, total)

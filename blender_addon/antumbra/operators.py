@@ -1,6 +1,7 @@
 """Operators: start and stop the daemon, render the shadow pass of this frame or of the frame
-range. Renders are modal when invoked from the UI (a timer steps the job; Blender stays
-responsive; Esc cancels) and run to the end when called from scripts (``execute``)."""
+range, compare methods on them. Renders and comparisons are modal when invoked from the UI (a
+timer steps the job; Blender stays responsive; Esc cancels) and run to the end when called from
+scripts (``execute``)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ from pathlib import Path
 
 import bpy
 
-from . import daemon, preferences, results
+from . import compare_ops, daemon, preferences, results
+from .compare_job import CompareJob
 from .jobs import RenderJob
 
 #: The job the UI is running (one at a time).
@@ -42,14 +44,17 @@ def _on_frame(scene):
     return record
 
 
+def frames_of(scene, animation: bool) -> list[int]:
+    """The scene's frame range, or its current frame."""
+    if animation:
+        return list(range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step)))
+    return [scene.frame_current]
+
+
 def _make_job(context, animation: bool) -> RenderJob:
     scene = context.scene
     settings = scene.antumbra
-    frames = (
-        list(range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step)))
-        if animation
-        else [scene.frame_current]
-    )
+    frames = frames_of(scene, animation)
     return RenderJob(
         scene=scene,
         frames=frames,
@@ -77,16 +82,9 @@ def _report_end(operator, job: RenderJob) -> set[str]:
     return {"FINISHED"}
 
 
-class ANTUMBRA_OT_render(bpy.types.Operator):
-    """Render antumbra's shadow pass, heat maps and statistics"""
-
-    bl_idname = "antumbra.render"
-    bl_label = "Render shadow pass"
-    bl_options = {"REGISTER"}
-
-    animation: bpy.props.BoolProperty(
-        name="Animation", description="Render the scene's frame range", default=False
-    )
+class _JobOperator:
+    """A job run to the end from scripts (``execute``) or step by step from a timer when
+    invoked from the UI (modal: progress in the panel and the status bar, Esc cancels)."""
 
     _timer = None
     _job: RenderJob | None = None
@@ -95,15 +93,33 @@ class ANTUMBRA_OT_render(bpy.types.Operator):
     def poll(cls, context):
         return context.scene is not None and _ACTIVE is None
 
+    def make_job(self, context) -> RenderJob:
+        raise NotImplementedError
+
+    def report_end(self, job) -> set[str]:
+        return _report_end(self, job)
+
+    def _start(self, context) -> RenderJob | None:
+        try:
+            return self.make_job(context)
+        except Exception as e:  # noqa: BLE001 - shown to the user (bad methods, folder)
+            context.scene.antumbra.status = f"failed: {e}"
+            self.report({"ERROR"}, f"antumbra: {e}")
+            return None
+
     def execute(self, context):
-        job = _make_job(context, self.animation)
+        job = self._start(context)
+        if job is None:
+            return {"CANCELLED"}
         context.scene.antumbra.running = True
         job.run()
-        return _report_end(self, job)
+        return self.report_end(job)
 
     def invoke(self, context, event):
         global _ACTIVE
-        self._job = _make_job(context, self.animation)
+        self._job = self._start(context)
+        if self._job is None:
+            return {"CANCELLED"}
         _ACTIVE = self._job
         settings = context.scene.antumbra
         settings.running = True
@@ -132,6 +148,8 @@ class ANTUMBRA_OT_render(bpy.types.Operator):
         settings = context.scene.antumbra
         frame = job.current_frame
         stage = job.stage[0] or "export"
+        if getattr(job, "warming_up", False):
+            stage = f"methods' state ({stage})"
         if frame is not None:
             settings.status = f"frame {frame}: {stage} ({len(job.done)}/{job.total} done)"
         settings.progress = job.fraction
@@ -150,7 +168,7 @@ class ANTUMBRA_OT_render(bpy.types.Operator):
         if context.workspace is not None:
             context.workspace.status_text_set(None)
         _ACTIVE = None
-        return _report_end(self, self._job)
+        return self.report_end(self._job)
 
     def cancel(self, context):
         # Blender ends the modal operator (file load, quit): stop the job with it.
@@ -159,6 +177,44 @@ class ANTUMBRA_OT_render(bpy.types.Operator):
             self._job.cancel()
             self._job.run()
         _ACTIVE = None
+
+
+class ANTUMBRA_OT_render(_JobOperator, bpy.types.Operator):
+    """Render antumbra's shadow pass, heat maps and statistics"""
+
+    bl_idname = "antumbra.render"
+    bl_label = "Render shadow pass"
+    bl_options = {"REGISTER"}
+
+    animation: bpy.props.BoolProperty(
+        name="Animation", description="Render the scene's frame range", default=False
+    )
+
+    def make_job(self, context) -> RenderJob:
+        return _make_job(context, self.animation)
+
+
+class ANTUMBRA_OT_compare(_JobOperator, bpy.types.Operator):
+    """Compare the methods of the list on this frame or the frame range: work per ray, time and
+    answers per method, a report folder under the output folder, heat maps and differences"""
+
+    bl_idname = "antumbra.compare"
+    bl_label = "Compare methods"
+    bl_options = {"REGISTER"}
+
+    animation: bpy.props.BoolProperty(
+        name="Animation", description="Compare over the scene's frame range", default=False
+    )
+
+    def make_job(self, context) -> CompareJob:
+        scene = context.scene
+        frames = frames_of(scene, self.animation)
+        return compare_ops.make_job(scene, frames, current_link(), output_dir(scene.antumbra))
+
+    def report_end(self, job) -> set[str]:
+        ended = _report_end(self, job)
+        compare_ops.report_mismatches(self, job)
+        return ended
 
 
 class ANTUMBRA_OT_daemon_start(bpy.types.Operator):
@@ -199,7 +255,13 @@ class ANTUMBRA_OT_daemon_stop(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (ANTUMBRA_OT_render, ANTUMBRA_OT_daemon_start, ANTUMBRA_OT_daemon_stop)
+CLASSES = (
+    ANTUMBRA_OT_render,
+    ANTUMBRA_OT_compare,
+    *compare_ops.CLASSES,
+    ANTUMBRA_OT_daemon_start,
+    ANTUMBRA_OT_daemon_stop,
+)
 
 
 # Registered in order, unregistered in reverse.

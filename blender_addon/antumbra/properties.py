@@ -1,5 +1,5 @@
 """Per-scene settings of the panel, and the state it shows (daemon status, progress, last
-frame's statistics)."""
+frame's statistics, the last comparison's table); the methods a comparison runs."""
 
 from __future__ import annotations
 
@@ -7,6 +7,21 @@ import bpy
 
 from . import client_loader, settings_ui
 from .options import RenderOptions
+
+
+class AntumbraCompareMethod(bpy.types.PropertyGroup):
+    """One method of a comparison: its label is the item's ``name``."""
+
+    settings: bpy.props.StringProperty(
+        name="Settings",
+        description="The settings this method changes, NAME=VALUE,... with the settings' own "
+        "names (e.g. build=osah,visibility=previous,width=8,order=sorted); the others take the "
+        "panel's values",
+    )
+
+    def spec(self) -> str:
+        """``LABEL=NAME=VALUE,...``, as ``compare`` takes a method."""
+        return f"{self.name}={self.settings}"
 
 
 class AntumbraSettings(bpy.types.PropertyGroup):
@@ -32,7 +47,22 @@ class AntumbraSettings(bpy.types.PropertyGroup):
     save_files: bpy.props.BoolProperty(
         name="Save files", description="Write frame_NNNN.exr and PNGs per frame", default=True
     )
+    compare_methods: bpy.props.CollectionProperty(type=AntumbraCompareMethod)
+    compare_index: bpy.props.IntProperty(name="Method", min=0)
+    compare_baseline: bpy.props.StringProperty(
+        name="Baseline",
+        description="The method the others are checked and measured against (default: the first)",
+    )
+    compare_repeat: bpy.props.IntProperty(
+        name="Repeat",
+        description="Timed passes per method and frame, interleaved across methods (the "
+        "timings are their median)",
+        default=3,
+        min=1,
+        max=100,
+    )
     # State shown by the panel; written by the operators.
+    compare_table: bpy.props.StringProperty(options={"SKIP_SAVE"})
     last_stats: bpy.props.StringProperty(options={"SKIP_SAVE"})
     last_frame: bpy.props.IntProperty(options={"SKIP_SAVE"})
     status: bpy.props.StringProperty(options={"SKIP_SAVE"})
@@ -49,8 +79,41 @@ class AntumbraSettings(bpy.types.PropertyGroup):
             save_png=self.save_files,
         )
 
+    def compare_specs(self) -> list[str]:
+        """The comparison's methods as ``LABEL=NAME=VALUE,...`` (the defaults if none)."""
+        if not self.compare_methods:
+            fill_default_methods(self)
+        return [m.spec() for m in self.compare_methods]
+
+    def compare_baseline_label(self) -> str:
+        labels = [m.name for m in self.compare_methods]
+        return self.compare_baseline if self.compare_baseline in labels else labels[0]
+
 
 _method_class = None
+
+
+def fill_default_methods(settings) -> None:
+    """Replaces the comparison's methods with the client's defaults (baseline first)."""
+    settings.compare_methods.clear()
+    for spec in client_loader.load().DEFAULT_METHODS:
+        label, _, rest = spec.partition("=")
+        item = settings.compare_methods.add()
+        item.name, item.settings = label, rest
+    settings.compare_index = 0
+    settings.compare_baseline = settings.compare_methods[0].name
+
+
+@bpy.app.handlers.persistent
+def _prefill_methods(*_args):
+    """Gives every scene without methods the defaults (a new add-on, a loaded .blend)."""
+    try:
+        client_loader.load()
+    except client_loader.ClientMissing:
+        return
+    for scene in bpy.data.scenes:
+        if not scene.antumbra.compare_methods:
+            fill_default_methods(scene.antumbra)
 
 
 def register():
@@ -64,13 +127,22 @@ def register():
         _method_class = settings_ui.property_group()
         bpy.utils.register_class(_method_class)
         AntumbraSettings.__annotations__["method"] = bpy.props.PointerProperty(type=_method_class)
+    bpy.utils.register_class(AntumbraCompareMethod)
     bpy.utils.register_class(AntumbraSettings)
     bpy.types.Scene.antumbra = bpy.props.PointerProperty(type=AntumbraSettings)
+    bpy.app.handlers.load_post.append(_prefill_methods)
+    # The scenes open now (enabling the add-on); bpy.data is read-only inside register().
+    bpy.app.timers.register(_prefill_methods, first_interval=0.0)
 
 
 def unregister():
+    if _prefill_methods in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_prefill_methods)
+    if bpy.app.timers.is_registered(_prefill_methods):
+        bpy.app.timers.unregister(_prefill_methods)
     del bpy.types.Scene.antumbra
     bpy.utils.unregister_class(AntumbraSettings)
+    bpy.utils.unregister_class(AntumbraCompareMethod)
     AntumbraSettings.__annotations__.pop("method", None)
     if _method_class is not None:
         bpy.utils.unregister_class(_method_class)

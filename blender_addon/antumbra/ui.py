@@ -1,5 +1,5 @@
 """The panel, in Render properties and in the 3D view's sidebar: daemon status, method settings,
-the render buttons, progress and the last frame's statistics."""
+the render buttons, progress and the last frame's statistics, and the Compare section."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import json
 
 import bpy
 
-from . import client_loader, operators, results, settings_ui
+from . import client_loader, compare_ui, operators, results, settings_ui
 
 
 def _daemon_box(layout):
@@ -87,6 +87,8 @@ def draw_panel(layout, context):
             col.prop(settings, "progress", text="Progress", slider=True)
         col.label(text=settings.status)
     _stats_box(layout, settings)
+    if getattr(settings, "method", None) is not None:
+        compare_ui.draw(layout, settings)
 
 
 class ANTUMBRA_PT_render(bpy.types.Panel):
@@ -111,7 +113,7 @@ class ANTUMBRA_PT_sidebar(bpy.types.Panel):
         draw_panel(self.layout, context)
 
 
-CLASSES = (ANTUMBRA_PT_render, ANTUMBRA_PT_sidebar)
+CLASSES = (*compare_ui.CLASSES, ANTUMBRA_PT_render, ANTUMBRA_PT_sidebar)
 
 
 # Registered in order, unregistered in reverse.

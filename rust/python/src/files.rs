@@ -5,7 +5,8 @@ use std::path::Path;
 
 use antumbra_core::image::ImagePlane;
 use antumbra_core::output::{
-    heatmap_rgb, read_exr, write_frame_files, ColorMap, HeatScale, Outputs,
+    difference_scale, diverging_rgb, heatmap_rgb, read_exr, write_frame_files, ColorMap, HeatScale,
+    Outputs,
 };
 use antumbra_core::render::{FrameResult, HeatMaps};
 use antumbra_core::stats::StatsRow;
@@ -174,6 +175,50 @@ pub fn colorize_heat<'py>(
 }
 
 /// One statistics row from a dict of its columns (as `Result.stats` gives them, or as read back
+/// A difference image as the comparison's PNGs draw it (diverging, blue -`scale`, white 0, red
+/// +`scale`; `scale` defaults to the largest absolute difference, at least 1): an uint8 sRGB
+/// array of shape (h, w, 3) and the scale used.
+pub fn colorize_difference<'py>(
+    py: Python<'py>,
+    array: &Bound<'py, PyAny>,
+    scale: Option<f32>,
+) -> ClientResult<(Bound<'py, numpy::PyArray3<u8>>, f32)> {
+    let array: PyReadonlyArray2<'_, f32> = array.extract().map_err(|_| {
+        ClientError::invalid(format!(
+            "difference: expected a float32 array of shape (h, w), got {}",
+            describe(array)
+        ))
+    })?;
+    let view = array.as_array();
+    let (h, w) = view.dim();
+    let plane = ImagePlane {
+        name: "difference".into(),
+        width: w as u32,
+        height: h as u32,
+        data: view.iter().copied().collect(),
+    };
+    let scale = match scale {
+        Some(s) if s > 0.0 && s.is_finite() => s,
+        Some(s) => {
+            return Err(ClientError::invalid(format!(
+                "difference: scale {s} is not > 0"
+            )))
+        }
+        None => difference_scale(&plane),
+    };
+    let rgb: Vec<u8> = py.detach(|| {
+        plane
+            .data
+            .iter()
+            .flat_map(|&v| diverging_rgb(v / scale))
+            .collect()
+    });
+    let rgb = numpy::ndarray::Array3::from_shape_vec((h, w, 3), rgb)
+        .expect("three bytes per pixel")
+        .into_pyarray(py);
+    Ok((rgb, scale))
+}
+
 /// from JSON); missing columns take their defaults, unknown ones are ignored.
 fn stats_row_from(i: usize, row: &Bound<'_, PyAny>) -> ClientResult<StatsRow> {
     let bad = |what: String| ClientError::invalid(format!("rows[{i}]{what}"));

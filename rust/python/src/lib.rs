@@ -126,6 +126,17 @@ fn colorize_heat<'py>(
     files::colorize_heat(py, array, max).py_result(py)
 }
 
+/// A difference image as the comparison's PNGs draw it: (uint8 (h, w, 3), scale).
+#[pyfunction]
+#[pyo3(signature = (array, scale = None))]
+fn colorize_difference<'py>(
+    py: Python<'py>,
+    array: &Bound<'py, PyAny>,
+    scale: Option<f32>,
+) -> PyResult<(Bound<'py, numpy::PyArray3<u8>>, f32)> {
+    files::colorize_difference(py, array, scale).py_result(py)
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     error::set_package(&m.name()?.to_string());
@@ -136,6 +147,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(write_file_atomic, m)?)?;
     m.add_function(wrap_pyfunction!(write_stats, m)?)?;
     m.add_function(wrap_pyfunction!(colorize_heat, m)?)?;
+    m.add_function(wrap_pyfunction!(colorize_difference, m)?)?;
     m.add_class::<settings::RenderSettings>()?;
     m.add_function(wrap_pyfunction!(settings::settings_schema, m)?)?;
     m.add_function(wrap_pyfunction!(compare::default_methods, m)?)?;

@@ -59,6 +59,11 @@ def colorize_heat(
 ) -> tuple[npt.NDArray[np.uint8], float]:
     """A heat map through the turbo colour map (sRGB uint8 (h, w, 3)) and the max it used."""
 
+def colorize_difference(
+    array: npt.NDArray[np.float32], scale: float | None = None
+) -> tuple[npt.NDArray[np.uint8], float]:
+    """A difference image through the diverging colour map (sRGB uint8 (h, w, 3)) and its scale."""
+
 def settings_schema() -> list[dict[str, Any]]:
     """One dict per render setting: name, type, default, group, group_title, help, expected,
     and min/max/open, choices or syntax by type."""

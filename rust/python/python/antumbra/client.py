@@ -41,6 +41,7 @@ __all__ = [
     "LocalSession",
     "ProgressCallback",
     "Result",
+    "colorize_difference",
     "colorize_heat",
     "default_socket_path",
     "mesh_hash",
@@ -131,6 +132,14 @@ def colorize_heat(array: np.ndarray, max: float | None = None) -> tuple[np.ndarr
     first colour, ``max`` (default: the image's largest value) the last. Returns the sRGB uint8
     array of shape (h, w, 3) and the max used."""
     return _native.colorize_heat(array, max)
+
+
+def colorize_difference(array: np.ndarray, scale: float | None = None) -> tuple[np.ndarray, float]:
+    """A difference image (float32 (h, w), e.g. one method's node visits minus the baseline's)
+    as the comparison's PNGs draw it: blue at ``-scale``, white at 0, red at ``+scale``
+    (default: the largest absolute difference, at least 1). Returns the sRGB uint8 array of
+    shape (h, w, 3) and the scale used."""
+    return _native.colorize_difference(array, scale)
 
 
 def settings_schema() -> list[dict[str, Any]]:

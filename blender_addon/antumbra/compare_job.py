@@ -1,0 +1,151 @@
+"""A comparison of methods over frames: a :class:`RenderJob` whose request is ``compare_frame``.
+Each frame is exported once and compared with every method on a session of the job's own (so
+every method's state starts fresh and runs through the frames in order, as in ``antumbra
+compare``), then recorded in the report folder. Before a frame whose predecessor this session
+has not compared (a resumed batch, "Compare frame"), it compares that predecessor once more and
+discards the result, so OSAH from the previous frame's visibility sees what one run would."""
+
+from __future__ import annotations
+
+import inspect
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import bpy
+
+from . import compare_results
+from .jobs import FrameDone, RenderJob
+
+#: The report folder's name under the output folder (panel and batch).
+COMPARE_DIR = "compare"
+
+
+def report_dir(out_dir: Path) -> Path:
+    return out_dir / COMPARE_DIR
+
+
+def scene_name(scene) -> str:
+    """What the report calls the scene: the .blend's name and the scene's."""
+    blend = Path(bpy.data.filepath).stem or "unsaved"
+    return f"{blend}:{scene.name}"
+
+
+def baseline_of(methods: list[str], baseline: str | None) -> str:
+    """The baseline's label: the one given, or the first method's."""
+    return baseline or methods[0].partition("=")[0]
+
+
+@dataclass
+class CompareJob(RenderJob):
+    #: ``LABEL=NAME=VALUE,...`` per method, the baseline among them.
+    methods: list[str] = field(default_factory=list)
+    baseline: str | None = None
+    repeat: int = 3
+    #: ``antumbra.CompareReport`` the frames are added to (None: nothing written).
+    report: object = None
+    #: The animation's frame before ``frames[0]``, compared first to set the methods' state.
+    before: int | None = None
+    #: Every mismatch of the recorded frames (dicts: frame, label, what, pixels, message).
+    mismatches: list[dict] = field(default_factory=list)
+    #: The recorded frames' rows (compare.csv's columns), in order.
+    rows: list[dict] = field(default_factory=list)
+    #: Frames compared only to set the methods' state.
+    warmed: list[int] = field(default_factory=list)
+
+    def __post_init__(self):
+        super().__post_init__()
+        self._own = None  # the job's session: its own comparison state
+        self._last_compared: int | None = None
+
+    # -- which frame goes next --------------------------------------------------------------
+
+    def _frame_before(self, frame: int) -> int | None:
+        """The frame to compare (and discard) before ``frame``, or None."""
+        i = self.frames.index(frame)
+        before = self.frames[i - 1] if i else self.before
+        return None if before is None or before == self._last_compared else before
+
+    def _begin(self, frame: int):
+        before = self._frame_before(frame)
+        super()._begin(frame if before is None else before)
+
+    @property
+    def warming_up(self) -> bool:
+        return self._work is not None and bool(self.pending) and self._work.frame != self.pending[0]
+
+    # -- the daemon -------------------------------------------------------------------------
+
+    def _session(self):
+        if self._reconnect:
+            # The daemon went away and the methods' state with it (see _failed_frame).
+            self._reconnect = False
+            self._close_own()
+            self.link.reconnect()
+        if self._own is None or self._own.closed:
+            self.link.session()  # a daemon to talk to, started if the link may
+            self._own = self.link.module.Client.connect(
+                self.link.socket(), client_name=f"{self.link.client_name}-compare"
+            )
+        return self._own
+
+    def _request(self, session, frame: int):
+        kwargs = {"baseline": self.baseline, "repeat": self.repeat}
+        if "progress" in inspect.signature(session.compare_frame).parameters:
+            kwargs["progress"] = self._progress
+        return session.compare_frame(
+            frame, self.methods, **kwargs, **self.options.settings_kwargs()
+        )
+
+    def _cancel_target(self):
+        return self._own
+
+    def _close_own(self):
+        own, self._own = self._own, None
+        if own is not None:
+            try:
+                own.close()
+            except Exception:  # noqa: BLE001 - a dead daemon cannot be closed politely
+                pass
+
+    def _failed_frame(self, work) -> bool:
+        finished = super()._failed_frame(work)
+        if self._reconnect:
+            self._last_compared = None  # a new session: its state starts afresh
+        return finished
+
+    def _finish(self) -> bool:
+        self._close_own()
+        return super()._finish()
+
+    # -- the result -------------------------------------------------------------------------
+
+    def _collect(self, work):
+        compared = work.result
+        self._last_compared = work.frame
+        if not self.pending or work.frame != self.pending[0]:
+            self.warmed.append(work.frame)  # the state's warm-up: not a result
+            return
+        if self.report is not None:
+            self.report.add(compared)
+            self.report.write()
+        client = self.link.module
+        images = compare_results.load_images(client, compared) if self.load_images else {}
+        self.rows.extend(compared.rows)
+        self.mismatches.extend(compared.mismatches)
+        done = FrameDone(
+            frame=work.frame,
+            result=compared.rows,  # the images stay out: a long run would hold them all
+            seconds=time.perf_counter() - work.started + work.export.seconds,
+            export_seconds=work.export.seconds,
+            stats_lines=compare_results.frame_lines(
+                compared.rows, compared.baseline, compared.mismatches
+            ),
+            images=images,
+            files=[],
+            objects=len(work.export.objects),
+            triangles=work.export.triangles,
+        )
+        self.done.append(done)
+        if self.on_frame is not None:
+            self.on_frame(self, done)

@@ -1,0 +1,138 @@
+"""The panel's comparison: the job its Compare operators run (the list's methods on this frame
+or the frame range, recorded under the output folder), what it shows after each frame and at
+the end (the table, images, mismatches reported), and the operators that edit the list."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import bpy
+
+from . import client_loader, compare_results, properties, results
+from .compare_job import CompareJob, report_dir, scene_name
+
+
+def make_job(scene, frames: list[int], link, out_dir: Path) -> CompareJob:
+    settings = scene.antumbra
+    specs = settings.compare_specs()
+    baseline = settings.compare_baseline_label()
+    client = client_loader.load()
+    folder = report_dir(out_dir)
+    # A folder holding another comparison (other methods) is refused here, before any work.
+    report = client.CompareReport(
+        folder,
+        scene=scene_name(scene),
+        methods=specs,
+        baseline=baseline,
+        repeat=settings.compare_repeat,
+    )
+    step = max(1, scene.frame_step)
+    before = frames[0] - step if frames[0] - step >= scene.frame_start else None
+    settings.compare_table = ""
+    return CompareJob(
+        scene=scene,
+        frames=frames,
+        options=settings.options(),
+        link=link,
+        out_dir=folder,
+        methods=specs,
+        baseline=baseline,
+        repeat=settings.compare_repeat,
+        report=report,
+        before=before,
+        on_frame=_on_frame(scene),
+    )
+
+
+def _on_frame(scene):
+    def record(job: CompareJob, done):
+        settings = scene.antumbra
+        settings.last_frame = done.frame
+        settings.compare_table = json.dumps(
+            {
+                "baseline": job.baseline,
+                "frames": len(job.done),
+                "methods": compare_results.table(job.rows, job.baseline, job.mismatches),
+            }
+        )
+        settings.progress = job.fraction
+        shown = [name for name in done.images.values() if " - " in name]
+        if shown:
+            results.show_in_image_editors(shown[-1])
+
+    return record
+
+
+def report_mismatches(operator, job: CompareJob) -> None:
+    """After the job ended as a render ends: the report's place, and every mismatch (frame,
+    method, light, pixels) reported as an error."""
+    settings = job.scene.antumbra
+    if job.report is not None and job.done:
+        settings.status += f"; report in {job.out_dir}"
+    for m in job.mismatches:
+        operator.report({"ERROR"}, f"antumbra: {m['message']}")
+    if job.mismatches:
+        settings.status = f"answers differ in {len(job.mismatches)} case(s): {settings.status}"
+
+
+class ANTUMBRA_OT_compare_method_add(bpy.types.Operator):
+    """Add a method to the comparison (a copy of the selected one)"""
+
+    bl_idname = "antumbra.compare_method_add"
+    bl_label = "Add method"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        settings = context.scene.antumbra
+        methods = settings.compare_methods
+        source = (
+            methods[settings.compare_index] if 0 <= settings.compare_index < len(methods) else None
+        )
+        labels = {m.name for m in methods}
+        label = next(f"m{i}" for i in range(1, len(methods) + 2) if f"m{i}" not in labels)
+        item = methods.add()
+        item.name, item.settings = label, source.settings if source else ""
+        settings.compare_index = len(methods) - 1
+        return {"FINISHED"}
+
+
+class ANTUMBRA_OT_compare_method_remove(bpy.types.Operator):
+    """Remove the selected method from the comparison"""
+
+    bl_idname = "antumbra.compare_method_remove"
+    bl_label = "Remove method"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        settings = context.scene.antumbra
+        return 0 <= settings.compare_index < len(settings.compare_methods)
+
+    def execute(self, context):
+        settings = context.scene.antumbra
+        settings.compare_methods.remove(settings.compare_index)
+        settings.compare_index = max(
+            0, min(settings.compare_index, len(settings.compare_methods) - 1)
+        )
+        return {"FINISHED"}
+
+
+class ANTUMBRA_OT_compare_defaults(bpy.types.Operator):
+    """Replace the comparison's methods with the default ones (binary SAH front to back as the
+    baseline, 8-wide SATO, 8-wide sorted, OSAH from the previous frame, SRDH)"""
+
+    bl_idname = "antumbra.compare_defaults"
+    bl_label = "Default methods"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        properties.fill_default_methods(context.scene.antumbra)
+        return {"FINISHED"}
+
+
+CLASSES = (
+    ANTUMBRA_OT_compare_method_add,
+    ANTUMBRA_OT_compare_method_remove,
+    ANTUMBRA_OT_compare_defaults,
+)
