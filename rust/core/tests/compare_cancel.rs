@@ -99,6 +99,10 @@ fn a_cancelled_frame_leaves_every_method_as_before_it() {
             matches!(result, Err(Error::Cancelled)),
             "cancelled after {cancel_after} passes"
         );
-        assert_eq!(rows(&mut c, 3), want, "cancelled after {cancel_after} passes");
+        assert_eq!(
+            rows(&mut c, 3),
+            want,
+            "cancelled after {cancel_after} passes"
+        );
     }
 }
