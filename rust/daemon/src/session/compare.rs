@@ -7,7 +7,7 @@ use std::sync::mpsc::TrySendError;
 use std::sync::Arc;
 
 use antumbra_protocol::{
-    check_render_memory, scene_from_frame, CompareRequest, ErrorCode, ProtocolError, Reply,
+    check_compare_memory, scene_from_frame, CompareRequest, ErrorCode, ProtocolError, Reply,
 };
 
 use super::out::{error_reply, protocol_error};
@@ -48,11 +48,9 @@ impl Session<'_> {
             Ok(s) => s,
             Err(e) => return refuse(self, e),
         };
-        // The costliest method bounds the estimate (methods render one after another).
-        for settings in comparison.settings() {
-            if let Err(e) = check_render_memory(&scene, settings, 0, &self.limits) {
-                return refuse(self, e);
-            }
+        // Every method keeps its own trees across frames: the methods together are bounded.
+        if let Err(e) = check_compare_memory(&scene, &comparison, 0, &self.limits) {
+            return refuse(self, e);
         }
         let settings = comparison.settings()[0].clone();
         drop(comparison);
