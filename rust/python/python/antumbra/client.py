@@ -64,7 +64,7 @@ COMPARE_COLUMNS: tuple[str, ...] = tuple(_native.compare_columns())
 #: The image of the ``object_ids`` pass.
 OBJECT_PLANE = "primary.object"
 
-#: ``progress(stage, done, total)``; return False to cancel the render.
+#: ``progress(stage, done, total)``; return False to cancel the render or comparison.
 ProgressCallback = Callable[[str, int, int], "bool | None"]
 
 #: The line ``antumbra serve`` prints on stdout once it accepts connections.
@@ -352,6 +352,7 @@ class _Session:
         *,
         baseline: str | None = None,
         repeat: int = 3,
+        progress: ProgressCallback | None = None,
         timeout: float | None = None,
         **settings: Any,
     ) -> Any:
@@ -368,9 +369,14 @@ class _Session:
             baseline: the label whose answers the others must equal (default: the first).
             repeat: timed passes per method, interleaved across methods; timings are their
                 median and spread, work counters come from one counted pass.
-            timeout: seconds to wait for the result (None: no limit). The comparison sends no
-                progress and cannot be stopped once started: Ctrl-C ends the wait and the
-                session (connect again).
+            progress: ``progress(stage, done, total)``, called with stage ``'compare'`` before
+                the first method pass and after each (``total``: one counted and ``repeat``
+                timed passes per method), and ``'queued'`` while it waits for a render slot;
+                returning False cancels the comparison (it then raises a
+                :class:`RequestError` with code 'Cancelled'), raising cancels it and the
+                exception propagates. Ctrl-C cancels too, and the session goes on: a cancelled
+                frame leaves every method's state as before it.
+            timeout: seconds to wait between two replies of the daemon (None: no limit).
             settings: settings every method shares (``spp``, ``seed``), by name.
 
         Returns:
@@ -382,7 +388,9 @@ class _Session:
             AnswersDiffer: a method's masks or primary ids differ from the baseline's on this
                 frame; it names frame, method, light and pixels, and carries the rows.
         """
-        raw = self._native.compare(frame, methods, baseline, repeat, settings, timeout)
+        raw = self._native.compare(
+            frame, methods, baseline, repeat, settings, timeout, progress=progress
+        )
         rows = _rows_frame(raw["rows"])
         mismatches = list(raw["mismatches"])
         if mismatches:
@@ -392,14 +400,14 @@ class _Session:
         return rows
 
     def cancel(self, request_id: int | None = None) -> bool:
-        """Cancels the render in progress on this session (call it from another thread);
-        returns whether a cancel was sent. ``request_id`` None cancels whichever render runs.
+        """Cancels the render or comparison in progress on this session (call it from another
+        thread); returns whether a cancel was sent. ``request_id`` None cancels whichever runs.
         """
         return self._native.cancel(request_id)
 
     @property
     def active_request(self) -> int | None:
-        """The request id of the render in progress, or None."""
+        """The request id of the render or comparison in progress, or None."""
         return self._native.active_request
 
     def stats(self) -> dict[str, Any]:
