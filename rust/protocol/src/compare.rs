@@ -116,7 +116,8 @@ pub const COMPARE_STAGE: &str = "compare";
 /// - a request whose methods, common settings, baseline and repeat equal the last one's uses
 ///   the kept comparison, so each method's state carries over from frame to frame;
 /// - any other request drops it and builds a new one; a method set that is refused (a bad
-///   label, setting or baseline) leaves none;
+///   label, setting or baseline) leaves the kept one as it was (the daemon refuses it before
+///   the request reaches its render worker, to the same effect);
 /// - a frame that fails or is cancelled leaves the comparison as it was before that frame (the
 ///   core puts every method's state back), so the next frame continues the animation;
 /// - a panic while rendering leaves none (the comparison is taken out while it renders).
@@ -155,7 +156,13 @@ impl CompareState {
     ) -> Result<CompareResultReply, ProtocolError> {
         let (kept, mut comparison) = match self.kept.take() {
             Some((kept, c)) if kept.same_comparison(request) => (kept, c),
-            _ => (request.clone(), request.comparison()?),
+            other => match request.comparison() {
+                Ok(c) => (request.clone(), c),
+                Err(e) => {
+                    self.kept = other;
+                    return Err(e);
+                }
+            },
         };
         let total = u32::try_from(comparison.steps()).unwrap_or(u32::MAX);
         progress(0, total);

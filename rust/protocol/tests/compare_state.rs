@@ -1,5 +1,5 @@
 //! [`CompareState`], the comparison a session keeps across `Compare` requests: kept while the
-//! methods stay the same, rebuilt when they change, dropped when refused, kept as before the
+//! methods stay the same, rebuilt when they change, kept when refused, kept as before the
 //! frame when a frame is cancelled; progress before the first method pass and after each.
 
 mod common;
@@ -91,7 +91,7 @@ fn the_same_methods_keep_their_state_across_frames() {
 }
 
 #[test]
-fn other_methods_start_afresh_and_refused_ones_leave_none() {
+fn other_methods_start_afresh_and_refused_ones_keep_the_last() {
     let mut state = CompareState::new();
     compare(&mut state, &request(1, 1)).unwrap();
     // Another repeat is another comparison: frame 2 as if it were the first.
@@ -103,9 +103,11 @@ fn other_methods_start_afresh_and_refused_ones_leave_none() {
     let e = compare(&mut state, &bad).unwrap_err();
     assert_eq!(e.code(), ErrorCode::InvalidInput);
     assert!(e.to_string().contains("widht"), "{e}");
-    assert!(
-        state.kept().is_none(),
-        "a refused method set leaves no comparison"
+    // A refused method set leaves the kept comparison: frame 3 follows frame 2.
+    assert_eq!(state.kept(), Some(&request(2, 2)));
+    assert_eq!(
+        compare(&mut state, &request(3, 2)).unwrap(),
+        fresh(&request(3, 2), &[2, 3])
     );
 }
 
