@@ -371,7 +371,7 @@ impl LocalSession {
                             None => Ok(true),
                             Some(cb) => {
                                 let v = cb.bind(py).call1((COMPARE_STAGE, done, total))?;
-                                Ok(!(v.is_instance_of::<PyBool>() && !v.is_truthy()?))
+                                Ok(!v.is_instance_of::<PyBool>() || v.is_truthy()?)
                             }
                         });
                         match go_on {
