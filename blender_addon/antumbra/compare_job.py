@@ -7,7 +7,6 @@ discards the result, so OSAH from the previous frame's visibility sees what one 
 
 from __future__ import annotations
 
-import inspect
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -90,11 +89,13 @@ class CompareJob(RenderJob):
         return self._own
 
     def _request(self, session, frame: int):
-        kwargs = {"baseline": self.baseline, "repeat": self.repeat}
-        if "progress" in inspect.signature(session.compare_frame).parameters:
-            kwargs["progress"] = self._progress
         return session.compare_frame(
-            frame, self.methods, **kwargs, **self.options.settings_kwargs()
+            frame,
+            self.methods,
+            baseline=self.baseline,
+            repeat=self.repeat,
+            progress=self._progress,
+            **self.options.settings_kwargs(),
         )
 
     def _cancel_target(self):

@@ -1,8 +1,9 @@
 """The panel's Compare operator in both Blenders (Debian's 3.4 with the legacy zip, the bpy
-module with the extension: 5.0.1, and 5.3 in its own venv): the method list prefilled with the defaults, "Compare
-animation" over three frames writing the report folder under the output folder, the heat maps
-and difference images in ``bpy.data.images``, the per-method table matching compare.csv; and
-two methods whose answers differ reported as errors naming frame, method, light and pixels."""
+module with the extension: 5.0.1, and 5.3 in its own venv): the method list prefilled with the
+defaults, "Compare animation" over three frames writing the report folder under the output
+folder, the heat maps and difference images in ``bpy.data.images``, the per-method table
+matching compare.csv; and two methods whose answers differ reported as errors naming frame,
+method, light and pixels."""
 
 from __future__ import annotations
 

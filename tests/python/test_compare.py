@@ -1,13 +1,24 @@
 """``compare()`` on both sessions: one request renders a frame with every method, each method
 keeping its state across frames; rows as compare.csv's; counters equal to each method rendered
-alone; bad methods refused; a real difference reported."""
+alone; bad methods refused; a real difference reported; progress per method pass; Ctrl-C
+cancels and the session goes on; the daemon's memory budget bounds every method together."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import antumbra
-from conftest import lights, send_frame, upload_missing, upload_scene
+from conftest import (
+    RESOLUTION,
+    camera,
+    grid,
+    lights,
+    objects,
+    send_frame,
+    upload_missing,
+    upload_scene,
+)
 
 FRAMES = (1, 2, 3)
 # A dict and the equivalent LABEL=SETTINGS strings: both forms are accepted.
@@ -176,3 +187,70 @@ def test_a_real_difference_is_reported(session):
     assert "frame 1" in message and "method 'b'" in message and "pixels" in message
     assert "light '" in message
     assert {r["label"] for r in records(e.value.rows)} == {"a", "b"}
+
+
+def stages(session, frame: int, **kw) -> list[tuple[str, int, int]]:
+    seen = []
+    session.compare(frame, METHODS, progress=lambda *p: seen.append(p), **kw, **COMMON)
+    # A daemon whose render slots are busy also reports 'queued'.
+    return [p for p in seen if p[0] != "queued"]
+
+
+def test_progress_reports_every_method_pass(session):
+    send(session, 1)
+    # Three methods, one counted and two timed passes each.
+    assert stages(session, 1, repeat=2) == [("compare", i, 9) for i in range(10)]
+
+
+# Frame 2 of the interrupt test: big enough that the daemon is still comparing when the Cancel
+# sent after the first method pass arrives (seconds per method pass).
+HEAVY = {"x": 800, "y": 600, "percentage": 100}
+
+
+def test_keyboard_interrupt_cancels_and_the_session_goes_on(session):
+    hashes = upload_scene(session)
+    upload_missing(session, send_frame(session, hashes, 1))
+    first = records(session.compare(1, METHODS, repeat=1, **COMMON))
+    session.frame_update(2, objects(hashes, 2), camera(2), lights(), HEAVY)
+
+    def interrupt(stage, done, total):
+        if stage == "compare" and done == 1:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        session.compare(2, METHODS, repeat=1, progress=interrupt, **COMMON)
+    assert session.stats()["renders_cancelled"] == 1
+    assert session.active_request is None
+    # Returning False cancels too, answered as a cancelled render is.
+    with pytest.raises(antumbra.RequestError) as e:
+        session.compare(2, METHODS, repeat=1, progress=lambda *p: p[1] < 1, **COMMON)
+    assert e.value.code == "Cancelled" and e.value.session_usable
+    assert "Compare frame 2" in str(e.value) and "cancelled by the client" in str(e.value)
+    # Frame 3 follows frame 1 in every method, as if frame 2 had never been asked for.
+    send(session, 3)
+    third = records(session.compare(3, METHODS, repeat=1, **COMMON))
+    with antumbra.LocalSession() as alone:
+        want = compare_frames(alone, frames=(1, 3), repeat=1)
+    assert [counters(r) for r in first + third] == [counters(r) for r in want]
+
+
+def test_the_memory_budget_bounds_every_method_together(antumbra_bin, short_tmp):
+    # About 200k triangles: each method's trees take about 100 MiB, so one method fits in
+    # 256 MiB and three methods, each keeping its own trees, do not.
+    ground = grid(320)
+    with antumbra.Client.spawn(
+        antumbra_bin,
+        socket_path=short_tmp / "d.sock",
+        args=["--render-memory-mb", "256"],
+        timeout=120,
+    ) as daemon:
+        h = daemon.upload_mesh("Big", *ground)
+        ground_only = [{"name": "Big", "mesh_hash": h, "matrix_world": np.eye(4)}]
+        daemon.frame_update(1, ground_only, camera(), lights(), RESOLUTION)
+        with pytest.raises(antumbra.DaemonError) as e:
+            daemon.compare(1, METHODS, repeat=1, **COMMON)
+        assert e.value.code == "LimitExceeded" and e.value.session_usable
+        message = str(e.value)
+        assert "comparing 3 methods" in message and "max_render_bytes" in message, message
+        for settings in METHODS.values():
+            assert daemon.render(1, passes=("masks",), **settings, **COMMON).frame == 1

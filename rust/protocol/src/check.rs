@@ -3,7 +3,10 @@
 
 use std::collections::HashSet;
 
-use antumbra_core::render::{estimate_render_bytes, RenderMemory, RenderSettings, StatsMode};
+use antumbra_core::compare::Comparison;
+use antumbra_core::render::{
+    estimate_comparison_bytes, estimate_render_bytes, RenderMemory, RenderSettings, StatsMode,
+};
 use antumbra_core::scene::Scene;
 
 use crate::error::ProtocolError;
@@ -164,6 +167,27 @@ pub fn check_render_memory(
     if estimate.total() > limits.max_render_bytes {
         return Err(ProtocolError::RenderMemory {
             frame: scene.frame,
+            estimate,
+            limit: limits.max_render_bytes,
+        });
+    }
+    Ok(estimate)
+}
+
+/// Checks a comparison's estimated peak memory, every method's kept trees together
+/// ([`estimate_comparison_bytes`]), against `limits.max_render_bytes` before any work.
+pub fn check_compare_memory(
+    scene: &Scene,
+    comparison: &Comparison,
+    output_planes: u64,
+    limits: &Limits,
+) -> Result<RenderMemory, ProtocolError> {
+    let methods = comparison.settings();
+    let estimate = estimate_comparison_bytes(scene, &methods, output_planes);
+    if estimate.total() > limits.max_render_bytes {
+        return Err(ProtocolError::CompareMemory {
+            frame: scene.frame,
+            methods: methods.len(),
             estimate,
             limit: limits.max_render_bytes,
         });

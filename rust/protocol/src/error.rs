@@ -109,6 +109,20 @@ pub enum ProtocolError {
         estimate: RenderMemory,
         limit: u64,
     },
+    /// A comparison whose methods together (each keeps its own trees) are estimated to need
+    /// more memory than the budget; refused before any work.
+    #[error(
+        "frame {frame}: comparing {methods} methods needs {estimate}, every method's trees \
+         together, over the render memory budget of {} (max_render_bytes); compare fewer \
+         methods at once",
+        format_bytes(*limit)
+    )]
+    CompareMemory {
+        frame: i32,
+        methods: usize,
+        estimate: RenderMemory,
+        limit: u64,
+    },
     /// A core validation error found in one frame's data.
     #[error("frame {frame}: {error}")]
     InFrame {
@@ -132,9 +146,9 @@ impl ProtocolError {
         match self {
             ProtocolError::VersionMismatch { .. } => ErrorCode::VersionMismatch,
             ProtocolError::UnknownMesh { .. } => ErrorCode::UnknownMesh,
-            ProtocolError::LimitExceeded { .. } | ProtocolError::RenderMemory { .. } => {
-                ErrorCode::LimitExceeded
-            }
+            ProtocolError::LimitExceeded { .. }
+            | ProtocolError::RenderMemory { .. }
+            | ProtocolError::CompareMemory { .. } => ErrorCode::LimitExceeded,
             ProtocolError::InFrame {
                 error: antumbra_core::Error::Cancelled,
                 ..

@@ -20,10 +20,10 @@ pub mod limits;
 pub mod messages;
 pub mod recording;
 
-pub use check::{check_limits, check_render_memory, reply_planes};
+pub use check::{check_compare_memory, check_limits, check_render_memory, reply_planes};
 pub use compare::{
     compare_result_reply, heat_from_reply, CompareMethod, CompareRequest, CompareResultReply,
-    CompareRowState, MismatchState,
+    CompareRowState, CompareState, MismatchState, COMPARE_STAGE,
 };
 pub use convert::{
     frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,

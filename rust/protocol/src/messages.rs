@@ -48,9 +48,9 @@ pub enum Request {
     /// `FrameResult` (or `Error`).
     Render(RenderRequest),
     /// Render a frame that was sent with `FrameUpdate` with several methods, compared (see
-    /// `docs/protocol.md`). Reply: `CompareResult` (or `Error`).
+    /// `docs/protocol.md`). Replies: zero or more `Progress`, then `CompareResult` (or `Error`).
     Compare(CompareRequest),
-    /// Cancel a running render. Reply: `Ack`; the render itself ends with
+    /// Cancel a running render or comparison. Reply: `Ack`; the render itself ends with
     /// `Error { code: Cancelled }` (or its result, if it finished first).
     Cancel { request_id: u64 },
     /// Daemon statistics. Reply: `DaemonStats`.

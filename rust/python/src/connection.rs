@@ -97,6 +97,34 @@ impl Wait for PyWait<'_> {
     }
 }
 
+/// A `progress` argument: a callable or None.
+pub(crate) fn check_progress(progress: Option<&Bound<'_, PyAny>>) -> ClientResult<()> {
+    match progress {
+        Some(p) if !p.is_callable() => Err(ClientError::invalid(
+            "progress: expected a callable progress(stage, done, total) or None",
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Calls a render's or a comparison's progress callback: False from it cancels, an exception
+/// cancels and is raised once the request has ended.
+fn call_progress(
+    progress: Option<&Bound<'_, PyAny>>,
+    wait: &mut PyWait<'_>,
+    stage: &str,
+    done: u32,
+    total: u32,
+) -> Result<bool, Interrupt> {
+    let Some(cb) = progress else {
+        return Ok(true);
+    };
+    let stop = cb
+        .call1((stage, done, total))
+        .and_then(|v| Ok(v.is_instance_of::<PyBool>() && !v.is_truthy()?));
+    stop.map(|stop| !stop).map_err(|e| wait.keep(e))
+}
+
 /// What the session holds besides the client: the Python API's mesh bookkeeping and recording.
 struct State {
     client: Client,
@@ -115,7 +143,7 @@ pub struct Connection {
     state: Mutex<Option<State>>,
     /// `cancel()` writes through this from another thread while the render's thread reads.
     sender: Sender,
-    /// The request id of the render in progress (0: none).
+    /// The request id of the render or comparison in progress (0: none).
     active_render: AtomicU64,
     next_id: AtomicU64,
 }
@@ -423,13 +451,7 @@ impl Connection {
             .map_err(|e| ClientError::invalid(e.to_string()))?;
             let passes = scene::passes(passes)?;
             let between_replies = duration(timeout, "timeout")?;
-            if let Some(p) = &progress {
-                if !p.is_callable() {
-                    return Err(ClientError::invalid(
-                        "progress: expected a callable progress(stage, done, total) or None",
-                    ));
-                }
-            }
+            check_progress(progress.as_ref())?;
             let mut guard = self.lock()?;
             let state = Self::state(&mut guard)?;
             let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
@@ -450,13 +472,7 @@ impl Connection {
                 &format!("the result of Render frame {frame}"),
                 between_replies,
                 |wait, stage, done, total| {
-                    let Some(cb) = &progress else {
-                        return Ok(true);
-                    };
-                    let stop = cb
-                        .call1((stage, done, total))
-                        .and_then(|v| Ok(v.is_instance_of::<PyBool>() && !v.is_truthy()?));
-                    stop.map(|stop| !stop).map_err(|e| wait.keep(e))
+                    call_progress(progress.as_ref(), wait, stage, done, total)
                 },
             );
             self.active_render.store(0, Ordering::SeqCst);
@@ -468,8 +484,9 @@ impl Connection {
 
     /// Renders a frame sent with frame_update with every method (see `compare::compare_request`
     /// for `methods`); returns `compare::compare_reply_to_py`'s dict, with each method's heat
-    /// plane when `images`. `timeout`: seconds to wait for the result (None: no limit).
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false))]
+    /// plane when `images`. `timeout`: seconds to wait between two replies (None: no limit).
+    /// `progress` and Ctrl-C act as in `render`.
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false, progress = None))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
@@ -481,11 +498,13 @@ impl Connection {
         settings: Option<&Bound<'py, PyDict>>,
         timeout: Option<f64>,
         images: bool,
+        progress: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let mut wait = PyWait::new(py);
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
             let within = duration(timeout, "timeout")?;
+            check_progress(progress.as_ref())?;
             let (mut request, baseline) =
                 compare_request(frame, methods, baseline, repeat, settings, images)?;
             let asked = request.clone();
@@ -493,11 +512,19 @@ impl Connection {
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
             let mut guard = self.lock()?;
             let state = Self::state(&mut guard)?;
-            request.request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
-            let reply = state
-                .client
-                .compare(&mut wait, request, within)
-                .map_err(|e| wait.error(e))?;
+            let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
+            request.request_id = request_id;
+            self.active_render.store(request_id, Ordering::SeqCst);
+            let reply = state.client.compare_with(
+                &mut wait,
+                request,
+                within,
+                |wait, stage, done, total| {
+                    call_progress(progress.as_ref(), wait, stage, done, total)
+                },
+            );
+            self.active_render.store(0, Ordering::SeqCst);
+            let reply = reply.map_err(|e| wait.error(e))?;
             compare_reply_to_py(py, &asked, baseline, reply)
         })()
         .py_result(py)

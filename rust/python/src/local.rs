@@ -8,13 +8,13 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::time::Instant;
 
-use antumbra_core::compare::Comparison;
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::render::Renderer;
 use antumbra_core::scene::Mesh;
 use antumbra_protocol::{
-    check_limits, compare_result_reply, frame_result_reply, mesh_from_upload, missing_meshes,
-    render_settings, scene_from_frame, upload_from_mesh, CameraState, CompareRequest, DaemonStats,
-    ErrorCode, FrameUpdate, Limits, ProtocolError, Request,
+    check_limits, frame_result_reply, mesh_from_upload, missing_meshes, render_settings,
+    scene_from_frame, upload_from_mesh, CameraState, CompareState, DaemonStats, ErrorCode,
+    FrameUpdate, Limits, ProtocolError, Request, COMPARE_STAGE,
 };
 
 /// The progress stages, as the daemon reports them: ("render", 0, 2), then ("encode", 1, 2).
@@ -24,6 +24,7 @@ use pyo3::types::{PyBool, PyDict};
 
 use crate::arrays::mesh_from_arrays;
 use crate::compare::{compare_reply_to_py, compare_request};
+use crate::connection::check_progress;
 use crate::error::{ClientError, ClientResult, IntoPyResult};
 use crate::recording::Recorder;
 use crate::result::{daemon_stats, frame_result_to_py, limits as limits_dict};
@@ -35,8 +36,8 @@ struct LocalState {
     frames: HashMap<i32, FrameUpdate>,
     cameras: BTreeMap<i32, CameraState>,
     renderer: Renderer,
-    /// The last `Compare`'s request and comparison, kept while its methods stay the same.
-    comparison: Option<(CompareRequest, Comparison)>,
+    /// The comparison kept across `Compare` requests, as the daemon's session keeps it.
+    comparison: CompareState,
     stats: DaemonStats,
     recorder: Option<Recorder>,
     closed: bool,
@@ -101,7 +102,7 @@ impl LocalSession {
                 frames: HashMap::new(),
                 cameras: BTreeMap::new(),
                 renderer: Renderer::new(),
-                comparison: None,
+                comparison: CompareState::new(),
                 stats: DaemonStats {
                     sessions: 1,
                     sessions_total: 1,
@@ -312,10 +313,12 @@ impl LocalSession {
         .py_result(py)
     }
 
-    /// Renders a frame sent with frame_update with every method, as the daemon does (one
-    /// comparison kept while the methods stay the same); returns what `Connection.compare` does.
-    /// `timeout` is accepted and unused, as in `render`.
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false))]
+    /// Renders a frame sent with frame_update with every method through the daemon's
+    /// `CompareState`; returns what `Connection.compare` does (each method's heat plane when
+    /// `images`). `progress(stage, done, total)` is called as the daemon reports; returning
+    /// False or raising cancels between method passes, as does Ctrl-C. `timeout` is accepted
+    /// and unused, as in `render`.
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false, progress = None))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
@@ -327,10 +330,12 @@ impl LocalSession {
         settings: Option<&Bound<'py, PyDict>>,
         timeout: Option<f64>,
         images: bool,
+        progress: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = timeout;
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
+            check_progress(progress.as_ref())?;
             let (mut request, baseline) =
                 compare_request(frame, methods, baseline, repeat, settings, images)?;
             let asked = request.clone();
@@ -354,32 +359,60 @@ impl LocalSession {
                 state.stats.renders_failed += 1;
                 render_error(&e, request_id)
             })?;
-            if !matches!(&state.comparison, Some((last, _)) if last.same_comparison(&request)) {
-                state.comparison = None;
-                let c = request
-                    .comparison()
-                    .map_err(|e| render_error(&e, request_id))?;
-                state.comparison = Some((request, c));
-            }
-            let Some((_, comparison)) = state.comparison.as_mut() else {
-                unreachable!("set above")
-            };
+            let callback = progress.map(Bound::unbind);
+            let cancel = CancelToken::new();
+            // The first exception of the callback or of Ctrl-C, raised once the frame ends.
+            let mut raised: Option<PyErr> = None;
+            let comparison = &mut state.comparison;
             let label = self.label.as_str();
-            let result = py.detach(|| comparison.frame(label, &scene));
-            let result = match result {
-                Ok(r) => compare_result_reply(comparison, r, request_id, asked.images),
-                Err(error) => {
-                    // Some methods may have advanced past this frame: start afresh next time.
-                    state.comparison = None;
-                    state.stats.renders_failed += 1;
-                    return Err(render_error(
-                        &ProtocolError::InFrame { frame, error },
-                        request_id,
-                    ));
+            let result = py.detach(|| {
+                comparison.frame(&request, label, &scene, &cancel, &mut |done, total| {
+                    if cancel.is_cancelled() {
+                        return;
+                    }
+                    Python::attach(|py| {
+                        let go_on = py.check_signals().and_then(|()| match &callback {
+                            None => Ok(true),
+                            Some(cb) => {
+                                let v = cb.bind(py).call1((COMPARE_STAGE, done, total))?;
+                                Ok(!v.is_instance_of::<PyBool>() || v.is_truthy()?)
+                            }
+                        });
+                        match go_on {
+                            Ok(true) => {}
+                            Ok(false) => cancel.cancel(),
+                            Err(e) => {
+                                raised = Some(e);
+                                cancel.cancel();
+                            }
+                        }
+                    })
+                })
+            });
+            match result {
+                Ok(reply) => {
+                    state.stats.renders_done += 1;
+                    compare_reply_to_py(py, &asked, baseline, reply)
                 }
-            };
-            state.stats.renders_done += 1;
-            compare_reply_to_py(py, &asked, baseline, result)
+                Err(e) if e.code() == ErrorCode::Cancelled => {
+                    state.stats.renders_cancelled += 1;
+                    Err(match raised {
+                        Some(e) => ClientError::Py(e),
+                        None => request_error(
+                            ErrorCode::Cancelled,
+                            format!(
+                                "Compare frame {frame} (request {request_id}): cancelled by the \
+                                 client"
+                            ),
+                            request_id,
+                        ),
+                    })
+                }
+                Err(e) => {
+                    state.stats.renders_failed += 1;
+                    Err(render_error(&e, request_id))
+                }
+            }
         })()
         .py_result(py)
     }
@@ -448,7 +481,7 @@ impl LocalSession {
             state.meshes.clear();
             state.frames.clear();
             state.renderer = Renderer::new();
-            state.comparison = None;
+            state.comparison.clear();
             Ok(())
         })()
         .py_result(py)

@@ -8,7 +8,7 @@ mod summary;
 mod tables;
 
 pub use method::{default_methods, MethodSpec, DEFAULT_METHODS};
-pub use run::{CompareRow, Comparison, FrameComparison, MethodFrame, Mismatch, Timing};
+pub use run::{CompareRow, Comparison, FrameComparison, MethodFrame, Mismatch, Step, Timing};
 pub use summary::{
     pass_summaries, time_summaries, Figures, FrameFigures, PassSummary, TimeSummary, Work,
 };

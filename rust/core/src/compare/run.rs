@@ -9,6 +9,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::method::MethodSpec;
+use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
 use crate::render::{FrameResult, RenderSettings, Renderer, StatsMode};
 use crate::scene::Scene;
@@ -94,6 +95,16 @@ impl MethodFrame {
     pub fn shadow_heat(&self) -> Option<&ImagePlane> {
         self.result.heat.as_ref().map(|h| &h.shadow[0])
     }
+}
+
+/// One method pass of a frame done: `done` of `total` (see [`Comparison::steps`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step<'a> {
+    pub label: &'a str,
+    /// A timed pass (else the counted one).
+    pub timed: bool,
+    pub done: usize,
+    pub total: usize,
 }
 
 /// Every method on one frame.
@@ -201,15 +212,60 @@ impl Comparison {
     /// the method's state before this frame so that it builds and prepares what the counted
     /// pass did.
     pub fn frame(&mut self, scene_name: &str, scene: &Scene) -> Result<FrameComparison> {
+        self.frame_cancellable(scene_name, scene, &CancelToken::new(), &mut |_| {})
+    }
+
+    /// The method passes [`frame_cancellable`](Self::frame_cancellable) renders: one counted
+    /// and `repeat` timed per method.
+    pub fn steps(&self) -> usize {
+        self.methods.len() * (1 + self.repeat)
+    }
+
+    /// As [`frame`](Self::frame), reading `cancel` per tile of every pass and calling
+    /// `progress` after each method pass. A frame that fails or is cancelled leaves every
+    /// method's state as it was before the frame, so the next frame continues the animation.
+    pub fn frame_cancellable(
+        &mut self,
+        scene_name: &str,
+        scene: &Scene,
+        cancel: &CancelToken,
+        progress: &mut (dyn FnMut(Step) + Send),
+    ) -> Result<FrameComparison> {
         let before: Vec<Renderer> = self.methods.iter().map(|m| m.renderer.clone()).collect();
+        let result = self.run(scene_name, scene, &before, cancel, progress);
+        if result.is_err() {
+            for (m, state) in self.methods.iter_mut().zip(before) {
+                m.renderer = state;
+            }
+        }
+        result
+    }
+
+    fn run(
+        &mut self,
+        scene_name: &str,
+        scene: &Scene,
+        before: &[Renderer],
+        cancel: &CancelToken,
+        progress: &mut (dyn FnMut(Step) + Send),
+    ) -> Result<FrameComparison> {
+        let total = self.steps();
+        let mut done = 0;
         let mut counted = Vec::with_capacity(self.methods.len());
         for m in &mut self.methods {
             let settings = with_stats(&m.settings, StatsMode::Counts);
             counted.push(
                 m.renderer
-                    .render(scene_name, scene, &settings)
+                    .render_cancellable(scene_name, scene, &settings, cancel)
                     .map_err(|e| in_method(&m.spec.label, e))?,
             );
+            done += 1;
+            progress(Step {
+                label: &m.spec.label,
+                timed: false,
+                done,
+                total,
+            });
         }
         let frame = scene.frame;
         let mismatches = self.check(frame, &counted);
@@ -220,10 +276,17 @@ impl Comparison {
                 let settings = with_stats(&m.settings, StatsMode::TimingOnly);
                 let started = Instant::now();
                 let result = renderer
-                    .render(scene_name, scene, &settings)
+                    .render_cancellable(scene_name, scene, &settings, cancel)
                     .map_err(|e| in_method(&m.spec.label, e))?;
                 let ms = started.elapsed().as_secs_f64() * 1e3;
                 timed[i].push((ms, result.stats));
+                done += 1;
+                progress(Step {
+                    label: &m.spec.label,
+                    timed: true,
+                    done,
+                    total,
+                });
             }
         }
         let methods = self
@@ -288,8 +351,12 @@ fn with_stats(settings: &RenderSettings, stats: StatsMode) -> RenderSettings {
     }
 }
 
+/// A method's error, naming the method; a cancelled frame stays [`Error::Cancelled`].
 fn in_method(label: &str, e: Error) -> Error {
-    Error::invalid(format!("method '{label}'"), e.to_string())
+    match e {
+        Error::Cancelled => Error::Cancelled,
+        e => Error::invalid(format!("method '{label}'"), e.to_string()),
+    }
 }
 
 /// Pixels whose values differ in their bits (so -0 and 0, or two NaNs of other payloads, count).

@@ -233,6 +233,41 @@ pub fn estimate_render_bytes(
     }
 }
 
+/// Estimates the peak memory of a comparison rendering `scene` with each of `methods` (see
+/// `compare::Comparison`): every method keeps its own trees across frames, and a frame starts
+/// from a copy of each method's state, which holds the previous frame's trees while the new
+/// ones are built, so the trees count twice per method, plus those of the one timed pass that
+/// runs at a time. Every method's counted result lives until the frame ends; one pass's
+/// buffers and one light's preparation are alive at a time.
+pub fn estimate_comparison_bytes(
+    scene: &Scene,
+    methods: &[&RenderSettings],
+    output_planes: u64,
+) -> RenderMemory {
+    let each: Vec<RenderMemory> = methods
+        .iter()
+        .map(|s| estimate_render_bytes(scene, s, output_planes))
+        .collect();
+    let Some(first) = each.first().copied() else {
+        return estimate_render_bytes(scene, &RenderSettings::default(), output_planes);
+    };
+    let sum = |f: fn(&RenderMemory) -> u64| each.iter().map(f).fold(0u64, u64::saturating_add);
+    let max = |f: fn(&RenderMemory) -> u64| each.iter().map(f).max().unwrap_or(0);
+    // The process once; each method's result and the largest pass's buffers are within its
+    // image bytes, so the sum bounds both.
+    let image_bytes = sum(|m| m.image_bytes)
+        .saturating_sub((each.len() as u64 - 1).saturating_mul(PROCESS_BYTES));
+    let geometry_bytes = sum(|m| m.geometry_bytes)
+        .saturating_mul(2)
+        .saturating_add(max(|m| m.geometry_bytes));
+    RenderMemory {
+        image_bytes,
+        geometry_bytes,
+        light_bytes: max(|m| m.light_bytes),
+        ..first
+    }
+}
+
 /// The planes a frame's files or a full reply hold: every mask, the combined image, the heat
 /// maps when counting and the object ids.
 pub fn all_output_planes(scene: &Scene, settings: &RenderSettings) -> u64 {
@@ -306,5 +341,31 @@ mod tests {
         huge.resolution.percentage = u32::MAX;
         assert!(estimate_render_bytes(&huge, &s, u64::MAX).total() > 1 << 60);
         assert!(big.to_string().contains("8192x8192 pixels"), "{big}");
+    }
+
+    #[test]
+    fn a_comparison_bounds_every_method_together() {
+        let sc = scene(1000, 64, 64);
+        let sah = RenderSettings::default();
+        let sbvh = RenderSettings {
+            build: BuildMethod::Sbvh,
+            ..sah.clone()
+        };
+        let one = estimate_render_bytes(&sc, &sbvh, 0);
+        let alone = estimate_comparison_bytes(&sc, &[&sbvh], 0);
+        // One method: its trees and the previous frame's, plus a timed pass's.
+        assert_eq!(alone.geometry_bytes, 3 * one.geometry_bytes);
+        assert_eq!(alone.image_bytes, one.image_bytes);
+        let both = estimate_comparison_bytes(&sc, &[&sah, &sbvh], 0);
+        let two = estimate_render_bytes(&sc, &sah, 0);
+        assert_eq!(
+            both.geometry_bytes,
+            2 * (one.geometry_bytes + two.geometry_bytes) + one.geometry_bytes
+        );
+        assert_eq!(
+            both.image_bytes,
+            one.image_bytes + two.image_bytes - PROCESS_BYTES
+        );
+        assert!(both.total() > one.total().max(two.total()));
     }
 }

@@ -19,7 +19,9 @@ pub use light_tracer::{
     binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
 };
 pub use lights::{LightSample, LightSampler};
-pub use memory::{all_output_planes, estimate_render_bytes, format_bytes, RenderMemory};
+pub use memory::{
+    all_output_planes, estimate_comparison_bytes, estimate_render_bytes, format_bytes, RenderMemory,
+};
 pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, OBJECT_PLANE};
 pub use settings::{RenderSettings, StatsMode, MAX_SPP};

@@ -7,7 +7,7 @@ use std::sync::mpsc::TrySendError;
 use std::sync::Arc;
 
 use antumbra_protocol::{
-    check_render_memory, scene_from_frame, CompareRequest, ErrorCode, ProtocolError, Reply,
+    check_compare_memory, scene_from_frame, CompareRequest, ErrorCode, ProtocolError, Reply,
 };
 
 use super::out::{error_reply, protocol_error};
@@ -48,11 +48,15 @@ impl Session<'_> {
             Ok(s) => s,
             Err(e) => return refuse(self, e),
         };
-        // The costliest method bounds the estimate (methods render one after another).
-        for settings in comparison.settings() {
-            if let Err(e) = check_render_memory(&scene, settings, 0, &self.limits) {
-                return refuse(self, e);
-            }
+        // Every method keeps its own trees across frames: the methods together are bounded,
+        // with one heat plane per method when the images travel back.
+        let image_planes = if c.images {
+            comparison.labels().len() as u64
+        } else {
+            0
+        };
+        if let Err(e) = check_compare_memory(&scene, &comparison, image_planes, &self.limits) {
+            return refuse(self, e);
         }
         let settings = comparison.settings()[0].clone();
         drop(comparison);

@@ -10,12 +10,11 @@ use std::thread::JoinHandle;
 use std::time::Instant;
 
 use antumbra_core::cancel::CancelToken;
-use antumbra_core::compare::Comparison;
 use antumbra_core::render::{RenderSettings, Renderer};
 use antumbra_core::scene::Scene;
 use antumbra_protocol::{
-    compare_result_reply, encode_message_within, frame_result_reply, CompareRequest, ErrorCode,
-    Passes, ProtocolError, Reply,
+    encode_message_within, frame_result_reply, CompareRequest, CompareState, ErrorCode, Passes,
+    ProtocolError, Reply, COMPARE_STAGE,
 };
 
 use super::out::{error_reply, protocol_error, Out};
@@ -96,7 +95,7 @@ struct WorkerCtx {
 impl WorkerCtx {
     fn run(self, rx: Receiver<Job>) {
         let mut renderer = Renderer::new();
-        let mut comparison = None;
+        let mut comparison = CompareState::new();
         for job in rx {
             match &job.compare {
                 Some(request) => self.compare(&mut comparison, &job, request),
@@ -135,10 +134,15 @@ impl WorkerCtx {
             when,
             "render cancelled"
         );
+        let what = if job.compare.is_some() {
+            "Compare"
+        } else {
+            "Render"
+        };
         self.out.send(&error_reply(
             ErrorCode::Cancelled,
             format!(
-                "Render frame {} (request {}): {why} {when}",
+                "{what} frame {} (request {}): {why} {when}",
                 job.scene.frame, job.request_id
             ),
             true,
@@ -283,15 +287,9 @@ impl WorkerCtx {
         }
     }
 
-    /// A `Compare`: the session's comparison (rebuilt when the request's methods differ from
-    /// the last one's, so each method keeps its state across frames) renders the frame with
-    /// every method in one render slot.
-    fn compare(
-        &self,
-        state: &mut Option<(CompareRequest, Comparison)>,
-        job: &Job,
-        request: &CompareRequest,
-    ) {
+    /// A `Compare`: the session's [`CompareState`] renders the frame with every method in one
+    /// render slot, sending progress per method pass; ends as a render does when cancelled.
+    fn compare(&self, state: &mut CompareState, job: &Job, request: &CompareRequest) {
         let id = job.request_id;
         let frame = job.scene.frame;
         let cancel = &job.ctl.cancel;
@@ -314,37 +312,42 @@ impl WorkerCtx {
             }
         };
         job.ctl.started.store(true, Ordering::Relaxed);
+        if cancel.is_cancelled() {
+            drop(slot);
+            return self.cancelled(job, "before it started; its render slot is free");
+        }
         let fail = |reply: Reply| {
             bump(&self.shared.counters.renders_failed);
             self.out.send(&reply);
         };
-        if !matches!(state, Some((last, _)) if last.same_comparison(request)) {
-            *state = None;
-            match request.comparison() {
-                Ok(c) => *state = Some((request.clone(), c)),
-                Err(e) => return fail(protocol_error(&e, Some(id))),
-            }
-        }
-        let Some((_, comparison)) = state.as_mut() else {
-            unreachable!("set above")
-        };
         let t0 = Instant::now();
-        // Runs on the slot's own thread pool, as renders do.
+        // Runs on the slot's own thread pool, as renders do; a panic leaves no comparison.
         let result = catch_unwind(AssertUnwindSafe(|| {
-            slot.install(|| comparison.frame(&self.label, &job.scene))
+            slot.install(|| {
+                state.frame(
+                    request,
+                    &self.label,
+                    &job.scene,
+                    cancel,
+                    &mut |done, total| self.progress(id, COMPARE_STAGE, done, total),
+                )
+            })
         }));
         drop(slot);
         let result = match result {
-            Ok(Ok(r)) => compare_result_reply(comparison, r, id, request.images),
+            Ok(Ok(r)) => r,
+            Ok(Err(e)) if e.code() == ErrorCode::Cancelled => {
+                let when = format!(
+                    "after {:.1} s of comparing; its render slot is free",
+                    t0.elapsed().as_secs_f64()
+                );
+                return self.cancelled(job, &when);
+            }
             Ok(Err(e)) => {
-                // Some methods may have advanced past this frame: start afresh next time.
-                *state = None;
-                let e = ProtocolError::InFrame { frame, error: e };
                 tracing::warn!(request_id = id, error = %e, "compare failed");
                 return fail(protocol_error(&e, Some(id)));
             }
             Err(_) => {
-                *state = None;
                 tracing::error!(request_id = id, frame, "compare panicked");
                 return fail(error_reply(
                     ErrorCode::Internal,
@@ -354,6 +357,8 @@ impl WorkerCtx {
                 ));
             }
         };
+        // A Cancel that came after the last method pass gets the result: a cancelled
+        // comparison always leaves the session's comparison as before the frame.
         let reply = Reply::CompareResult(result);
         match encode_message_within(&reply, &self.out.limits) {
             Ok(bytes) => {

@@ -103,28 +103,44 @@ impl Client {
         }
     }
 
-    /// Renders a frame sent before with every method of `request`; its one reply is the
-    /// result (or an error), awaited at most `within` (None: for ever; a comparison of many
-    /// methods may take long, and sends no progress).
+    /// Renders a frame sent before with every method of `request`, waiting at most `within`
+    /// between two replies (None: for ever); its `Progress` replies are read and dropped.
+    /// Interrupting the wait cancels the comparison as [`finish_render_with`] does.
+    ///
+    /// [`finish_render_with`]: Self::finish_render_with
     pub fn compare(
         &mut self,
         wait: &mut impl Wait,
         request: CompareRequest,
         within: Option<Duration>,
     ) -> Result<CompareResultReply, ClientError> {
+        self.compare_with(wait, request, within, |_, _, _, _| Ok(true))
+    }
+
+    /// As [`compare`](Self::compare), with `progress` seeing each stage (`queued`, then
+    /// [`COMPARE_STAGE`](crate::COMPARE_STAGE) with method passes done of all) and able to
+    /// cancel, as in [`finish_render_with`](Self::finish_render_with).
+    pub fn compare_with<W: Wait>(
+        &mut self,
+        wait: &mut W,
+        request: CompareRequest,
+        between_replies: Option<Duration>,
+        progress: impl FnMut(&mut W, &str, u32, u32) -> Result<bool, Interrupt>,
+    ) -> Result<CompareResultReply, ClientError> {
         let request_id = request.request_id;
         let frame = request.frame;
         self.send_with(wait, &Request::Compare(request))?;
-        let deadline = within.map(|d| Instant::now() + d);
-        let reply = self.recv_within(
+        self.finish_with(
             wait,
-            &format!("the result of Compare frame {frame}"),
-            deadline,
-        )?;
-        match self.error_of(reply)? {
-            Reply::CompareResult(r) if r.request_id == request_id => Ok(r),
-            other => Err(self.unexpected("Compare", &other)),
-        }
+            request_id,
+            ("Compare", &format!("the result of Compare frame {frame}")),
+            between_replies,
+            progress,
+            |reply| match reply {
+                Reply::CompareResult(r) if r.request_id == request_id => Ok(r),
+                other => Err(other),
+            },
+        )
     }
 
     /// Sends one frame's scene: asks which meshes are missing, uploads those, then sends the
@@ -214,8 +230,32 @@ impl Client {
         request_id: u64,
         waiting_for: &str,
         between_replies: Option<Duration>,
-        mut progress: impl FnMut(&mut W, &str, u32, u32) -> Result<bool, Interrupt>,
+        progress: impl FnMut(&mut W, &str, u32, u32) -> Result<bool, Interrupt>,
     ) -> Result<FrameResultReply, ClientError> {
+        self.finish_with(
+            wait,
+            request_id,
+            ("Render", waiting_for),
+            between_replies,
+            progress,
+            |reply| match reply {
+                Reply::FrameResult(r) if r.request_id == request_id => Ok(r),
+                other => Err(other),
+            },
+        )
+    }
+
+    /// The reading loop of a render or a comparison (`what`: the request's name, and what the
+    /// caller waits for); `result` picks the request's own result out of a reply.
+    fn finish_with<W: Wait, T>(
+        &mut self,
+        wait: &mut W,
+        request_id: u64,
+        (what, waiting_for): (&str, &str),
+        between_replies: Option<Duration>,
+        mut progress: impl FnMut(&mut W, &str, u32, u32) -> Result<bool, Interrupt>,
+        result: impl Fn(Reply) -> Result<T, Reply>,
+    ) -> Result<T, ClientError> {
         let interrupted = || ClientError::Interrupted {
             waiting_for: waiting_for.into(),
         };
@@ -257,21 +297,18 @@ impl Client {
                         self.cancel(wait, request_id)?;
                     }
                 }
-                Reply::FrameResult(r) if r.request_id == request_id => {
-                    return match abort {
-                        Some(e) => Err(e),
-                        None => Ok(r),
-                    };
-                }
                 Reply::Error {
                     request_id: Some(id),
                     ..
-                } if id != request_id => return Err(self.unexpected("Render", &reply)),
+                } if id != request_id => return Err(self.unexpected(what, &reply)),
                 Reply::Error { .. } => {
                     let e = self.error_of(reply).expect_err("an Error reply");
                     return Err(abort.unwrap_or(e));
                 }
-                other => return Err(self.unexpected("Render", &other)),
+                other => match result(other) {
+                    Ok(r) => return abort.map_or(Ok(r), Err),
+                    Err(other) => return Err(self.unexpected(what, &other)),
+                },
             }
         }
     }

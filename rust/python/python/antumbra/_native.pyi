@@ -163,6 +163,7 @@ class _SessionMethods:
         settings: Mapping[str, Any] | None = None,
         timeout: float | None = None,
         images: bool = False,
+        progress: Callable[[str, int, int], object] | None = None,
     ) -> RawComparison: ...
     def cancel(self, request_id: int | None = None) -> bool: ...
     def stats(self) -> dict[str, Any]:

@@ -69,7 +69,7 @@ COMPARE_COLUMNS: tuple[str, ...] = tuple(_native.compare_columns())
 #: The image of the ``object_ids`` pass.
 OBJECT_PLANE = "primary.object"
 
-#: ``progress(stage, done, total)``; return False to cancel the render.
+#: ``progress(stage, done, total)``; return False to cancel the render or comparison.
 ProgressCallback = Callable[[str, int, int], "bool | None"]
 
 #: The line ``antumbra serve`` prints on stdout once it accepts connections.
@@ -365,6 +365,7 @@ class _Session:
         *,
         baseline: str | None = None,
         repeat: int = 3,
+        progress: ProgressCallback | None = None,
         timeout: float | None = None,
         images: bool = True,
         **settings: Any,
@@ -382,9 +383,14 @@ class _Session:
             baseline: the label whose answers the others must equal (default: the first).
             repeat: timed passes per method, interleaved across methods; timings are their
                 median and spread, work counters come from one counted pass.
-            timeout: seconds to wait for the result (None: no limit). The comparison sends no
-                progress and cannot be stopped once started: Ctrl-C ends the wait and the
-                session (connect again).
+            progress: ``progress(stage, done, total)``, called with stage ``'compare'`` before
+                the first method pass and after each (``total``: one counted and ``repeat``
+                timed passes per method), and ``'queued'`` while it waits for a render slot;
+                returning False cancels the comparison (it then raises a
+                :class:`RequestError` with code 'Cancelled'), raising cancels it and the
+                exception propagates. Ctrl-C cancels too, and the session goes on: a cancelled
+                frame leaves every method's state as before it.
+            timeout: seconds to wait between two replies of the daemon (None: no limit).
             images: also return each method's shadow-ray node visits per pixel
                 (``CompareFrame.heat``) and their differences to the baseline's.
             settings: settings every method shares (``spp``, ``seed``), by name.
@@ -393,7 +399,9 @@ class _Session:
             A :class:`CompareFrame`: rows, mismatches (not raised), heat and difference
             images; :meth:`CompareReport.add` records it in a report folder.
         """
-        raw = self._native.compare(frame, methods, baseline, repeat, settings, timeout, images)
+        raw = self._native.compare(
+            frame, methods, baseline, repeat, settings, timeout, images, progress=progress
+        )
         return CompareFrame._from_native(dict(raw))
 
     def compare(
@@ -403,6 +411,7 @@ class _Session:
         *,
         baseline: str | None = None,
         repeat: int = 3,
+        progress: ProgressCallback | None = None,
         timeout: float | None = None,
         **settings: Any,
     ) -> Any:
@@ -423,6 +432,7 @@ class _Session:
             methods,
             baseline=baseline,
             repeat=repeat,
+            progress=progress,
             timeout=timeout,
             images=False,
             **settings,
@@ -437,14 +447,14 @@ class _Session:
         return rows
 
     def cancel(self, request_id: int | None = None) -> bool:
-        """Cancels the render in progress on this session (call it from another thread);
-        returns whether a cancel was sent. ``request_id`` None cancels whichever render runs.
+        """Cancels the render or comparison in progress on this session (call it from another
+        thread); returns whether a cancel was sent. ``request_id`` None cancels whichever runs.
         """
         return self._native.cancel(request_id)
 
     @property
     def active_request(self) -> int | None:
-        """The request id of the render in progress, or None."""
+        """The request id of the render or comparison in progress, or None."""
         return self._native.active_request
 
     def stats(self) -> dict[str, Any]:
