@@ -5,7 +5,6 @@ pub mod commands;
 pub mod example_args;
 pub mod frames;
 pub mod method_args;
-pub mod plots;
 pub mod scene_args;
 pub mod scene_source;
 pub mod shadow_lights;

@@ -35,6 +35,7 @@ fn request(frame: i32, request_id: u64) -> CompareRequest {
             .collect(),
         baseline: None,
         repeat: 2,
+        images: false,
     }
 }
 

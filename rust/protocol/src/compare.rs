@@ -2,10 +2,12 @@
 //! [`Comparison`], whose rows and mismatches travel back as the core's own serde forms.
 
 use antumbra_core::compare::{default_methods, Comparison, FrameComparison, MethodSpec};
+use antumbra_core::image::ImagePlane;
 use serde::{Deserialize, Serialize};
 
+use crate::convert::{image, plane_from_image};
 use crate::error::ProtocolError;
-use crate::messages::NamedSettings;
+use crate::messages::{Image, NamedSettings};
 
 pub use antumbra_core::compare::{CompareRow as CompareRowState, Mismatch as MismatchState};
 
@@ -41,6 +43,9 @@ pub struct CompareRequest {
     /// Timed passes per method (at least 1).
     #[serde(default = "default_repeat")]
     pub repeat: u32,
+    /// Whether the reply carries each method's heat plane (`CompareResult.heat`).
+    #[serde(default)]
+    pub images: bool,
 }
 
 /// The reply to `Compare`: one row per method x pass x light, and the methods whose masks or
@@ -53,6 +58,10 @@ pub struct CompareResultReply {
     pub methods: Vec<String>,
     pub rows: Vec<CompareRowState>,
     pub mismatches: Vec<MismatchState>,
+    /// When the request asked for images: per method, in order, its shadow-ray node visits per
+    /// pixel (N_B summed over lights and samples), named by the method's label.
+    #[serde(default)]
+    pub heat: Vec<Image>,
 }
 
 impl CompareRequest {
@@ -80,7 +89,8 @@ impl CompareRequest {
     }
 
     /// Whether a comparison built for `other` serves this request too (same methods, common
-    /// settings, baseline and repeat): then the methods' state carries over.
+    /// settings, baseline and repeat; `images` only shapes the reply): then the methods' state
+    /// carries over.
     pub fn same_comparison(&self, other: &CompareRequest) -> bool {
         self.settings == other.settings
             && self.methods == other.methods
@@ -89,17 +99,37 @@ impl CompareRequest {
     }
 }
 
-/// The reply for one compared frame.
+/// The reply for one compared frame, with each method's heat plane when `images`.
 pub fn compare_result_reply(
     comparison: &Comparison,
     result: FrameComparison,
     request_id: u64,
+    images: bool,
 ) -> CompareResultReply {
+    let heat = if images {
+        let planes = result.methods.iter();
+        planes
+            .filter_map(|m| Some(image(m.shadow_heat()?, m.label.clone())))
+            .collect()
+    } else {
+        Vec::new()
+    };
     CompareResultReply {
         request_id,
         frame: result.frame,
         methods: comparison.specs().iter().map(|s| s.to_string()).collect(),
         rows: result.methods.into_iter().flat_map(|m| m.rows).collect(),
         mismatches: result.mismatches,
+        heat,
     }
+}
+
+/// The heat planes of a reply, each named by its method's label; a plane whose data does not
+/// fill its size is an error naming it.
+pub fn heat_from_reply(reply: &CompareResultReply) -> Result<Vec<ImagePlane>, ProtocolError> {
+    reply
+        .heat
+        .iter()
+        .map(|img| plane_from_image(img, reply.frame))
+        .collect()
 }

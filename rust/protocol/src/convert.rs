@@ -394,7 +394,7 @@ pub fn render_settings(s: &NamedSettings) -> Result<RenderSettings, ProtocolErro
 // ---------------------------------------------------------------------------------------------
 // Results
 
-fn image(plane: &ImagePlane, name: String) -> Image {
+pub(crate) fn image(plane: &ImagePlane, name: String) -> Image {
     Image {
         name,
         width: plane.width,
@@ -450,29 +450,32 @@ pub fn planes_from_reply(reply: &FrameResultReply) -> Result<Vec<ImagePlane>, Pr
     reply
         .images
         .iter()
-        .map(|img| {
-            let field = format!("frame {}: image '{}'.data", reply.frame, img.name);
-            let data = bytes_to_f32s(&img.data, &field)?;
-            let expected = img.width as u64 * img.height as u64;
-            if data.len() as u64 != expected {
-                return Err(ProtocolError::invalid(
-                    field,
-                    format!(
-                        "{}x{} needs {expected} values, has {}",
-                        img.width,
-                        img.height,
-                        data.len()
-                    ),
-                ));
-            }
-            Ok(ImagePlane {
-                name: img.name.clone(),
-                width: img.width,
-                height: img.height,
-                data,
-            })
-        })
+        .map(|img| plane_from_image(img, reply.frame))
         .collect()
+}
+
+/// One image of frame `frame`'s reply as a plane; data that does not fill its size is an error.
+pub(crate) fn plane_from_image(img: &Image, frame: i32) -> Result<ImagePlane, ProtocolError> {
+    let field = format!("frame {frame}: image '{}'.data", img.name);
+    let data = bytes_to_f32s(&img.data, &field)?;
+    let expected = img.width as u64 * img.height as u64;
+    if data.len() as u64 != expected {
+        return Err(ProtocolError::invalid(
+            field,
+            format!(
+                "{}x{} needs {expected} values, has {}",
+                img.width,
+                img.height,
+                data.len()
+            ),
+        ));
+    }
+    Ok(ImagePlane {
+        name: img.name.clone(),
+        width: img.width,
+        height: img.height,
+        data,
+    })
 }
 
 /// The visible set of a result, if it was requested.

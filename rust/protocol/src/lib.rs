@@ -22,8 +22,8 @@ pub mod recording;
 
 pub use check::{check_limits, check_render_memory, reply_planes};
 pub use compare::{
-    compare_result_reply, CompareMethod, CompareRequest, CompareResultReply, CompareRowState,
-    MismatchState,
+    compare_result_reply, heat_from_reply, CompareMethod, CompareRequest, CompareResultReply,
+    CompareRowState, MismatchState,
 };
 pub use convert::{
     frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,

@@ -262,10 +262,10 @@ fn request() -> impl Strategy<Value = Request> {
             (any::<i32>(), any::<u64>(), settings()),
             vec((name(), settings()), 0..3),
             proptest::option::of(name()),
-            any::<u32>()
+            (any::<u32>(), any::<bool>())
         )
             .prop_map(
-                |((frame, request_id, settings), methods, baseline, repeat)| {
+                |((frame, request_id, settings), methods, baseline, (repeat, images))| {
                     Request::Compare(CompareRequest {
                         frame,
                         request_id,
@@ -276,6 +276,7 @@ fn request() -> impl Strategy<Value = Request> {
                             .collect(),
                         baseline,
                         repeat,
+                        images,
                     })
                 }
             ),
@@ -395,14 +396,16 @@ fn reply() -> impl Strategy<Value = Reply> {
             vec(name(), 0..3),
             vec(compare_row(), 0..3),
             vec(mismatch(), 0..3),
+            vec(image(), 0..3),
         )
-            .prop_map(|((request_id, frame), methods, rows, mismatches)| {
+            .prop_map(|((request_id, frame), methods, rows, mismatches, heat)| {
                 Reply::CompareResult(CompareResultReply {
                     request_id,
                     frame,
                     methods,
                     rows,
                     mismatches,
+                    heat,
                 })
             }),
         (

@@ -1,15 +1,24 @@
 //! `compare`'s Python side: methods from Python values into a `Compare` request, and its reply
-//! as rows keyed by the columns of `compare.csv` (`antumbra_core::compare::columns`).
+//! as rows keyed by the columns of `compare.csv` (`antumbra_core::compare::columns`), heat and
+//! difference arrays, and the frame as the report folder records it.
 
 use antumbra_core::compare::{cells, columns, MethodSpec, DEFAULT_METHODS};
+use antumbra_core::image::ImagePlane;
 use antumbra_core::stats::Cell;
-use antumbra_protocol::{CompareMethod, CompareRequest, CompareResultReply};
+use antumbra_protocol::{heat_from_reply, CompareMethod, CompareRequest, CompareResultReply};
+use antumbra_report::{difference, ComparedFrame};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyString};
 
-use crate::arrays::describe;
+use crate::arrays::{describe, plane_to_array};
 use crate::error::{ClientError, ClientResult};
 use crate::settings::given;
+
+/// One compared frame as the report folder records it (`CompareReport.add`); opaque in Python.
+#[pyclass(frozen, module = "antumbra._native")]
+pub struct CompareRecord {
+    pub frame: ComparedFrame,
+}
 
 fn method(label: &str, settings: antumbra_core::settings::NamedSettings) -> CompareMethod {
     CompareMethod {
@@ -21,13 +30,15 @@ fn method(label: &str, settings: antumbra_core::settings::NamedSettings) -> Comp
 /// `methods`: None (the defaults), a dict {label: {setting: value}}, or a list of
 /// `LABEL=NAME=VALUE,...` strings. The request is checked here as the daemon checks it (labels,
 /// setting names and values, the baseline), so a bad method raises before anything is sent.
+/// Returns the request and its baseline's label.
 pub fn compare_request(
     frame: i32,
     methods: Option<&Bound<'_, PyAny>>,
     baseline: Option<String>,
     repeat: u32,
     common: Option<&Bound<'_, PyDict>>,
-) -> ClientResult<CompareRequest> {
+    images: bool,
+) -> ClientResult<(CompareRequest, String)> {
     let methods = match methods {
         None => Vec::new(),
         Some(m) if m.is_none() => Vec::new(),
@@ -87,11 +98,14 @@ pub fn compare_request(
         methods,
         baseline,
         repeat,
+        images,
     };
-    request
+    let baseline = request
         .comparison()
-        .map_err(|e| ClientError::invalid(e.to_string()))?;
-    Ok(request)
+        .map_err(|e| ClientError::invalid(e.to_string()))?
+        .baseline()
+        .to_string();
+    Ok((request, baseline))
 }
 
 fn cell_to_py<'py>(py: Python<'py>, c: Cell) -> PyResult<Bound<'py, PyAny>> {
@@ -104,9 +118,15 @@ fn cell_to_py<'py>(py: Python<'py>, c: Cell) -> PyResult<Bound<'py, PyAny>> {
     })
 }
 
-/// `{frame, methods, rows, mismatches}`: rows as dicts of compare.csv's columns, mismatches as
-/// dicts `frame`, `label`, `what`, `pixels`.
-pub fn compare_reply_to_py(py: Python<'_>, r: CompareResultReply) -> PyResult<Bound<'_, PyDict>> {
+/// `{frame, methods, baseline, rows, mismatches, heat, difference, record}`: rows as dicts of
+/// compare.csv's columns, mismatches as dicts `frame`, `label`, `what`, `pixels`, `message`;
+/// heat and difference as {label: float32 (H, W) array}; record a [`CompareRecord`].
+pub fn compare_reply_to_py<'py>(
+    py: Python<'py>,
+    request: &CompareRequest,
+    baseline: String,
+    r: CompareResultReply,
+) -> ClientResult<Bound<'py, PyDict>> {
     let rows = PyList::empty(py);
     for row in &r.rows {
         let spec = r
@@ -131,11 +151,41 @@ pub fn compare_reply_to_py(py: Python<'_>, r: CompareResultReply) -> PyResult<Bo
         d.set_item("message", m.to_string())?;
         mismatches.append(d)?;
     }
+    let planes = heat_from_reply(&r).map_err(|e| ClientError::Mismatch(e.to_string()))?;
+    let heat: Vec<(String, ImagePlane)> = planes.into_iter().map(|p| (p.name.clone(), p)).collect();
+    let difference_arrays = PyDict::new(py);
+    if let Some((_, base)) = heat.iter().find(|(l, _)| *l == baseline) {
+        for (label, plane) in heat.iter().filter(|(l, _)| *l != baseline) {
+            let d = difference(label, &baseline, plane, base)
+                .map_err(|e| ClientError::Mismatch(format!("{e:#}")))?;
+            difference_arrays.set_item(label, plane_to_array(py, d)?)?;
+        }
+    }
+    let heat_arrays = PyDict::new(py);
+    for (label, plane) in &heat {
+        heat_arrays.set_item(label, plane_to_array(py, plane.clone())?)?;
+    }
     let out = PyDict::new(py);
     out.set_item("frame", r.frame)?;
-    out.set_item("methods", r.methods)?;
+    out.set_item("methods", r.methods.clone())?;
+    out.set_item("baseline", &baseline)?;
     out.set_item("rows", rows)?;
     out.set_item("mismatches", mismatches)?;
+    out.set_item("heat", heat_arrays)?;
+    out.set_item("difference", difference_arrays)?;
+    let record = CompareRecord {
+        frame: ComparedFrame {
+            frame: r.frame,
+            methods: r.methods,
+            baseline,
+            repeat: request.repeat as usize,
+            settings: request.settings.clone(),
+            rows: r.rows,
+            mismatches: r.mismatches,
+            heat,
+        },
+    };
+    out.set_item("record", Bound::new(py, record)?)?;
     Ok(out)
 }
 

@@ -467,9 +467,9 @@ impl Connection {
     }
 
     /// Renders a frame sent with frame_update with every method (see `compare::compare_request`
-    /// for `methods`); returns `{frame, methods, rows, mismatches}`. `timeout`: seconds to wait
-    /// for the result (None: no limit).
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None))]
+    /// for `methods`); returns `compare::compare_reply_to_py`'s dict, with each method's heat
+    /// plane when `images`. `timeout`: seconds to wait for the result (None: no limit).
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
@@ -480,12 +480,15 @@ impl Connection {
         repeat: u32,
         settings: Option<&Bound<'py, PyDict>>,
         timeout: Option<f64>,
+        images: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let mut wait = PyWait::new(py);
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
             let within = duration(timeout, "timeout")?;
-            let mut request = compare_request(frame, methods, baseline, repeat, settings)?;
+            let (mut request, baseline) =
+                compare_request(frame, methods, baseline, repeat, settings, images)?;
+            let asked = request.clone();
             antumbra_protocol::check_limits(&Request::Compare(request.clone()), &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
             let mut guard = self.lock()?;
@@ -495,7 +498,7 @@ impl Connection {
                 .client
                 .compare(&mut wait, request, within)
                 .map_err(|e| wait.error(e))?;
-            Ok(compare_reply_to_py(py, reply)?)
+            compare_reply_to_py(py, &asked, baseline, reply)
         })()
         .py_result(py)
     }

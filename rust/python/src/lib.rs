@@ -2,7 +2,8 @@
 //!
 //! - [`mesh_hash`]: the protocol's mesh content hash of numpy arrays;
 //! - [`connection::Connection`]: a session with the daemon over its Unix socket;
-//! - [`local::LocalSession`]: the same methods, rendering in this process.
+//! - [`local::LocalSession`]: the same methods, rendering in this process;
+//! - [`report::CompareReport`]: a comparison's report folder, recorded frame by frame.
 //!
 //! The protocol lives in `antumbra-protocol` only: this module builds its messages from Python
 //! values and never encodes MessagePack itself. The Python package (`python/antumbra`) wraps
@@ -16,6 +17,7 @@ mod files;
 mod local;
 mod recording;
 mod replay;
+mod report;
 mod result;
 mod scene;
 mod settings;
@@ -138,6 +140,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(settings::settings_schema, m)?)?;
     m.add_function(wrap_pyfunction!(compare::default_methods, m)?)?;
     m.add_function(wrap_pyfunction!(compare::compare_columns, m)?)?;
+    m.add_class::<compare::CompareRecord>()?;
+    m.add_class::<report::CompareReport>()?;
     m.add_class::<connection::Connection>()?;
     m.add_class::<local::LocalSession>()?;
     m.add("PROTOCOL_VERSION", antumbra_protocol::PROTOCOL_VERSION)?;

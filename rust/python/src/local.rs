@@ -315,7 +315,7 @@ impl LocalSession {
     /// Renders a frame sent with frame_update with every method, as the daemon does (one
     /// comparison kept while the methods stay the same); returns what `Connection.compare` does.
     /// `timeout` is accepted and unused, as in `render`.
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None))]
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
@@ -326,11 +326,14 @@ impl LocalSession {
         repeat: u32,
         settings: Option<&Bound<'py, PyDict>>,
         timeout: Option<f64>,
+        images: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = timeout;
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
-            let mut request = compare_request(frame, methods, baseline, repeat, settings)?;
+            let (mut request, baseline) =
+                compare_request(frame, methods, baseline, repeat, settings, images)?;
+            let asked = request.clone();
             check_limits(&Request::Compare(request.clone()), &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
             let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
@@ -364,7 +367,7 @@ impl LocalSession {
             let label = self.label.as_str();
             let result = py.detach(|| comparison.frame(label, &scene));
             let result = match result {
-                Ok(r) => compare_result_reply(comparison, r, request_id),
+                Ok(r) => compare_result_reply(comparison, r, request_id, asked.images),
                 Err(error) => {
                     // Some methods may have advanced past this frame: start afresh next time.
                     state.comparison = None;
@@ -376,7 +379,7 @@ impl LocalSession {
                 }
             };
             state.stats.renders_done += 1;
-            Ok(compare_reply_to_py(py, result)?)
+            compare_reply_to_py(py, &asked, baseline, result)
         })()
         .py_result(py)
     }

@@ -88,6 +88,14 @@ pub struct MethodFrame {
     pub result: FrameResult,
 }
 
+impl MethodFrame {
+    /// Shadow-ray node visits per pixel (N_B summed over lights and samples): the plane the
+    /// difference images subtract.
+    pub fn shadow_heat(&self) -> Option<&ImagePlane> {
+        self.result.heat.as_ref().map(|h| &h.shadow[0])
+    }
+}
+
 /// Every method on one frame.
 pub struct FrameComparison {
     pub frame: i32,
@@ -104,6 +112,7 @@ struct Method {
 /// The methods of a comparison and their state across frames.
 pub struct Comparison {
     methods: Vec<Method>,
+    common: NamedSettings,
     baseline: usize,
     repeat: usize,
 }
@@ -154,6 +163,7 @@ impl Comparison {
         };
         Ok(Comparison {
             methods,
+            common: common.clone(),
             baseline,
             repeat,
         })
@@ -174,6 +184,16 @@ impl Comparison {
 
     pub fn baseline(&self) -> &str {
         &self.methods[self.baseline].spec.label
+    }
+
+    /// The settings every method shares, as given.
+    pub fn common(&self) -> &NamedSettings {
+        &self.common
+    }
+
+    /// Timed passes per method and frame.
+    pub fn repeat(&self) -> usize {
+        self.repeat
     }
 
     /// Renders `scene` with every method: the counted pass (advancing each method's state),

@@ -335,7 +335,7 @@ impl WorkerCtx {
         }));
         drop(slot);
         let result = match result {
-            Ok(Ok(r)) => compare_result_reply(comparison, r, id),
+            Ok(Ok(r)) => compare_result_reply(comparison, r, id, request.images),
             Ok(Err(e)) => {
                 // Some methods may have advanced past this frame: start afresh next time.
                 *state = None;

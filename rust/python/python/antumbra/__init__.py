@@ -8,7 +8,8 @@ Two sessions with the same methods:
 
 A frame: ``upload_mesh`` each mesh the session lacks, ``frame_update`` the scene state (objects,
 camera, lights, resolution, with Blender's field names), then ``render`` it into a
-:class:`Result` of float32 numpy images, or ``compare`` methods on it. See ``docs/python.md``.
+:class:`Result` of float32 numpy images, or ``compare`` methods on it (``compare_frame`` into a
+:class:`CompareFrame`, recorded by a :class:`CompareReport`). See ``docs/python.md``.
 """
 
 from . import errors
@@ -45,6 +46,7 @@ from .errors import (
     RequestError,
     SessionBusy,
 )
+from .report import CompareFrame, CompareReport
 
 __all__ = [
     "COMPARE_COLUMNS",
@@ -54,6 +56,8 @@ __all__ = [
     "AnswersDiffer",
     "AntumbraError",
     "Client",
+    "CompareFrame",
+    "CompareReport",
     "ConnectionLost",
     "DaemonError",
     "DaemonTimeout",

@@ -72,8 +72,38 @@ def compare_columns() -> list[str]:
 class RawComparison(TypedDict):
     frame: int
     methods: list[str]
+    baseline: str
     rows: list[dict[str, Any]]
     mismatches: list[dict[str, Any]]
+    heat: dict[str, npt.NDArray[np.float32]]
+    difference: dict[str, npt.NDArray[np.float32]]
+    record: CompareRecord
+
+@final
+class CompareRecord:
+    """One compared frame as the report folder records it (opaque)."""
+
+@final
+class CompareReport:
+    """A comparison's report folder, recorded frame by frame and resumable; InvalidInput when
+    the folder was recorded for another scene, other methods, baseline or repeat."""
+
+    def __init__(
+        self,
+        out_dir: str,
+        scene: str,
+        methods: list[str],
+        baseline: str | None = None,
+        repeat: int = 3,
+    ) -> None: ...
+    def frames(self) -> list[int]: ...
+    def add(self, record: CompareRecord) -> None: ...
+    def write(self) -> str:
+        """Writes the report from every recorded frame; returns report.html's path."""
+    @property
+    def mismatches(self) -> list[str]: ...
+    @property
+    def out_dir(self) -> str: ...
 
 class RenderSettings:
     """Render settings by name (settings_schema()), checked when made (InvalidInput names a
@@ -127,6 +157,7 @@ class _SessionMethods:
         repeat: int = 3,
         settings: Mapping[str, Any] | None = None,
         timeout: float | None = None,
+        images: bool = False,
     ) -> RawComparison: ...
     def cancel(self, request_id: int | None = None) -> bool: ...
     def stats(self) -> dict[str, Any]:

@@ -27,6 +27,7 @@ from . import _native
 from ._native import Connection as _Connection
 from ._native import LocalSession as _LocalSession
 from .errors import AnswersDiffer, AntumbraError, DaemonTimeout, DaemonUnavailable
+from .report import CompareFrame
 
 __all__ = [
     "COMPARE_COLUMNS",
@@ -345,7 +346,7 @@ class _Session:
         raw = self._native.render(frame, checked, passes, progress, timeout)
         return Result._from_native(dict(raw), passes)
 
-    def compare(
+    def compare_frame(
         self,
         frame: int,
         methods: Mapping[str, Mapping[str, Any]] | Iterable[str] | None = None,
@@ -353,8 +354,9 @@ class _Session:
         baseline: str | None = None,
         repeat: int = 3,
         timeout: float | None = None,
+        images: bool = True,
         **settings: Any,
-    ) -> Any:
+    ) -> CompareFrame:
         """Renders a frame sent with :meth:`frame_update` with every method, as
         ``antumbra compare`` does: one request for all methods (the frame and its meshes are
         sent once), each method keeping its own state across the frames of the session
@@ -371,7 +373,29 @@ class _Session:
             timeout: seconds to wait for the result (None: no limit). The comparison sends no
                 progress and cannot be stopped once started: Ctrl-C ends the wait and the
                 session (connect again).
+            images: also return each method's shadow-ray node visits per pixel
+                (``CompareFrame.heat``) and their differences to the baseline's.
             settings: settings every method shares (``spp``, ``seed``), by name.
+
+        Returns:
+            A :class:`CompareFrame`: rows, mismatches (not raised), heat and difference
+            images; :meth:`CompareReport.add` records it in a report folder.
+        """
+        raw = self._native.compare(frame, methods, baseline, repeat, settings, timeout, images)
+        return CompareFrame._from_native(dict(raw))
+
+    def compare(
+        self,
+        frame: int,
+        methods: Mapping[str, Mapping[str, Any]] | Iterable[str] | None = None,
+        *,
+        baseline: str | None = None,
+        repeat: int = 3,
+        timeout: float | None = None,
+        **settings: Any,
+    ) -> Any:
+        """Renders a frame sent with :meth:`frame_update` with every method: the rows of
+        :meth:`compare_frame` (``images=False``; the same arguments).
 
         Returns:
             One row per method x pass x light with the columns of ``compare.csv``
@@ -382,12 +406,21 @@ class _Session:
             AnswersDiffer: a method's masks or primary ids differ from the baseline's on this
                 frame; it names frame, method, light and pixels, and carries the rows.
         """
-        raw = self._native.compare(frame, methods, baseline, repeat, settings, timeout)
-        rows = _rows_frame(raw["rows"])
-        mismatches = list(raw["mismatches"])
-        if mismatches:
+        cf = self.compare_frame(
+            frame,
+            methods,
+            baseline=baseline,
+            repeat=repeat,
+            timeout=timeout,
+            images=False,
+            **settings,
+        )
+        rows = _rows_frame(cf.rows)
+        if cf.mismatches:
             raise AnswersDiffer(
-                "; ".join(m["message"] for m in mismatches), mismatches=mismatches, rows=rows
+                "; ".join(m["message"] for m in cf.mismatches),
+                mismatches=cf.mismatches,
+                rows=rows,
             )
         return rows
 

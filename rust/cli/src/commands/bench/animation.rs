@@ -9,8 +9,8 @@ use antumbra_core::render::{RenderSettings, Renderer, StatsMode, VisibilitySourc
 use antumbra_core::scene::{ImageSize, Resolution};
 use anyhow::Result;
 
-use crate::plots::LinePlot;
 use crate::scene_source::open_scene;
+use antumbra_report::plots::LinePlot;
 
 const CSV_HEADER: &str =
     "frame,method,primary_mrays,primary_nit,primary_nts,shadow_mrays,build_ms,visibility_ms,rebuilt\n";

@@ -2,21 +2,16 @@
 //! recording), their answers checked against the baseline's, their work counted and their time
 //! measured fairly, written as one report folder (see `docs/compare.md`).
 
-mod diff_maps;
-mod html;
-mod report;
-
 use std::path::PathBuf;
 
-use antumbra_core::compare::{default_methods, CompareRow, Comparison, MethodSpec, Mismatch};
+use antumbra_core::compare::{default_methods, Comparison, MethodSpec};
+use antumbra_report::{ComparedFrame, ReportFolder, ReportSetup};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::method_args::MethodArgs;
 use crate::scene_args::{frame_at_size, SceneArgs};
-use diff_maps::DiffMaps;
-pub use report::Report;
 
 #[derive(Args, Debug)]
 pub struct CompareArgs {
@@ -33,7 +28,7 @@ pub struct CompareArgs {
     /// Timed passes per method and frame, interleaved across methods.
     #[arg(long, default_value_t = 3)]
     pub repeat: usize,
-    /// Output folder: compare.csv, compare.json, summary.md, report.html, plots/, diff/.
+    /// Output folder: compare.csv, compare.json, summary.md, report.html, plots/, diff/, frames/.
     #[arg(long)]
     pub out: PathBuf,
     /// Settings every method shares (a method's own settings win), e.g. `--spp 16`.
@@ -60,8 +55,9 @@ pub fn run(args: CompareArgs) -> Result<()> {
     )?;
     let open = args.scene.open()?;
     let animation = open.animation.as_ref();
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    // Every frame is compared anew, so frames recorded there by an earlier run are dropped.
+    let mut folder =
+        ReportFolder::create(&args.out, ReportSetup::of(animation.name(), &comparison))?;
     let frames = open.frames.clone().count();
     let bar = ProgressBar::new(frames as u64);
     bar.set_style(
@@ -70,34 +66,20 @@ pub fn run(args: CompareArgs) -> Result<()> {
             .progress_chars("=> "),
     );
     bar.set_prefix(format!("compare {}", animation.name()));
-    let mut rows: Vec<CompareRow> = Vec::new();
-    let mut mismatches: Vec<Mismatch> = Vec::new();
-    let mut diffs = DiffMaps::new(&args.out, comparison.baseline());
     for frame in open.frames.clone() {
         let scene = frame_at_size(animation, frame, open.size);
         let result = comparison
             .frame(animation.name(), &scene)
             .with_context(|| format!("frame {frame}"))?;
-        diffs.add(&result)?;
-        for m in result.methods {
-            rows.extend(m.rows);
-        }
-        mismatches.extend(result.mismatches);
+        folder.add(ComparedFrame::of(&comparison, result))?;
         bar.set_message(format!("frame {frame}"));
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let report = Report {
-        scene: animation.name(),
-        comparison: &comparison,
-        repeat: args.repeat,
-        rows: &rows,
-        mismatches: &mismatches,
-        diffs: &diffs,
-    };
-    report.write(&args.out)?;
-    println!("{}", report.terminal_table());
+    folder.write()?;
+    println!("{}", folder.terminal_table()?);
     println!("wrote {}", args.out.display());
+    let mismatches: Vec<_> = folder.mismatches().collect();
     if !mismatches.is_empty() {
         let lines: Vec<String> = mismatches.iter().take(20).map(|m| m.to_string()).collect();
         bail!(

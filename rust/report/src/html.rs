@@ -7,8 +7,8 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use base64::Engine;
 
-use super::diff_maps::DiffMaps;
-use super::report::Table;
+use crate::diff_maps::DiffMap;
+use crate::table::Table;
 
 fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -56,13 +56,13 @@ fn scale_legend(scale: f32) -> String {
     )
 }
 
-fn diff_section(diffs: &DiffMaps, out: &Path) -> Result<String> {
-    if diffs.maps.is_empty() {
+fn diff_section(diffs: &[DiffMap], out: &Path) -> Result<String> {
+    if diffs.is_empty() {
         return Ok(String::new());
     }
     let mut labels: Vec<&str> = Vec::new();
     let mut by_frame: BTreeMap<i32, Vec<usize>> = BTreeMap::new();
-    for (i, m) in diffs.maps.iter().enumerate() {
+    for (i, m) in diffs.iter().enumerate() {
         if !labels.contains(&m.label.as_str()) {
             labels.push(&m.label);
         }
@@ -84,7 +84,7 @@ fn diff_section(diffs: &DiffMaps, out: &Path) -> Result<String> {
         s += &format!("<tr><td>{frame}</td>");
         for l in &labels {
             s += "<td>";
-            if let Some(m) = maps.iter().map(|&i| &diffs.maps[i]).find(|m| m.label == *l) {
+            if let Some(m) = maps.iter().map(|&i| &diffs[i]).find(|m| m.label == *l) {
                 let path = out.join(&m.file);
                 let png = std::fs::read(&path).with_context(|| format!("{}", path.display()))?;
                 s += &format!(
@@ -116,7 +116,7 @@ pub fn page(
     verdict: &str,
     tables: &[Table],
     plots: &[(String, String, String)],
-    diffs: &DiffMaps,
+    diffs: &[DiffMap],
     out: &Path,
 ) -> Result<String> {
     let mut s = format!(

@@ -1,76 +1,34 @@
-//! The comparison's report folder: `compare.csv` (long form), `compare.json`, `summary.md`,
-//! `plots/*.svg` and `report.html`. The summary tables are made once ([`Table`]) and printed as
-//! Markdown, HTML and on the terminal.
+//! The report's files: `compare.csv` (long form), `compare.json`, `summary.md`, `plots/*.svg`
+//! and `report.html`. The summary tables are made once ([`Table`]) and printed as Markdown,
+//! HTML and on the terminal.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use antumbra_core::atomic_file::write_bytes_atomic;
 use antumbra_core::compare::{
-    pass_summaries, time_summaries, to_csv, CompareRow, Comparison, Figures, JsonRow, Mismatch,
+    pass_summaries, time_summaries, to_csv, CompareRow, Figures, JsonRow, MethodSpec, Mismatch,
     PassSummary, TimeSummary,
 };
+use antumbra_core::render::RenderSettings;
 use anyhow::{Context, Result};
 use serde::Serialize;
 
-use super::diff_maps::DiffMaps;
-use super::html;
+use crate::diff_maps::DiffMap;
+use crate::html;
 use crate::plots::{LinePlot, ParetoPlot, StackedBars};
+use crate::table::Table;
 
-/// Everything a comparison produced.
+/// Everything a comparison produced, over every recorded frame.
 pub struct Report<'a> {
     pub scene: &'a str,
-    pub comparison: &'a Comparison,
+    pub specs: Vec<MethodSpec>,
+    /// Each method's settings, resolved over the shared ones.
+    pub settings: Vec<RenderSettings>,
+    pub baseline: &'a str,
     pub repeat: usize,
-    pub rows: &'a [CompareRow],
-    pub mismatches: &'a [Mismatch],
-    pub diffs: &'a DiffMaps,
-}
-
-/// A table with a title, a header and rows of text.
-pub struct Table {
-    pub title: String,
-    pub note: String,
-    pub header: Vec<String>,
-    pub rows: Vec<Vec<String>>,
-}
-
-impl Table {
-    pub fn markdown(&self) -> String {
-        let mut s = format!("## {}\n\n{}\n\n", self.title, self.note);
-        s += &format!("| {} |\n", self.header.join(" | "));
-        s += &format!("|{}\n", "---|".repeat(self.header.len()));
-        for r in &self.rows {
-            s += &format!("| {} |\n", r.join(" | "));
-        }
-        s
-    }
-
-    pub fn plain(&self) -> String {
-        let widths: Vec<usize> = (0..self.header.len())
-            .map(|c| {
-                self.rows
-                    .iter()
-                    .map(|r| r[c].len())
-                    .chain([self.header[c].len()])
-                    .max()
-                    .unwrap_or(0)
-            })
-            .collect();
-        let line = |cells: &[String]| {
-            cells
-                .iter()
-                .zip(&widths)
-                .map(|(c, w)| format!("{c:>w$}"))
-                .collect::<Vec<_>>()
-                .join("  ")
-        };
-        let mut s = format!("{}\n{}\n", self.title, line(&self.header));
-        for r in &self.rows {
-            s += &line(r);
-            s += "\n";
-        }
-        s
-    }
+    pub rows: Vec<CompareRow>,
+    pub mismatches: Vec<Mismatch>,
+    pub diffs: Vec<DiffMap>,
 }
 
 fn f2(x: f64) -> String {
@@ -111,7 +69,7 @@ struct JsonReport<'a> {
 
 impl Report<'_> {
     fn figures(&self) -> Figures {
-        Figures::new(self.rows)
+        Figures::new(&self.rows)
     }
 
     fn frame_span(&self) -> String {
@@ -124,8 +82,9 @@ impl Report<'_> {
         }
     }
 
-    pub fn write(&self, out: &Path) -> Result<()> {
-        let specs = self.comparison.specs();
+    /// Writes every file into `out`; returns report.html's path.
+    pub fn write(&self, out: &Path) -> Result<PathBuf> {
+        let specs = &self.specs;
         let spec_of = |label: &str| {
             specs
                 .iter()
@@ -135,10 +94,10 @@ impl Report<'_> {
         };
         write_bytes_atomic(
             &out.join("compare.csv"),
-            to_csv(self.rows, &spec_of).as_bytes(),
+            to_csv(&self.rows, &spec_of).as_bytes(),
         )?;
         let figures = self.figures();
-        let baseline = self.comparison.baseline();
+        let baseline = self.baseline;
         let passes = pass_summaries(&figures, baseline);
         let times = time_summaries(&figures, baseline);
         let json = JsonReport {
@@ -147,7 +106,7 @@ impl Report<'_> {
             repeat: self.repeat,
             methods: specs
                 .iter()
-                .zip(self.comparison.settings())
+                .zip(&self.settings)
                 .map(|(s, settings)| JsonMethod {
                     label: &s.label,
                     spec: s.to_string(),
@@ -189,11 +148,12 @@ impl Report<'_> {
             &self.verdict(),
             &tables,
             &plots,
-            self.diffs,
+            &self.diffs,
             out,
         )?;
-        write_bytes_atomic(&out.join("report.html"), page.as_bytes())?;
-        Ok(())
+        let path = out.join("report.html");
+        write_bytes_atomic(&path, page.as_bytes())?;
+        Ok(path)
     }
 
     fn heading(&self) -> String {
@@ -211,13 +171,13 @@ impl Report<'_> {
             format!(
                 "Every method's shadow masks and primary hits equal the baseline's ('{}') bit for \
                  bit on every frame.",
-                self.comparison.baseline()
+                self.baseline
             )
         } else {
             format!(
                 "{} answers differ from the baseline ('{}'): {}",
                 self.mismatches.len(),
-                self.comparison.baseline(),
+                self.baseline,
                 self.mismatches
                     .iter()
                     .take(5)
@@ -235,10 +195,9 @@ impl Report<'_> {
             note: "Settings not named take their defaults (docs/settings.md).".into(),
             header: vec!["label".into(), "settings".into(), "method".into()],
             rows: self
-                .comparison
-                .specs()
+                .specs
                 .iter()
-                .zip(self.comparison.settings())
+                .zip(&self.settings)
                 .map(|(s, st)| vec![s.label.clone(), format!("`{s}`"), st.method_name()])
                 .collect(),
         }];
@@ -320,9 +279,8 @@ impl Report<'_> {
     /// The time table and the shadow work ratios, for the terminal.
     pub fn terminal_table(&self) -> String {
         let figures = self.figures();
-        let baseline = self.comparison.baseline();
-        let passes = pass_summaries(&figures, baseline);
-        let times = time_summaries(&figures, baseline);
+        let passes = pass_summaries(&figures, self.baseline);
+        let times = time_summaries(&figures, self.baseline);
         let tables = self.tables(&passes, &times);
         let mut s = format!("{}\n{}\n\n", self.heading(), self.verdict());
         for t in tables
