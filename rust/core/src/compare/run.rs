@@ -201,9 +201,21 @@ impl Comparison {
     /// the method's state before this frame so that it builds and prepares what the counted
     /// pass did.
     pub fn frame(&mut self, scene_name: &str, scene: &Scene) -> Result<FrameComparison> {
+        self.frame_each(scene_name, &vec![scene; self.methods.len()])
+    }
+
+    /// As [`Comparison::frame`], method `i` rendering `scenes[i]`: the same frame at another
+    /// resolution (`antumbra trade`'s resolution scale). Masks of other sizes count as differing.
+    pub fn frame_each(&mut self, scene_name: &str, scenes: &[&Scene]) -> Result<FrameComparison> {
+        if scenes.len() != self.methods.len() {
+            return Err(Error::invalid(
+                "scenes",
+                format!("{} scenes for {} methods", scenes.len(), self.methods.len()),
+            ));
+        }
         let before: Vec<Renderer> = self.methods.iter().map(|m| m.renderer.clone()).collect();
         let mut counted = Vec::with_capacity(self.methods.len());
-        for m in &mut self.methods {
+        for (m, scene) in self.methods.iter_mut().zip(scenes) {
             let settings = with_stats(&m.settings, StatsMode::Counts);
             counted.push(
                 m.renderer
@@ -211,7 +223,7 @@ impl Comparison {
                     .map_err(|e| in_method(&m.spec.label, e))?,
             );
         }
-        let frame = scene.frame;
+        let frame = scenes.first().map_or(0, |s| s.frame);
         let mismatches = self.check(frame, &counted);
         let mut timed: Vec<Vec<(f64, Vec<StatsRow>)>> = vec![Vec::new(); self.methods.len()];
         for _ in 0..self.repeat {
@@ -220,7 +232,7 @@ impl Comparison {
                 let settings = with_stats(&m.settings, StatsMode::TimingOnly);
                 let started = Instant::now();
                 let result = renderer
-                    .render(scene_name, scene, &settings)
+                    .render(scene_name, scenes[i], &settings)
                     .map_err(|e| in_method(&m.spec.label, e))?;
                 let ms = started.elapsed().as_secs_f64() * 1e3;
                 timed[i].push((ms, result.stats));
