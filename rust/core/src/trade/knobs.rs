@@ -202,6 +202,43 @@ pub static KNOBS: &[Knob] = &[
     },
 ];
 
+/// The knob table as Markdown (docs/trade.md holds it between `<!-- knobs -->` markers).
+pub fn knobs_markdown() -> String {
+    let mut s = String::from(
+        "| knob | kind | varies from | values (default in bold) | trades |\n|---|---|---|---|---|\n",
+    );
+    let none = NamedSettings::new();
+    for k in KNOBS {
+        let values: Vec<String> = k
+            .sweep(None, &none)
+            .expect("the knob table sweeps")
+            .iter()
+            .map(|v| {
+                if v.is_default {
+                    format!("**{}**", v.value)
+                } else {
+                    v.value.clone()
+                }
+            })
+            .collect();
+        let what = match k.target {
+            Target::Setting(name) => format!("`{name}`"),
+            Target::OrderOption { option, .. } => format!("order option `{option}`"),
+            Target::Resolution => "% of the full size".into(),
+        };
+        s += &format!(
+            "| `{}` | {} | `{}` | {}: {} | {} |\n",
+            k.name,
+            k.kind.name(),
+            k.base,
+            what,
+            values.join(", "),
+            k.trades
+        );
+    }
+    s
+}
+
 /// The names of every knob, for error messages and help.
 pub fn knob_names() -> Vec<&'static str> {
     KNOBS.iter().map(|k| k.name).collect()
@@ -444,6 +481,26 @@ mod tests {
         assert_eq!(sweep[1].value, "previous");
         let (k, v) = parse_knob_arg("resolution=50").unwrap();
         assert_eq!(k.sweep(v.as_deref(), &none).unwrap()[0].percentage, 50);
+    }
+
+    #[test]
+    fn docs_trade_md_holds_the_knob_table() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/trade.md");
+        let text = std::fs::read_to_string(&path).unwrap_or_default();
+        let (start, end) = ("<!-- knobs -->\n", "<!-- /knobs -->");
+        let (Some(a), Some(b)) = (text.find(start), text.find(end)) else {
+            panic!("docs/trade.md has no {start:?} ... {end:?} markers");
+        };
+        let table = knobs_markdown();
+        if std::env::var_os("UPDATE_DOCS").is_some() {
+            let new = format!("{}{start}{table}{}", &text[..a], &text[b..]);
+            std::fs::write(&path, new).unwrap();
+        } else {
+            assert!(
+                text[a + start.len()..b] == table,
+                "docs/trade.md's knob table differs: run UPDATE_DOCS=1 cargo test -p antumbra-core --lib trade"
+            );
+        }
     }
 
     #[test]

@@ -9,7 +9,8 @@ mod table;
 
 pub use error::{mask_error, upsample, MaskError, LIT_THRESHOLD, REFERENCE_SPP};
 pub use knobs::{
-    knob, knob_names, parse_knob_arg, Knob, KnobKind, KnobValue, Target, FULL_RESOLUTION, KNOBS,
+    knob, knob_names, knobs_markdown, parse_knob_arg, Knob, KnobKind, KnobValue, Target,
+    FULL_RESOLUTION, KNOBS,
 };
 pub use summary::{recommend, summarise, Recommendation, ValueSummary, RMSE_BOUND};
 pub use table::{to_csv, TradeRow, COLUMNS};

@@ -42,10 +42,12 @@ impl<'a> KnobReport<'a> {
         }
     }
 
-    fn axis(&self) -> (&'static str, fn(&ValueSummary) -> f64) {
+    fn axis(&self) -> (String, fn(&ValueSummary) -> f64) {
         match self.knob.kind {
-            KnobKind::Image => ("RMSE against the reference", |v| v.rmse.unwrap_or(0.0)),
-            KnobKind::Work => ("box + triangle tests per ray", |v| v.work_per_ray),
+            KnobKind::Image => (format!("RMSE (reference: spp {REFERENCE_SPP})"), |v| {
+                v.rmse.unwrap_or(0.0)
+            }),
+            KnobKind::Work => ("box + triangle tests per ray".into(), |v| v.work_per_ray),
         }
     }
 
@@ -64,11 +66,14 @@ impl<'a> KnobReport<'a> {
                 (name, (v.frame_ms, y(v)))
             })
             .collect();
-        let title = format!("{}: frame time against {}", self.knob.name, y_label);
+        let title = match self.knob.kind {
+            KnobKind::Image => format!("{}: error against frame time", self.knob.name),
+            KnobKind::Work => format!("{}: work against frame time", self.knob.name),
+        };
         let plot = ParetoPlot {
             title: &title,
             x_label: "ms per frame",
-            y_label,
+            y_label: &y_label,
             points: &points,
         };
         let (w, h) = PLOT_SIZE;
