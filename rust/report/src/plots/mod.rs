@@ -56,8 +56,16 @@ fn to_png(
     let mut rgb = vec![0u8; width as usize * height as usize * 3];
     draw(BitMapBackend::with_buffer(&mut rgb, (width, height)))
         .map_err(|e| anyhow::anyhow!("plotting '{title}': {e}"))?;
-    image::save_buffer(path, &rgb, width, height, image::ColorType::Rgb8)
-        .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))
+    // The best compression: plots are committed to the docs, and they are small to encode.
+    let write = || -> anyhow::Result<()> {
+        use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+        use image::ImageEncoder;
+        let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+        PngEncoder::new_with_quality(file, CompressionType::Best, FilterType::Adaptive)
+            .write_image(&rgb, width, height, image::ExtendedColorType::Rgb8)?;
+        Ok(())
+    };
+    write().map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))
 }
 
 /// Series `i`'s colour.
