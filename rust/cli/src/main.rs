@@ -30,6 +30,9 @@ enum Command {
     /// Compare methods on the same frames: answers checked, work counted, time measured;
     /// a report folder with tables, plots and difference heat maps.
     Compare(commands::compare::CompareArgs),
+    /// Sweep each knob (samples, resolution, sorting, SRDH, OSAH, splits, leaves, width) around
+    /// its default: time against error or work, a Pareto plot per knob, a recommended value.
+    Trade(commands::trade::TradeArgs),
     /// Run the daemon Blender talks to: a Unix socket (and optional loopback TCP), a spool
     /// folder for batch jobs.
     Serve(commands::serve::ServeArgs),
@@ -44,6 +47,7 @@ fn main() {
         Command::Record(a) => commands::record::run(a),
         Command::Bench(a) => commands::bench::run(a),
         Command::Compare(a) => commands::compare::run(a),
+        Command::Trade(a) => commands::trade::run(a),
         Command::Serve(a) => commands::serve::run(a, allocator::release_freed_memory),
     };
     if let Err(e) = result {

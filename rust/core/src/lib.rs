@@ -26,5 +26,6 @@ pub mod settings;
 pub mod srdh;
 pub mod stats;
 pub mod trace;
+pub mod trade;
 
 pub use error::{Error, Result};

@@ -4,3 +4,4 @@ pub mod demo;
 pub mod record;
 pub mod render;
 pub mod serve;
+pub mod trade;

@@ -215,6 +215,12 @@ impl Comparison {
         self.frame_cancellable(scene_name, scene, &CancelToken::new(), &mut |_| {})
     }
 
+    /// As [`Comparison::frame`], method `i` rendering `scenes[i]`: the same frame at another
+    /// resolution (`antumbra trade`'s resolution scale). Masks of other sizes count as differing.
+    pub fn frame_each(&mut self, scene_name: &str, scenes: &[&Scene]) -> Result<FrameComparison> {
+        self.frame_each_cancellable(scene_name, scenes, &CancelToken::new(), &mut |_| {})
+    }
+
     /// The method passes [`frame_cancellable`](Self::frame_cancellable) renders: one counted
     /// and `repeat` timed per method.
     pub fn steps(&self) -> usize {
@@ -231,8 +237,29 @@ impl Comparison {
         cancel: &CancelToken,
         progress: &mut (dyn FnMut(Step) + Send),
     ) -> Result<FrameComparison> {
+        self.frame_each_cancellable(
+            scene_name,
+            &vec![scene; self.methods.len()],
+            cancel,
+            progress,
+        )
+    }
+
+    fn frame_each_cancellable(
+        &mut self,
+        scene_name: &str,
+        scenes: &[&Scene],
+        cancel: &CancelToken,
+        progress: &mut (dyn FnMut(Step) + Send),
+    ) -> Result<FrameComparison> {
+        if scenes.len() != self.methods.len() {
+            return Err(Error::invalid(
+                "scenes",
+                format!("{} scenes for {} methods", scenes.len(), self.methods.len()),
+            ));
+        }
         let before: Vec<Renderer> = self.methods.iter().map(|m| m.renderer.clone()).collect();
-        let result = self.run(scene_name, scene, &before, cancel, progress);
+        let result = self.run(scene_name, scenes, &before, cancel, progress);
         if result.is_err() {
             for (m, state) in self.methods.iter_mut().zip(before) {
                 m.renderer = state;
@@ -244,7 +271,7 @@ impl Comparison {
     fn run(
         &mut self,
         scene_name: &str,
-        scene: &Scene,
+        scenes: &[&Scene],
         before: &[Renderer],
         cancel: &CancelToken,
         progress: &mut (dyn FnMut(Step) + Send),
@@ -252,7 +279,7 @@ impl Comparison {
         let total = self.steps();
         let mut done = 0;
         let mut counted = Vec::with_capacity(self.methods.len());
-        for m in &mut self.methods {
+        for (m, scene) in self.methods.iter_mut().zip(scenes) {
             let settings = with_stats(&m.settings, StatsMode::Counts);
             counted.push(
                 m.renderer
@@ -267,7 +294,7 @@ impl Comparison {
                 total,
             });
         }
-        let frame = scene.frame;
+        let frame = scenes.first().map_or(0, |s| s.frame);
         let mismatches = self.check(frame, &counted);
         let mut timed: Vec<Vec<(f64, Vec<StatsRow>)>> = vec![Vec::new(); self.methods.len()];
         for _ in 0..self.repeat {
@@ -276,7 +303,7 @@ impl Comparison {
                 let settings = with_stats(&m.settings, StatsMode::TimingOnly);
                 let started = Instant::now();
                 let result = renderer
-                    .render_cancellable(scene_name, scene, &settings, cancel)
+                    .render_cancellable(scene_name, scenes[i], &settings, cancel)
                     .map_err(|e| in_method(&m.spec.label, e))?;
                 let ms = started.elapsed().as_secs_f64() * 1e3;
                 timed[i].push((ms, result.stats));

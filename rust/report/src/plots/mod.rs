@@ -1,4 +1,5 @@
-//! Plots as SVG, drawn with plotters: the viewer renders the text, so no font is needed here.
+//! Plots drawn with plotters, as SVG (the viewer renders the text) or PNG (text drawn with the
+//! DejaVu Sans subset in `fonts/`, which also measures the SVG's text for layout).
 //! Every plot keeps its legend in a column of its own right of the chart, so it never covers
 //! a mark, and colours series by their index in the same palette.
 
@@ -16,6 +17,19 @@ use plotters::prelude::*;
 /// Width of the legend column right of the plot.
 const LEGEND_WIDTH: u32 = 220;
 
+/// The font every plot's text is drawn and measured with, shipped so that PNGs are the same on
+/// every machine.
+const FONT: &[u8] = include_bytes!("../../fonts/DejaVuSans-subset.ttf");
+
+/// Registers [`FONT`] as plotters' `sans-serif` (once).
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
+            .unwrap_or_else(|_| panic!("the shipped font parses"));
+    });
+}
+
 /// The plot `draw` makes on a `width` x `height` SVG canvas, as SVG text.
 fn to_svg(
     title: &str,
@@ -23,10 +37,35 @@ fn to_svg(
     height: u32,
     draw: impl FnOnce(SVGBackend) -> Result<(), String>,
 ) -> anyhow::Result<String> {
+    register_font();
     let mut svg = String::new();
     draw(SVGBackend::with_string(&mut svg, (width, height)))
         .map_err(|e| anyhow::anyhow!("plotting '{title}': {e}"))?;
     Ok(svg)
+}
+
+/// The plot `draw` makes on a `width` x `height` bitmap, written to `path` as PNG.
+fn to_png(
+    title: &str,
+    path: &std::path::Path,
+    width: u32,
+    height: u32,
+    draw: impl FnOnce(BitMapBackend) -> Result<(), String>,
+) -> anyhow::Result<()> {
+    register_font();
+    let mut rgb = vec![0u8; width as usize * height as usize * 3];
+    draw(BitMapBackend::with_buffer(&mut rgb, (width, height)))
+        .map_err(|e| anyhow::anyhow!("plotting '{title}': {e}"))?;
+    // The best compression: plots are committed to the docs, and they are small to encode.
+    let write = || -> anyhow::Result<()> {
+        use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+        use image::ImageEncoder;
+        let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+        PngEncoder::new_with_quality(file, CompressionType::Best, FilterType::Adaptive)
+            .write_image(&rgb, width, height, image::ExtendedColorType::Rgb8)?;
+        Ok(())
+    };
+    write().map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))
 }
 
 /// Series `i`'s colour.

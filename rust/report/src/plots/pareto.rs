@@ -33,6 +33,11 @@ impl ParetoPlot<'_> {
         super::to_svg(self.title, width, height, |b| self.draw(b))
     }
 
+    /// The same plot as a PNG file at `path`.
+    pub fn png(&self, path: &std::path::Path, width: u32, height: u32) -> Result<()> {
+        super::to_png(self.title, path, width, height, |b| self.draw(b))
+    }
+
     fn draw<DB: DrawingBackend>(&self, backend: DB) -> Result<(), String> {
         let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
         let root = backend.into_drawing_area();
@@ -128,5 +133,27 @@ mod tests {
         assert!(!svg.contains("base (Pareto front)"));
         assert!(!svg.contains("slow (Pareto front)"));
         assert_eq!(svg.matches("<circle").count(), 3);
+    }
+
+    #[test]
+    fn png_decodes_with_its_text_drawn() {
+        let points = [("a".to_string(), (1.0, 2.0)), ("b".to_string(), (2.0, 1.0))];
+        let plot = ParetoPlot {
+            title: "A TITLE IN CAPITALS",
+            x_label: "ms per frame",
+            y_label: "tests per ray",
+            points: &points,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.png");
+        plot.png(&path, 700, 400).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (700, 400));
+        // The caption's band holds dark pixels: the title was drawn with the shipped font.
+        let dark = img
+            .enumerate_pixels()
+            .filter(|(_, y, p)| *y < 30 && p.0.iter().all(|&c| c < 100))
+            .count();
+        assert!(dark > 50, "{dark} dark pixels in the caption");
     }
 }
