@@ -44,7 +44,18 @@ from pathlib import Path
 
 import bpy
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+# From a checkout the add-on package is beside this file; from an installed add-on (the zips ship
+# this file inside the package) it is this file's own folder.
+sys.path.insert(
+    0,
+    str(
+        next(
+            d
+            for d in Path(__file__).resolve().parents
+            if (d / "antumbra" / "__init__.py").is_file()
+        )
+    ),
+)
 from antumbra import client_loader, compare_results, daemon, results, settings_ui, spool
 from antumbra.compare_job import CompareJob, baseline_of, report_dir, scene_name
 from antumbra.jobs import RenderJob

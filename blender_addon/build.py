@@ -10,6 +10,8 @@ Writes into DIR (default ``dist/``):
 - ``antumbra-addon-VERSION.zip``: a legacy add-on for Blender 3.4 to 4.1 (folder ``antumbra/``
   with the wheel unpacked under ``_vendor/``).
 
+Both ship ``batch.py`` (headless batches) inside the add-on's folder, beside ``__init__.py``.
+
 It also unpacks the wheel into ``blender_addon/antumbra/_vendor`` so the add-on runs from this
 checkout (``batch.py``, tests). Without ``--wheel`` it builds one with maturin (release, stripped).
 ``--binary`` bundles the antumbra executable as ``bin/antumbra`` (the add-on starts it).
@@ -27,6 +29,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ADDON = HERE / "antumbra"
+#: Scripts beside the add-on that the zips ship inside its folder.
+SCRIPTS = (HERE / "batch.py",)
 REPO = HERE.parent
 GENERATED = ("_vendor", "wheels", "bin", "__pycache__")
 
@@ -108,12 +112,16 @@ def main(argv=None) -> int:
                 z.writestr("blender_manifest.toml", manifest)
             else:
                 add_file(z, p, str(p.relative_to(ADDON)))
+        for p in SCRIPTS:
+            add_file(z, p, p.name)
         add_file(z, wheel, f"wheels/{wheel.name}")
         if args.binary:
             add_file(z, args.binary, "bin/antumbra", executable=True)
     with zipfile.ZipFile(legacy, "w") as z:
         for p in addon_sources() + vendor:
             add_file(z, p, f"antumbra/{p.relative_to(ADDON)}")
+        for p in SCRIPTS:
+            add_file(z, p, f"antumbra/{p.name}")
         if args.binary:
             add_file(z, args.binary, "antumbra/bin/antumbra", executable=True)
     print(f"wrote {extension}")

@@ -10,6 +10,7 @@ import os
 import signal
 import subprocess
 import time
+import zipfile
 from pathlib import Path
 
 from conftest import ADDON, FRAMES, SIZE, blender_env, run_blender
@@ -232,3 +233,18 @@ def test_spool_batch_equals_socket_batch_and_resumes(scene_blend, antumbra_bin, 
         with open(short_tmp / folder / "stats.csv") as f:
             methods = {row["method"] for row in csv.DictReader(f)}
         assert methods == {"osah-previous:leaf4/bin8/sorted:logging=sato:p=1:budget=0.05"}, methods
+
+
+def test_both_zips_ship_the_batch_and_it_runs(addon_zips, scene_blend, short_tmp):
+    """``batch.py`` is in each zip, inside the add-on's folder, byte for byte the checkout's; the
+    legacy zip's copy, unpacked as Blender installs it, lists its flags in ``blender -b``."""
+    where = {"extension": "batch.py", "legacy": "antumbra/batch.py"}
+    for kind, path in addon_zips.items():
+        with zipfile.ZipFile(path) as z:
+            assert z.read(where[kind]) == BATCH.read_bytes(), kind
+            if kind == "legacy":
+                z.extractall(short_tmp / "addons")
+    shipped = short_tmp / "addons" / "antumbra" / "batch.py"
+    done = run_blender([str(scene_blend), "-P", str(shipped), "--", "--help"], short_tmp / "home")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert "--leaf-size" in done.stdout and "--frames" in done.stdout, done.stdout
