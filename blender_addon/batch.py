@@ -107,6 +107,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         parser.error("--compare renders through a session, not a spool")
     if args.repeat < 1:
         parser.error("--repeat must be at least 1")
+    # A binary asked for by name is used or refused, never quietly replaced by another one.
+    if args.binary and not Path(args.binary).is_file():
+        parser.error(f"--binary: {args.binary} does not exist")
+    if args.binary and not os.access(args.binary, os.X_OK):
+        parser.error(f"--binary: {args.binary} is not executable")
     problem = settings_ui.check(settings_ui.from_arguments(args))
     if problem:
         parser.error(problem)

@@ -184,6 +184,30 @@ def test_bad_arguments_exit_non_zero(scene_blend, short_tmp):
     assert "osah_w: expected a number in (0, 1), got a number (2)" in done.stderr
 
 
+def test_a_missing_binary_is_an_error_naming_it(scene_blend, antumbra_bin, short_tmp):
+    """``--binary`` naming no executable is refused, even with another binary to be had
+    (``$ANTUMBRA_BIN``); nothing is rendered."""
+    env = blender_env(short_tmp / "home", ANTUMBRA_BIN=str(antumbra_bin))
+    text = short_tmp / "not-a-binary"
+    text.write_text("")
+    for path, why in ((short_tmp / "nonexistent", "does not exist"), (text, "is not executable")):
+        done = batch(
+            scene_blend,
+            short_tmp / "out",
+            short_tmp / "home",
+            "--frames",
+            "1",
+            "--binary",
+            str(path),
+            "--socket",
+            str(short_tmp / "d.sock"),
+            env=env,
+        )
+        assert done.returncode == 2, done.stdout + done.stderr
+        assert f"--binary: {path} {why}" in done.stderr, done.stderr
+        assert not (short_tmp / "out" / "frame_0001.exr").exists()
+
+
 def test_spool_batch_equals_socket_batch_and_resumes(scene_blend, antumbra_bin, short_tmp):
     """--spool: the frames go to the daemon as one spool job; the files collected equal, byte
     for byte, those of a batch over the socket with the same (non-default) method settings;
