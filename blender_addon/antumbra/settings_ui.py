@@ -129,22 +129,38 @@ def draw(layout, props) -> list[str]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """One batch flag per setting (``--leaf-size 4``); a flag left out keeps the default."""
+    """One batch flag per setting (``--leaf-size 4``), taking what ``antumbra render`` takes
+    (rust/cli/src/method_args.rs): a bool's flag alone is true and ``--no-NAME`` false, a choice
+    with ``on`` alone is ``on``; a flag left out keeps the default."""
     group = parser.add_argument_group("method settings (antumbra render --help says the same)")
     types = {"bool": _parse_bool, "int": int, "float": float}
     for s in schema():
-        kind = s["type"]
-        group.add_argument(
-            "--" + s["name"].replace("_", "-"),
-            dest=f"setting_{s['name']}",
+        kind, flag, dest = s["type"], "--" + s["name"].replace("_", "-"), f"setting_{s['name']}"
+        alone = {"bool": True, "choice": "on"}.get(kind)
+        if alone not in (s.get("choices") or [True]):
+            alone = None
+        owner = group.add_mutually_exclusive_group() if kind == "bool" else group
+        owner.add_argument(
+            flag,
+            dest=dest,
             type=types.get(
                 kind, int if kind == "choice" and isinstance(s["default"], int) else str
             ),
             choices=s.get("choices") if kind == "choice" else None,
             default=None,
+            nargs=None if alone is None else "?",
+            const=alone,
             metavar=None if kind == "choice" else s["type"].upper(),
             help=f"{s['help']} ({s['expected']}; default {s['default']})",
         )
+        if kind == "bool":
+            owner.add_argument(
+                "--no-" + flag[2:],
+                dest=dest,
+                action="store_const",
+                const=False,
+                help=f"the same as {flag} false",
+            )
 
 
 def _parse_bool(text: str) -> bool:

@@ -5,6 +5,7 @@ object and frame named) on bad input or with no daemon to be had."""
 from __future__ import annotations
 
 import csv
+import itertools
 import json
 import os
 import signal
@@ -272,3 +273,58 @@ def test_both_zips_ship_the_batch_and_it_runs(addon_zips, scene_blend, short_tmp
     done = run_blender([str(scene_blend), "-P", str(shipped), "--", "--help"], short_tmp / "home")
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert "--leaf-size" in done.stdout and "--frames" in done.stdout, done.stdout
+
+
+def _methods(stats_csv: Path) -> set[str]:
+    with open(stats_csv) as f:
+        return {row["method"] for row in csv.DictReader(f)}
+
+
+def test_the_batch_takes_what_antumbra_render_takes(
+    scene_blend, recording, antumbra_bin, short_tmp
+):
+    """Every method-settings flag of ``antumbra render --help`` is a batch flag, and flags the
+    command line takes in its short forms (``--build srdh``, ``--no-spatial-splits``,
+    ``--timing`` alone) render in the batch with the method ``antumbra render`` reports."""
+    cli_help = subprocess.run(
+        [str(antumbra_bin), "render", "--help"], check=True, capture_output=True, text=True
+    ).stdout
+    # A method setting's help ends "[EXPECTED; default: D]" or says "The same as --NAME false".
+    lines = cli_help[cli_help.index("Method settings:") :].splitlines()
+    cli_flags = {
+        flag.split()[0]
+        for flag, text in itertools.pairwise(lines)
+        if flag.startswith("      --") and ("; default: " in text or "The same as --" in text)
+    }
+    assert "--build" in cli_flags and "--no-spatial-splits" in cli_flags, cli_help
+    shown = run_blender([str(scene_blend), "-P", str(BATCH), "--", "--help"], short_tmp / "home")
+    assert shown.returncode == 0, shown.stdout[-3000:] + shown.stderr[-3000:]
+    batch_flags = {w.strip("[],") for w in shown.stdout.split() if w.startswith(("--", "[--"))}
+    assert cli_flags <= batch_flags, cli_flags - batch_flags
+
+    flags = ["--spp", "1", "--build", "srdh", "--no-spatial-splits", "--timing"]
+    subprocess.run(
+        [
+            *(str(antumbra_bin), "render", "--scene", str(recording), "--frames", "1-2"),
+            *("--out", str(short_tmp / "cli"), *flags),
+        ],
+        check=True,
+        capture_output=True,
+    )
+    env = blender_env(short_tmp / "home", ANTUMBRA_BIN=str(antumbra_bin))
+    done = batch(
+        scene_blend,
+        short_tmp / "out",
+        short_tmp / "home",
+        "--frames",
+        "1-2",
+        *flags,
+        "--socket",
+        str(short_tmp / "d.sock"),
+        env=env,
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert len(frame_lines(done.stdout)) == 2, done.stdout
+    methods = _methods(short_tmp / "out" / "stats.csv")
+    assert methods == _methods(short_tmp / "cli" / "stats.csv"), methods
+    assert any("srdh" in m for m in methods), methods
