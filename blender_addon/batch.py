@@ -80,7 +80,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="batch.py", description=__doc__.splitlines()[0])
     parser.add_argument("--frames", default="", help="A-B or N (default: the scene's range)")
     parser.add_argument("--out", type=Path, required=True, help="output folder")
-    parser.add_argument("--scale", type=float, default=1.0, help="resolution scale")
+    parser.add_argument(
+        "--scale",
+        type=float,
+        default=RenderOptions.resolution_scale,
+        help="multiplies the scene's resolution percentage (default %(default)s, as the panel)",
+    )
     parser.add_argument("--no-heat-maps", action="store_true")
     parser.add_argument("--no-png", action="store_true")
     parser.add_argument("--socket", default="", help="the daemon's socket")

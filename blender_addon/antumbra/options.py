@@ -11,7 +11,8 @@ from dataclasses import dataclass, field
 class RenderOptions:
     #: Render settings by name (``antumbra.settings_schema()``); the rest take their defaults.
     settings: dict = field(default_factory=dict)
-    #: Multiplies the scene's resolution percentage (a quick preview at 0.25).
+    #: Multiplies the scene's resolution percentage (a quick preview at 0.25); the default, 1,
+    #: renders the scene's own size, in the panel as in batches.
     resolution_scale: float = 1.0
     heat_maps: bool = True
     #: Per-frame files in the output folder (``frame_NNNN.exr`` and PNGs).
@@ -28,6 +29,11 @@ class RenderOptions:
 
     def percentage(self, scene_percentage: int) -> int:
         return max(1, min(10000, round(scene_percentage * self.resolution_scale)))
+
+    def size(self, x: int, y: int, scene_percentage: int) -> tuple[int, int]:
+        """The image's pixels, as the daemon sizes them (rust/core/src/scene/camera.rs)."""
+        p = self.percentage(scene_percentage)
+        return max(1, x * p // 100), max(1, y * p // 100)
 
     def describe(self, defaults: dict | None = None) -> str:
         """The settings that differ from ``defaults`` (all given ones without it)."""

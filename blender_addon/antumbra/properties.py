@@ -29,8 +29,9 @@ class AntumbraSettings(bpy.types.PropertyGroup):
     # from the client's schema.
     resolution_scale: bpy.props.FloatProperty(
         name="Resolution scale",
-        description="Multiplies the render resolution percentage",
-        default=0.5,
+        description="Multiplies the render resolution percentage (1: the scene's own size, as "
+        "batches render it)",
+        default=RenderOptions.resolution_scale,
         min=0.01,
         max=1.0,
         subtype="FACTOR",

@@ -62,6 +62,13 @@ def _stats_box(layout, settings):
             col.label(text=f"  {label}: 0 .. {top:g}" if top is not None else label)
 
 
+def size_text(scene) -> str:
+    """The size a render from the panel makes, shown under the resolution scale."""
+    r = scene.render
+    w, h = scene.antumbra.options().size(r.resolution_x, r.resolution_y, r.resolution_percentage)
+    return f"Renders {w} x {h} px"
+
+
 def draw_panel(layout, context):
     settings = context.scene.antumbra
     _daemon_box(layout)
@@ -69,6 +76,7 @@ def draw_panel(layout, context):
         settings_ui.draw(layout, settings.method)
     col = layout.column(align=True)
     col.prop(settings, "resolution_scale")
+    col.label(text=size_text(context.scene))
     col.prop(settings, "heat_maps")
     col = layout.column(align=True)
     col.prop(settings, "output_dir")

@@ -411,6 +411,22 @@ def test_panel_properties_follow_the_settings_schema(registered):
     assert (got["leaf_size"], got["osah_w"]) == (4, pytest.approx(0.5))
 
 
+@pytest.mark.bpy
+def test_panel_renders_the_scenes_size_by_default_and_says_so(registered):
+    """The panel's resolution scale defaults to 1 (the batch's default: both take it from
+    RenderOptions), and the panel shows the size a render makes."""
+    scene = empty_scene()
+    settings = scene.antumbra
+    assert settings.resolution_scale == options.RenderOptions().resolution_scale == 1.0
+    scene.render.resolution_x, scene.render.resolution_y = 96, 54
+    scene.render.resolution_percentage = 100
+    assert addon.ui.size_text(scene) == "Renders 96 x 54 px"
+    settings.resolution_scale = 0.5
+    assert addon.ui.size_text(scene) == "Renders 48 x 27 px"
+    scene.render.resolution_percentage = 50
+    assert addon.ui.size_text(scene) == "Renders 24 x 13 px"
+
+
 def test_panel_in_a_real_window_draws_every_setting(addon_zips, short_tmp):
     """Debian's Blender with a real window (Xvfb): the panel, every group unfolded, draws one
     property per setting of the schema."""

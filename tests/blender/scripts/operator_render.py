@@ -61,7 +61,7 @@ def main():
     scene.frame_set(a.frame)
     settings = scene.antumbra
     settings.method.spp = a.spp
-    settings.resolution_scale = 1.0
+    # The resolution scale is left at its default: the images must be the scene's size.
     settings.output_dir = os.path.join(a.out, "files")
     addon = sys.modules[module_name]
     link = addon.operators.current_link()
