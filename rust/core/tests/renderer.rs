@@ -443,3 +443,43 @@ fn light_names_never_fail_a_write_nor_hide_a_plane() {
         "a PNG per mask, combined and heat map"
     );
 }
+
+#[test]
+fn lights_differing_in_non_ascii_letters_keep_their_names_and_files() {
+    // Their PNGs were `shadow_Lamp__` both, so the second light's plane became `Lamp ö#2`.
+    let mut scene = common::boxes_scene(16);
+    let template = scene.lights[0].clone();
+    scene.lights = ["Lamp ä", "Lamp ö", "Lampe 灯"]
+        .iter()
+        .map(|n| {
+            let mut l = template.clone();
+            l.name = n.to_string();
+            l
+        })
+        .collect();
+    let result = Renderer::new()
+        .render("names", &scene, &RenderSettings::default())
+        .unwrap();
+    let named = antumbra_core::output::mask_names(&result);
+    let planes: Vec<&str> = named.iter().map(|n| n.plane.as_str()).collect();
+    assert_eq!(
+        planes,
+        ["shadow.Lamp ä", "shadow.Lamp ö", "shadow.Lampe 灯"]
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let files = antumbra_core::output::write_frame_files(
+        dir.path(),
+        &result,
+        &antumbra_core::output::Outputs::default(),
+    )
+    .unwrap();
+    for light in ["Lamp_ä", "Lamp_ö", "Lampe_灯"] {
+        let name = format!("frame_0001_shadow_{light}.png");
+        assert!(files.files.contains(&name), "{name} in {:?}", files.files);
+        assert!(dir.path().join(&name).is_file(), "{name}");
+    }
+    let exr = antumbra_core::output::read_exr(&dir.path().join("frame_0001.exr")).unwrap();
+    for plane in planes {
+        assert!(exr.iter().any(|p| p.name == plane), "{plane}");
+    }
+}

@@ -16,11 +16,12 @@ pub struct MaskName {
     pub file: String,
 }
 
-/// A name as file names may hold it: letters, digits, `-`, `_` and `.`; anything else is `_`.
+/// A name as file names may hold it: letters and digits (any script's, so `Lamp ä` and `Lamp ö`
+/// stay apart), `-`, `_` and `.`; anything else is `_`.
 pub fn file_safe(name: &str) -> String {
     name.chars()
         .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' {
+            if c.is_alphanumeric() || c == '-' || c == '_' || c == '.' {
                 c
             } else {
                 '_'
