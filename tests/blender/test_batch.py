@@ -328,3 +328,48 @@ def test_the_batch_takes_what_antumbra_render_takes(
     methods = _methods(short_tmp / "out" / "stats.csv")
     assert methods == _methods(short_tmp / "cli" / "stats.csv"), methods
     assert any("srdh" in m for m in methods), methods
+
+
+UNICODE_LIGHTS_SCENE = """
+import bpy, sys
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+mesh = bpy.data.meshes.new("Ground")
+mesh.from_pydata([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], [], [(0, 1, 2, 3)])
+scene.collection.objects.link(bpy.data.objects.new("Ground", mesh))
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.location = (0.0, 0.0, 6.0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+for name in ("Lamp \u00e4", "Lamp \u00f6"):
+    scene.collection.objects.link(bpy.data.objects.new(name, bpy.data.lights.new(name, "SUN")))
+scene.render.resolution_x, scene.render.resolution_y = 32, 24
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[-1])
+"""
+
+
+def test_lights_differing_in_non_ascii_letters_get_their_own_files(antumbra_bin, short_tmp):
+    """Two lights named "Lamp ä" and "Lamp ö": each its own PNG and its own EXR plane, under its
+    own name (the naming of rust/core/src/output/names.rs, in the daemon and the client)."""
+    script = short_tmp / "lights.py"
+    script.write_text(UNICODE_LIGHTS_SCENE)
+    blend = short_tmp / "lights.blend"
+    made = run_blender(["-P", str(script), "--", str(blend)], short_tmp / "home")
+    assert made.returncode == 0 and blend.is_file(), made.stderr
+    env = blender_env(short_tmp / "home", ANTUMBRA_BIN=str(antumbra_bin))
+    out = short_tmp / "out"
+    done = batch(
+        blend,
+        out,
+        short_tmp / "home",
+        "--frames",
+        "1",
+        "--socket",
+        str(short_tmp / "d.sock"),
+        env=env,
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    pngs = sorted(p.name for p in out.glob("frame_0001_shadow_*.png"))
+    assert pngs == ["frame_0001_shadow_Lamp_\u00e4.png", "frame_0001_shadow_Lamp_\u00f6.png"]
+    planes = antumbra.read_exr(out / "frame_0001.exr")
+    assert {"shadow.Lamp \u00e4", "shadow.Lamp \u00f6"} <= set(planes), list(planes)
