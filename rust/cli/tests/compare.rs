@@ -2,16 +2,11 @@
 //! (counters exact), the answer check fires on a real difference, and the report folder holds
 //! every file it promises.
 
-use std::collections::BTreeMap;
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
 use antumbra_core::compare::DEFAULT_METHODS;
+use common::{antumbra, ok, read_csv, Rows};
 use tempfile::TempDir;
-
-fn antumbra() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_antumbra"))
-}
 
 /// A small animated scene with soft lights: three frames of the bedroom.
 const SCENE: [&str; 10] = [
@@ -26,33 +21,6 @@ const SCENE: [&str; 10] = [
     "--spp",
     "2",
 ];
-
-fn ok(out: Output) -> Output {
-    assert!(
-        out.status.success(),
-        "{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
-type Rows = Vec<BTreeMap<String, String>>;
-
-fn read_csv(path: &Path) -> Rows {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-    r.records()
-        .map(|rec| {
-            let rec = rec.unwrap();
-            header
-                .iter()
-                .cloned()
-                .zip(rec.iter().map(String::from))
-                .collect()
-        })
-        .collect()
-}
 
 /// Columns that are measured times (or derived from them), not counts.
 const TIMING: [&str; 6] = [

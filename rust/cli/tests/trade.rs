@@ -2,15 +2,12 @@
 //! work knob's answers checked, spp's error falling toward the reference and zero at its own
 //! spp, the plots written, and a bad knob named with the list of knobs.
 
-use std::collections::{BTreeMap, BTreeSet};
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
+use std::collections::BTreeSet;
+
+use common::{antumbra, ok, read_csv, Rows};
 use tempfile::TempDir;
-
-fn antumbra() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_antumbra"))
-}
 
 /// Two frames of the bedroom (a sun of 0.02 rad and an area portal: both soft), small.
 const SCENE: [&str; 8] = [
@@ -23,32 +20,6 @@ const SCENE: [&str; 8] = [
     "--size",
     "40x30",
 ];
-
-fn ok(out: Output) -> Output {
-    assert!(
-        out.status.success(),
-        "{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
-type Rows = Vec<BTreeMap<String, String>>;
-
-fn read_csv(path: &Path) -> Rows {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-    r.records()
-        .map(|rec| {
-            header
-                .iter()
-                .cloned()
-                .zip(rec.unwrap().iter().map(String::from))
-                .collect()
-        })
-        .collect()
-}
 
 /// Mean of `column` over the shadow rows of `knob`'s `value`.
 fn mean(rows: &Rows, knob: &str, value: &str, column: &str) -> f64 {

@@ -20,7 +20,7 @@ use antumbra_protocol::{
 use super::out::{error_reply, protocol_error, Out};
 use crate::lock;
 use crate::shared::{bump, Shared};
-use crate::slots::Acquired;
+use crate::slots::{Acquired, Slot};
 
 /// Renders one session may have waiting; more get `Busy`.
 pub(super) const RENDER_QUEUE: usize = 32;
@@ -175,34 +175,50 @@ impl WorkerCtx {
         ));
     }
 
-    fn render(&self, renderer: &mut Renderer, job: &Job) {
-        let id = job.request_id;
-        let frame = job.scene.frame;
+    /// A render slot for `job` (renders and comparisons alike), its place in the queue sent as
+    /// progress; None once the job has been answered: cancelled before or while queued, or
+    /// timed out in the queue.
+    fn take_slot(&self, job: &Job) -> Option<Slot<'_>> {
         let cancel = &job.ctl.cancel;
         if cancel.is_cancelled() {
-            return self.cancelled(job, "before it started");
+            self.cancelled(job, "before it started");
+            return None;
         }
-        let max_wait = Some(self.shared.config.queue_wait);
         let acquired = self.shared.slots.acquire(
             || cancel.is_cancelled(),
-            max_wait,
+            Some(self.shared.config.queue_wait),
             |position| {
                 let total = position.try_into().unwrap_or(u32::MAX);
-                self.progress(id, "queued", 0, total);
+                self.progress(job.request_id, "queued", 0, total);
             },
         );
-        let mut slot = match acquired {
+        let slot = match acquired {
             Acquired::Slot(slot, _) => slot,
-            Acquired::GaveUp => return self.cancelled(job, "while queued (it left the queue)"),
+            Acquired::GaveUp => {
+                self.cancelled(job, "while queued (it left the queue)");
+                return None;
+            }
             Acquired::TimedOut { position, waited } => {
-                return self.queue_timed_out(job, position, waited)
+                self.queue_timed_out(job, position, waited);
+                return None;
             }
         };
         job.ctl.started.store(true, Ordering::Relaxed);
         if cancel.is_cancelled() {
             drop(slot);
-            return self.cancelled(job, "before it started; its render slot is free");
+            self.cancelled(job, "before it started; its render slot is free");
+            return None;
         }
+        Some(slot)
+    }
+
+    fn render(&self, renderer: &mut Renderer, job: &Job) {
+        let id = job.request_id;
+        let frame = job.scene.frame;
+        let cancel = &job.ctl.cancel;
+        let Some(mut slot) = self.take_slot(job) else {
+            return;
+        };
         self.progress(id, "render", 0, STAGES);
         let t0 = Instant::now();
         let result = catch_unwind(AssertUnwindSafe(|| {
@@ -293,29 +309,9 @@ impl WorkerCtx {
         let id = job.request_id;
         let frame = job.scene.frame;
         let cancel = &job.ctl.cancel;
-        if cancel.is_cancelled() {
-            return self.cancelled(job, "before it started");
-        }
-        let acquired = self.shared.slots.acquire(
-            || cancel.is_cancelled(),
-            Some(self.shared.config.queue_wait),
-            |position| {
-                let total = position.try_into().unwrap_or(u32::MAX);
-                self.progress(id, "queued", 0, total);
-            },
-        );
-        let mut slot = match acquired {
-            Acquired::Slot(slot, _) => slot,
-            Acquired::GaveUp => return self.cancelled(job, "while queued (it left the queue)"),
-            Acquired::TimedOut { position, waited } => {
-                return self.queue_timed_out(job, position, waited)
-            }
+        let Some(mut slot) = self.take_slot(job) else {
+            return;
         };
-        job.ctl.started.store(true, Ordering::Relaxed);
-        if cancel.is_cancelled() {
-            drop(slot);
-            return self.cancelled(job, "before it started; its render slot is free");
-        }
         let fail = |reply: Reply| {
             bump(&self.shared.counters.renders_failed);
             self.out.send(&reply);
