@@ -1,5 +1,6 @@
 """antumbra for Blender: sends the evaluated scene to the antumbra daemon frame by frame and brings
-its shadow passes, traversal heat maps and statistics back into the Image Editor and into files.
+its shadow passes, traversal heat maps and statistics back into the Image Editor and into files;
+also one of Blender's render engines (``engine``), whose passes fill the Render Result.
 
 Installs as a legacy add-on (``bl_info``, Blender 3.4 to 4.1) or as an extension
 (``blender_manifest.toml``, 4.2 and later). The client package it talks through is the
@@ -7,19 +8,19 @@ Installs as a legacy add-on (``bl_info``, Blender 3.4 to 4.1) or as an extension
 ``_vendor/`` for the legacy add-on; see ``client_loader``.
 """
 
-from . import daemon, operators, preferences, properties, ui
+from . import daemon, engine, operators, preferences, properties, ui
 
 bl_info = {
     "name": "antumbra",
     "author": "antumbra developers",
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
-    "location": "Properties > Render > antumbra; 3D View > Sidebar > antumbra",
+    "location": "Render engine antumbra; Properties > Render > antumbra; 3D View > Sidebar",
     "description": "Shadow passes and BVH traversal heat maps from the antumbra daemon",
     "category": "Render",
 }
 
-_MODULES = (preferences, properties, operators, ui)
+_MODULES = (preferences, properties, operators, ui, engine)
 
 
 def register():

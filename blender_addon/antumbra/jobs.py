@@ -31,6 +31,25 @@ class JobFailed(RuntimeError):
     """A frame could not be rendered; the message names the frame (and object or field)."""
 
 
+def send_frame(session, export: FrameExport) -> None:
+    """Sends a frame's scene state, then the meshes the session lacks (after a reconnect: all)."""
+    e = export
+    for h in session.frame_update(e.frame, e.objects, e.camera, e.lights, e.resolution):
+        mesh = e.meshes[h]
+        session.upload_mesh(mesh.name, mesh.positions, mesh.triangles)
+
+
+def is_lost(client, error: BaseException) -> bool:
+    """Whether the daemon went away (killed, crashed, restarted): the frame is sent again."""
+    return isinstance(
+        error, (client.ConnectionLost, client.DaemonUnavailable, client.DaemonTimeout)
+    )
+
+
+def is_cancelled(client, error: BaseException) -> bool:
+    return isinstance(error, client.DaemonError) and getattr(error, "code", "") == "Cancelled"
+
+
 @dataclass
 class FrameDone:
     frame: int
@@ -171,10 +190,7 @@ class RenderJob:
             if self._camera_path is not None and self._camera_path_sent_to is not session:
                 session.camera_path(self._camera_path)
                 self._camera_path_sent_to = session
-            missing = session.frame_update(e.frame, e.objects, e.camera, e.lights, e.resolution)
-            for h in missing:
-                mesh = e.meshes[h]
-                session.upload_mesh(mesh.name, mesh.positions, mesh.triangles)
+            send_frame(session, e)
             work.result = self._request(session, e.frame)
         except BaseException as error:  # noqa: BLE001 - handed to the main thread
             work.error = error
@@ -226,15 +242,10 @@ class RenderJob:
     def _failed_frame(self, work: _Work) -> bool:
         client = self.link.module
         error = work.error
-        if self.cancelled or (
-            isinstance(error, client.DaemonError) and getattr(error, "code", "") == "Cancelled"
-        ):
+        if self.cancelled or is_cancelled(client, error):
             self.cancelled = True
             return self._finish()
-        lost = isinstance(
-            error, (client.ConnectionLost, client.DaemonUnavailable, client.DaemonTimeout)
-        )
-        if lost and self._retries < RETRIES_PER_FRAME:
+        if is_lost(client, error) and self._retries < RETRIES_PER_FRAME:
             # The daemon went away (killed, crashed, restarted): reconnect and send the frame
             # again with all its meshes; nothing of it was kept.
             self._retries += 1
