@@ -174,11 +174,12 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
     def _wait(self, job: EngineJob, work: _Request, frame: int):
         """On the render thread while the daemon works: progress, and Blender's cancel flag
         passed on to the daemon (until a cancel is sent or the request ends)."""
-        cancel_sent = False
+        cancel_sent, shown = False, None
         while work.is_alive():
             work.join(POLL_SECONDS)
             stage, done, total = work.stage
-            if stage:
+            if stage and work.stage != shown:
+                shown = work.stage
                 self.update_stats("", f"antumbra: frame {frame}: {stage}")
                 self.update_progress(0.1 + 0.8 * (done + 1) / max(1, total + 1))
             if not cancel_sent and self.test_break():

@@ -1,0 +1,319 @@
+"""The render engine (``ANTUMBRA``) as Blender and farms run it: ``blender -b scene.blend -E
+ANTUMBRA -f N`` and ``-a`` in Debian's 3.4 with the add-on enabled by ``--addons``, and Blender's
+own render operator in the bpy module; multilayer EXRs written by Blender's output whose passes
+equal ``antumbra render`` of what the engine sent (recorded by the daemon), one daemon session per
+job, the statistics tables beside the output, the compositor's Render Layers node listing the
+passes, and Ctrl-C (Blender's render break) cancelling the render in flight."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import zipfile
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+from conftest import blender_env, cli_render, run_blender
+
+import antumbra
+
+SCRIPT = Path(__file__).parent / "scripts" / "engine_render.py"
+LIGHTS = ("Sun", "Window")
+HEAT = (
+    "primary.N_B",
+    "primary.N_L",
+    "primary.N_T",
+    "shadow.N_B",
+    "shadow.N_L",
+    "shadow.N_T",
+)
+#: The passes of the test scene, as the compositor lists them (Combined is "Image" and "Alpha").
+PASSES = tuple(f"shadow.{light}" for light in LIGHTS) + HEAT
+SPP = 2
+
+
+def engine_env(tmp: Path, addon_zips) -> dict[str, str]:
+    """Debian's Blender with the legacy add-on where ``--addons antumbra`` finds it, and the
+    daemon's default socket in a private runtime folder."""
+    scripts = tmp / "scripts" / "addons"
+    if not (scripts / "antumbra").is_dir():
+        with zipfile.ZipFile(addon_zips["legacy"]) as z:
+            z.extractall(scripts)
+    xdg = tmp / "xdg"
+    xdg.mkdir(mode=0o700, exist_ok=True)
+    return blender_env(
+        tmp / "home",
+        BLENDER_USER_SCRIPTS=str(tmp / "scripts"),
+        XDG_RUNTIME_DIR=str(xdg),
+    )
+
+
+def output_expr(out: Path, **method) -> str:
+    """``--python-expr``: 32-bit multilayer EXR into OUT, the method settings given."""
+    lines = [
+        "import bpy",
+        "s = bpy.context.scene",
+        "s.render.image_settings.file_format = 'OPEN_EXR_MULTILAYER'",
+        "s.render.image_settings.color_depth = '32'",
+        f"s.render.filepath = {str(out / 'frame_####')!r}",
+        *(f"s.antumbra.method.{k} = {v!r}" for k, v in {"spp": SPP, **method}.items()),
+    ]
+    return "; ".join(lines)
+
+
+def blender_engine(blend: Path, tmp: Path, env, expr: str, *args: str):
+    return run_blender(
+        [
+            "--addons",
+            "antumbra",
+            str(blend),
+            "--python-expr",
+            expr,
+            "-E",
+            "ANTUMBRA",
+            *args,
+        ],
+        tmp / "home",
+        env=env,
+    )
+
+
+@contextmanager
+def recording_daemon(antumbra_bin: Path, socket: Path, record: Path):
+    """A daemon at ``socket`` recording every session into ``record``."""
+    socket.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+    record.mkdir(parents=True, exist_ok=True)
+    client = antumbra.Client.spawn(
+        antumbra_bin, socket_path=socket, args=["--record", str(record)]
+    )
+    try:
+        yield client
+    finally:
+        client.close()
+
+
+def sessions_with_frames(record: Path) -> list[tuple[Path, list[int]]]:
+    out = []
+    for path in sorted(record.glob("*.antrec")):
+        frames = [f["frame"] for f in antumbra.read_recording(path)["frames"]]
+        if frames:
+            out.append((path, frames))
+    return out
+
+
+def assert_planes_equal(blender_exr: Path, cli_exr: Path, layer: str = "ViewLayer"):
+    """Every pass of Blender's EXR equals the command line's plane of the same name."""
+    ours, cli = antumbra.read_exr(blender_exr), antumbra.read_exr(cli_exr)
+    for plane in PASSES:
+        assert ours[f"{layer}.{plane}.X"].tobytes() == cli[plane].tobytes(), (
+            blender_exr,
+            plane,
+        )
+    assert ours[f"{layer}.Combined.R"].tobytes() == cli["combined"].tobytes(), (
+        blender_exr
+    )
+    assert (ours[f"{layer}.Combined.A"] == 1.0).all()
+    for light in LIGHTS:
+        mask = ours[f"{layer}.shadow.{light}.X"]
+        assert 0.0 < mask.mean() < 1.0, f"{light}: the frame should be partly shadowed"
+
+
+def test_dash_f_writes_the_passes_of_antumbra_render(
+    addon_zips, scene_blend, antumbra_bin, short_tmp
+):
+    env = engine_env(short_tmp, addon_zips)
+    out, record = short_tmp / "out", short_tmp / "record"
+    with recording_daemon(
+        antumbra_bin, Path(env["XDG_RUNTIME_DIR"]) / "antumbra" / "daemon.sock", record
+    ):
+        done = blender_engine(scene_blend, short_tmp, env, output_expr(out), "-f", "3")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert "antumbra: frame 3 " in done.stdout, done.stdout
+    [(sent, frames)] = sessions_with_frames(record)
+    assert frames == [3]
+    assert_planes_equal(
+        out / "frame_0003.exr",
+        cli_render(antumbra_bin, sent, 3, short_tmp / "cli", SPP),
+    )
+    with open(out / "frames.csv") as f:
+        assert [int(r["frame"]) for r in csv.DictReader(f)] == [3]
+    with open(out / "stats.csv") as f:
+        assert len(list(csv.DictReader(f))) == 1 + len(LIGHTS)
+
+
+def test_dash_a_renders_six_frames_in_one_session(
+    addon_zips, scene_blend, antumbra_bin, short_tmp
+):
+    """OSAH from the previous frame's visible set: the six frames' work per pixel equals a
+    sequential ``antumbra render`` of them only because the engine keeps one daemon session
+    for the whole job (frame 4 rendered alone takes other work)."""
+    env = engine_env(short_tmp, addon_zips)
+    out, record = short_tmp / "out", short_tmp / "record"
+    expr = output_expr(out, build="osah")
+    with recording_daemon(
+        antumbra_bin, Path(env["XDG_RUNTIME_DIR"]) / "antumbra" / "daemon.sock", record
+    ):
+        done = blender_engine(
+            scene_blend, short_tmp, env, expr, "-s", "1", "-e", "6", "-a"
+        )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert sorted(p.name for p in out.glob("*.exr")) == [
+        f"frame_{f:04d}.exr" for f in range(1, 7)
+    ]
+    [(sent, frames)] = sessions_with_frames(record)
+    assert frames == [1, 2, 3, 4, 5, 6]
+
+    cli = short_tmp / "cli"
+    subprocess.run(
+        [
+            *(str(antumbra_bin), "render", "--scene", str(sent), "--frames", "1-6"),
+            *("--spp", str(SPP), "--build", "osah", "--out", str(cli)),
+        ],
+        check=True,
+        capture_output=True,
+    )
+    for f in range(1, 7):
+        assert_planes_equal(out / f"frame_{f:04d}.exr", cli / f"frame_{f:04d}.exr")
+    subprocess.run(
+        [
+            *(str(antumbra_bin), "render", "--scene", str(sent), "--frames", "4"),
+            *("--spp", str(SPP), "--build", "osah", "--out", str(short_tmp / "alone")),
+        ],
+        check=True,
+        capture_output=True,
+    )
+    assert (
+        antumbra.read_exr(short_tmp / "alone" / "frame_0004.exr")[
+            "shadow.N_B"
+        ].tobytes()
+        != antumbra.read_exr(out / "frame_0004.exr")["ViewLayer.shadow.N_B.X"].tobytes()
+    )
+
+    # The statistics beside the output, as the batch writes them.
+    with open(out / "frames.csv") as f:
+        assert [int(r["frame"]) for r in csv.DictReader(f)] == list(range(1, 7))
+    rows = json.loads((out / "stats.json").read_text())
+    assert [r["frame"] for r in rows] == [
+        f for f in range(1, 7) for _ in range(1 + len(LIGHTS))
+    ]
+    antumbra.write_stats_csv(short_tmp / "rust.csv", rows)
+    assert (out / "stats.csv").read_bytes() == (short_tmp / "rust.csv").read_bytes()
+    columns = (
+        "frame",
+        "pass",
+        "light",
+        "rays",
+        "nb_per_ray",
+        "nl_per_ray",
+        "nt_per_ray",
+    )
+
+    def work(path: Path) -> list[tuple[str, ...]]:
+        with open(path) as f:
+            return [tuple(r[c] for c in columns) for r in csv.DictReader(f)]
+
+    assert work(out / "stats.csv") == work(cli / "stats.csv")
+
+
+@pytest.mark.parametrize(
+    "kind", ["legacy", pytest.param("extension", marks=pytest.mark.bpy)]
+)
+def test_render_operator_and_compositor(
+    kind, addon_zips, scene_blend, antumbra_bin, short_tmp
+):
+    """Blender's render operator with the engine chosen in the scene (Render Animation), in
+    Debian's 3.4 and in the bpy module; the compositor's Render Layers node lists the passes."""
+    out, record = short_tmp / "out", short_tmp / "record"
+    socket = short_tmp / "d.sock"
+    args = [
+        *("--zip", str(addon_zips[kind]), "--kind", kind, "--blend", str(scene_blend)),
+        *("--frames", "2-3", "--out", str(out), "--binary", str(antumbra_bin)),
+        *("--socket", str(socket), "--spp", str(SPP)),
+    ]
+    with recording_daemon(antumbra_bin, socket, record):
+        if kind == "legacy":
+            done = run_blender(["-P", str(SCRIPT), "--", *args], short_tmp / "home")
+        else:
+            home = short_tmp / "home"
+            home.mkdir()
+            done = subprocess.run(
+                [sys.executable, str(SCRIPT), "--", *args],
+                env=blender_env(home),
+                capture_output=True,
+                text=True,
+                timeout=300,
+            )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    report = json.loads((out / "report.json").read_text())
+    assert report["engine"] == "ANTUMBRA" and report["render"] == ["FINISHED"], report
+    assert report["outputs"] == ["Image", "Alpha", *PASSES], report
+    [(sent, frames)] = sessions_with_frames(record)
+    assert frames == [2, 3]
+    cli = short_tmp / "cli"
+    subprocess.run(
+        [
+            *(str(antumbra_bin), "render", "--scene", str(sent), "--frames", "2-3"),
+            *("--spp", str(SPP), "--out", str(cli)),
+        ],
+        check=True,
+        capture_output=True,
+    )
+    for f in (2, 3):
+        assert_planes_equal(out / f"frame_{f:04d}.exr", cli / f"frame_{f:04d}.exr")
+
+
+def test_ctrl_c_cancels_the_render_in_flight(
+    addon_zips, scene_blend, antumbra_bin, short_tmp
+):
+    """``blender -b -a`` gets SIGINT (Blender's render break) once the daemon renders frame 2:
+    the engine sees it through ``test_break``, cancels the daemon's render, and Blender stops
+    the animation; frame 1 alone is written, with its statistics."""
+    env = engine_env(short_tmp, addon_zips)
+    out, record = short_tmp / "out", short_tmp / "record"
+    # Frames big enough that the render is still running when the signal arrives.
+    expr = output_expr(out, spp=16) + "; s.render.resolution_percentage = 400"
+    command = ["blender", "-b", "--factory-startup", "-noaudio", "--addons", "antumbra"]
+    command += [
+        str(scene_blend),
+        "--python-expr",
+        expr,
+        "-E",
+        "ANTUMBRA",
+        "-s",
+        "1",
+        "-e",
+        "6",
+    ]
+    sock = Path(env["XDG_RUNTIME_DIR"]) / "antumbra" / "daemon.sock"
+    with recording_daemon(antumbra_bin, sock, record) as daemon:
+        proc = subprocess.Popen(
+            [*command, "-a"],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        lines, sent = [], False
+        for line in proc.stdout:
+            lines.append(line)
+            if not sent and "antumbra: frame 2: render" in line:
+                proc.send_signal(signal.SIGINT)
+                sent = True
+        proc.wait(timeout=120)
+        stats = daemon.stats()
+    stdout = "".join(lines)
+    assert sent, stdout[-3000:]
+    assert "antumbra: frame 2: cancelled" in stdout, stdout[-3000:]
+    assert stats["renders_cancelled"] == 1, stats
+    assert sorted(p.name for p in out.glob("frame_*")) == [
+        "frame_0001.exr",
+        "frame_0001.stats.json",
+    ]
+    with open(out / "frames.csv") as f:
+        assert [int(r["frame"]) for r in csv.DictReader(f)] == [1]
+    assert os.path.getsize(out / "frame_0001.exr") > 0
