@@ -3,13 +3,15 @@ ANTUMBRA -f N`` and ``-a`` in Debian's 3.4 with the add-on enabled by ``--addons
 own render operator in the bpy module; multilayer EXRs written by Blender's output whose passes
 equal ``antumbra render`` of what the engine sent (recorded by the daemon), one daemon session per
 job, the statistics tables beside the output, the compositor's Render Layers node listing the
-passes, and Ctrl-C (Blender's render break) cancelling the render in flight."""
+passes, F12 in a real window, and Ctrl-C (Blender's render break) cancelling the render in
+flight."""
 
 from __future__ import annotations
 
 import csv
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -23,6 +25,7 @@ from conftest import blender_env, cli_render, run_blender
 import antumbra
 
 SCRIPT = Path(__file__).parent / "scripts" / "engine_render.py"
+F12_SCRIPT = Path(__file__).parent / "scripts" / "engine_f12.py"
 LIGHTS = ("Sun", "Window")
 HEAT = (
     "primary.N_B",
@@ -88,9 +91,7 @@ def recording_daemon(antumbra_bin: Path, socket: Path, record: Path):
     """A daemon at ``socket`` recording every session into ``record``."""
     socket.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
     record.mkdir(parents=True, exist_ok=True)
-    client = antumbra.Client.spawn(
-        antumbra_bin, socket_path=socket, args=["--record", str(record)]
-    )
+    client = antumbra.Client.spawn(antumbra_bin, socket_path=socket, args=["--record", str(record)])
     try:
         yield client
     finally:
@@ -114,9 +115,7 @@ def assert_planes_equal(blender_exr: Path, cli_exr: Path, layer: str = "ViewLaye
             blender_exr,
             plane,
         )
-    assert ours[f"{layer}.Combined.R"].tobytes() == cli["combined"].tobytes(), (
-        blender_exr
-    )
+    assert ours[f"{layer}.Combined.R"].tobytes() == cli["combined"].tobytes(), blender_exr
     assert (ours[f"{layer}.Combined.A"] == 1.0).all()
     for light in LIGHTS:
         mask = ours[f"{layer}.shadow.{light}.X"]
@@ -146,9 +145,7 @@ def test_dash_f_writes_the_passes_of_antumbra_render(
         assert len(list(csv.DictReader(f))) == 1 + len(LIGHTS)
 
 
-def test_dash_a_renders_six_frames_in_one_session(
-    addon_zips, scene_blend, antumbra_bin, short_tmp
-):
+def test_dash_a_renders_six_frames_in_one_session(addon_zips, scene_blend, antumbra_bin, short_tmp):
     """OSAH from the previous frame's visible set: the six frames' work per pixel equals a
     sequential ``antumbra render`` of them only because the engine keeps one daemon session
     for the whole job (frame 4 rendered alone takes other work)."""
@@ -158,13 +155,9 @@ def test_dash_a_renders_six_frames_in_one_session(
     with recording_daemon(
         antumbra_bin, Path(env["XDG_RUNTIME_DIR"]) / "antumbra" / "daemon.sock", record
     ):
-        done = blender_engine(
-            scene_blend, short_tmp, env, expr, "-s", "1", "-e", "6", "-a"
-        )
+        done = blender_engine(scene_blend, short_tmp, env, expr, "-s", "1", "-e", "6", "-a")
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
-    assert sorted(p.name for p in out.glob("*.exr")) == [
-        f"frame_{f:04d}.exr" for f in range(1, 7)
-    ]
+    assert sorted(p.name for p in out.glob("*.exr")) == [f"frame_{f:04d}.exr" for f in range(1, 7)]
     [(sent, frames)] = sessions_with_frames(record)
     assert frames == [1, 2, 3, 4, 5, 6]
 
@@ -188,9 +181,7 @@ def test_dash_a_renders_six_frames_in_one_session(
         capture_output=True,
     )
     assert (
-        antumbra.read_exr(short_tmp / "alone" / "frame_0004.exr")[
-            "shadow.N_B"
-        ].tobytes()
+        antumbra.read_exr(short_tmp / "alone" / "frame_0004.exr")["shadow.N_B"].tobytes()
         != antumbra.read_exr(out / "frame_0004.exr")["ViewLayer.shadow.N_B.X"].tobytes()
     )
 
@@ -198,9 +189,7 @@ def test_dash_a_renders_six_frames_in_one_session(
     with open(out / "frames.csv") as f:
         assert [int(r["frame"]) for r in csv.DictReader(f)] == list(range(1, 7))
     rows = json.loads((out / "stats.json").read_text())
-    assert [r["frame"] for r in rows] == [
-        f for f in range(1, 7) for _ in range(1 + len(LIGHTS))
-    ]
+    assert [r["frame"] for r in rows] == [f for f in range(1, 7) for _ in range(1 + len(LIGHTS))]
     antumbra.write_stats_csv(short_tmp / "rust.csv", rows)
     assert (out / "stats.csv").read_bytes() == (short_tmp / "rust.csv").read_bytes()
     columns = (
@@ -220,12 +209,8 @@ def test_dash_a_renders_six_frames_in_one_session(
     assert work(out / "stats.csv") == work(cli / "stats.csv")
 
 
-@pytest.mark.parametrize(
-    "kind", ["legacy", pytest.param("extension", marks=pytest.mark.bpy)]
-)
-def test_render_operator_and_compositor(
-    kind, addon_zips, scene_blend, antumbra_bin, short_tmp
-):
+@pytest.mark.parametrize("kind", ["legacy", pytest.param("extension", marks=pytest.mark.bpy)])
+def test_render_operator_and_compositor(kind, addon_zips, scene_blend, antumbra_bin, short_tmp):
     """Blender's render operator with the engine chosen in the scene (Render Animation), in
     Debian's 3.4 and in the bpy module; the compositor's Render Layers node lists the passes."""
     out, record = short_tmp / "out", short_tmp / "record"
@@ -267,9 +252,7 @@ def test_render_operator_and_compositor(
         assert_planes_equal(out / f"frame_{f:04d}.exr", cli / f"frame_{f:04d}.exr")
 
 
-def test_ctrl_c_cancels_the_render_in_flight(
-    addon_zips, scene_blend, antumbra_bin, short_tmp
-):
+def test_ctrl_c_cancels_the_render_in_flight(addon_zips, scene_blend, antumbra_bin, short_tmp):
     """``blender -b -a`` gets SIGINT (Blender's render break) once the daemon renders frame 2:
     the engine sees it through ``test_break``, cancels the daemon's render, and Blender stops
     the animation; frame 1 alone is written, with its statistics."""
@@ -317,3 +300,44 @@ def test_ctrl_c_cancels_the_render_in_flight(
     with open(out / "frames.csv") as f:
         assert [int(r["frame"]) for r in csv.DictReader(f)] == [1]
     assert os.path.getsize(out / "frame_0001.exr") > 0
+
+
+def test_f12_in_a_window_renders_through_the_render_thread(
+    addon_zips, scene_blend, antumbra_bin, short_tmp
+):
+    """F12 as a user presses it (Debian's 3.4 under Xvfb): Blender's render job runs the engine
+    on its render thread; the Render Result, saved as a multilayer EXR, equals the command
+    line's render of what the engine sent."""
+    xvfb_run, blender = shutil.which("xvfb-run"), shutil.which("blender")
+    if xvfb_run is None or blender is None:
+        pytest.fail("needs xvfb-run and Debian's blender (scripts/setup.sh installs both)")
+    out, record, socket = short_tmp / "out", short_tmp / "record", short_tmp / "d.sock"
+    out.mkdir()
+    (short_tmp / "home").mkdir()
+    with recording_daemon(antumbra_bin, socket, record):
+        done = subprocess.run(
+            [
+                *(
+                    xvfb_run,
+                    "-a",
+                    "-s",
+                    "-screen 0 1280x800x24",
+                    blender,
+                    "--factory-startup",
+                ),
+                *("-noaudio", str(scene_blend), "-P", str(F12_SCRIPT), "--"),
+                *("--zip", str(addon_zips["legacy"]), "--binary", str(antumbra_bin)),
+                *("--socket", str(socket), "--out", str(out)),
+            ],
+            env=blender_env(short_tmp / "home"),
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    report = json.loads((out / "report.json").read_text())
+    assert report["complete"] == 1, report
+    [(sent, frames)] = sessions_with_frames(record)
+    assert frames == [report["frame"]]
+    cli = cli_render(antumbra_bin, sent, report["frame"], short_tmp / "cli", SPP)
+    assert_planes_equal(out / "f12.exr", cli)

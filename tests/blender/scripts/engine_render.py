@@ -70,9 +70,7 @@ def main():
     first, last = (int(f) for f in a.frames.split("-"))
     scene.frame_start, scene.frame_end = first, last
     settings = scene.render.image_settings
-    if hasattr(
-        settings, "media_type"
-    ):  # Blender 5.0: the format follows the media type
+    if hasattr(settings, "media_type"):  # Blender 5.0: the format follows the media type
         settings.media_type = "MULTI_LAYER_IMAGE"
     settings.file_format = "OPEN_EXR_MULTILAYER"
     settings.color_depth = "32"
