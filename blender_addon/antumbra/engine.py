@@ -43,7 +43,6 @@ class EngineJob:
     exporter: Exporter | None = None
     #: Statistics of rendered frames not yet written (written once Blender saved the frame).
     pending: dict[int, dict] = field(default_factory=dict)
-    frames: int = 0
 
     def close(self):
         self.link.close()
@@ -120,7 +119,6 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
             _say(f"error: {message}")
             return
         self._write_result(depsgraph.view_layer.name, done.result)
-        job.frames += 1
         if self.is_animation:
             job.pending[frame] = results.frame_record(done, job.key)
         _say(f"frame {frame} {done.seconds:.2f} s | " + " | ".join(done.stats_lines))

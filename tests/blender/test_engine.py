@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pytest
 from conftest import blender_env, cli_render, run_blender
+from test_batch import NAN_SCENE
 
 import antumbra
 
@@ -341,3 +342,19 @@ def test_f12_in_a_window_renders_through_the_render_thread(
     assert frames == [report["frame"]]
     cli = cli_render(antumbra_bin, sent, report["frame"], short_tmp / "cli", SPP)
     assert_planes_equal(out / "f12.exr", cli)
+
+
+def test_a_bad_scene_is_an_error_naming_object_and_frame(addon_zips, antumbra_bin, short_tmp):
+    """A NaN vertex: Blender's render reports the engine's error (frame and object named), the
+    job stops and no file is written."""
+    script = short_tmp / "nan_scene.py"
+    script.write_text(NAN_SCENE)
+    blend = short_tmp / "nan.blend"
+    made = run_blender(["-P", str(script), "--", str(blend)], short_tmp / "home")
+    assert made.returncode == 0 and blend.is_file(), made.stderr
+    env = {**engine_env(short_tmp, addon_zips), "ANTUMBRA_BIN": str(antumbra_bin)}
+    out = short_tmp / "out"
+    done = blender_engine(blend, short_tmp, env, output_expr(out), "-f", "1")
+    text = done.stdout + done.stderr
+    assert "antumbra: frame 1: object 'Broken' has a non-finite vertex" in text, text[-3000:]
+    assert not out.exists() or not list(out.iterdir())
