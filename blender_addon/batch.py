@@ -407,8 +407,8 @@ def _say(line: str):
     print(f"antumbra: {line}", flush=True)
 
 
-def main():
-    argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
+def exit_status(argv: list[str]) -> int:
+    """Runs the batch; its exit status (1 on any failure, 2 on bad arguments)."""
     try:
         code = run(argv)
     except SystemExit as e:
@@ -420,6 +420,11 @@ def main():
         code = 1
     sys.stdout.flush()
     sys.stderr.flush()
+    return code
+
+
+def main():
+    code = exit_status(sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else [])
     # Blender exits 0 after a -P script whatever happened; the batch's status must mean
     # something, and an explicit exit is the only way to set it.
     os._exit(code)
