@@ -219,6 +219,8 @@ def run(argv: list[str]) -> int:
         f"daemon reconnects {link.reconnects}; {rows} frames in {frames_csv}",
         flush=True,
     )
+    if job.warmed:
+        _say("rendered again for the session's state: " + ", ".join(map(str, job.warmed)))
     if job.error:
         print(f"antumbra: error: {job.error}", file=sys.stderr, flush=True)
         return 1
