@@ -4,7 +4,7 @@
         [--build osah] [--width 8] [--order sorted:budget=0.05] [--spp 4] ... (every render
         setting, named as ``antumbra render`` names it: ``--help`` lists them)
         [--scale 1.0] [--no-heat-maps]
-        [--socket PATH] [--binary PATH] [--spool DIR] [--restart]
+        [--socket PATH] [--binary PATH] [--spool DIR] [--restart] [--first-frame N] [--merge]
     blender -b scene.blend -P blender_addon/batch.py -- --frames 1-100 --out DIR
         --compare [LABEL=NAME=VALUE,... ...] [--baseline LABEL] [--repeat R] [settings]
 
@@ -25,6 +25,13 @@ baseline's, and the report (``compare.csv``, ``compare.json``, ``summary.md``, `
 it lacks (first comparing once more, and discarding, the frame before the first of them, so
 each method's state is what one run would have). The exit status is 1, the mismatches printed,
 when a method's answers differ from the baseline's.
+
+With ``--first-frame N`` the frames are part of an animation that starts at N (a farm's chunk of
+it, ``farm/``): before a frame whose predecessors the batch has not just rendered (the first
+frame, a missing frame on resume) it renders up to two of them from N on and discards them, so
+every frame's trees and work counters are those of one run from N. ``--merge`` renders nothing:
+it rebuilds DIR's tables (or with ``--compare`` its report) from every frame recorded there,
+whichever run recorded it, and fails if a frame of ``--frames`` is missing.
 
 With ``--spool DIR`` the frames are exported once into a job in the daemon's spool folder
 (``antumbra serve --spool DIR``; one is started for the batch if none watches DIR), the daemon
@@ -58,7 +65,7 @@ sys.path.insert(
 )
 from antumbra import client_loader, compare_results, daemon, results, settings_ui, spool
 from antumbra.compare_job import CompareJob, baseline_of, report_dir, scene_name
-from antumbra.jobs import RenderJob
+from antumbra.jobs import WARM_UP_FRAMES, RenderJob
 from antumbra.options import RenderOptions
 
 
@@ -93,6 +100,17 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--spool", type=Path, help="render through this spool folder")
     parser.add_argument("--restart", action="store_true", help="render finished frames again")
     parser.add_argument(
+        "--first-frame",
+        type=int,
+        help="the animation's first frame: frames after a gap are rendered after their "
+        "predecessors (rendered again and discarded), as in one run from it",
+    )
+    parser.add_argument(
+        "--merge",
+        action="store_true",
+        help="render nothing: rebuild the tables (or the report) from every frame in OUT",
+    )
+    parser.add_argument(
         "--compare",
         nargs="*",
         metavar="LABEL=NAME=VALUE,...",
@@ -112,6 +130,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         parser.error("--compare renders through a session, not a spool")
     if args.repeat < 1:
         parser.error("--repeat must be at least 1")
+    if args.spool and (args.first_frame is not None or args.merge):
+        parser.error("--first-frame and --merge go with a session, not a spool")
     # A binary asked for by name is used or refused, never quietly replaced by another one.
     if args.binary and not Path(args.binary).is_file():
         parser.error(f"--binary: {args.binary} does not exist")
@@ -136,6 +156,10 @@ def run(argv: list[str]) -> int:
     client = client_loader.load()
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
+    if args.first_frame is not None and args.first_frame > frames[0]:
+        raise SystemExit(f"--first-frame {args.first_frame} is after frame {frames[0]}")
+    if args.merge:
+        return run_merge(args, scene, frames, out, client)
     if args.spool:
         return run_spool(args, scene, frames, options, out, client)
     link = daemon.DaemonLink(
@@ -163,6 +187,7 @@ def run(argv: list[str]) -> int:
         out_dir=out,
         load_images=False,
         on_frame=progress,
+        **warm_up(args, frames),
     )
     job.key = results.run_key(bpy.data.filepath, options)
     if not args.restart:
@@ -194,6 +219,8 @@ def run(argv: list[str]) -> int:
         f"daemon reconnects {link.reconnects}; {rows} frames in {frames_csv}",
         flush=True,
     )
+    if job.warmed:
+        _say("rendered again for the session's state: " + ", ".join(map(str, job.warmed)))
     if job.error:
         print(f"antumbra: error: {job.error}", file=sys.stderr, flush=True)
         return 1
@@ -203,16 +230,56 @@ def run(argv: list[str]) -> int:
     return 0
 
 
-def run_compare(args, scene, frames, options, out: Path, client, link) -> int:
+def warm_up(args, frames: list[int]) -> dict:
+    """The job's warm-up with ``--first-frame``: up to WARM_UP_FRAMES predecessors, from it on."""
+    if args.first_frame is None:
+        return {}
+    lead_in = range(max(args.first_frame, frames[0] - WARM_UP_FRAMES), frames[0])
+    return {"lead_in": list(lead_in), "warm_up": WARM_UP_FRAMES}
+
+
+def compare_report(args, scene, client):
+    """The report folder of ``--compare`` (its methods, baseline and repeat)."""
     methods = args.compare or list(client.DEFAULT_METHODS)
     baseline = baseline_of(methods, args.baseline)
-    folder = report_dir(out)
     try:
         report = client.CompareReport(
-            folder, scene=scene_name(scene), methods=methods, baseline=baseline, repeat=args.repeat
+            report_dir(args.out.resolve()),
+            scene=scene_name(scene),
+            methods=methods,
+            baseline=baseline,
+            repeat=args.repeat,
         )
     except client.InvalidInput as e:
         raise SystemExit(str(e)) from None
+    return report, methods, baseline
+
+
+def run_merge(args, scene, frames, out: Path, client) -> int:
+    """``--merge``: the tables (or the report) of every frame in OUT, and the frames missing."""
+    if args.compare is not None:
+        report, _, _ = compare_report(args, scene, client)
+        recorded = report.frames()
+        written = report.write()
+    else:
+        recorded = results.finished_frames(out)
+        written, _ = results.write_tables(out)
+    missing = [f for f in frames if f not in recorded]
+    _say(f"merged {len(recorded)} frame(s) into {written}")
+    if missing:
+        print(
+            f"antumbra: error: {len(missing)} frame(s) missing: "
+            + ", ".join(str(f) for f in missing),
+            file=sys.stderr,
+            flush=True,
+        )
+        return 1
+    return 0
+
+
+def run_compare(args, scene, frames, options, out: Path, client, link) -> int:
+    report, methods, baseline = compare_report(args, scene, client)
+    folder = report_dir(out)
 
     def progress(job: CompareJob, done):
         n = len(job.done) + len(job.skipped)
@@ -234,6 +301,7 @@ def run_compare(args, scene, frames, options, out: Path, client, link) -> int:
         baseline=baseline,
         repeat=args.repeat,
         report=report,
+        **warm_up(args, frames),
     )
     if not args.restart:
         job.skip_finished(set(report.frames()))
@@ -341,8 +409,8 @@ def _say(line: str):
     print(f"antumbra: {line}", flush=True)
 
 
-def main():
-    argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
+def exit_status(argv: list[str]) -> int:
+    """Runs the batch; its exit status (1 on any failure, 2 on bad arguments)."""
     try:
         code = run(argv)
     except SystemExit as e:
@@ -354,6 +422,11 @@ def main():
         code = 1
     sys.stdout.flush()
     sys.stderr.flush()
+    return code
+
+
+def main():
+    code = exit_status(sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else [])
     # Blender exits 0 after a -P script whatever happened; the batch's status must mean
     # something, and an explicit exit is the only way to set it.
     os._exit(code)

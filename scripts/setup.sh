@@ -5,7 +5,8 @@
 # comparison report), the Rust toolchain's components, and a Python
 # venv (.venv) with the tools that build and test the Python client and the bpy 5.0.1 module,
 # and the version matrix's venvs (docs/blender.md): .venv-bpy53 (pyenv's Python 3.13, bpy 5.3)
-# and .venv-py310 (pyenv's Python 3.10, the client alone). Safe to run again.
+# and .venv-py310 (pyenv's Python 3.10, the client alone), and .venv-openjd (openjd-cli, which
+# runs the farm job's tests). Safe to run again.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -58,3 +59,11 @@ matrix_venv() { # DIR PYTHON_VERSION PACKAGES...
 }
 matrix_venv .venv-bpy53 3.13 "bpy==5.3.0" "numpy==2.5.5" "pytest==9.2.0"
 matrix_venv .venv-py310 3.10 "numpy==1.23.5" "pytest==9.2.0"
+
+# The farm job's local runner (farm/, docs/farm.md): openjd-cli in a venv of its own, on the
+# machine's python3, so its pydantic stays out of the test venvs.
+if [ ! -x .venv-openjd/bin/python ]; then
+  echo "setup: creating .venv-openjd"
+  python3 -m venv .venv-openjd
+fi
+.venv-openjd/bin/pip install -q --disable-pip-version-check "openjd-cli==0.8.0"

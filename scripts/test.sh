@@ -2,7 +2,8 @@
 # Sets up and runs every test: formatting and lints (Rust and Python), the whole workspace's
 # tests with the Embree oracle enabled (core, scenes, protocol, daemon over real sockets, CLI),
 # the Python client's tests against the real daemon binary, then the Blender add-on end to end
-# in Debian's Blender 3.4 (`blender -b`) and in the bpy 5.0.1 module; then the version matrix's
+# in Debian's Blender 3.4 (`blender -b`) and in the bpy 5.0.1 module, with the farm job run by
+# openjd (tests/blender/test_farm.py); then the version matrix's
 # other legs (docs/blender.md): the client on Python 3.10 and the add-on in the bpy 5.3 module.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,14 +23,15 @@ rm -rf target/wheels
 .venv/bin/pip install -q --disable-pip-version-check --no-deps --force-reinstall target/wheels/antumbra-*.whl
 .venv/bin/ruff format --check --config rust/python/pyproject.toml rust/python/python tests/python
 .venv/bin/ruff check --config rust/python/pyproject.toml rust/python/python tests/python
-.venv/bin/ruff format --check --config blender_addon/ruff.toml blender_addon tests/blender
-.venv/bin/ruff check --config blender_addon/ruff.toml blender_addon tests/blender
+.venv/bin/ruff format --check --config blender_addon/ruff.toml blender_addon farm tests/blender
+.venv/bin/ruff check --config blender_addon/ruff.toml blender_addon farm tests/blender
 # The daemon the Python tests talk to: the debug binary `cargo test` just built.
 ANTUMBRA_BIN="$PWD/target/debug/antumbra" .venv/bin/pytest tests/python -q
 
-echo "== blender add-on: build, test in Blender 3.4 and bpy 5.0.1"
+echo "== blender add-on: build, test in Blender 3.4 and bpy 5.0.1 (and the farm job through openjd)"
 .venv/bin/python blender_addon/build.py --wheel target/wheels/antumbra-*.whl
-ANTUMBRA_BIN="$PWD/target/debug/antumbra" .venv/bin/pytest tests/blender -q
+ANTUMBRA_BIN="$PWD/target/debug/antumbra" OPENJD="$PWD/.venv-openjd/bin/openjd" \
+  .venv/bin/pytest tests/blender -q
 
 # A leg of the version matrix: its venv gets the wheel and runs pytest ARGS. A venv that setup
 # could not make (no such Python on this machine) is reported as not run, never as passed.

@@ -3,7 +3,8 @@ Each frame is exported once and compared with every method on a session of the j
 every method's state starts fresh and runs through the frames in order, as in ``antumbra
 compare``), then recorded in the report folder. Before a frame whose predecessor this session
 has not compared (a resumed batch, "Compare frame"), it compares that predecessor once more and
-discards the result, so OSAH from the previous frame's visibility sees what one run would."""
+discards the result (``RenderJob``'s warm-up), so OSAH from the previous frame's visibility sees
+what one run would."""
 
 from __future__ import annotations
 
@@ -43,35 +44,21 @@ class CompareJob(RenderJob):
     repeat: int = 3
     #: ``antumbra.CompareReport`` the frames are added to (None: nothing written).
     report: object = None
-    #: The animation's frame before ``frames[0]``, compared first to set the methods' state.
+    #: The animation's frame before ``frames[0]``, compared first to set the methods' state
+    #: (the ``lead_in`` of one frame).
     before: int | None = None
+    #: A frame whose predecessor this session has not compared comes after it.
+    warm_up: int = 1
     #: Every mismatch of the recorded frames (dicts: frame, label, what, pixels, message).
     mismatches: list[dict] = field(default_factory=list)
     #: The recorded frames' rows (compare.csv's columns), in order.
     rows: list[dict] = field(default_factory=list)
-    #: Frames compared only to set the methods' state.
-    warmed: list[int] = field(default_factory=list)
 
     def __post_init__(self):
         super().__post_init__()
+        if self.before is not None and not self.lead_in:
+            self.lead_in = [self.before]
         self._own = None  # the job's session: its own comparison state
-        self._last_compared: int | None = None
-
-    # -- which frame goes next --------------------------------------------------------------
-
-    def _frame_before(self, frame: int) -> int | None:
-        """The frame to compare (and discard) before ``frame``, or None."""
-        i = self.frames.index(frame)
-        before = self.frames[i - 1] if i else self.before
-        return None if before is None or before == self._last_compared else before
-
-    def _begin(self, frame: int):
-        before = self._frame_before(frame)
-        super()._begin(frame if before is None else before)
-
-    @property
-    def warming_up(self) -> bool:
-        return self._work is not None and bool(self.pending) and self._work.frame != self.pending[0]
 
     # -- the daemon -------------------------------------------------------------------------
 
@@ -109,12 +96,6 @@ class CompareJob(RenderJob):
             except Exception:  # noqa: BLE001 - a dead daemon cannot be closed politely
                 pass
 
-    def _failed_frame(self, work) -> bool:
-        finished = super()._failed_frame(work)
-        if self._reconnect:
-            self._last_compared = None  # a new session: its state starts afresh
-        return finished
-
     def _finish(self) -> bool:
         self._close_own()
         return super()._finish()
@@ -123,8 +104,8 @@ class CompareJob(RenderJob):
 
     def _collect(self, work):
         compared = work.result
-        self._last_compared = work.frame
-        if not self.pending or work.frame != self.pending[0]:
+        self._last_rendered = work.frame
+        if self._is_warm_up(work.frame):
             self.warmed.append(work.frame)  # the state's warm-up: not a result
             return
         if self.report is not None:

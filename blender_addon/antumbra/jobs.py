@@ -6,7 +6,9 @@ files, statistics). The modal operators call :meth:`RenderJob.step` from a timer
 
 A lost daemon is reconnected (or restarted) and the frame sent again; a frame counts as done
 only once its files and statistics are written, so a cancelled or failed job leaves complete
-frames only.
+frames only. A job that warms up (``warm_up``) first renders, and discards, the frames before
+one whose predecessors its session has not just rendered (a farm's chunk, a resumed batch), so
+every frame's trees and work counters are those of one run over the animation.
 """
 
 from __future__ import annotations
@@ -25,6 +27,10 @@ from .options import RenderOptions
 
 #: How often one frame is sent again after the daemon went away.
 RETRIES_PER_FRAME = 2
+
+#: The predecessors a warm-up renders: the frame before gives the previous-frame visible set,
+#: and the one before that the trees a run would still hold, reused when the set did not change.
+WARM_UP_FRAMES = 2
 
 
 class JobFailed(RuntimeError):
@@ -85,6 +91,13 @@ class RenderJob:
     on_frame: object = None
     #: Recorded with each frame's statistics (``results.run_key``): what a resume compares.
     key: str | None = None
+    #: The animation's frames before ``frames[0]``, in order, that a warm-up may render.
+    lead_in: list[int] = field(default_factory=list)
+    #: How many predecessors of a frame are rendered first, and discarded, when the session has
+    #: not just rendered them (0: every frame as it comes).
+    warm_up: int = 0
+    #: Frames rendered only to set the session's state.
+    warmed: list[int] = field(default_factory=list)
     #: Frames left, in order.
     pending: deque = field(init=False)
     done: list[FrameDone] = field(default_factory=list)
@@ -105,6 +118,7 @@ class RenderJob:
         self._camera_path: dict | None = None
         self._camera_path_sent_to = None
         self._start_frame = self.scene.frame_current
+        self._last_rendered: int | None = None
 
     # -- the steps --------------------------------------------------------------------------
 
@@ -135,7 +149,7 @@ class RenderJob:
                 self._collect(work)
             except Exception as e:  # noqa: BLE001 - reported, job ends
                 return self._fail(f"frame {work.frame}: writing results: {e}")
-            # A frame done before the pending one (a comparison's warm-up) leaves it pending.
+            # A frame done before the pending one (a warm-up) leaves it pending.
             if self.pending and self.pending[0] == work.frame:
                 self.pending.popleft()
             self._retries = 0
@@ -163,9 +177,30 @@ class RenderJob:
         """The session whose request in flight ``cancel`` stops."""
         return self.link.client
 
+    # -- which frame goes next --------------------------------------------------------------
+
+    def _next_to_render(self, frame: int) -> int:
+        """``frame``, or the first of its predecessors a warm-up still has to render."""
+        if not self.warm_up:
+            return frame
+        run = self.lead_in + self.frames
+        i = run.index(frame)
+        before = run[max(0, i - self.warm_up) : i]
+        if self._last_rendered in before:
+            before = before[before.index(self._last_rendered) + 1 :]
+        return before[0] if before else frame
+
+    def _is_warm_up(self, frame: int) -> bool:
+        return not self.pending or frame != self.pending[0]
+
+    @property
+    def warming_up(self) -> bool:
+        return self._work is not None and self._is_warm_up(self._work.frame)
+
     # -- inside a step ----------------------------------------------------------------------
 
     def _begin(self, frame: int):
+        frame = self._next_to_render(frame)
         client = self.link.module
         if self._exporter is None:
             self._exporter = Exporter(client)
@@ -204,13 +239,20 @@ class RenderJob:
 
     def _request(self, session, frame: int):
         """On the worker thread: what the job asks of the daemon for a frame it has sent."""
-        return session.render(frame, progress=self._progress, **self.options.render_kwargs())
+        kwargs = self.options.render_kwargs()
+        if self._is_warm_up(frame):
+            kwargs["passes"] = ()  # only the session's state is wanted
+        return session.render(frame, progress=self._progress, **kwargs)
 
     def _progress(self, stage: str, done: int, total: int):
         self.stage = (stage, done, total)
         return not self.cancelled
 
     def _collect(self, work: _Work):
+        self._last_rendered = work.frame
+        if self._is_warm_up(work.frame):
+            self.warmed.append(work.frame)
+            return
         result = work.result
         client = self.link.module
         images = results.load_images(client, result) if self.load_images else {}
@@ -250,6 +292,7 @@ class RenderJob:
             # again with all its meshes; nothing of it was kept.
             self._retries += 1
             self._reconnect = True
+            self._last_rendered = None  # a new session: its state starts afresh
             return False
         return self._fail(f"frame {work.frame}: {error}")
 

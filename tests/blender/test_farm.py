@@ -1,0 +1,244 @@
+"""The farm job (``farm/``, docs/farm.md) run by ``openjd`` (openjd-cli from the package
+registry, in ``.venv-openjd``) with Debian's Blender: the bundle passes ``openjd check``; 12
+frames in 3 chunks give the images and statistics rows of one sequential batch run over the 12
+frames (the chunk borders lie where one run reuses its trees, so a chunk that did not render the
+frames before it would differ); a chunk run again after two of its frames were deleted renders
+exactly those; and a chunked comparison's merged report equals one run's."""
+
+from __future__ import annotations
+
+import csv
+import filecmp
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import pytest
+from conftest import ADDON, REPO, blender_env, run_blender
+
+FARM = REPO / "farm"
+TEMPLATE = FARM / "template.yaml"
+FRAMES, CHUNK = 12, 4
+#: The settings every run here uses: OSAH from the previous frame's visible set.
+SETTINGS = ["--build", "osah", "--spp", "2"]
+#: Columns that are times: they differ between runs.
+TIMES = ("_ms", "_ms_min", "_ms_max", "mrays_per_s", "seconds")
+
+#: A small animated scene: the camera moves over frames 1-3, holds still over 3-7 (one run
+#: reuses its trees there: frame 5, a chunk's first, reads state two frames old) and moves on.
+SCENE = """
+import bpy, sys
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+bpy.ops.mesh.primitive_plane_add(size=20)
+bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, location=(0, 0, 1))
+bpy.ops.mesh.primitive_cube_add(location=(2.5, 1, 1))
+bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, location=(-2, -1, 0.8))
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+scene.camera = camera
+camera.rotation_euler = (1.1, 0, 0)
+for frame, x in ((1, -3.0), (3, -1.0), (7, -1.0), (12, 3.0)):
+    camera.location = (x, -9.0, 4.0)
+    camera.keyframe_insert("location", frame=frame)
+for curve in camera.animation_data.action.fcurves:
+    for key in curve.keyframe_points:
+        key.interpolation = "LINEAR"
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+sun.rotation_euler = (0.6, 0.3, 0)
+scene.collection.objects.link(sun)
+lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
+lamp.data.shadow_soft_size = 0.5
+lamp.location = (1, -2, 4)
+scene.collection.objects.link(lamp)
+scene.render.resolution_x, scene.render.resolution_y = 64, 48
+scene.render.resolution_percentage = 100
+scene.frame_start, scene.frame_end = 1, 12
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[-1])
+"""
+
+
+def openjd_bin() -> Path:
+    path = Path(os.environ.get("OPENJD", REPO / ".venv-openjd" / "bin" / "openjd"))
+    if not path.is_file():
+        pytest.fail(f"no openjd at {path}: run scripts/setup.sh (it makes .venv-openjd)")
+    return path
+
+
+def openjd(env: dict, *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [str(openjd_bin()), *args], env=env, capture_output=True, text=True, timeout=300
+    )
+
+
+def job_params(blend: Path, out: Path, antumbra_bin: Path, *extra: str) -> list[str]:
+    params = {
+        "BlendFile": blend,
+        "OutputDir": out,
+        "AddonDir": ADDON,
+        "AntumbraBinary": antumbra_bin,
+        "FrameStart": 1,
+        "FrameEnd": FRAMES,
+        "ChunkSize": CHUNK,
+        "BatchArgs": " ".join(SETTINGS),
+    }
+    return [arg for k, v in params.items() for arg in ("-p", f"{k}={v}")] + list(extra)
+
+
+def frame_lines(stdout: str) -> list[int]:
+    """The frames a log says were rendered or compared (``antumbra: frame N ...``, after
+    openjd's time stamp)."""
+    marker = "antumbra: frame "
+    return [int(line.split(marker)[1].split()[0]) for line in stdout.splitlines() if marker in line]
+
+
+def rows_without_times(path: Path) -> tuple[list[str], list[dict]]:
+    with open(path) as f:
+        reader = csv.DictReader(f)
+        rows = [{k: v for k, v in r.items() if not k.endswith(TIMES)} for r in reader]
+        return reader.fieldnames, rows
+
+
+def same_files(a: Path, b: Path, names: list[str]) -> list[str]:
+    """The names whose files differ between folders a and b."""
+    return [n for n in names if not filecmp.cmp(a / n, b / n, shallow=False)]
+
+
+class Farm:
+    """A folder with the scene, a sequential batch run and the farm job's run of it."""
+
+    def __init__(self, antumbra_bin: Path):
+        self.tmp = Path(tempfile.mkdtemp(prefix="antfarm-", dir="/tmp"))
+        self.antumbra_bin = antumbra_bin
+        self.home = self.tmp / "home"
+        self.env = blender_env(self.home, ANTUMBRA_BIN=str(antumbra_bin))
+        script = self.tmp / "scene.py"
+        script.write_text(SCENE)
+        self.blend = self.tmp / "scene.blend"
+        made = run_blender(["-P", str(script), "--", str(self.blend)], self.home)
+        assert made.returncode == 0 and self.blend.is_file(), made.stdout + made.stderr
+
+    def batch(self, out: Path, *extra: str) -> subprocess.CompletedProcess:
+        """One sequential batch run over every frame."""
+        args = [str(self.blend), "-P", str(ADDON / "batch.py"), "--", "--out", str(out)]
+        args += ["--frames", f"1-{FRAMES}", "--socket", str(self.tmp / "seq.sock"), *SETTINGS]
+        done = run_blender([*args, *extra], self.home, env=self.env)
+        assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+        return done
+
+    def job(self, out: Path, *extra: str) -> subprocess.CompletedProcess:
+        return openjd(
+            self.env, "run", str(TEMPLATE), *job_params(self.blend, out, self.antumbra_bin, *extra)
+        )
+
+
+@pytest.fixture(scope="module")
+def farm(antumbra_bin):
+    f = Farm(antumbra_bin)
+    yield f
+    shutil.rmtree(f.tmp, ignore_errors=True)
+
+
+def test_bundle_passes_openjd_check(antumbra_bin, tmp_path):
+    done = openjd(dict(os.environ), "check", str(TEMPLATE))
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "passes validation checks" in done.stdout
+    # 12 frames in chunks of 4: three render tasks, then the merge.
+    summary = openjd(
+        dict(os.environ),
+        "summary",
+        str(TEMPLATE),
+        "--output",
+        "json",
+        *job_params(tmp_path / "s.blend", tmp_path / "out", antumbra_bin),
+    )
+    assert summary.returncode == 0, summary.stdout + summary.stderr
+    steps = {s["name"]: s["total_tasks"] for s in json.loads(summary.stdout)["steps"]}
+    assert steps == {"Render": 3, "Merge": 1}, summary.stdout
+    # The bundle's other files are what Deadline Cloud reads (YAML with these keys).
+    python = openjd_bin().parent / "python"
+    check = (
+        "import sys, yaml; v = yaml.safe_load(open(sys.argv[1])); r = yaml.safe_load(open("
+        "sys.argv[2]))['assetReferences']; assert [p['name'] for p in v['parameterValues']];"
+        "assert set(r) == {'inputs', 'outputs', 'referencedPaths'}, r"
+    )
+    loaded = subprocess.run(
+        [str(python), "-c", check, FARM / "parameter_values.yaml", FARM / "asset_references.yaml"],
+        capture_output=True,
+        text=True,
+    )
+    assert loaded.returncode == 0, loaded.stderr
+
+
+def test_chunks_equal_one_run_and_a_chunk_resumes(farm):
+    seq, out = farm.tmp / "seq", farm.tmp / "farm"
+    farm.batch(seq)
+    # The test means something: one run reuses its trees at frame 5, the second chunk's first.
+    _, seq_rows = rows_without_times(seq / "stats.csv")
+    assert {r["rebuilt"] for r in seq_rows if r["frame"] == "5"} == {"false"}
+
+    done = farm.job(out, "--step", "Merge", "--run-dependencies")
+    assert done.returncode == 0, done.stdout[-5000:] + done.stderr[-3000:]
+    assert frame_lines(done.stdout) == list(range(1, FRAMES + 1)), done.stdout
+    # Each later chunk rendered the two frames before it first, and kept nothing of them.
+    assert "rendered again for the session's state: 3, 4" in done.stdout
+    assert "rendered again for the session's state: 7, 8" in done.stdout
+    assert "merged 12 frame(s)" in done.stdout
+    # Images (masks and the heat maps of every pass's work per pixel) and statistics rows are
+    # those of the sequential run; the tables' columns too, in the same order.
+    names = sorted(p.name for p in seq.glob("frame_*") if not p.name.endswith(".stats.json"))
+    assert len([n for n in names if n.endswith(".exr")]) == FRAMES
+    assert sorted(p.name for p in out.glob("frame_*.exr")) == [
+        n for n in names if n.endswith(".exr")
+    ]
+    assert same_files(seq, out, names) == []
+    for table in ("stats.csv", "frames.csv"):
+        assert rows_without_times(out / table) == rows_without_times(seq / table), table
+
+    # Two frames of the second chunk lost: running that task again renders exactly those, after
+    # the frame before them (and the one before that) for the session's state.
+    for f in (6, 7):
+        for p in out.glob(f"frame_{f:04d}*"):
+            p.unlink()
+    again = farm.job(out, "--step", "Render", "--task-param", "ChunkStart=5")
+    assert again.returncode == 0, again.stdout[-5000:] + again.stderr[-3000:]
+    assert frame_lines(again.stdout) == [6, 7], again.stdout
+    assert "resuming: 2 frame(s) already done" in again.stdout
+    assert "rendered again for the session's state: 4, 5" in again.stdout
+    assert same_files(seq, out, names) == []
+    merged = farm.job(out, "--step", "Merge", "--no-run-dependencies")
+    assert merged.returncode == 0, merged.stdout[-3000:] + merged.stderr[-3000:]
+    for table in ("stats.csv", "frames.csv"):
+        assert rows_without_times(out / table) == rows_without_times(seq / table), table
+
+
+def test_merge_fails_on_a_missing_frame(farm):
+    out = farm.tmp / "half"
+    done = farm.job(out, "--step", "Render", "--task-param", "ChunkStart=1")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    merged = farm.job(out, "--step", "Merge", "--no-run-dependencies")
+    assert merged.returncode != 0
+    assert "8 frame(s) missing: 5, 6, 7, 8, 9, 10, 11, 12" in merged.stdout + merged.stderr
+
+
+def test_chunked_comparison_equals_one_run(farm):
+    compare = ["--compare", "sah=build=sah", "osah=build=osah", "--repeat", "1"]
+    seq, out = farm.tmp / "seq-compare", farm.tmp / "farm-compare"
+    farm.batch(seq, *compare)
+    done = farm.job(
+        out,
+        "--step",
+        "Merge",
+        "--run-dependencies",
+        "-p",
+        "BatchArgs=" + " ".join(SETTINGS + compare),
+    )
+    assert done.returncode == 0, done.stdout[-5000:] + done.stderr[-3000:]
+    assert frame_lines(done.stdout) == list(range(1, FRAMES + 1)), done.stdout
+    header, rows = rows_without_times(out / "compare" / "compare.csv")
+    assert len(rows) == FRAMES * 2 * 3  # frames x methods x passes (primary, Sun, Lamp)
+    assert (header, rows) == rows_without_times(seq / "compare" / "compare.csv")
+    assert (out / "compare" / "report.html").is_file()
