@@ -1,13 +1,16 @@
 //! The knobs `antumbra trade` sweeps, defined once: each knob's name, what it trades, the method
 //! it varies from, the setting (or order option, or resolution) it sets and the values it takes.
 
+use serde::{Deserialize, Serialize};
+
 use crate::compare::MethodSpec;
 use crate::render::RenderSettings;
 use crate::settings::{setting, NamedSettings};
 use crate::{Error, Result};
 
 /// Whether a knob changes the image (measured against a reference) or only the work.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum KnobKind {
     Image,
     Work,
