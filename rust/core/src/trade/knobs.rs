@@ -326,11 +326,10 @@ impl Knob {
 
     /// The method of `value`: the base method, the shared settings of `common` under it.
     fn method(&self, value: &str, common: &NamedSettings) -> Result<(MethodSpec, u32)> {
-        self.method_of(value, common)
-            .map_err(|e| match e {
-                Error::Invalid { field, .. } if field.starts_with("knob '") => e,
-                e => self.invalid(format!("value '{value}': {e}")),
-            })
+        self.method_of(value, common).map_err(|e| match e {
+            Error::Invalid { ref field, .. } if field.starts_with("knob '") => e,
+            e => self.invalid(format!("value '{value}': {e}")),
+        })
     }
 
     fn method_of(&self, value: &str, common: &NamedSettings) -> Result<(MethodSpec, u32)> {
