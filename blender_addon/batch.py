@@ -7,6 +7,8 @@
         [--socket PATH] [--binary PATH] [--spool DIR] [--restart] [--first-frame N] [--merge]
     blender -b scene.blend -P blender_addon/batch.py -- --frames 1-100 --out DIR
         --compare [LABEL=NAME=VALUE,... ...] [--baseline LABEL] [--repeat R] [settings]
+    blender -b scene.blend -P blender_addon/batch.py -- --frames 1-100 --out DIR
+        --trade [KNOB[=V1,V2,...] ...] [--repeat R] [settings]
 
 Prints one line per frame and a summary, writes ``frame_NNNN.exr``, PNGs and
 ``frame_NNNN.stats.json`` per frame and ``stats.csv``/``stats.json`` for all finished frames into
@@ -32,6 +34,10 @@ frame, a missing frame on resume) it renders up to two of them from N on and dis
 every frame's trees and work counters are those of one run from N. ``--merge`` renders nothing:
 it rebuilds DIR's tables (or with ``--compare`` its report) from every frame recorded there,
 whichever run recorded it, and fails if a frame of ``--frames`` is missing.
+With ``--trade`` the batch measures the trade of speed against accuracy instead
+(``docs/trade.md``): every frame is swept over each knob (``--help`` lists them; ``--trade``
+alone: every knob), and ``trade.csv``, ``plots/`` and ``trade.md`` are written into DIR/trade,
+resumed as a comparison is. The exit status is 1 when a work knob's value changes an answer.
 
 With ``--spool DIR`` the frames are exported once into a job in the daemon's spool folder
 (``antumbra serve --spool DIR``; one is started for the batch if none watches DIR), the daemon
@@ -67,6 +73,7 @@ from antumbra import client_loader, compare_results, daemon, results, settings_u
 from antumbra.compare_job import CompareJob, baseline_of, report_dir, scene_name
 from antumbra.jobs import WARM_UP_FRAMES, RenderJob
 from antumbra.options import RenderOptions
+from antumbra.trade_job import TradeJob, trade_dir
 
 
 def parse_frames(text: str, scene) -> list[int]:
@@ -83,7 +90,8 @@ def parse_frames(text: str, scene) -> list[int]:
     return list(range(a, b + 1))
 
 
-def parse_args(argv: list[str]) -> argparse.Namespace:
+def parse_args(argv: list[str], knobs: list[dict]) -> argparse.Namespace:
+    """``knobs``: the client's ``KNOBS``, which ``--trade`` takes (and ``--help`` lists)."""
     parser = argparse.ArgumentParser(prog="batch.py", description=__doc__.splitlines()[0])
     parser.add_argument("--frames", default="", help="A-B or N (default: the scene's range)")
     parser.add_argument("--out", type=Path, required=True, help="output folder")
@@ -118,16 +126,30 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     parser.add_argument("--baseline", help="--compare: the baseline's label (default: the first)")
     parser.add_argument(
-        "--repeat", type=int, default=3, help="--compare: timed passes per method and frame"
+        "--trade",
+        nargs="*",
+        metavar="KNOB[=V1,V2,...]",
+        help="sweep these knobs (none given: every knob) into OUT/trade; knobs: "
+        + ", ".join(f"{k['name']} ({k['kind']})" for k in knobs),
+    )
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=3,
+        help="--compare, --trade: timed passes per method (or knob value) and frame",
     )
     settings_ui.add_arguments(parser)
     args = parser.parse_args(argv)
     if not 0.0 < args.scale <= 1.0:
         parser.error("--scale must be in (0, 1]")
-    if args.compare is None and (args.baseline or args.repeat != 3):
-        parser.error("--baseline and --repeat go with --compare")
-    if args.compare is not None and args.spool:
-        parser.error("--compare renders through a session, not a spool")
+    if args.compare is None and args.baseline:
+        parser.error("--baseline goes with --compare")
+    if args.compare is None and args.trade is None and args.repeat != 3:
+        parser.error("--repeat goes with --compare or --trade")
+    if args.compare is not None and args.trade is not None:
+        parser.error("--compare and --trade are two runs: give one")
+    if (args.compare is not None or args.trade is not None) and args.spool:
+        parser.error("--compare and --trade render through a session, not a spool")
     if args.repeat < 1:
         parser.error("--repeat must be at least 1")
     if args.spool and (args.first_frame is not None or args.merge):
@@ -144,7 +166,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 
 def run(argv: list[str]) -> int:
-    args = parse_args(argv)
+    client = client_loader.load()
+    args = parse_args(argv, list(client.KNOBS))
     scene = bpy.context.scene
     frames = parse_frames(args.frames, scene)
     options = RenderOptions(
@@ -153,7 +176,6 @@ def run(argv: list[str]) -> int:
         heat_maps=not args.no_heat_maps,
         save_png=not args.no_png,
     )
-    client = client_loader.load()
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     if args.first_frame is not None and args.first_frame > frames[0]:
@@ -170,6 +192,8 @@ def run(argv: list[str]) -> int:
     )
     if args.compare is not None:
         return run_compare(args, scene, frames, options, out, client, link)
+    if args.trade is not None:
+        return run_trade(args, scene, frames, options, out, client, link)
 
     def progress(job: RenderJob, done):
         n = len(job.done) + len(job.skipped)
@@ -333,6 +357,68 @@ def run_compare(args, scene, frames, options, out: Path, client, link) -> int:
     if job.pending and not job.error:
         print("antumbra: error: stopped before the last frame", file=sys.stderr, flush=True)
     return 1 if job.mismatches or job.error or job.pending else 0
+
+
+def run_trade(args, scene, frames, options, out: Path, client, link) -> int:
+    folder = trade_dir(out)
+    try:
+        report = client.TradeReport(
+            folder, scene=scene_name(scene), knobs=args.trade, repeat=args.repeat
+        )
+    except client.InvalidInput as e:
+        raise SystemExit(f"--trade: {e}") from None
+
+    def progress(job: TradeJob, done):
+        n = len(job.done) + len(job.skipped)
+        print(
+            f"antumbra: frame {done.frame} ({n}/{len(job.frames)}) {done.seconds:.2f} s | "
+            + " | ".join(done.stats_lines),
+            flush=True,
+        )
+
+    job = TradeJob(
+        scene=scene,
+        frames=frames,
+        options=options,
+        link=link,
+        out_dir=folder,
+        load_images=False,
+        on_frame=progress,
+        knobs=args.trade,
+        repeat=args.repeat,
+        report=report,
+        **warm_up(args, frames),
+    )
+    if not args.restart:
+        job.skip_finished(set(report.frames()))
+        if job.skipped:
+            _say(f"resuming: {len(job.skipped)} frame(s) already traded")
+    knobs = ", ".join(args.trade) or "every knob"
+    _say(
+        f"{Path(bpy.data.filepath).name or '(unsaved scene)'}: {len(job.pending)} frame(s) to "
+        f"trade over {knobs}, " + options.describe(settings_ui.defaults())
+    )
+    start = time.perf_counter()
+    try:
+        job.run()
+    finally:
+        link.close()
+    md = report.write()
+    again = ", ".join(str(f) for f in job.warmed) or "none"
+    _say(
+        f"summary: {len(job.done)} traded, {len(job.skipped)} already done, "
+        f"{len(job.pending)} not traded, traded again for the knobs' state: {again}, "
+        f"{time.perf_counter() - start:.1f} s; {md}"
+    )
+    for r in report.recommendations():
+        _say(f"  {r['knob']}: {r['recommended']} (default {r['default']}): {r['why']}")
+    for m in report.mismatches:
+        print(f"antumbra: error: {m}", file=sys.stderr, flush=True)
+    if job.error:
+        print(f"antumbra: error: {job.error}", file=sys.stderr, flush=True)
+    if job.pending and not job.error:
+        print("antumbra: error: stopped before the last frame", file=sys.stderr, flush=True)
+    return 1 if report.mismatches or job.error or job.pending else 0
 
 
 def run_spool(args, scene, frames, options, out: Path, client) -> int:

@@ -103,11 +103,15 @@ class CompareJob(RenderJob):
     # -- the result -------------------------------------------------------------------------
 
     def _collect(self, work):
-        compared = work.result
         self._last_rendered = work.frame
         if self._is_warm_up(work.frame):
             self.warmed.append(work.frame)  # the state's warm-up: not a result
             return
+        self._record(work)
+
+    def _record(self, work):
+        """Records a compared frame (not a warm-up) and reports it done."""
+        compared = work.result
         if self.report is not None:
             self.report.add(compared)
             self.report.write()

@@ -1,7 +1,7 @@
 """Operators: start and stop the daemon, render the shadow pass of this frame or of the frame
-range, compare methods on them. Renders and comparisons are modal when invoked from the UI (a
-timer steps the job; Blender stays responsive; Esc cancels) and run to the end when called from
-scripts (``execute``)."""
+range, compare methods or trade knobs on them. Renders, comparisons and trades are modal when
+invoked from the UI (a timer steps the job; Blender stays responsive; Esc cancels) and run to the
+end when called from scripts (``execute``)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,10 @@ from pathlib import Path
 
 import bpy
 
-from . import compare_ops, daemon, preferences, results
+from . import compare_ops, daemon, preferences, results, trade_ops
 from .compare_job import CompareJob
 from .jobs import RenderJob
+from .trade_job import TradeJob
 
 #: The job the UI is running (one at a time).
 _ACTIVE: RenderJob | None = None
@@ -217,6 +218,29 @@ class ANTUMBRA_OT_compare(_JobOperator, bpy.types.Operator):
         return ended
 
 
+class ANTUMBRA_OT_trade(_JobOperator, bpy.types.Operator):
+    """Trade speed against accuracy on this frame or the frame range: each ticked knob (none:
+    every knob) swept over its values, trade.csv, plots and trade.md under the output folder"""
+
+    bl_idname = "antumbra.trade"
+    bl_label = "Trade speed against accuracy"
+    bl_options = {"REGISTER"}
+
+    animation: bpy.props.BoolProperty(
+        name="Animation", description="Trade over the scene's frame range", default=False
+    )
+
+    def make_job(self, context) -> TradeJob:
+        scene = context.scene
+        frames = frames_of(scene, self.animation)
+        return trade_ops.make_job(scene, frames, current_link(), output_dir(scene.antumbra))
+
+    def report_end(self, job) -> set[str]:
+        ended = _report_end(self, job)
+        trade_ops.report_mismatches(self, job)
+        return ended
+
+
 class ANTUMBRA_OT_daemon_start(bpy.types.Operator):
     """Connect to the antumbra daemon, starting it if none is running"""
 
@@ -259,6 +283,8 @@ CLASSES = (
     ANTUMBRA_OT_render,
     ANTUMBRA_OT_compare,
     *compare_ops.CLASSES,
+    ANTUMBRA_OT_trade,
+    *trade_ops.CLASSES,
     ANTUMBRA_OT_daemon_start,
     ANTUMBRA_OT_daemon_stop,
 )

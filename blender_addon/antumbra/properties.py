@@ -1,5 +1,6 @@
 """Per-scene settings of the panel, and the state it shows (daemon status, progress, last
-frame's statistics, the last comparison's table); the methods a comparison runs."""
+frame's statistics, the last comparison's and trade's tables); the methods a comparison runs
+and the knobs a trade sweeps."""
 
 from __future__ import annotations
 
@@ -22,6 +23,21 @@ class AntumbraCompareMethod(bpy.types.PropertyGroup):
     def spec(self) -> str:
         """``LABEL=NAME=VALUE,...``, as ``compare`` takes a method."""
         return f"{self.name}={self.settings}"
+
+
+class AntumbraTradeKnob(bpy.types.PropertyGroup):
+    """One knob of the client's ``KNOBS``: its name is the item's ``name``."""
+
+    use: bpy.props.BoolProperty(name="Sweep", description="Sweep this knob", default=False)
+    values: bpy.props.StringProperty(
+        name="Values",
+        description="The values to sweep, V1,V2,... (empty: the knob's own; the default is "
+        "added when missing)",
+    )
+
+    def text(self) -> str:
+        """``NAME`` or ``NAME=V1,V2,...``, as ``trade_frame`` takes a knob."""
+        return f"{self.name}={self.values}" if self.values.strip() else self.name
 
 
 class AntumbraSettings(bpy.types.PropertyGroup):
@@ -62,8 +78,18 @@ class AntumbraSettings(bpy.types.PropertyGroup):
         min=1,
         max=100,
     )
+    trade_knobs: bpy.props.CollectionProperty(type=AntumbraTradeKnob)
+    trade_index: bpy.props.IntProperty(name="Knob", min=0)
+    trade_repeat: bpy.props.IntProperty(
+        name="Repeat",
+        description="Timed passes per knob value and frame, interleaved across the values",
+        default=3,
+        min=1,
+        max=100,
+    )
     # State shown by the panel; written by the operators.
     compare_table: bpy.props.StringProperty(options={"SKIP_SAVE"})
+    trade_table: bpy.props.StringProperty(options={"SKIP_SAVE"})
     last_stats: bpy.props.StringProperty(options={"SKIP_SAVE"})
     last_frame: bpy.props.IntProperty(options={"SKIP_SAVE"})
     status: bpy.props.StringProperty(options={"SKIP_SAVE"})
@@ -90,8 +116,22 @@ class AntumbraSettings(bpy.types.PropertyGroup):
         labels = [m.name for m in self.compare_methods]
         return self.compare_baseline if self.compare_baseline in labels else labels[0]
 
+    def trade_texts(self) -> list[str]:
+        """The knobs ticked, as ``NAME`` or ``NAME=V1,...`` (none ticked: [], every knob)."""
+        return [k.text() for k in self.trade_knobs if k.use]
+
 
 _method_class = None
+
+
+def fill_knobs(settings) -> None:
+    """Lists the client's knobs (``KNOBS``), keeping the ticks and values of those listed."""
+    kept = {k.name: (k.use, k.values) for k in settings.trade_knobs}
+    settings.trade_knobs.clear()
+    for knob in client_loader.load().KNOBS:
+        item = settings.trade_knobs.add()
+        item.name = knob["name"]
+        item.use, item.values = kept.get(knob["name"], (False, ""))
 
 
 def fill_default_methods(settings) -> None:
@@ -115,6 +155,8 @@ def _prefill_methods(*_args):
     for scene in bpy.data.scenes:
         if not scene.antumbra.compare_methods:
             fill_default_methods(scene.antumbra)
+        if not scene.antumbra.trade_knobs:
+            fill_knobs(scene.antumbra)
 
 
 def register():
@@ -129,6 +171,7 @@ def register():
         bpy.utils.register_class(_method_class)
         AntumbraSettings.__annotations__["method"] = bpy.props.PointerProperty(type=_method_class)
     bpy.utils.register_class(AntumbraCompareMethod)
+    bpy.utils.register_class(AntumbraTradeKnob)
     bpy.utils.register_class(AntumbraSettings)
     bpy.types.Scene.antumbra = bpy.props.PointerProperty(type=AntumbraSettings)
     bpy.app.handlers.load_post.append(_prefill_methods)
@@ -143,6 +186,7 @@ def unregister():
         bpy.app.timers.unregister(_prefill_methods)
     del bpy.types.Scene.antumbra
     bpy.utils.unregister_class(AntumbraSettings)
+    bpy.utils.unregister_class(AntumbraTradeKnob)
     bpy.utils.unregister_class(AntumbraCompareMethod)
     AntumbraSettings.__annotations__.pop("method", None)
     if _method_class is not None:

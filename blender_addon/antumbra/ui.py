@@ -7,7 +7,7 @@ import json
 
 import bpy
 
-from . import client_loader, compare_ui, operators, results, settings_ui
+from . import client_loader, compare_ui, operators, results, settings_ui, trade_ui
 
 
 def _daemon_box(layout):
@@ -97,6 +97,7 @@ def draw_panel(layout, context):
     _stats_box(layout, settings)
     if getattr(settings, "method", None) is not None:
         compare_ui.draw(layout, settings)
+        trade_ui.draw(layout, settings)
 
 
 class ANTUMBRA_PT_render(bpy.types.Panel):
@@ -121,7 +122,7 @@ class ANTUMBRA_PT_sidebar(bpy.types.Panel):
         draw_panel(self.layout, context)
 
 
-CLASSES = (*compare_ui.CLASSES, ANTUMBRA_PT_render, ANTUMBRA_PT_sidebar)
+CLASSES = (*compare_ui.CLASSES, *trade_ui.CLASSES, ANTUMBRA_PT_render, ANTUMBRA_PT_sidebar)
 
 
 # Registered in order, unregistered in reverse.

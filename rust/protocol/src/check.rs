@@ -8,6 +8,7 @@ use antumbra_core::render::{
     estimate_comparison_bytes, estimate_render_bytes, RenderMemory, RenderSettings, StatsMode,
 };
 use antumbra_core::scene::Scene;
+use antumbra_core::trade::Trade;
 
 use crate::error::ProtocolError;
 use crate::limits::Limits;
@@ -109,6 +110,19 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
                 "max_compare_repeat",
             )
         }
+        Request::Trade(t) => {
+            check_spp(
+                || format!("Trade frame {}: settings.spp", t.frame),
+                &t.settings,
+                limits,
+            )?;
+            check(
+                || format!("Trade frame {}: repeat", t.frame),
+                t.repeat as u64,
+                MAX_COMPARE_REPEAT,
+                "max_compare_repeat",
+            )
+        }
         Request::Hello { .. }
         | Request::CameraPath { .. }
         | Request::Cancel { .. }
@@ -118,7 +132,7 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
     }
 }
 
-/// Timed passes a `Compare` may ask for per method (a fixed bound, not a configurable limit).
+/// Timed passes a `Compare` (or `Trade`) may ask for per method (a fixed bound, not a configurable limit).
 pub const MAX_COMPARE_REPEAT: u64 = 100;
 
 fn check_spp(
@@ -188,6 +202,26 @@ pub fn check_compare_memory(
         return Err(ProtocolError::CompareMemory {
             frame: scene.frame,
             methods: methods.len(),
+            estimate,
+            limit: limits.max_render_bytes,
+        });
+    }
+    Ok(estimate)
+}
+
+/// Checks a trade's estimated peak memory, every knob value's kept trees and the reference's
+/// together, against `limits.max_render_bytes` before any work.
+pub fn check_trade_memory(
+    scene: &Scene,
+    trade: &Trade,
+    limits: &Limits,
+) -> Result<RenderMemory, ProtocolError> {
+    let values = trade.settings();
+    let estimate = estimate_comparison_bytes(scene, &values, 0);
+    if estimate.total() > limits.max_render_bytes {
+        return Err(ProtocolError::TradeMemory {
+            frame: scene.frame,
+            values: values.len(),
             estimate,
             limit: limits.max_render_bytes,
         });

@@ -123,6 +123,20 @@ pub enum ProtocolError {
         estimate: RenderMemory,
         limit: u64,
     },
+    /// A trade whose knob values together (each keeps its own trees) are estimated to need
+    /// more memory than the budget; refused before any work.
+    #[error(
+        "frame {frame}: trading {values} knob values needs {estimate}, every value's trees \
+         together, over the render memory budget of {} (max_render_bytes); trade fewer knobs \
+         at once",
+        format_bytes(*limit)
+    )]
+    TradeMemory {
+        frame: i32,
+        values: usize,
+        estimate: RenderMemory,
+        limit: u64,
+    },
     /// A core validation error found in one frame's data.
     #[error("frame {frame}: {error}")]
     InFrame {
@@ -148,7 +162,8 @@ impl ProtocolError {
             ProtocolError::UnknownMesh { .. } => ErrorCode::UnknownMesh,
             ProtocolError::LimitExceeded { .. }
             | ProtocolError::RenderMemory { .. }
-            | ProtocolError::CompareMemory { .. } => ErrorCode::LimitExceeded,
+            | ProtocolError::CompareMemory { .. }
+            | ProtocolError::TradeMemory { .. } => ErrorCode::LimitExceeded,
             ProtocolError::InFrame {
                 error: antumbra_core::Error::Cancelled,
                 ..

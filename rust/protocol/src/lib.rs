@@ -19,8 +19,11 @@ pub mod fuzzing;
 pub mod limits;
 pub mod messages;
 pub mod recording;
+pub mod trade;
 
-pub use check::{check_compare_memory, check_limits, check_render_memory, reply_planes};
+pub use check::{
+    check_compare_memory, check_limits, check_render_memory, check_trade_memory, reply_planes,
+};
 pub use compare::{
     compare_result_reply, heat_from_reply, CompareMethod, CompareRequest, CompareResultReply,
     CompareRowState, CompareState, MismatchState, COMPARE_STAGE,
@@ -39,4 +42,7 @@ pub use limits::{Limits, DEFAULT_MAX_RENDER_BYTES};
 pub use messages::*;
 pub use recording::{
     replay_scenes, RecordedAnimation, RecordingError, RecordingReader, RecordingWriter, Replay,
+};
+pub use trade::{
+    TradeMismatchState, TradeRequest, TradeResultReply, TradeRowState, TradeState, TRADE_STAGE,
 };

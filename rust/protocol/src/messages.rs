@@ -18,6 +18,7 @@ use serde_bytes::ByteBuf;
 
 use crate::compare::{CompareRequest, CompareResultReply};
 use crate::limits::Limits;
+use crate::trade::{TradeRequest, TradeResultReply};
 
 /// The protocol version this crate speaks; `Hello` must carry it. Version 2: mesh hashes are
 /// XXH3 and render settings a map by name (version 1: FNV-1a, nested settings structs).
@@ -50,6 +51,9 @@ pub enum Request {
     /// Render a frame that was sent with `FrameUpdate` with several methods, compared (see
     /// `docs/protocol.md`). Replies: zero or more `Progress`, then `CompareResult` (or `Error`).
     Compare(CompareRequest),
+    /// Sweep a frame that was sent with `FrameUpdate` over the knobs of `antumbra trade` (see
+    /// `docs/protocol.md`). Replies: zero or more `Progress`, then `TradeResult` (or `Error`).
+    Trade(TradeRequest),
     /// Cancel a running render or comparison. Reply: `Ack`; the render itself ends with
     /// `Error { code: Cancelled }` (or its result, if it finished first).
     Cancel { request_id: u64 },
@@ -91,13 +95,14 @@ pub enum Reply {
     },
     FrameResult(FrameResultReply),
     CompareResult(CompareResultReply),
+    TradeResult(TradeResultReply),
     DaemonStats(DaemonStats),
     Error {
         code: ErrorCode,
         message: String,
         /// False when the daemon will close the connection after this reply.
         session_usable: bool,
-        /// The `request_id` of the `Render` or `Compare` this error ends (`Cancelled`, or a failed render);
+        /// The `request_id` of the `Render`, `Compare` or `Trade` this error ends (`Cancelled`, or a failed render);
         /// nil for errors of other requests.
         #[serde(default)]
         request_id: Option<u64>,
@@ -315,6 +320,7 @@ impl Request {
             Request::CameraPath { .. } => "CameraPath",
             Request::Render(_) => "Render",
             Request::Compare(_) => "Compare",
+            Request::Trade(_) => "Trade",
             Request::Cancel { .. } => "Cancel",
             Request::Stats => "Stats",
             Request::Close => "Close",
@@ -334,6 +340,7 @@ impl Reply {
             Reply::Progress { .. } => "Progress",
             Reply::FrameResult(_) => "FrameResult",
             Reply::CompareResult(_) => "CompareResult",
+            Reply::TradeResult(_) => "TradeResult",
             Reply::DaemonStats(_) => "DaemonStats",
             Reply::Error { .. } => "Error",
         }

@@ -22,6 +22,7 @@ use crate::recording::Recorder;
 use crate::result::{daemon_stats, frame_result_to_py, limits as limits_dict};
 use crate::scene;
 use crate::settings::RenderSettings;
+use crate::trade::{trade_reply_to_py, trade_request};
 
 /// Longest time spent without the GIL before checking for signals.
 const POLL: Duration = Duration::from_millis(100);
@@ -526,6 +527,48 @@ impl Connection {
             self.active_render.store(0, Ordering::SeqCst);
             let reply = reply.map_err(|e| wait.error(e))?;
             compare_reply_to_py(py, &asked, baseline, reply)
+        })()
+        .py_result(py)
+    }
+
+    /// Sweeps a frame sent with frame_update over every knob (see `trade::trade_request` for
+    /// `knobs`); returns `trade::trade_reply_to_py`'s dict. `timeout`, `progress` and Ctrl-C
+    /// act as in `compare`.
+    #[pyo3(signature = (frame, knobs = None, repeat = 3, settings = None, timeout = None, progress = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
+    fn trade<'py>(
+        &self,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+        knobs: Option<&Bound<'py, PyAny>>,
+        repeat: u32,
+        settings: Option<&Bound<'py, PyDict>>,
+        timeout: Option<f64>,
+        progress: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mut wait = PyWait::new(py);
+        (|| {
+            let frame = scene::frame_number(frame, "frame")?;
+            let within = duration(timeout, "timeout")?;
+            check_progress(progress.as_ref())?;
+            let mut request = trade_request(frame, knobs, repeat, settings)?;
+            let asked = request.clone();
+            antumbra_protocol::check_limits(&Request::Trade(request.clone()), &self.limits)
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let mut guard = self.lock()?;
+            let state = Self::state(&mut guard)?;
+            let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
+            request.request_id = request_id;
+            self.active_render.store(request_id, Ordering::SeqCst);
+            let reply =
+                state
+                    .client
+                    .trade_with(&mut wait, request, within, |wait, stage, done, total| {
+                        call_progress(progress.as_ref(), wait, stage, done, total)
+                    });
+            self.active_render.store(0, Ordering::SeqCst);
+            let reply = reply.map_err(|e| wait.error(e))?;
+            trade_reply_to_py(py, &asked, reply)
         })()
         .py_result(py)
     }

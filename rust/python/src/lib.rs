@@ -3,7 +3,8 @@
 //! - [`mesh_hash`]: the protocol's mesh content hash of numpy arrays;
 //! - [`connection::Connection`]: a session with the daemon over its Unix socket;
 //! - [`local::LocalSession`]: the same methods, rendering in this process;
-//! - [`report::CompareReport`]: a comparison's report folder, recorded frame by frame.
+//! - [`report::CompareReport`]: a comparison's report folder, recorded frame by frame;
+//! - [`trade::TradeReport`]: a trade's folder, likewise, and the knob table ([`trade::knobs`]).
 //!
 //! The protocol lives in `antumbra-protocol` only: this module builds its messages from Python
 //! values and never encodes MessagePack itself. The Python package (`python/antumbra`) wraps
@@ -21,6 +22,7 @@ mod report;
 mod result;
 mod scene;
 mod settings;
+mod trade;
 
 use std::path::Path;
 
@@ -154,6 +156,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(compare::compare_columns, m)?)?;
     m.add_class::<compare::CompareRecord>()?;
     m.add_class::<report::CompareReport>()?;
+    m.add_function(wrap_pyfunction!(trade::knobs, m)?)?;
+    m.add_function(wrap_pyfunction!(trade::trade_columns, m)?)?;
+    m.add_class::<trade::TradeFrameRecord>()?;
+    m.add_class::<trade::TradeReport>()?;
     m.add_class::<connection::Connection>()?;
     m.add_class::<local::LocalSession>()?;
     m.add("PROTOCOL_VERSION", antumbra_protocol::PROTOCOL_VERSION)?;

@@ -14,7 +14,7 @@ use antumbra_core::scene::Mesh;
 use antumbra_protocol::{
     check_limits, frame_result_reply, mesh_from_upload, missing_meshes, render_settings,
     scene_from_frame, upload_from_mesh, CameraState, CompareState, DaemonStats, ErrorCode,
-    FrameUpdate, Limits, ProtocolError, Request, COMPARE_STAGE,
+    FrameUpdate, Limits, ProtocolError, Request, TradeState, COMPARE_STAGE, TRADE_STAGE,
 };
 
 /// The progress stages, as the daemon reports them: ("render", 0, 2), then ("encode", 1, 2).
@@ -30,6 +30,7 @@ use crate::recording::Recorder;
 use crate::result::{daemon_stats, frame_result_to_py, limits as limits_dict};
 use crate::scene;
 use crate::settings::RenderSettings;
+use crate::trade::{trade_reply_to_py, trade_request};
 
 struct LocalState {
     meshes: HashMap<u64, Arc<Mesh>>,
@@ -38,6 +39,8 @@ struct LocalState {
     renderer: Renderer,
     /// The comparison kept across `Compare` requests, as the daemon's session keeps it.
     comparison: CompareState,
+    /// The trade kept across `Trade` requests, likewise.
+    trade: TradeState,
     stats: DaemonStats,
     recorder: Option<Recorder>,
     closed: bool,
@@ -71,6 +74,94 @@ fn render_error(e: &ProtocolError, request_id: u64) -> ClientError {
 }
 
 impl LocalSession {
+    /// Runs a `Compare` or `Trade` (`what`, reporting progress under `stage`) of a frame sent
+    /// with frame_update, counted as the daemon counts it: `progress(stage, done, total)` and
+    /// Ctrl-C are read between passes; returning False or raising cancels.
+    #[allow(clippy::too_many_arguments)]
+    fn measure<R: Send>(
+        &self,
+        py: Python<'_>,
+        frame: i32,
+        request_id: u64,
+        (what, stage): (&str, &str),
+        progress: Option<Bound<'_, PyAny>>,
+        run: impl FnOnce(
+                &mut LocalState,
+                &antumbra_core::scene::Scene,
+                &CancelToken,
+                &mut (dyn FnMut(u32, u32) + Send),
+            ) -> Result<R, ProtocolError>
+            + Send,
+    ) -> ClientResult<R> {
+        let mut state = self.lock()?;
+        let state = &mut *state;
+        let update = state.frames.get(&frame).ok_or_else(|| {
+            request_error(
+                ErrorCode::InvalidInput,
+                format!(
+                    "{what} frame {frame} (request {request_id}): no FrameUpdate for frame \
+                     {frame} in this session"
+                ),
+                request_id,
+            )
+        })?;
+        let scene = scene_from_frame(update, &state.meshes).map_err(|e| {
+            state.stats.renders_failed += 1;
+            render_error(&e, request_id)
+        })?;
+        let callback = progress.map(Bound::unbind);
+        let cancel = CancelToken::new();
+        // The first exception of the callback or of Ctrl-C, raised once the frame ends.
+        let mut raised: Option<PyErr> = None;
+        let result = py.detach(|| {
+            run(state, &scene, &cancel, &mut |done, total| {
+                if cancel.is_cancelled() {
+                    return;
+                }
+                Python::attach(|py| {
+                    let go_on = py.check_signals().and_then(|()| match &callback {
+                        None => Ok(true),
+                        Some(cb) => {
+                            let v = cb.bind(py).call1((stage, done, total))?;
+                            Ok(!v.is_instance_of::<PyBool>() || v.is_truthy()?)
+                        }
+                    });
+                    match go_on {
+                        Ok(true) => {}
+                        Ok(false) => cancel.cancel(),
+                        Err(e) => {
+                            raised = Some(e);
+                            cancel.cancel();
+                        }
+                    }
+                })
+            })
+        });
+        match result {
+            Ok(reply) => {
+                state.stats.renders_done += 1;
+                Ok(reply)
+            }
+            Err(e) if e.code() == ErrorCode::Cancelled => {
+                state.stats.renders_cancelled += 1;
+                Err(match raised {
+                    Some(e) => ClientError::Py(e),
+                    None => request_error(
+                        ErrorCode::Cancelled,
+                        format!(
+                            "{what} frame {frame} (request {request_id}): cancelled by the client"
+                        ),
+                        request_id,
+                    ),
+                })
+            }
+            Err(e) => {
+                state.stats.renders_failed += 1;
+                Err(render_error(&e, request_id))
+            }
+        }
+    }
+
     fn lock(&self) -> ClientResult<MutexGuard<'_, LocalState>> {
         let guard = match self.state.try_lock() {
             Ok(g) => g,
@@ -103,6 +194,7 @@ impl LocalSession {
                 cameras: BTreeMap::new(),
                 renderer: Renderer::new(),
                 comparison: CompareState::new(),
+                trade: TradeState::new(),
                 stats: DaemonStats {
                     sessions: 1,
                     sessions_total: 1,
@@ -343,76 +435,60 @@ impl LocalSession {
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
             let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
             request.request_id = request_id;
-            let mut state = self.lock()?;
-            let state = &mut *state;
-            let update = state.frames.get(&frame).ok_or_else(|| {
-                request_error(
-                    ErrorCode::InvalidInput,
-                    format!(
-                        "Compare frame {frame} (request {request_id}): no FrameUpdate for frame \
-                         {frame} in this session"
-                    ),
-                    request_id,
-                )
-            })?;
-            let scene = scene_from_frame(update, &state.meshes).map_err(|e| {
-                state.stats.renders_failed += 1;
-                render_error(&e, request_id)
-            })?;
-            let callback = progress.map(Bound::unbind);
-            let cancel = CancelToken::new();
-            // The first exception of the callback or of Ctrl-C, raised once the frame ends.
-            let mut raised: Option<PyErr> = None;
-            let comparison = &mut state.comparison;
-            let label = self.label.as_str();
-            let result = py.detach(|| {
-                comparison.frame(&request, label, &scene, &cancel, &mut |done, total| {
-                    if cancel.is_cancelled() {
-                        return;
-                    }
-                    Python::attach(|py| {
-                        let go_on = py.check_signals().and_then(|()| match &callback {
-                            None => Ok(true),
-                            Some(cb) => {
-                                let v = cb.bind(py).call1((COMPARE_STAGE, done, total))?;
-                                Ok(!v.is_instance_of::<PyBool>() || v.is_truthy()?)
-                            }
-                        });
-                        match go_on {
-                            Ok(true) => {}
-                            Ok(false) => cancel.cancel(),
-                            Err(e) => {
-                                raised = Some(e);
-                                cancel.cancel();
-                            }
-                        }
-                    })
-                })
-            });
-            match result {
-                Ok(reply) => {
-                    state.stats.renders_done += 1;
-                    compare_reply_to_py(py, &asked, baseline, reply)
-                }
-                Err(e) if e.code() == ErrorCode::Cancelled => {
-                    state.stats.renders_cancelled += 1;
-                    Err(match raised {
-                        Some(e) => ClientError::Py(e),
-                        None => request_error(
-                            ErrorCode::Cancelled,
-                            format!(
-                                "Compare frame {frame} (request {request_id}): cancelled by the \
-                                 client"
-                            ),
-                            request_id,
-                        ),
-                    })
-                }
-                Err(e) => {
-                    state.stats.renders_failed += 1;
-                    Err(render_error(&e, request_id))
-                }
-            }
+            let reply = self.measure(
+                py,
+                frame,
+                request_id,
+                ("Compare", COMPARE_STAGE),
+                progress,
+                |state, scene, cancel, progress| {
+                    let label = self.label.as_str();
+                    state
+                        .comparison
+                        .frame(&request, label, scene, cancel, progress)
+                },
+            )?;
+            compare_reply_to_py(py, &asked, baseline, reply)
+        })()
+        .py_result(py)
+    }
+
+    /// Sweeps a frame sent with frame_update over every knob (see `trade::trade_request` for
+    /// `knobs`) through the daemon's `TradeState`; returns what `Connection.trade` does.
+    /// `progress` and `timeout` act as in `compare`.
+    #[pyo3(signature = (frame, knobs = None, repeat = 3, settings = None, timeout = None, progress = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
+    fn trade<'py>(
+        &self,
+        py: Python<'py>,
+        frame: &Bound<'py, PyAny>,
+        knobs: Option<&Bound<'py, PyAny>>,
+        repeat: u32,
+        settings: Option<&Bound<'py, PyDict>>,
+        timeout: Option<f64>,
+        progress: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let _ = timeout;
+        (|| {
+            let frame = scene::frame_number(frame, "frame")?;
+            check_progress(progress.as_ref())?;
+            let mut request = trade_request(frame, knobs, repeat, settings)?;
+            check_limits(&Request::Trade(request.clone()), &self.limits)
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
+            request.request_id = request_id;
+            let reply = self.measure(
+                py,
+                frame,
+                request_id,
+                ("Trade", TRADE_STAGE),
+                progress,
+                |state, scene, cancel, progress| {
+                    let label = self.label.as_str();
+                    state.trade.frame(&request, label, scene, cancel, progress)
+                },
+            )?;
+            trade_reply_to_py(py, &request, reply)
         })()
         .py_result(py)
     }
@@ -482,6 +558,7 @@ impl LocalSession {
             state.frames.clear();
             state.renderer = Renderer::new();
             state.comparison.clear();
+            state.trade.clear();
             Ok(())
         })()
         .py_result(py)

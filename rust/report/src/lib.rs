@@ -1,6 +1,7 @@
 //! The comparison's report folder (`docs/compare.md`): each frame recorded as it comes
 //! ([`ReportFolder`], resumable), then `compare.csv`, `compare.json`, `summary.md`, `plots/` and
-//! `report.html` from every recorded frame. Used by `antumbra compare` and the Python client.
+//! `report.html` from every recorded frame; and the trade's folder ([`trade::TradeFolder`]:
+//! `trade.csv`, Pareto plots, `trade.md`). Used by the CLI and the Python client alike.
 
 mod diff_maps;
 mod folder;
@@ -9,6 +10,7 @@ pub mod plots;
 mod record;
 mod report;
 mod table;
+pub mod trade;
 
 pub use diff_maps::{difference, DiffMap};
 pub use folder::ReportFolder;

@@ -114,13 +114,16 @@ pub struct FrameComparison {
     pub mismatches: Vec<Mismatch>,
 }
 
+#[derive(Clone)]
 struct Method {
     spec: MethodSpec,
     settings: RenderSettings,
     renderer: Renderer,
 }
 
-/// The methods of a comparison and their state across frames.
+/// The methods of a comparison and their state across frames (cloning copies the state, as
+/// [`Renderer`] does: `antumbra trade` puts a frame's states back when a later knob fails).
+#[derive(Clone)]
 pub struct Comparison {
     methods: Vec<Method>,
     common: NamedSettings,
@@ -245,7 +248,9 @@ impl Comparison {
         )
     }
 
-    fn frame_each_cancellable(
+    /// As [`frame_each`](Self::frame_each), cancellable as
+    /// [`frame_cancellable`](Self::frame_cancellable).
+    pub fn frame_each_cancellable(
         &mut self,
         scene_name: &str,
         scenes: &[&Scene],

@@ -1,13 +1,16 @@
 //! The knobs `antumbra trade` sweeps, defined once: each knob's name, what it trades, the method
 //! it varies from, the setting (or order option, or resolution) it sets and the values it takes.
 
+use serde::{Deserialize, Serialize};
+
 use crate::compare::MethodSpec;
 use crate::render::RenderSettings;
 use crate::settings::{setting, NamedSettings};
 use crate::{Error, Result};
 
 /// Whether a knob changes the image (measured against a reference) or only the work.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum KnobKind {
     Image,
     Work,
@@ -323,6 +326,13 @@ impl Knob {
 
     /// The method of `value`: the base method, the shared settings of `common` under it.
     fn method(&self, value: &str, common: &NamedSettings) -> Result<(MethodSpec, u32)> {
+        self.method_of(value, common).map_err(|e| match e {
+            Error::Invalid { ref field, .. } if field.starts_with("knob '") => e,
+            e => self.invalid(format!("value '{value}': {e}")),
+        })
+    }
+
+    fn method_of(&self, value: &str, common: &NamedSettings) -> Result<(MethodSpec, u32)> {
         let mut settings = self.base_settings();
         let mut percentage = FULL_RESOLUTION;
         match self.target {
@@ -355,8 +365,7 @@ impl Knob {
             }
         }
         let spec = MethodSpec::new(&label_of(value), settings)?;
-        spec.resolve(common)
-            .map_err(|e| self.invalid(format!("value '{value}': {e}")))?;
+        spec.resolve(common)?;
         Ok((spec, percentage))
     }
 
@@ -515,7 +524,7 @@ mod tests {
             .sweep(v.as_deref(), &NamedSettings::new())
             .unwrap_err()
             .to_string();
-        assert!(e.contains("osah_w"), "{e}");
+        assert!(e.starts_with("knob 'osah_w': value '2': osah_w:"), "{e}");
         let (k, v) = parse_knob_arg("resolution=0").unwrap();
         assert!(k.sweep(v.as_deref(), &NamedSettings::new()).is_err());
     }

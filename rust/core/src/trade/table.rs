@@ -1,12 +1,16 @@
 //! The trade's long-form table (`trade.csv`): one row per knob, value, frame and pass (primary,
 //! or one light's shadow pass), with the work, the times and, for image knobs, the error.
 
+use serde::{Deserialize, Serialize};
+
 use super::error::MaskError;
 use super::knobs::KnobKind;
 use crate::compare::CompareRow;
+use crate::stats::Cell;
 
-/// One pass of one knob value on one frame.
-#[derive(Clone, Debug)]
+/// One pass of one knob value on one frame (also the protocol's wire form and the report
+/// folder's record).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TradeRow {
     pub knob: String,
     pub kind: KnobKind,
@@ -33,82 +37,89 @@ impl TradeRow {
     }
 }
 
-/// Every column of `trade.csv`, in order.
-pub const COLUMNS: &[&str] = &[
-    "knob",
-    "kind",
-    "value",
-    "default",
-    "settings",
-    "frame",
-    "pass",
-    "light",
-    "width",
-    "height",
-    "rays",
-    "occluded_fraction",
-    "nb_per_ray",
-    "nl_per_ray",
-    "nt_per_ray",
-    "nbox_per_ray",
-    "work_per_ray",
-    "build_ms",
-    "sort_ms",
-    "trace_ms",
-    "frame_ms",
-    "frame_ms_min",
-    "frame_ms_max",
-    "answers",
-    "rmse",
-    "p99_abs_error",
-    "flip_share",
-];
-
-fn cells(r: &TradeRow) -> Vec<String> {
+/// One row's cells by column, in `trade.csv`'s order: the one list the CSV header, its cells
+/// and the Python client's dicts are made from. `None`: no value (an empty cell, Python's None).
+pub fn cells(r: &TradeRow) -> Vec<(&'static str, Option<Cell<'_>>)> {
+    use Cell::*;
     let s = &r.row.stats;
-    let real = |x: f64| x.to_string();
-    let error = |f: fn(&MaskError) -> f64| r.error.as_ref().map(f).map(real).unwrap_or_default();
+    let error = |f: fn(&MaskError) -> f64| r.error.as_ref().map(|e| Real(f(e)));
     vec![
-        r.knob.clone(),
-        r.kind.name().into(),
-        r.value.clone(),
-        r.is_default.to_string(),
-        r.settings.clone(),
-        s.frame.to_string(),
-        s.pass.clone(),
-        s.light.clone(),
-        r.width.to_string(),
-        r.height.to_string(),
-        s.rays.to_string(),
-        real(s.occluded_fraction),
-        real(s.nb_per_ray),
-        real(s.nl_per_ray),
-        real(s.nt_per_ray),
-        real(s.nbox_per_ray),
-        real(r.work_per_ray()),
-        real(r.row.build_ms.median),
-        real(r.row.sort_ms.median),
-        real(r.row.trace_ms.median),
-        real(r.row.frame_ms.median),
-        real(r.row.frame_ms.min),
-        real(r.row.frame_ms.max),
-        match r.answers_equal {
-            Some(true) => "equal".into(),
-            Some(false) => "differ".into(),
-            None => String::new(),
-        },
-        error(|e| e.rmse),
-        error(|e| e.p99_abs),
-        error(|e| e.flip_share),
+        ("knob", Some(Text(&r.knob))),
+        ("kind", Some(Text(r.kind.name()))),
+        ("value", Some(Text(&r.value))),
+        ("default", Some(Flag(r.is_default))),
+        ("settings", Some(Text(&r.settings))),
+        ("frame", Some(Int(i64::from(s.frame)))),
+        ("pass", Some(Text(&s.pass))),
+        ("light", Some(Text(&s.light))),
+        ("width", Some(Count(u64::from(r.width)))),
+        ("height", Some(Count(u64::from(r.height)))),
+        ("rays", Some(Count(s.rays))),
+        ("occluded_fraction", Some(Real(s.occluded_fraction))),
+        ("nb_per_ray", Some(Real(s.nb_per_ray))),
+        ("nl_per_ray", Some(Real(s.nl_per_ray))),
+        ("nt_per_ray", Some(Real(s.nt_per_ray))),
+        ("nbox_per_ray", Some(Real(s.nbox_per_ray))),
+        ("work_per_ray", Some(Real(r.work_per_ray()))),
+        ("build_ms", Some(Real(r.row.build_ms.median))),
+        ("sort_ms", Some(Real(r.row.sort_ms.median))),
+        ("trace_ms", Some(Real(r.row.trace_ms.median))),
+        ("frame_ms", Some(Real(r.row.frame_ms.median))),
+        ("frame_ms_min", Some(Real(r.row.frame_ms.min))),
+        ("frame_ms_max", Some(Real(r.row.frame_ms.max))),
+        (
+            "answers",
+            r.answers_equal
+                .map(|equal| Text(if equal { "equal" } else { "differ" })),
+        ),
+        ("rmse", error(|e| e.rmse)),
+        ("p99_abs_error", error(|e| e.p99_abs)),
+        ("flip_share", error(|e| e.flip_share)),
     ]
+}
+
+/// Every column of `trade.csv`, in order.
+pub fn columns() -> Vec<&'static str> {
+    let row = TradeRow {
+        knob: String::new(),
+        kind: KnobKind::Work,
+        value: String::new(),
+        is_default: false,
+        settings: String::new(),
+        width: 0,
+        height: 0,
+        row: CompareRow {
+            label: String::new(),
+            stats: crate::stats::StatsRow::default(),
+            build_ms: Default::default(),
+            sort_ms: Default::default(),
+            trace_ms: Default::default(),
+            frame_ms: Default::default(),
+        },
+        answers_equal: None,
+        error: None,
+    };
+    cells(&row).into_iter().map(|(name, _)| name).collect()
+}
+
+fn text(c: Option<Cell>) -> String {
+    match c {
+        None => String::new(),
+        Some(Cell::Text(t)) => t.to_string(),
+        Some(Cell::Int(i)) => i.to_string(),
+        Some(Cell::Count(n)) => n.to_string(),
+        Some(Cell::Flag(b)) => b.to_string(),
+        Some(Cell::Real(x)) => x.to_string(),
+    }
 }
 
 /// `rows` as CSV text (missing values are empty cells, which pandas reads as NaN).
 pub fn to_csv(rows: &[TradeRow]) -> String {
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(COLUMNS).expect("writing to memory");
+    w.write_record(columns()).expect("writing to memory");
     for r in rows {
-        w.write_record(cells(r)).expect("writing to memory");
+        let record: Vec<String> = cells(r).into_iter().map(|(_, c)| text(c)).collect();
+        w.write_record(record).expect("writing to memory");
     }
     String::from_utf8(w.into_inner().expect("writing to memory")).expect("CSV of UTF-8 cells")
 }
@@ -152,7 +163,12 @@ mod tests {
         let text = to_csv(std::slice::from_ref(&row));
         let mut r = csv::Reader::from_reader(text.as_bytes());
         let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-        assert_eq!(header, COLUMNS);
+        assert_eq!(header, columns());
+        assert_eq!(header.len(), 27);
+        assert_eq!(
+            (header[0].as_str(), header[26].as_str()),
+            ("knob", "flip_share")
+        );
         let rec = r.records().next().unwrap().unwrap();
         let get = |name: &str| rec[header.iter().position(|h| h == name).unwrap()].to_string();
         assert_eq!(get("light"), "Sun, key");

@@ -14,7 +14,7 @@ use antumbra_protocol::{
 };
 
 use super::out::{error_reply, protocol_error};
-use super::worker::{Job, RenderCtl, RENDER_QUEUE};
+use super::worker::{Job, JobKind, RenderCtl, RENDER_QUEUE};
 use super::{End, Flow, Session, FRAMES_KEPT};
 use crate::lock;
 use crate::shared::bump;
@@ -30,6 +30,10 @@ impl Session<'_> {
                 Request::Compare(c) => {
                     bump(&self.shared.counters.renders_failed);
                     Some(c.request_id)
+                }
+                Request::Trade(t) => {
+                    bump(&self.shared.counters.renders_failed);
+                    Some(t.request_id)
                 }
                 _ => None,
             };
@@ -63,6 +67,7 @@ impl Session<'_> {
             }
             Request::Render(r) => self.render(r),
             Request::Compare(c) => self.compare(c),
+            Request::Trade(t) => self.trade(t),
             Request::Cancel { request_id } => {
                 if let Some(ctl) = lock(&self.controls).get(&request_id) {
                     ctl.cancel.cancel();
@@ -228,7 +233,7 @@ impl Session<'_> {
             settings,
             passes: r.passes,
             ctl: ctl.clone(),
-            compare: None,
+            kind: JobKind::Render,
         };
         let tx = self.worker().tx.clone();
         lock(&self.controls).insert(request_id, ctl);

@@ -4,9 +4,9 @@
 // The connection's thread reads requests (`connection`) and answers them (`dispatch`); renders
 // run on a second thread (`worker`) so that `Cancel` and `Stats` are answered meanwhile; both
 // reply through `out`, a whole frame at a time.
-mod compare;
 mod connection;
 mod dispatch;
+mod measure;
 mod out;
 mod recording;
 mod worker;

@@ -14,7 +14,7 @@ use antumbra_core::render::{RenderSettings, Renderer};
 use antumbra_core::scene::Scene;
 use antumbra_protocol::{
     encode_message_within, frame_result_reply, CompareRequest, CompareState, ErrorCode, Passes,
-    ProtocolError, Reply, COMPARE_STAGE,
+    ProtocolError, Reply, TradeRequest, TradeState, COMPARE_STAGE, TRADE_STAGE,
 };
 
 use super::out::{error_reply, protocol_error, Out};
@@ -40,8 +40,26 @@ pub(super) struct Job {
     pub(super) settings: RenderSettings,
     pub(super) passes: Passes,
     pub(super) ctl: Arc<RenderCtl>,
-    /// A `Compare` rather than a `Render` (then `settings` and `passes` are unused).
-    pub(super) compare: Option<CompareRequest>,
+    pub(super) kind: JobKind,
+}
+
+/// What a job runs: a `Render`, or a `Compare` or `Trade` (then `settings` and `passes` are
+/// unused).
+pub(super) enum JobKind {
+    Render,
+    Compare(CompareRequest),
+    Trade(TradeRequest),
+}
+
+impl JobKind {
+    /// The request's name in messages.
+    fn what(&self) -> &'static str {
+        match self {
+            JobKind::Render => "Render",
+            JobKind::Compare(_) => "Compare",
+            JobKind::Trade(_) => "Trade",
+        }
+    }
 }
 
 pub(super) type Controls = Arc<Mutex<HashMap<u64, Arc<RenderCtl>>>>;
@@ -96,10 +114,18 @@ impl WorkerCtx {
     fn run(self, rx: Receiver<Job>) {
         let mut renderer = Renderer::new();
         let mut comparison = CompareState::new();
+        let mut trade = TradeState::new();
         for job in rx {
-            match &job.compare {
-                Some(request) => self.compare(&mut comparison, &job, request),
-                None => self.render(&mut renderer, &job),
+            match &job.kind {
+                JobKind::Render => self.render(&mut renderer, &job),
+                JobKind::Compare(request) => self.measure(&job, COMPARE_STAGE, |cancel, p| {
+                    let reply = comparison.frame(request, &self.label, &job.scene, cancel, p);
+                    reply.map(Reply::CompareResult)
+                }),
+                JobKind::Trade(request) => self.measure(&job, TRADE_STAGE, |cancel, p| {
+                    let reply = trade.frame(request, &self.label, &job.scene, cancel, p);
+                    reply.map(Reply::TradeResult)
+                }),
             }
             let mut controls = lock(&self.controls);
             if controls
@@ -134,11 +160,7 @@ impl WorkerCtx {
             when,
             "render cancelled"
         );
-        let what = if job.compare.is_some() {
-            "Compare"
-        } else {
-            "Render"
-        };
+        let what = job.kind.what();
         self.out.send(&error_reply(
             ErrorCode::Cancelled,
             format!(
@@ -303,11 +325,19 @@ impl WorkerCtx {
         }
     }
 
-    /// A `Compare`: the session's [`CompareState`] renders the frame with every method in one
-    /// render slot, sending progress per method pass; ends as a render does when cancelled.
-    fn compare(&self, state: &mut CompareState, job: &Job, request: &CompareRequest) {
+    /// A `Compare` or `Trade`: `run` (the session's [`CompareState`] or [`TradeState`]) renders
+    /// the frame in one render slot, sending progress under `stage` per pass; ends as a render
+    /// does when cancelled.
+    fn measure(
+        &self,
+        job: &Job,
+        stage: &str,
+        run: impl FnOnce(&CancelToken, &mut (dyn FnMut(u32, u32) + Send)) -> Result<Reply, ProtocolError>
+            + Send,
+    ) {
         let id = job.request_id;
         let frame = job.scene.frame;
+        let what = job.kind.what();
         let cancel = &job.ctl.cancel;
         let Some(mut slot) = self.take_slot(job) else {
             return;
@@ -320,13 +350,9 @@ impl WorkerCtx {
         // Runs on the slot's own thread pool, as renders do; a panic leaves no comparison.
         let result = catch_unwind(AssertUnwindSafe(|| {
             slot.install(|| {
-                state.frame(
-                    request,
-                    &self.label,
-                    &job.scene,
-                    cancel,
-                    &mut |done, total| self.progress(id, COMPARE_STAGE, done, total),
-                )
+                run(cancel, &mut |done, total| {
+                    self.progress(id, stage, done, total)
+                })
             })
         }));
         drop(slot);
@@ -340,14 +366,14 @@ impl WorkerCtx {
                 return self.cancelled(job, &when);
             }
             Ok(Err(e)) => {
-                tracing::warn!(request_id = id, error = %e, "compare failed");
+                tracing::warn!(request_id = id, error = %e, "{what} failed");
                 return fail(protocol_error(&e, Some(id)));
             }
             Err(_) => {
-                tracing::error!(request_id = id, frame, "compare panicked");
+                tracing::error!(request_id = id, frame, "{what} panicked");
                 return fail(error_reply(
                     ErrorCode::Internal,
-                    format!("Compare frame {frame} (request {id}): internal error in the renderer"),
+                    format!("{what} frame {frame} (request {id}): internal error in the renderer"),
                     true,
                     Some(id),
                 ));
@@ -355,7 +381,7 @@ impl WorkerCtx {
         };
         // A Cancel that came after the last method pass gets the result: a cancelled
         // comparison always leaves the session's comparison as before the frame.
-        let reply = Reply::CompareResult(result);
+        let reply = result;
         match encode_message_within(&reply, &self.out.limits) {
             Ok(bytes) => {
                 // Counted before the reply goes out, so a client that asks for Stats after the
@@ -365,8 +391,8 @@ impl WorkerCtx {
                     tracing::info!(
                         request_id = id,
                         frame,
-                        compare_ms = t0.elapsed().as_secs_f64() * 1e3,
-                        "frame compared"
+                        ms = t0.elapsed().as_secs_f64() * 1e3,
+                        "{what} done"
                     );
                 } else {
                     self.shared
@@ -379,7 +405,7 @@ impl WorkerCtx {
             Err(e) => fail(error_reply(
                 e.code(),
                 format!(
-                    "Compare frame {frame} (request {id}): the result is too large to send ({e})"
+                    "{what} frame {frame} (request {id}): the result is too large to send ({e})"
                 ),
                 true,
                 Some(id),

@@ -9,7 +9,7 @@ use super::{Blocking, Client, ClientError, Interrupt, Wait};
 use crate::{
     frame_update_from_scene, upload_from_mesh, CameraState, CompareRequest, CompareResultReply,
     DaemonStats, FrameResultReply, FrameUpdate, NamedSettings, Passes, RenderRequest, Reply,
-    Request, UploadMesh,
+    Request, TradeRequest, TradeResultReply, UploadMesh,
 };
 
 /// How long to wait for a cancelled render to end after the caller interrupted the wait.
@@ -138,6 +138,31 @@ impl Client {
             progress,
             |reply| match reply {
                 Reply::CompareResult(r) if r.request_id == request_id => Ok(r),
+                other => Err(other),
+            },
+        )
+    }
+
+    /// As [`compare_with`](Self::compare_with), for a `Trade`: `progress` sees `queued`, then
+    /// [`TRADE_STAGE`](crate::TRADE_STAGE) with passes done of all.
+    pub fn trade_with<W: Wait>(
+        &mut self,
+        wait: &mut W,
+        request: TradeRequest,
+        between_replies: Option<Duration>,
+        progress: impl FnMut(&mut W, &str, u32, u32) -> Result<bool, Interrupt>,
+    ) -> Result<TradeResultReply, ClientError> {
+        let request_id = request.request_id;
+        let frame = request.frame;
+        self.send_with(wait, &Request::Trade(request))?;
+        self.finish_with(
+            wait,
+            request_id,
+            ("Trade", &format!("the result of Trade frame {frame}")),
+            between_replies,
+            progress,
+            |reply| match reply {
+                Reply::TradeResult(r) if r.request_id == request_id => Ok(r),
                 other => Err(other),
             },
         )

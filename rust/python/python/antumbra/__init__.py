@@ -9,7 +9,9 @@ Two sessions with the same methods:
 A frame: ``upload_mesh`` each mesh the session lacks, ``frame_update`` the scene state (objects,
 camera, lights, resolution, with Blender's field names), then ``render`` it into a
 :class:`Result` of float32 numpy images, or ``compare`` methods on it (``compare_frame`` into a
-:class:`CompareFrame`, recorded by a :class:`CompareReport`). See ``docs/python.md``.
+:class:`CompareFrame`, recorded by a :class:`CompareReport`), or ``trade`` speed against
+accuracy over the :data:`KNOBS` (``trade_frame`` into a :class:`TradeFrame`, recorded by a
+:class:`TradeReport`). See ``docs/python.md`` and ``docs/trade.md``.
 """
 
 from . import errors
@@ -48,12 +50,15 @@ from .errors import (
     SessionBusy,
 )
 from .report import CompareFrame, CompareReport
+from .trade import KNOBS, TRADE_COLUMNS, TradeFrame, TradeReport
 
 __all__ = [
     "COMPARE_COLUMNS",
     "DEFAULT_METHODS",
     "DEFAULT_PASSES",
+    "KNOBS",
     "PROTOCOL_VERSION",
+    "TRADE_COLUMNS",
     "AnswersDiffer",
     "AntumbraError",
     "Client",
@@ -70,6 +75,8 @@ __all__ = [
     "RequestError",
     "Result",
     "SessionBusy",
+    "TradeFrame",
+    "TradeReport",
     "__version__",
     "colorize_difference",
     "colorize_heat",

@@ -110,6 +110,44 @@ class CompareReport:
     @property
     def out_dir(self) -> str: ...
 
+class RawTrade(TypedDict):
+    frame: int
+    knobs: list[str]
+    rows: list[dict[str, Any]]
+    mismatches: list[dict[str, Any]]
+    record: TradeFrameRecord
+
+def knobs() -> list[dict[str, Any]]:
+    """Every knob of `antumbra trade` (KNOBS), in order: name, kind ('image' | 'work'), trades,
+    base, sets, values, default."""
+
+def trade_columns() -> list[str]:
+    """The columns of trade's rows, in order (those of trade.csv)."""
+
+@final
+class TradeFrameRecord:
+    """One traded frame as the trade folder records it (opaque)."""
+
+@final
+class TradeReport:
+    """A trade's folder, recorded frame by frame and resumable; InvalidInput when the folder
+    was recorded for another scene, other knobs or repeat."""
+
+    def __init__(
+        self, out_dir: str, scene: str, knobs: list[str] = ..., repeat: int = 3
+    ) -> None: ...
+    def frames(self) -> list[int]: ...
+    def add(self, record: TradeFrameRecord) -> None: ...
+    def write(self) -> str:
+        """Writes trade.csv, plots/ and trade.md from every recorded frame; returns trade.md's
+        path."""
+    def recommendations(self) -> list[dict[str, str]]:
+        """Per knob: knob, default, recommended, why."""
+    @property
+    def mismatches(self) -> list[str]: ...
+    @property
+    def out_dir(self) -> str: ...
+
 class RenderSettings:
     """Render settings by name (settings_schema()), checked when made (InvalidInput names a
     bad setting); the rest take their defaults."""
@@ -165,6 +203,15 @@ class _SessionMethods:
         images: bool = False,
         progress: Callable[[str, int, int], object] | None = None,
     ) -> RawComparison: ...
+    def trade(
+        self,
+        frame: int,
+        knobs: Iterable[str] | None = None,
+        repeat: int = 3,
+        settings: Mapping[str, Any] | None = None,
+        timeout: float | None = None,
+        progress: Callable[[str, int, int], object] | None = None,
+    ) -> RawTrade: ...
     def cancel(self, request_id: int | None = None) -> bool: ...
     def stats(self) -> dict[str, Any]:
         """sessions, sessions_total, meshes_cached, bytes_cached, renders_done,

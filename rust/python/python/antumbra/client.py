@@ -26,8 +26,9 @@ import numpy as np
 from . import _native
 from ._native import Connection as _Connection
 from ._native import LocalSession as _LocalSession
-from .errors import AnswersDiffer, AntumbraError, DaemonTimeout, DaemonUnavailable
+from .errors import AnswersDiffer, AntumbraError, DaemonTimeout, DaemonUnavailable, InvalidInput
 from .report import CompareFrame
+from .trade import Knobs, TradeFrame, TradeReport, knob_texts
 
 if TYPE_CHECKING:  # typing.Self is Python 3.11+; annotations are not evaluated at run time
     from typing import Self
@@ -445,6 +446,83 @@ class _Session:
                 rows=rows,
             )
         return rows
+
+    def trade_frame(
+        self,
+        frame: int,
+        knobs: Knobs = None,
+        *,
+        repeat: int = 3,
+        progress: ProgressCallback | None = None,
+        timeout: float | None = None,
+        **settings: Any,
+    ) -> TradeFrame:
+        """Sweeps a frame sent with :meth:`frame_update` over every knob, as ``antumbra trade``
+        does (``docs/trade.md``): each knob's values are the methods of a comparison, its
+        default value the baseline, each value keeping its state across the frames of the
+        session while the knobs stay the same; image knobs are measured against a reference
+        rendered once per frame (spp 256, full size).
+
+        Args:
+            knobs: ``["spp", "osah_w=0.5,0.9"]`` or ``{"spp": [1, 4, 16], "width": None}``;
+                None: every knob of :data:`KNOBS`. An unknown knob or a bad value raises
+                :class:`InvalidInput` naming the knob and the value before anything is sent.
+            repeat: timed passes per value, interleaved across a knob's values.
+            progress: ``progress(stage, done, total)``, called with stage ``'trade'`` before
+                the first pass and after each (the reference's, then every value's counted
+                and timed passes), and ``'queued'`` while it waits for a render slot;
+                returning False or raising cancels, as in :meth:`compare_frame`. A cancelled
+                or failed frame leaves every knob's state as before it.
+            timeout: seconds to wait between two replies of the daemon (None: no limit).
+            settings: settings every value shares (``seed``, ``spp``, ...), by name; a knob's
+                base method and value win over them.
+
+        Returns:
+            A :class:`TradeFrame`: rows and mismatches (not raised); :meth:`TradeReport.add`
+            records it in a trade folder.
+        """
+        raw = self._native.trade(
+            frame, knob_texts(knobs), repeat, settings, timeout, progress=progress
+        )
+        return TradeFrame._from_native(dict(raw))
+
+    def trade(
+        self,
+        frames: Iterable[int | Mapping[str, Any]],
+        knobs: Knobs = None,
+        *,
+        out: str | os.PathLike[str],
+        scene: str = "scene",
+        repeat: int = 3,
+        progress: ProgressCallback | None = None,
+        timeout: float | None = None,
+        **settings: Any,
+    ) -> TradeReport:
+        """Sweeps every frame of ``frames`` in order with :meth:`trade_frame`, records each in
+        the trade folder ``out`` (:class:`TradeReport`, resumed when it holds the same trade)
+        and writes it; returns the report (``report.write()`` has written trade.md).
+
+        Each item of ``frames`` is a frame number already sent with :meth:`frame_update`, or a
+        dict of :meth:`frame_update`'s arguments (``frame``, ``objects``, ``camera``,
+        ``lights``, ``resolution``), sent first; its meshes must have been uploaded (a missing
+        one raises :class:`InvalidInput`). The other arguments are :meth:`trade_frame`'s.
+        """
+        report = TradeReport(out, scene=scene, knobs=knobs, repeat=repeat)
+        for item in frames:
+            if isinstance(item, Mapping):
+                missing = self.frame_update(**item)
+                if missing:
+                    raise InvalidInput(
+                        f"trade: frame {item.get('frame')} uses meshes this session lacks: "
+                        f"{missing} (upload them first)"
+                    )
+                item = item["frame"]
+            tf = self.trade_frame(
+                item, knobs, repeat=repeat, progress=progress, timeout=timeout, **settings
+            )
+            report.add(tf)
+        report.write()
+        return report
 
     def cancel(self, request_id: int | None = None) -> bool:
         """Cancels the render or comparison in progress on this session (call it from another

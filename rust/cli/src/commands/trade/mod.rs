@@ -1,20 +1,22 @@
 //! `antumbra trade`: sweeps each knob over its values, everything else fixed, on the same frames
 //! and rays, and writes trade.csv, a Pareto plot per knob and trade.md (see `docs/trade.md`).
+//! The sweeps are antumbra-core's ([`KnobSweep`]), the folder antumbra-report's ([`TradeFolder`]).
 
-mod report;
-mod sweep;
-
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use antumbra_core::trade::{parse_knob_arg, Knob, KNOBS};
-use anyhow::{bail, Result};
+use antumbra_core::cancel::CancelToken;
+use antumbra_core::image::ImagePlane;
+use antumbra_core::trade::{
+    knob_choices, KnobChoice, KnobKind, KnobSweep, Reference, TradeMismatch, TradeRow,
+};
+use antumbra_report::trade::{knob_texts, recommendations, TradeFolder, TradeRecord, TradeSetup};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::method_args::MethodArgs;
 use crate::scene_args::{frame_at_size, SceneArgs};
-use report::{KnobReport, RunInfo};
-use sweep::Sweeps;
 
 #[derive(Args, Debug)]
 pub struct TradeArgs {
@@ -23,7 +25,7 @@ pub struct TradeArgs {
     /// A knob to sweep, NAME or NAME=V1,V2,... (its own values); repeat for more. Default:
     /// every knob (see docs/trade.md for the list).
     #[arg(long = "knob", value_name = "NAME[=VALUES]", value_parser = parse_knob)]
-    pub knobs: Vec<KnobArg>,
+    pub knobs: Vec<String>,
     /// Timed passes per value and frame, interleaved across a knob's values.
     #[arg(long, default_value_t = 3)]
     pub repeat: usize,
@@ -35,91 +37,83 @@ pub struct TradeArgs {
     pub common: MethodArgs,
 }
 
-/// A knob as `--knob` names it, with the values given (if any).
-#[derive(Clone, Debug)]
-pub struct KnobArg {
-    pub knob: &'static Knob,
-    pub values: Option<Vec<String>>,
-}
-
-fn parse_knob(text: &str) -> Result<KnobArg, String> {
-    parse_knob_arg(text)
-        .map(|(knob, values)| KnobArg { knob, values })
-        .map_err(|e| e.to_string())
+/// `--knob`'s text, checked when the arguments are read.
+fn parse_knob(text: &str) -> Result<String, String> {
+    knob_choices(&[text]).map_err(|e| e.to_string())?;
+    Ok(text.to_string())
 }
 
 pub fn run(args: TradeArgs) -> Result<()> {
-    let knobs: Vec<KnobArg> = if args.knobs.is_empty() {
-        KNOBS
-            .iter()
-            .map(|knob| KnobArg { knob, values: None })
-            .collect()
-    } else {
-        args.knobs.clone()
-    };
+    let choices: Vec<KnobChoice> = knob_choices(&args.knobs)?;
     let common = &args.common.named;
     // Every value checked before the first frame is rendered.
-    let sweeps = knobs
+    let sweeps = choices
         .iter()
-        .map(|k| Ok((k.knob, k.knob.sweep(k.values.as_deref(), common)?)))
-        .collect::<Result<Vec<_>>>()?;
+        .map(|(k, values)| KnobSweep::new(k, values.as_deref(), common, args.repeat))
+        .collect::<Result<Vec<_>, _>>()?;
     let open = args.scene.open()?;
     let animation = open.animation.as_ref();
+    let name = animation.name();
     let frames: Vec<_> = open
         .frames
         .clone()
         .map(|f| frame_at_size(animation, f, open.size))
         .collect();
-    let mut runner = Sweeps::new(animation.name(), &frames, common, args.repeat);
     let bar = ProgressBar::new((frames.len() * sweeps.len()) as u64);
     bar.set_style(
         ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} knob frames {msg}")
             .expect("static template")
             .progress_chars("=> "),
     );
-    bar.set_prefix(format!("trade {}", animation.name()));
-    let (mut rows, mut mismatches) = (Vec::new(), Vec::new());
-    for (knob, values) in &sweeps {
-        let mut progress = |frame: i32| {
-            bar.set_message(format!("{} frame {frame}", knob.name));
+    bar.set_prefix(format!("trade {name}"));
+    let cancel = CancelToken::new();
+    // Knob after knob, so that one knob's values hold their state at a time; the image knobs'
+    // reference is rendered once per frame for them all.
+    let mut references: Option<Vec<Vec<ImagePlane>>> = None;
+    let mut records: BTreeMap<i32, (Vec<TradeRow>, Vec<TradeMismatch>)> = BTreeMap::new();
+    for mut sweep in sweeps {
+        let knob = sweep.knob();
+        if knob.kind == KnobKind::Image && references.is_none() {
+            let mut reference = Reference::of(sweep.default_value(), common)?;
+            let masks = frames
+                .iter()
+                .map(|scene| {
+                    reference
+                        .masks(name, scene, &cancel)
+                        .with_context(|| format!("reference, frame {}", scene.frame))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            references = Some(masks);
+        }
+        for (i, scene) in frames.iter().enumerate() {
+            let reference = references.as_ref().map(|r| &r[i][..]);
+            let done = sweep
+                .frame(name, scene, reference, &cancel, &mut |_| {})
+                .with_context(|| format!("knob '{}', frame {}", knob.name, scene.frame))?;
+            let record = records.entry(scene.frame).or_default();
+            record.0.extend(done.rows);
+            record.1.extend(done.mismatches);
+            bar.set_message(format!("{} frame {}", knob.name, scene.frame));
             bar.inc(1);
-        };
-        let sweep = runner.run(knob, values, &mut progress)?;
-        rows.extend(sweep.rows);
-        mismatches.extend(
-            sweep
-                .mismatches
-                .into_iter()
-                .map(|m| format!("knob '{}': {m}", knob.name)),
-        );
+        }
     }
     bar.finish_and_clear();
-    let reports: Vec<KnobReport> = sweeps
-        .iter()
-        .map(|(knob, _)| KnobReport::of(knob, &rows))
-        .collect();
-    let size = frames
-        .first()
-        .map(|s| {
-            let (w, h) = s.resolution.pixels();
-            format!("{w}x{h}")
-        })
-        .unwrap_or_default();
-    let info = RunInfo {
-        scene: animation.name(),
-        frames: format!("{}-{}", open.frames.start(), open.frames.end()),
-        size,
-        repeat: args.repeat,
-        common: common
-            .0
-            .iter()
-            .map(|(k, v)| format!("{k}={v}"))
-            .collect::<Vec<_>>()
-            .join(", "),
-    };
-    report::write(&args.out, &info, &reports, &rows)?;
-    println!("{}", report::recommendations(&reports).plain());
+    let knobs = knob_texts(&args.knobs)?;
+    let mut folder = TradeFolder::create(&args.out, TradeSetup::new(name, &knobs, args.repeat)?)?;
+    for (frame, (rows, mismatches)) in records {
+        folder.add(TradeRecord {
+            frame,
+            knobs: knobs.clone(),
+            repeat: args.repeat,
+            settings: common.clone(),
+            rows,
+            mismatches,
+        })?;
+    }
+    folder.write()?;
+    println!("{}", recommendations(&folder.reports()?).plain());
     println!("wrote {}", args.out.display());
+    let mismatches: Vec<String> = folder.mismatches().iter().map(|m| m.to_string()).collect();
     if !mismatches.is_empty() {
         bail!(
             "{} answers differ from the default value's:\n  {}",

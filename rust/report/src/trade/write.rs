@@ -5,13 +5,15 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use antumbra_core::atomic_file::write_bytes_atomic;
 use antumbra_core::trade::{
     recommend, summarise, to_csv, Knob, KnobKind, TradeRow, ValueSummary, LIT_THRESHOLD,
     REFERENCE_SPP, RMSE_BOUND,
 };
-use antumbra_report::plots::ParetoPlot;
-use antumbra_report::Table;
 use anyhow::{Context, Result};
+
+use crate::plots::ParetoPlot;
+use crate::Table;
 
 /// Plot size in pixels (SVG and PNG alike).
 const PLOT_SIZE: (u32, u32) = (760, 420);
@@ -19,9 +21,11 @@ const PLOT_SIZE: (u32, u32) = (760, 420);
 /// What the run was: for the heading of trade.md.
 pub struct RunInfo<'a> {
     pub scene: &'a str,
+    /// `A-B`, or the frames one by one when they are not consecutive.
     pub frames: String,
     pub size: String,
     pub repeat: usize,
+    /// The shared settings, `NAME=VALUE, ...`.
     pub common: String,
 }
 
@@ -78,8 +82,7 @@ impl<'a> KnobReport<'a> {
         };
         let (w, h) = PLOT_SIZE;
         let svg = dir.join(format!("{}.svg", self.knob.name));
-        std::fs::write(&svg, plot.svg(w, h)?)
-            .with_context(|| format!("writing {}", svg.display()))?;
+        write_bytes_atomic(&svg, plot.svg(w, h)?.as_bytes())?;
         plot.png(&dir.join(format!("{}.png", self.knob.name)), w, h)
     }
 
@@ -147,14 +150,11 @@ impl<'a> KnobReport<'a> {
 pub fn write(out: &Path, info: &RunInfo, reports: &[KnobReport], rows: &[TradeRow]) -> Result<()> {
     let plots = out.join("plots");
     std::fs::create_dir_all(&plots).with_context(|| format!("creating {}", plots.display()))?;
-    let csv = out.join("trade.csv");
-    std::fs::write(&csv, to_csv(rows)).with_context(|| format!("writing {}", csv.display()))?;
+    write_bytes_atomic(&out.join("trade.csv"), to_csv(rows).as_bytes())?;
     for r in reports {
         r.plot(&plots)?;
     }
-    let md = out.join("trade.md");
-    std::fs::write(&md, markdown(info, reports))
-        .with_context(|| format!("writing {}", md.display()))?;
+    write_bytes_atomic(&out.join("trade.md"), markdown(info, reports).as_bytes())?;
     Ok(())
 }
 
