@@ -69,6 +69,7 @@ impl Session<'_> {
             scene,
             settings,
             passes: Default::default(),
+            warm_up: false,
             ctl: ctl.clone(),
             compare: Some(c),
         };

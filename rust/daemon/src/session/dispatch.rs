@@ -227,6 +227,7 @@ impl Session<'_> {
             scene,
             settings,
             passes: r.passes,
+            warm_up: r.warm_up,
             ctl: ctl.clone(),
             compare: None,
         };
