@@ -184,8 +184,8 @@ def test_chunks_equal_one_run_and_a_chunk_resumes(farm):
     assert done.returncode == 0, done.stdout[-5000:] + done.stderr[-3000:]
     assert frame_lines(done.stdout) == list(range(1, FRAMES + 1)), done.stdout
     # Each later chunk rendered the two frames before it first, and kept nothing of them.
-    assert "rendered again for the session's state: 3, 4" in done.stdout
-    assert "rendered again for the session's state: 7, 8" in done.stdout
+    assert "warmed up on (state only): 3, 4" in done.stdout
+    assert "warmed up on (state only): 7, 8" in done.stdout
     assert "merged 12 frame(s)" in done.stdout
     # Images (masks and the heat maps of every pass's work per pixel) and statistics rows are
     # those of the sequential run; the tables' columns too, in the same order.
@@ -207,7 +207,7 @@ def test_chunks_equal_one_run_and_a_chunk_resumes(farm):
     assert again.returncode == 0, again.stdout[-5000:] + again.stderr[-3000:]
     assert frame_lines(again.stdout) == [6, 7], again.stdout
     assert "resuming: 2 frame(s) already done" in again.stdout
-    assert "rendered again for the session's state: 4, 5" in again.stdout
+    assert "warmed up on (state only): 4, 5" in again.stdout
     assert same_files(seq, out, names) == []
     merged = farm.job(out, "--step", "Merge", "--no-run-dependencies")
     assert merged.returncode == 0, merged.stdout[-3000:] + merged.stderr[-3000:]
