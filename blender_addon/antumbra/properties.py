@@ -48,6 +48,20 @@ class AntumbraSettings(bpy.types.PropertyGroup):
     save_files: bpy.props.BoolProperty(
         name="Save files", description="Write frame_NNNN.exr and PNGs per frame", default=True
     )
+    use_animation_start: bpy.props.BoolProperty(
+        name="Animation start",
+        description="The animation starts at another frame than the scene's first (a farm's "
+        "task renders -s A -e B of a longer animation): Render Animation then first warms the "
+        "daemon up on the frames before its first, from this frame on",
+        default=False,
+    )
+    animation_start: bpy.props.IntProperty(
+        name="Animation start",
+        description="The animation's first frame: a render of frames after it warms up on up "
+        "to two frames before its first (their trees and visible sets: no shadow rays, no "
+        "files), so its frames equal those of one run from here",
+        default=1,
+    )
     compare_methods: bpy.props.CollectionProperty(type=AntumbraCompareMethod)
     compare_index: bpy.props.IntProperty(name="Method", min=0)
     compare_baseline: bpy.props.StringProperty(
@@ -79,6 +93,10 @@ class AntumbraSettings(bpy.types.PropertyGroup):
             save_exr=self.save_files,
             save_png=self.save_files,
         )
+
+    def first_frame(self, scene) -> int:
+        """Where the animation starts, for the engine's warm-up."""
+        return self.animation_start if self.use_animation_start else scene.frame_start
 
     def compare_specs(self) -> list[str]:
         """The comparison's methods as ``LABEL=NAME=VALUE,...`` (the defaults if none)."""

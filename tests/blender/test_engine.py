@@ -358,3 +358,40 @@ def test_a_bad_scene_is_an_error_naming_object_and_frame(addon_zips, antumbra_bi
     text = done.stdout + done.stderr
     assert "antumbra: frame 1: object 'Broken' has a non-finite vertex" in text, text[-3000:]
     assert not out.exists() or not list(out.iterdir())
+
+
+def test_dash_a_after_the_animation_start_warms_up_first(
+    addon_zips, scene_blend, antumbra_bin, short_tmp
+):
+    """``-s 4 -e 6 -a`` of an animation that starts at 1 (``scene.antumbra.animation_start``,
+    as a farm's chunk sets it): the engine warms its session up on frames 2 and 3 (trees and
+    visible sets: no files, no rows), so frames 4-6 equal those of ``-s 1 -e 6 -a``, heat maps
+    and statistics rows (times aside) included; without the warm-up frame 4's work differs."""
+    env = {**engine_env(short_tmp, addon_zips), "ANTUMBRA_BIN": str(antumbra_bin)}
+    runs = {}
+    for name, first, start in (("one", "1", False), ("chunk", "4", True), ("cold", "4", False)):
+        out = short_tmp / name
+        expr = output_expr(out, build="osah")
+        expr += f"; s.antumbra.use_animation_start = {start}; s.antumbra.animation_start = 1"
+        done = blender_engine(scene_blend, short_tmp, env, expr, "-s", first, "-e", "6", "-a")
+        assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+        runs[name] = (out, done.stdout)
+    assert "warmed up on (state only): 2, 3" in runs["chunk"][1]
+    assert "warmed up on" not in runs["cold"][1]
+    (one, _), (chunk, _), (cold, _) = runs["one"], runs["chunk"], runs["cold"]
+    assert sorted(p.name for p in chunk.glob("*.exr")) == [f"frame_{f:04d}.exr" for f in (4, 5, 6)]
+    for f in (4, 5, 6):
+        a, b = (antumbra.read_exr(d / f"frame_{f:04d}.exr") for d in (one, chunk))
+        assert sorted(a) == sorted(b)
+        assert all(a[k].tobytes() == b[k].tobytes() for k in a), f"frame {f}"
+
+    def rows(out: Path, frames) -> list[dict]:
+        with open(out / "stats.csv") as f:
+            keep = [r for r in csv.DictReader(f) if int(r["frame"]) in frames]
+        return [
+            {k: v for k, v in r.items() if not k.endswith("_ms") and k != "mrays_per_s"}
+            for r in keep
+        ]
+
+    assert rows(chunk, (4, 5, 6)) == rows(one, (4, 5, 6))
+    assert rows(cold, (4,)) != rows(one, (4,))
