@@ -5,10 +5,11 @@ Render Result with the passes of ``passes``; Blender's output settings write the
 One daemon session per render job (every frame of ``-a``), so method state (OSAH from the
 previous frame's visible set, tree reuse) follows the frames as in one ``antumbra render``; the
 session ends with the job (``render_complete``/``render_cancel``) or when the next job starts.
-An animation job warms its session up before a frame whose predecessors it has not just rendered
-(its first frame after the animation's start, ``scene.antumbra.first_frame``; a frame after one
-Blender skipped because its file exists): the daemon builds their trees and traces their camera
-rays only (``render(warm_up=True)``), so every frame equals one run's from the animation's start.
+With the scene's Animation start on (``scene.antumbra.use_animation_start``, as a farm's chunk
+sets it), a job warms its session up before a frame whose predecessors it has not just rendered
+(its first frame after the animation's start; a frame after one Blender skipped because its file
+exists): the daemon builds their trees and traces their camera rays only
+(``render(warm_up=True)``), so every frame equals one run's from the animation's start.
 """
 
 from __future__ import annotations
@@ -130,8 +131,7 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
         frame = scene.frame_current
         job = _job(scene)
         try:
-            if self.is_animation:
-                self._warm_up(job, depsgraph, frame)
+            self._warm_up(job, depsgraph, frame)
             done = self._render_frame(job, depsgraph, frame)
         except Cancelled:
             _say(f"frame {frame}: cancelled")
@@ -151,7 +151,9 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
     def _warm_up(self, job: EngineJob, depsgraph, frame: int):
         """The session's warm-up on the frames before ``frame`` it has not just rendered."""
         scene = depsgraph.scene
-        first = scene.antumbra.first_frame(scene)
+        first = scene.antumbra.first_frame()
+        if first is None:
+            return
         before = job.warm_up_frames(frame, first, max(1, scene.frame_step))
         if not before:
             return

@@ -50,9 +50,9 @@ class AntumbraSettings(bpy.types.PropertyGroup):
     )
     use_animation_start: bpy.props.BoolProperty(
         name="Animation start",
-        description="The animation starts at another frame than the scene's first (a farm's "
-        "task renders -s A -e B of a longer animation): Render Animation then first warms the "
-        "daemon up on the frames before its first, from this frame on",
+        description="Render frames as one run from Animation start would (a farm's task "
+        "renders -s A -e B of a longer animation; a resumed render): the render engine first "
+        "warms the daemon up on the frames before each frame it has not just rendered",
         default=False,
     )
     animation_start: bpy.props.IntProperty(
@@ -94,9 +94,9 @@ class AntumbraSettings(bpy.types.PropertyGroup):
             save_png=self.save_files,
         )
 
-    def first_frame(self, scene) -> int:
-        """Where the animation starts, for the engine's warm-up."""
-        return self.animation_start if self.use_animation_start else scene.frame_start
+    def first_frame(self) -> int | None:
+        """Where the animation starts, for the engine's warm-up (None: no warm-up)."""
+        return self.animation_start if self.use_animation_start else None
 
     def compare_specs(self) -> list[str]:
         """The comparison's methods as ``LABEL=NAME=VALUE,...`` (the defaults if none)."""
