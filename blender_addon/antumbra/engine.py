@@ -245,7 +245,7 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
         layer = next((rl for rl in existing.layers if rl.name == layer_name), None)
         have = {p.name for p in layer.passes} if layer is not None else set()
         for plane, _ in result.planes:
-            name = passes.pass_name(plane)
+            name = passes.pass_name(plane, layer_name)
             if name not in have and plane not in passes.SKIPPED:
                 # A light the view layer did not show before evaluation (an instance).
                 count, ids, _ = passes.channels(name)

@@ -395,3 +395,51 @@ def test_dash_a_after_the_animation_start_warms_up_first(
 
     assert rows(chunk, (4, 5, 6)) == rows(one, (4, 5, 6))
     assert rows(cold, (4,)) != rows(one, (4,))
+
+
+#: Two lights whose names (61 bytes each, Blender's limit is 63) differ only at their end: their
+#: passes (``shadow.`` + the name) are longer than Blender keeps.
+LONG_NAMES_SCENE = """
+import bpy, sys
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+bpy.ops.mesh.primitive_plane_add(size=10)
+bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.location = (0.0, -8.0, 6.0)
+camera.rotation_euler = (0.9, 0, 0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+for suffix, x in (("a", -3.0), ("b", 3.0)):
+    name = "Lamp" + "x" * 56 + "ä" + suffix
+    lamp = bpy.data.objects.new(name, bpy.data.lights.new(name, "POINT"))
+    lamp.location = (x, -1.0, 4.0)
+    scene.collection.objects.link(lamp)
+scene.render.resolution_x, scene.render.resolution_y = 48, 32
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[-1])
+"""
+
+
+def test_pass_names_longer_than_blender_keeps_are_shortened_uniquely(
+    addon_zips, antumbra_bin, short_tmp
+):
+    script = short_tmp / "long.py"
+    script.write_text(LONG_NAMES_SCENE)
+    blend = short_tmp / "long.blend"
+    made = run_blender(["-P", str(script), "--", str(blend)], short_tmp / "home")
+    assert made.returncode == 0 and blend.is_file(), made.stderr
+    env = {**engine_env(short_tmp, addon_zips), "ANTUMBRA_BIN": str(antumbra_bin)}
+    out = short_tmp / "out"
+    done = blender_engine(blend, short_tmp, env, output_expr(out), "-f", "1")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    channels = antumbra.read_exr(out / "frame_0001.exr")
+    masks = sorted(k for k in channels if k.startswith("ViewLayer.shadow.Lamp"))
+    assert len(masks) == 2, sorted(channels)
+    for k in masks:
+        # The whole channel fits Blender's 63 bytes, the name's start kept, a hash after "~".
+        name = k.removeprefix("ViewLayer.").removesuffix(".X")
+        assert len(k.encode()) <= 63 and "~" in name, k
+        assert name.startswith("shadow.Lamp" + "x" * 30)
+        # The pass was filled: the light lights some pixels and the cube shadows others.
+        assert 0.0 < channels[k].mean() < 1.0, k
+    assert channels[masks[0]].tobytes() != channels[masks[1]].tobytes()
