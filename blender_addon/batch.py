@@ -24,14 +24,15 @@ rendered with each method (``LABEL=NAME=VALUE,...``; ``--compare`` alone: the de
 the settings flags set what the methods leave out), their answers are checked against the
 baseline's, and the report (``compare.csv``, ``compare.json``, ``summary.md``, ``report.html``,
 ``diff/``) is written into DIR/compare. A run over a half-done report compares only the frames
-it lacks (first comparing once more, and discarding, the frame before the first of them, so
-each method's state is what one run would have). The exit status is 1, the mismatches printed,
-when a method's answers differ from the baseline's.
+it lacks (first warming every method up on the frame before the first of them: its trees and
+visible set, no shadow rays, so each method's state is what one run would have). The exit
+status is 1, the mismatches printed, when a method's answers differ from the baseline's.
 
 With ``--first-frame N`` the frames are part of an animation that starts at N (a farm's chunk of
 it, ``farm/``): before a frame whose predecessors the batch has not just rendered (the first
-frame, a missing frame on resume) it renders up to two of them from N on and discards them, so
-every frame's trees and work counters are those of one run from N. ``--merge`` renders nothing:
+frame, a missing frame on resume) it warms the session up on up to two of them from N on (the
+daemon builds their trees and traces their primary rays, no shadow rays, no files), so every
+frame's trees and work counters are those of one run from N. ``--merge`` renders nothing:
 it rebuilds DIR's tables (or with ``--compare`` its report) from every frame recorded there,
 whichever run recorded it, and fails if a frame of ``--frames`` is missing.
 With ``--trade`` the batch measures the trade of speed against accuracy instead
@@ -110,8 +111,8 @@ def parse_args(argv: list[str], knobs: list[dict]) -> argparse.Namespace:
     parser.add_argument(
         "--first-frame",
         type=int,
-        help="the animation's first frame: frames after a gap are rendered after their "
-        "predecessors (rendered again and discarded), as in one run from it",
+        help="the animation's first frame: frames after a gap are rendered after a warm-up on "
+        "their predecessors (trees and visible sets only), as in one run from it",
     )
     parser.add_argument(
         "--merge",
@@ -244,7 +245,7 @@ def run(argv: list[str]) -> int:
         flush=True,
     )
     if job.warmed:
-        _say("rendered again for the session's state: " + ", ".join(map(str, job.warmed)))
+        _say("warmed up on (state only): " + ", ".join(map(str, job.warmed)))
     if job.error:
         print(f"antumbra: error: {job.error}", file=sys.stderr, flush=True)
         return 1
@@ -345,7 +346,7 @@ def run_compare(args, scene, frames, options, out: Path, client, link) -> int:
     again = ", ".join(str(f) for f in job.warmed) or "none"
     _say(
         f"summary: {len(job.done)} compared, {len(job.skipped)} already done, "
-        f"{len(job.pending)} not compared, compared again for the methods' state: {again}, "
+        f"{len(job.pending)} not compared, methods warmed up on (state only): {again}, "
         f"{time.perf_counter() - start:.1f} s; report {html}"
     )
     for line in compare_results.frame_lines(job.rows, baseline, job.mismatches):

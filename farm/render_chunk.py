@@ -1,30 +1,41 @@
 """One task of the farm job (``farm/template.yaml``, docs/farm.md), run inside Blender: render a
-chunk of an animation's frames, or merge the chunks' statistics. The one place that says how a
-chunk is rendered (today through ``blender_addon/batch.py``).
+chunk of an animation's frames with the antumbra render engine, or merge the chunks' statistics.
+The one place that says how a chunk is rendered.
 
-    blender -b scene.blend --python-exit-code 1 -P farm/render_chunk.py -- chunk
-        --first S --last E --chunk-start A --chunk-size K --out DIR --addon DIR
-        [--binary PATH] [--batch-args "--build osah --spp 4 ..."]
+    blender -b scene.blend --python-exit-code 1 -P farm/render_chunk.py -E ANTUMBRA -a
+        -P farm/render_chunk.py -- chunk --first S --last E --chunk-start A --chunk-size K
+        --out DIR --addon DIR [--binary PATH] [--batch-args "--build osah --spp 4 ..."]
     blender -b scene.blend --python-exit-code 1 -P farm/render_chunk.py -- merge
         --first S --last E --out DIR --addon DIR [--batch-args "..."]
 
-A chunk renders frames A..min(A+K-1, E) into DIR with a daemon of its own (on a socket of its
-own, stopped at the end), after rendering and discarding up to two frames before A (from S on),
-so its frames equal those of one run over S..E; run again, it renders only the frames DIR lacks.
-The merge rebuilds DIR's frames.csv and stats.csv (or, with ``--compare`` in the batch
-arguments, the compare report) from every frame, and fails if one of S..E is missing. The exit
-status is the batch's.
+A chunk is Blender's own ``-a`` of frames A..min(A+K-1, E) (what ``-s A -e B`` would set) with
+the antumbra engine: the first ``-P`` enables the add-on from ``--addon`` and sets up the scene
+(frame range, multilayer EXR into DIR/frame_####.exr without overwriting, the method settings of
+the batch flags, the animation's start S for the engine's warm-up, a daemon of the task's own),
+Blender renders, and the second ``-P`` fails the task unless every frame of the chunk has its
+EXR and statistics. The engine warms its session up on the two frames before its first (a
+primary pass only), so every frame equals one run's over S..E; run again, Blender renders only
+the frames whose EXR DIR lacks. With ``--compare`` in the batch flags a chunk runs
+``blender_addon/batch.py --compare`` instead (the engine renders, it does not compare). The merge
+rebuilds DIR's frames.csv and stats.csv (or the compare report) from every frame, and fails if
+one of S..E is missing.
 """
 
 from __future__ import annotations
 
 import argparse
+import atexit
 import os
 import shlex
 import shutil
 import sys
 import tempfile
 from pathlib import Path
+
+import bpy
+
+#: Blender's output of a frame in the output folder (``#`` is the frame number).
+OUTPUT = "frame_####"
 
 
 def chunk_frames(first: int, last: int, start: int, size: int) -> tuple[int, int]:
@@ -38,7 +49,7 @@ def chunk_frames(first: int, last: int, start: int, size: int) -> tuple[int, int
 
 
 def batch_arguments(args: argparse.Namespace, socket: Path | None) -> list[str]:
-    """batch.py's arguments for this task."""
+    """batch.py's arguments for a merge or a compared chunk."""
     if args.command == "merge":
         frames = f"{args.first}-{args.last}"
     else:
@@ -74,23 +85,100 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     return args
 
 
-def run(argv: list[str]) -> int:
-    args = parse_args(argv)
-    batch_py = Path(args.addon) / "batch.py"
-    if not batch_py.is_file():
-        raise SystemExit(f"no batch.py in {args.addon}: --addon is the add-on's folder")
-    sys.path.insert(0, str(batch_py.parent))
+def add_on_path(addon: str) -> None:
+    """Puts the add-on's folder (batch.py and the ``antumbra`` package) on the module path."""
+    if not (Path(addon) / "batch.py").is_file():
+        raise SystemExit(f"no batch.py in {addon}: --addon is the add-on's folder")
+    sys.path.insert(0, str(Path(addon).resolve()))
+
+
+def private_socket() -> Path:
+    """A socket of the task's own (short: Unix socket paths are limited), so the task starts a
+    daemon for itself alone; the folder goes when Blender exits."""
+    folder = Path(tempfile.mkdtemp(prefix="antumbra-chunk-", dir="/tmp"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder / "d.sock"
+
+
+def set_up_engine(args: argparse.Namespace) -> None:
+    """Before Blender's ``-E ANTUMBRA -a``: the add-on, the daemon, the scene's frames, output
+    and method settings."""
+    import addon_utils
+
+    addon_utils.enable("antumbra", default_set=True, handle_error=None)
     import batch
 
-    # A socket of the task's own (short: Unix socket paths are limited), so the batch starts a
-    # daemon for this chunk alone and stops it at the end.
-    folder = Path(tempfile.mkdtemp(prefix="antumbra-chunk-", dir="/tmp"))
-    try:
-        batch_argv = batch_arguments(args, None if args.command == "merge" else folder / "d.sock")
-        print("render_chunk: batch.py " + shlex.join(batch_argv), flush=True)
-        return batch.exit_status(batch_argv)
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
+    from antumbra import settings_ui
+
+    flags = batch.parse_args(["--out", args.out, *shlex.split(args.batch_args)])
+
+    prefs = bpy.context.preferences.addons["antumbra"].preferences
+    prefs.binary_path, prefs.socket_path = args.binary, str(private_socket())
+    prefs.start_automatically = True
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = chunk_frames(
+        args.first, args.last, args.chunk_start, args.chunk_size
+    )
+    r = scene.render
+    r.filepath = str(Path(args.out).resolve() / OUTPUT)
+    r.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    r.image_settings.color_depth = "32"
+    # A frame whose EXR exists is skipped (a task run again renders what is missing); no
+    # placeholders, so a task that dies mid-frame leaves no empty file that counts as done.
+    r.use_overwrite, r.use_placeholder = False, False
+    r.resolution_percentage = max(1, round(r.resolution_percentage * flags.scale))
+    settings = scene.antumbra
+    settings_ui.assign(settings.method, settings_ui.from_arguments(flags))
+    settings.heat_maps = not flags.no_heat_maps
+    settings.use_animation_start, settings.animation_start = True, args.first
+
+
+def check_chunk(args: argparse.Namespace) -> int:
+    """After Blender's ``-a``: every frame of the chunk has its EXR and its statistics."""
+    first, last = chunk_frames(args.first, args.last, args.chunk_start, args.chunk_size)
+    out = Path(args.out)
+    missing = [
+        f
+        for f in range(first, last + 1)
+        if not (out / f"frame_{f:04d}.exr").is_file()
+        or not (out / f"frame_{f:04d}.stats.json").is_file()
+    ]
+    if missing:
+        print(
+            "render_chunk: error: frame(s) not rendered: " + ", ".join(map(str, missing)),
+            file=sys.stderr,
+        )
+        return 1
+    return 0
+
+
+#: Set by the first ``-P`` of a chunk; the second one then checks what Blender rendered.
+STARTED = "antumbra_render_chunk_started"
+
+
+def run(argv: list[str]) -> int | None:
+    """The task's exit status, or None when Blender goes on (to render the chunk)."""
+    args = parse_args(argv)
+    add_on_path(args.addon)
+    compare = "--compare" in shlex.split(args.batch_args)
+    if args.command == "chunk" and not compare:
+        if bpy.app.driver_namespace.get(STARTED):
+            return check_chunk(args)
+        set_up_engine(args)
+        bpy.app.driver_namespace[STARTED] = True
+        scene = bpy.context.scene
+        print(
+            f"render_chunk: frames {scene.frame_start}-{scene.frame_end} with the antumbra "
+            f"engine into {args.out}",
+            flush=True,
+        )
+        return None
+    import batch
+
+    socket = None if args.command == "merge" else private_socket()
+    batch_argv = batch_arguments(args, socket)
+    print("render_chunk: batch.py " + shlex.join(batch_argv), flush=True)
+    return batch.exit_status(batch_argv)
 
 
 def main():
@@ -102,8 +190,9 @@ def main():
             print(f"render_chunk: error: {e.code}", file=sys.stderr)
     sys.stdout.flush()
     sys.stderr.flush()
-    # Blender exits 0 after a -P script whatever happened: an explicit exit sets the status.
-    os._exit(code)
+    if code is not None:
+        # Blender exits 0 after a -P script whatever happened: an explicit exit sets the status.
+        os._exit(code)
 
 
 if __name__ == "__main__":

@@ -1,10 +1,10 @@
 """A comparison of methods over frames: a :class:`RenderJob` whose request is ``compare_frame``.
 Each frame is exported once and compared with every method on a session of the job's own (so
 every method's state starts fresh and runs through the frames in order, as in ``antumbra
-compare``), then recorded in the report folder. Before a frame whose predecessor this session
-has not compared (a resumed batch, "Compare frame"), it compares that predecessor once more and
-discards the result (``RenderJob``'s warm-up), so OSAH from the previous frame's visibility sees
-what one run would."""
+compare``), then recorded in the report folder. Before a frame whose predecessors this session
+has not compared (a resumed batch, "Compare frame", a farm's chunk), every method warms up on
+them (``RenderJob``'s warm-up, ``compare_frame(warm_up=True)``: trees and primary rays only), so
+OSAH from the previous frame's visibility and tree reuse see what one run would."""
 
 from __future__ import annotations
 
@@ -82,6 +82,7 @@ class CompareJob(RenderJob):
             baseline=self.baseline,
             repeat=self.repeat,
             progress=self._progress,
+            warm_up=self._is_warm_up(frame),
             **self.options.settings_kwargs(),
         )
 
@@ -105,7 +106,7 @@ class CompareJob(RenderJob):
     def _collect(self, work):
         self._last_rendered = work.frame
         if self._is_warm_up(work.frame):
-            self.warmed.append(work.frame)  # the state's warm-up: not a result
+            self.warmed.append(work.frame)  # the methods' warm-up: not a result
             return
         self._record(work)
 

@@ -5,6 +5,11 @@ Render Result with the passes of ``passes``; Blender's output settings write the
 One daemon session per render job (every frame of ``-a``), so method state (OSAH from the
 previous frame's visible set, tree reuse) follows the frames as in one ``antumbra render``; the
 session ends with the job (``render_complete``/``render_cancel``) or when the next job starts.
+With the scene's Animation start on (``scene.antumbra.use_animation_start``, as a farm's chunk
+sets it), a job warms its session up before a frame whose predecessors it has not just rendered
+(its first frame after the animation's start; a frame after one Blender skipped because its file
+exists): the daemon builds their trees and traces their camera rays only
+(``render(warm_up=True)``), so every frame equals one run's from the animation's start.
 """
 
 from __future__ import annotations
@@ -18,7 +23,14 @@ import bpy
 
 from . import daemon, passes, preferences, results
 from .export import Exporter, ExportError
-from .jobs import RETRIES_PER_FRAME, FrameDone, is_cancelled, is_lost, send_frame
+from .jobs import (
+    RETRIES_PER_FRAME,
+    WARM_UP_FRAMES,
+    FrameDone,
+    is_cancelled,
+    is_lost,
+    send_frame,
+)
 from .options import RenderOptions
 
 ENGINE_ID = "ANTUMBRA"
@@ -43,9 +55,19 @@ class EngineJob:
     exporter: Exporter | None = None
     #: Statistics of rendered frames not yet written (written once Blender saved the frame).
     pending: dict[int, dict] = field(default_factory=dict)
+    #: The last frame the session rendered or warmed up on.
+    last: int | None = None
 
     def close(self):
         self.link.close()
+
+    def warm_up_frames(self, frame: int, start: int, step: int) -> list[int]:
+        """The frames before ``frame`` (from ``start`` on, every ``step``) the session warms up
+        on first: up to WARM_UP_FRAMES, fewer when it has just rendered some of them."""
+        before = [f for f in range(frame - WARM_UP_FRAMES * step, frame, step) if f >= start]
+        if self.last in before:
+            before = before[before.index(self.last) + 1 :]
+        return before
 
 
 _JOB: EngineJob | None = None
@@ -109,6 +131,7 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
         frame = scene.frame_current
         job = _job(scene)
         try:
+            self._warm_up(job, depsgraph, frame)
             done = self._render_frame(job, depsgraph, frame)
         except Cancelled:
             _say(f"frame {frame}: cancelled")
@@ -125,14 +148,56 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
 
     # -- one frame --------------------------------------------------------------------------
 
+    def _warm_up(self, job: EngineJob, depsgraph, frame: int):
+        """The session's warm-up on the frames before ``frame`` it has not just rendered."""
+        scene = depsgraph.scene
+        first = scene.antumbra.first_frame()
+        if first is None:
+            return
+        before = job.warm_up_frames(frame, first, max(1, scene.frame_step))
+        if not before:
+            return
+        try:
+            for f in before:
+                # The render's own depsgraph at another frame (as for motion blur).
+                self.frame_set(f, 0.0)
+                self._request(job, self._export(job, depsgraph, f), warm_up=True)
+                job.last = f
+        finally:
+            self.frame_set(frame, 0.0)
+        _say("warmed up on (state only): " + ", ".join(map(str, before)))
+
+    def _export(self, job: EngineJob, depsgraph, frame: int):
+        scene = depsgraph.scene
+        if job.exporter is None:
+            job.exporter = Exporter(job.link.module)
+        self.update_stats("", f"antumbra: frame {frame}: export")
+        return job.exporter.frame(depsgraph, scene, frame, scene.render.resolution_percentage)
+
+    def _request(self, job: EngineJob, export, warm_up: bool = False):
+        """Sends a frame and renders it (or warms up on it), through daemon losses."""
+        client = job.link.module
+        retries = 0
+        while True:
+            work = _Request(job, export, reconnect=retries > 0, warm_up=warm_up)
+            work.start()
+            self._wait(job, work, export.frame)
+            if work.error is None:
+                return work.result
+            if is_cancelled(client, work.error):
+                raise Cancelled
+            if is_lost(client, work.error) and retries < RETRIES_PER_FRAME:
+                # The daemon went away: reconnect (restart it if the job started it) and send
+                # the frame again with all its meshes.
+                retries += 1
+                job.last = None  # a new session: its state starts afresh
+                continue
+            raise work.error
+
     def _render_frame(self, job: EngineJob, depsgraph, frame: int) -> FrameDone:
         started = time.perf_counter()
         scene = depsgraph.scene
-        client = job.link.module
-        if job.exporter is None:
-            job.exporter = Exporter(client)
-        self.update_stats("", f"antumbra: frame {frame}: export")
-        export = job.exporter.frame(depsgraph, scene, frame, scene.render.resolution_percentage)
+        export = self._export(job, depsgraph, frame)
         r = scene.render
         size = job.options.size(r.resolution_x, r.resolution_y, r.resolution_percentage)
         if size != (self.resolution_x, self.resolution_y):
@@ -141,28 +206,15 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
                 f"antumbra {size[0]} x {size[1]}"
             )
         self.update_progress(0.1)
-        retries = 0
-        while True:
-            work = _Request(job, export, reconnect=retries > 0)
-            work.start()
-            self._wait(job, work, frame)
-            if work.error is None:
-                break
-            if is_cancelled(client, work.error):
-                raise Cancelled
-            if is_lost(client, work.error) and retries < RETRIES_PER_FRAME:
-                # The daemon went away: reconnect (restart it if the job started it) and send
-                # the frame again with all its meshes.
-                retries += 1
-                continue
-            raise work.error
+        result = self._request(job, export)
+        job.last = frame
         self.update_progress(1.0)
         return FrameDone(
             frame=frame,
-            result=work.result,
+            result=result,
             seconds=time.perf_counter() - started,
             export_seconds=export.seconds,
-            stats_lines=results.stats_summary(work.result.stats),
+            stats_lines=results.stats_summary(result.stats),
             images={},
             files=[],
             objects=len(export.objects),
@@ -193,7 +245,7 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
         layer = next((rl for rl in existing.layers if rl.name == layer_name), None)
         have = {p.name for p in layer.passes} if layer is not None else set()
         for plane, _ in result.planes:
-            name = passes.pass_name(plane)
+            name = passes.pass_name(plane, layer_name)
             if name not in have and plane not in passes.SKIPPED:
                 # A light the view layer did not show before evaluation (an instance).
                 count, ids, _ = passes.channels(name)
@@ -209,9 +261,10 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
 class _Request(threading.Thread):
     """The frame sent and rendered on a worker thread (the client releases the GIL)."""
 
-    def __init__(self, job: EngineJob, export, reconnect: bool):
+    def __init__(self, job: EngineJob, export, reconnect: bool, warm_up: bool):
         super().__init__(name=f"antumbra frame {export.frame}", daemon=True)
         self.job, self.export, self.reconnect = job, export, reconnect
+        self.warm_up = warm_up
         self.result = None
         self.error: BaseException | None = None
         self.stage: tuple[str, int, int] = ("", 0, 0)
@@ -224,11 +277,10 @@ class _Request(threading.Thread):
             send_frame(session, self.export)
             if self.cancelled:
                 return
-            self.result = session.render(
-                self.export.frame,
-                progress=self._progress,
-                **self.job.options.render_kwargs(),
-            )
+            kwargs = self.job.options.render_kwargs()
+            if self.warm_up:
+                kwargs.update(passes=(), warm_up=True)  # only the session's state
+            self.result = session.render(self.export.frame, progress=self._progress, **kwargs)
         except BaseException as error:  # noqa: BLE001 - handed to the render thread
             self.error = error
 

@@ -6,8 +6,9 @@ files, statistics). The modal operators call :meth:`RenderJob.step` from a timer
 
 A lost daemon is reconnected (or restarted) and the frame sent again; a frame counts as done
 only once its files and statistics are written, so a cancelled or failed job leaves complete
-frames only. A job that warms up (``warm_up``) first renders, and discards, the frames before
-one whose predecessors its session has not just rendered (a farm's chunk, a resumed batch), so
+frames only. A job that warms up (``warm_up``) first warms its session up on the frames before
+one whose predecessors its session has not just rendered (a farm's chunk, a resumed batch): the
+daemon builds their trees and traces their primary rays only (``render(warm_up=True)``), so
 every frame's trees and work counters are those of one run over the animation.
 """
 
@@ -28,8 +29,9 @@ from .options import RenderOptions
 #: How often one frame is sent again after the daemon went away.
 RETRIES_PER_FRAME = 2
 
-#: The predecessors a warm-up renders: the frame before gives the previous-frame visible set,
-#: and the one before that the trees a run would still hold, reused when the set did not change.
+#: The predecessors a warm-up goes through: the frame before gives the previous-frame visible
+#: set, and the one before that the trees a run would still hold, reused when the set did not
+#: change.
 WARM_UP_FRAMES = 2
 
 
@@ -93,10 +95,10 @@ class RenderJob:
     key: str | None = None
     #: The animation's frames before ``frames[0]``, in order, that a warm-up may render.
     lead_in: list[int] = field(default_factory=list)
-    #: How many predecessors of a frame are rendered first, and discarded, when the session has
-    #: not just rendered them (0: every frame as it comes).
+    #: How many predecessors of a frame the session warms up on first when it has not just
+    #: rendered them (0: every frame as it comes).
     warm_up: int = 0
-    #: Frames rendered only to set the session's state.
+    #: Frames the session warmed up on (their state only: no images, no rows).
     warmed: list[int] = field(default_factory=list)
     #: Frames left, in order.
     pending: deque = field(init=False)
@@ -241,7 +243,7 @@ class RenderJob:
         """On the worker thread: what the job asks of the daemon for a frame it has sent."""
         kwargs = self.options.render_kwargs()
         if self._is_warm_up(frame):
-            kwargs["passes"] = ()  # only the session's state is wanted
+            kwargs.update(passes=(), warm_up=True)  # only the session's state is wanted
         return session.render(frame, progress=self._progress, **kwargs)
 
     def _progress(self, stage: str, done: int, total: int):

@@ -5,6 +5,7 @@ lights' unique names asked of the core itself, so no second naming scheme exists
 from __future__ import annotations
 
 import functools
+import hashlib
 
 import numpy as np
 
@@ -15,10 +16,28 @@ from .export import light_dict
 COMBINED = "Combined"
 #: The planes the engine leaves out (object ids are a comparison tool, not an image).
 SKIPPED = ("primary.object",)
+#: Blender keeps this many bytes of a pass's name (``RenderPass.name`` is 64 with its NUL), and
+#: of a multilayer EXR's channel name, ``<layer>.<pass>.<channel>`` (``EXR_TOT_MAXNAME``).
+MAX_NAME_BYTES = 63
+#: Hex digits of the hash that keeps a shortened name unique.
+DIGEST = 8
 
 
-def pass_name(plane: str) -> str:
-    return COMBINED if plane == "combined" else plane
+def pass_name(plane: str, layer: str) -> str:
+    """The pass of a plane in view layer ``layer``: its name, ``Combined`` for ``combined``, and
+    a name that would not fit Blender's names (a light with a long name) cut at a whole letter
+    and ended with ``~`` and a hash of the whole name, so that two long names sharing their
+    start stay two passes, in the Render Result and in the EXR's channels."""
+    if plane == "combined":
+        return COMBINED
+    raw = plane.encode()
+    # The EXR's channel adds the layer's name and a dot before, a dot and one letter after.
+    fits = min(MAX_NAME_BYTES, MAX_NAME_BYTES - len(layer.encode()) - 3)
+    if len(raw) <= fits:
+        return plane
+    digest = hashlib.sha1(raw).hexdigest()[:DIGEST]
+    head = raw[: max(0, fits - DIGEST - 1)].decode("utf-8", errors="ignore")
+    return f"{head}~{digest}"
 
 
 def channels(name: str) -> tuple[int, str, str]:
@@ -68,7 +87,8 @@ def view_layer_lights(view_layer) -> list[dict]:
 
 def names(view_layer, heat_maps: bool) -> list[str]:
     """The passes of a view layer, Combined first."""
-    out = [pass_name(p) for p in planes(view_layer_lights(view_layer), heat_maps)]
+    lights = view_layer_lights(view_layer)
+    out = [pass_name(p, view_layer.name) for p in planes(lights, heat_maps)]
     return [COMBINED] + [n for n in out if n != COMBINED]
 
 
@@ -89,7 +109,7 @@ def fill(layer, result) -> list[str]:
     by_name = {p.name: p for p in layer.passes}
     written = []
     for plane, array in result.planes:
-        name = pass_name(plane)
+        name = pass_name(plane, layer.name)
         target = by_name.get(name)
         if target is None or plane in SKIPPED:
             continue

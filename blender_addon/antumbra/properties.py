@@ -64,6 +64,20 @@ class AntumbraSettings(bpy.types.PropertyGroup):
     save_files: bpy.props.BoolProperty(
         name="Save files", description="Write frame_NNNN.exr and PNGs per frame", default=True
     )
+    use_animation_start: bpy.props.BoolProperty(
+        name="Animation start",
+        description="Render frames as one run from Animation start would (a farm's task "
+        "renders -s A -e B of a longer animation; a resumed render): the render engine first "
+        "warms the daemon up on the frames before each frame it has not just rendered",
+        default=False,
+    )
+    animation_start: bpy.props.IntProperty(
+        name="Animation start",
+        description="The animation's first frame: a render of frames after it warms up on up "
+        "to two frames before its first (their trees and visible sets: no shadow rays, no "
+        "files), so its frames equal those of one run from here",
+        default=1,
+    )
     compare_methods: bpy.props.CollectionProperty(type=AntumbraCompareMethod)
     compare_index: bpy.props.IntProperty(name="Method", min=0)
     compare_baseline: bpy.props.StringProperty(
@@ -105,6 +119,10 @@ class AntumbraSettings(bpy.types.PropertyGroup):
             save_exr=self.save_files,
             save_png=self.save_files,
         )
+
+    def first_frame(self) -> int | None:
+        """Where the animation starts, for the engine's warm-up (None: no warm-up)."""
+        return self.animation_start if self.use_animation_start else None
 
     def compare_specs(self) -> list[str]:
         """The comparison's methods as ``LABEL=NAME=VALUE,...`` (the defaults if none)."""

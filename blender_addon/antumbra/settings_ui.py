@@ -94,6 +94,14 @@ def values(props) -> dict:
     return out
 
 
+def assign(props, settings: dict) -> None:
+    """Sets a property group's settings from values as :func:`values` gives them (a farm task
+    configuring the engine from batch flags)."""
+    kinds = {s["name"]: s["type"] for s in schema()}
+    for name, v in settings.items():
+        setattr(props, name, str(v) if kinds[name] == "choice" else v)
+
+
 def check(settings: dict) -> str | None:
     """Why the client refuses these settings, or None."""
     client = client_loader.load()

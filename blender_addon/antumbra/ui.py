@@ -78,6 +78,11 @@ def draw_panel(layout, context):
     col.prop(settings, "resolution_scale")
     col.label(text=size_text(context.scene))
     col.prop(settings, "heat_maps")
+    row = layout.row(align=True)  # the engine's warm-up (a farm's chunk)
+    row.prop(settings, "use_animation_start", text="")
+    sub = row.row()
+    sub.active = settings.use_animation_start
+    sub.prop(settings, "animation_start")
     col = layout.column(align=True)
     col.prop(settings, "output_dir")
     col.prop(settings, "save_files")

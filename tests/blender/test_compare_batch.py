@@ -49,7 +49,7 @@ def test_compare_batch_resumes(scene_blend, antumbra_bin, short_tmp):
     done = batch(scene_blend, out, short_tmp, antumbra_bin, *run)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert compared_frames(done.stdout) == list(range(1, FRAMES + 1)), done.stdout
-    assert "compared again for the methods' state: none" in done.stdout
+    assert "methods warmed up on (state only): none" in done.stdout
     folder = out / "compare"
     labels = [m.partition("=")[0] for m in antumbra.DEFAULT_METHODS]
     whole = rows_without_times(folder / "compare.csv")
@@ -61,7 +61,7 @@ def test_compare_batch_resumes(scene_blend, antumbra_bin, short_tmp):
     assert again.returncode == 0, again.stdout[-3000:] + again.stderr[-3000:]
     assert f"resuming: {FRAMES - 2} frame(s) already compared" in again.stdout
     assert compared_frames(again.stdout) == [FRAMES - 1, FRAMES], again.stdout
-    assert f"compared again for the methods' state: {FRAMES - 2}," in again.stdout
+    assert f"methods warmed up on (state only): {FRAMES - 2}," in again.stdout
     assert rows_without_times(folder / "compare.csv") == whole
 
 

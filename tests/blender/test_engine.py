@@ -358,3 +358,88 @@ def test_a_bad_scene_is_an_error_naming_object_and_frame(addon_zips, antumbra_bi
     text = done.stdout + done.stderr
     assert "antumbra: frame 1: object 'Broken' has a non-finite vertex" in text, text[-3000:]
     assert not out.exists() or not list(out.iterdir())
+
+
+def test_dash_a_after_the_animation_start_warms_up_first(
+    addon_zips, scene_blend, antumbra_bin, short_tmp
+):
+    """``-s 4 -e 6 -a`` of an animation that starts at 1 (``scene.antumbra.animation_start``,
+    as a farm's chunk sets it): the engine warms its session up on frames 2 and 3 (trees and
+    visible sets: no files, no rows), so frames 4-6 equal those of ``-s 1 -e 6 -a``, heat maps
+    and statistics rows (times aside) included; without the warm-up frame 4's work differs."""
+    env = {**engine_env(short_tmp, addon_zips), "ANTUMBRA_BIN": str(antumbra_bin)}
+    runs = {}
+    for name, first, start in (("one", "1", False), ("chunk", "4", True), ("cold", "4", False)):
+        out = short_tmp / name
+        expr = output_expr(out, build="osah")
+        expr += f"; s.antumbra.use_animation_start = {start}; s.antumbra.animation_start = 1"
+        done = blender_engine(scene_blend, short_tmp, env, expr, "-s", first, "-e", "6", "-a")
+        assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+        runs[name] = (out, done.stdout)
+    assert "warmed up on (state only): 2, 3" in runs["chunk"][1]
+    assert "warmed up on" not in runs["cold"][1]
+    (one, _), (chunk, _), (cold, _) = runs["one"], runs["chunk"], runs["cold"]
+    assert sorted(p.name for p in chunk.glob("*.exr")) == [f"frame_{f:04d}.exr" for f in (4, 5, 6)]
+    for f in (4, 5, 6):
+        a, b = (antumbra.read_exr(d / f"frame_{f:04d}.exr") for d in (one, chunk))
+        assert sorted(a) == sorted(b)
+        assert all(a[k].tobytes() == b[k].tobytes() for k in a), f"frame {f}"
+
+    def rows(out: Path, frames) -> list[dict]:
+        with open(out / "stats.csv") as f:
+            keep = [r for r in csv.DictReader(f) if int(r["frame"]) in frames]
+        return [
+            {k: v for k, v in r.items() if not k.endswith("_ms") and k != "mrays_per_s"}
+            for r in keep
+        ]
+
+    assert rows(chunk, (4, 5, 6)) == rows(one, (4, 5, 6))
+    assert rows(cold, (4,)) != rows(one, (4,))
+
+
+#: Two lights whose names (61 bytes each, Blender's limit is 63) differ only at their end: their
+#: passes (``shadow.`` + the name) are longer than Blender keeps.
+LONG_NAMES_SCENE = """
+import bpy, sys
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+bpy.ops.mesh.primitive_plane_add(size=10)
+bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.location = (0.0, -8.0, 6.0)
+camera.rotation_euler = (0.9, 0, 0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+for suffix, x in (("a", -3.0), ("b", 3.0)):
+    name = "Lamp" + "x" * 56 + "ä" + suffix
+    lamp = bpy.data.objects.new(name, bpy.data.lights.new(name, "POINT"))
+    lamp.location = (x, -1.0, 4.0)
+    scene.collection.objects.link(lamp)
+scene.render.resolution_x, scene.render.resolution_y = 48, 32
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[-1])
+"""
+
+
+def test_pass_names_longer_than_blender_keeps_are_shortened_uniquely(
+    addon_zips, antumbra_bin, short_tmp
+):
+    script = short_tmp / "long.py"
+    script.write_text(LONG_NAMES_SCENE)
+    blend = short_tmp / "long.blend"
+    made = run_blender(["-P", str(script), "--", str(blend)], short_tmp / "home")
+    assert made.returncode == 0 and blend.is_file(), made.stderr
+    env = {**engine_env(short_tmp, addon_zips), "ANTUMBRA_BIN": str(antumbra_bin)}
+    out = short_tmp / "out"
+    done = blender_engine(blend, short_tmp, env, output_expr(out), "-f", "1")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    channels = antumbra.read_exr(out / "frame_0001.exr")
+    masks = sorted(k for k in channels if k.startswith("ViewLayer.shadow.Lamp"))
+    assert len(masks) == 2, sorted(channels)
+    for k in masks:
+        # The whole channel fits Blender's 63 bytes, the name's start kept, a hash after "~".
+        name = k.removeprefix("ViewLayer.").removesuffix(".X")
+        assert len(k.encode()) <= 63 and "~" in name, k
+        assert name.startswith("shadow.Lamp" + "x" * 30)
+        # The pass was filled: the light lights some pixels and the cube shadows others.
+        assert 0.0 < channels[k].mean() < 1.0, k
+    assert channels[masks[0]].tobytes() != channels[masks[1]].tobytes()

@@ -1,16 +1,17 @@
 """The farm job (``farm/``, docs/farm.md) run by ``openjd`` (openjd-cli from the package
 registry, in ``.venv-openjd``) with Debian's Blender: the bundle passes ``openjd check``; 12
-frames in 3 chunks give the images and statistics rows of one sequential batch run over the 12
-frames (the chunk borders lie where one run reuses its trees, so a chunk that did not render the
-frames before it would differ); a chunk run again after two of its frames were deleted renders
-exactly those; and a chunked comparison's merged report equals one run's."""
+frames in 3 chunks, each Blender's ``-a`` with the antumbra engine, give the multilayer EXRs and
+statistics rows of one sequential ``blender -b -E ANTUMBRA -s 1 -e 12 -a`` (the chunk borders lie
+where one run reuses its trees, so a chunk that did not warm up on the frames before it would
+differ); a chunk run again after two of its frames were deleted renders exactly those (Blender
+skips the frames whose EXR exists); and a chunked comparison's merged report equals one run's."""
 
 from __future__ import annotations
 
 import csv
-import filecmp
 import json
 import os
+import re
 import shutil
 import subprocess
 import tempfile
@@ -18,12 +19,17 @@ from pathlib import Path
 
 import pytest
 from conftest import ADDON, REPO, blender_env, run_blender
+from test_engine import blender_engine, engine_env, output_expr
+
+import antumbra
 
 FARM = REPO / "farm"
 TEMPLATE = FARM / "template.yaml"
 FRAMES, CHUNK = 12, 4
-#: The settings every run here uses: OSAH from the previous frame's visible set.
+#: The settings every run here uses: OSAH from the previous frame's visible set (as batch flags,
+#: and as the engine's settings).
 SETTINGS = ["--build", "osah", "--spp", "2"]
+METHOD = {"build": "osah", "spp": 2}
 #: Columns that are times: they differ between runs.
 TIMES = ("_ms", "_ms_min", "_ms_max", "mrays_per_s", "seconds")
 
@@ -89,10 +95,9 @@ def job_params(blend: Path, out: Path, antumbra_bin: Path, *extra: str) -> list[
 
 
 def frame_lines(stdout: str) -> list[int]:
-    """The frames a log says were rendered or compared (``antumbra: frame N ...``, after
-    openjd's time stamp)."""
-    marker = "antumbra: frame "
-    return [int(line.split(marker)[1].split()[0]) for line in stdout.splitlines() if marker in line]
+    """The frames a log says were rendered or compared (``antumbra: frame N 0.12 s ...``, after
+    openjd's time stamp; not Blender's status lines ``antumbra: frame N: export``)."""
+    return [int(f) for f in re.findall(r"antumbra: frame (\d+) (?:\(|[\d.]+ s)", stdout)]
 
 
 def rows_without_times(path: Path) -> tuple[list[str], list[dict]]:
@@ -102,24 +107,48 @@ def rows_without_times(path: Path) -> tuple[list[str], list[dict]]:
         return reader.fieldnames, rows
 
 
-def same_files(a: Path, b: Path, names: list[str]) -> list[str]:
-    """The names whose files differ between folders a and b."""
-    return [n for n in names if not filecmp.cmp(a / n, b / n, shallow=False)]
+def differing_exrs(a: Path, b: Path, frames) -> list[str]:
+    """The frames whose EXRs in folders a and b differ in a channel's name or bits (the files
+    differ anyway: Blender stamps the render time into them)."""
+    out = []
+    for f in frames:
+        x, y = (antumbra.read_exr(d / f"frame_{f:04d}.exr") for d in (a, b))
+        if sorted(x) != sorted(y) or any(x[k].tobytes() != y[k].tobytes() for k in x):
+            out.append(f"frame {f}")
+    return out
 
 
 class Farm:
     """A folder with the scene, a sequential batch run and the farm job's run of it."""
 
-    def __init__(self, antumbra_bin: Path):
+    def __init__(self, antumbra_bin: Path, addon_zips):
         self.tmp = Path(tempfile.mkdtemp(prefix="antfarm-", dir="/tmp"))
-        self.antumbra_bin = antumbra_bin
+        self.antumbra_bin, self.addon_zips = antumbra_bin, addon_zips
         self.home = self.tmp / "home"
-        self.env = blender_env(self.home, ANTUMBRA_BIN=str(antumbra_bin))
+        self.env_bin = {"ANTUMBRA_BIN": str(antumbra_bin)}
+        self.env = blender_env(self.home, **self.env_bin)
         script = self.tmp / "scene.py"
         script.write_text(SCENE)
         self.blend = self.tmp / "scene.blend"
         made = run_blender(["-P", str(script), "--", str(self.blend)], self.home)
         assert made.returncode == 0 and self.blend.is_file(), made.stdout + made.stderr
+
+    def engine(self, out: Path) -> subprocess.CompletedProcess:
+        """One sequential ``-a`` over every frame with the antumbra engine."""
+        env = {**engine_env(self.tmp / "seq-engine", self.addon_zips), **self.env_bin}
+        done = blender_engine(
+            self.blend,
+            self.tmp / "seq-engine",
+            env,
+            output_expr(out, **METHOD),
+            "-s",
+            "1",
+            "-e",
+            str(FRAMES),
+            "-a",
+        )
+        assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+        return done
 
     def batch(self, out: Path, *extra: str) -> subprocess.CompletedProcess:
         """One sequential batch run over every frame."""
@@ -136,8 +165,8 @@ class Farm:
 
 
 @pytest.fixture(scope="module")
-def farm(antumbra_bin):
-    f = Farm(antumbra_bin)
+def farm(antumbra_bin, addon_zips):
+    f = Farm(antumbra_bin, addon_zips)
     yield f
     shutil.rmtree(f.tmp, ignore_errors=True)
 
@@ -175,7 +204,7 @@ def test_bundle_passes_openjd_check(antumbra_bin, tmp_path):
 
 def test_chunks_equal_one_run_and_a_chunk_resumes(farm):
     seq, out = farm.tmp / "seq", farm.tmp / "farm"
-    farm.batch(seq)
+    farm.engine(seq)
     # The test means something: one run reuses its trees at frame 5, the second chunk's first.
     _, seq_rows = rows_without_times(seq / "stats.csv")
     assert {r["rebuilt"] for r in seq_rows if r["frame"] == "5"} == {"false"}
@@ -183,32 +212,32 @@ def test_chunks_equal_one_run_and_a_chunk_resumes(farm):
     done = farm.job(out, "--step", "Merge", "--run-dependencies")
     assert done.returncode == 0, done.stdout[-5000:] + done.stderr[-3000:]
     assert frame_lines(done.stdout) == list(range(1, FRAMES + 1)), done.stdout
-    # Each later chunk rendered the two frames before it first, and kept nothing of them.
-    assert "rendered again for the session's state: 3, 4" in done.stdout
-    assert "rendered again for the session's state: 7, 8" in done.stdout
+    # Each later chunk warmed up on the two frames before it first (no files, no rows).
+    assert "warmed up on (state only): 3, 4" in done.stdout
+    assert "warmed up on (state only): 7, 8" in done.stdout
     assert "merged 12 frame(s)" in done.stdout
-    # Images (masks and the heat maps of every pass's work per pixel) and statistics rows are
-    # those of the sequential run; the tables' columns too, in the same order.
-    names = sorted(p.name for p in seq.glob("frame_*") if not p.name.endswith(".stats.json"))
-    assert len([n for n in names if n.endswith(".exr")]) == FRAMES
-    assert sorted(p.name for p in out.glob("frame_*.exr")) == [
-        n for n in names if n.endswith(".exr")
+    # Blender's multilayer EXRs (every pass: masks, Combined, the heat maps of every pass's work
+    # per pixel) and the statistics rows are those of the sequential run; the tables' columns
+    # too, in the same order.
+    assert sorted(p.name for p in out.glob("*.exr")) == [
+        f"frame_{f:04d}.exr" for f in range(1, FRAMES + 1)
     ]
-    assert same_files(seq, out, names) == []
+    assert "ViewLayer.shadow.N_B.X" in antumbra.read_exr(out / "frame_0005.exr")
+    assert differing_exrs(seq, out, range(1, FRAMES + 1)) == []
     for table in ("stats.csv", "frames.csv"):
         assert rows_without_times(out / table) == rows_without_times(seq / table), table
 
-    # Two frames of the second chunk lost: running that task again renders exactly those, after
-    # the frame before them (and the one before that) for the session's state.
+    # Two frames of the second chunk lost: running that task again renders exactly those (Blender
+    # skips the frames whose EXR exists), after warming up on the two frames before the first.
     for f in (6, 7):
         for p in out.glob(f"frame_{f:04d}*"):
             p.unlink()
     again = farm.job(out, "--step", "Render", "--task-param", "ChunkStart=5")
     assert again.returncode == 0, again.stdout[-5000:] + again.stderr[-3000:]
     assert frame_lines(again.stdout) == [6, 7], again.stdout
-    assert "resuming: 2 frame(s) already done" in again.stdout
-    assert "rendered again for the session's state: 4, 5" in again.stdout
-    assert same_files(seq, out, names) == []
+    assert "skipping existing frame" in again.stdout and "frame_0005.exr" in again.stdout
+    assert "warmed up on (state only): 4, 5" in again.stdout
+    assert differing_exrs(seq, out, range(1, FRAMES + 1)) == []
     merged = farm.job(out, "--step", "Merge", "--no-run-dependencies")
     assert merged.returncode == 0, merged.stdout[-3000:] + merged.stderr[-3000:]
     for table in ("stats.csv", "frames.csv"):

@@ -27,6 +27,7 @@ fn render_request(frame: i32, spp: i64, request_id: u64) -> Request {
         settings: NamedSettings::new().with("spp", spp),
         passes: Passes::default(),
         request_id,
+        warm_up: false,
     })
 }
 

@@ -46,6 +46,7 @@ fn request_of(methods: &[&str], frame: i32, request_id: u64, spp: i64) -> Compar
         baseline: None,
         repeat: 2,
         images: false,
+        warm_up: false,
     }
 }
 
@@ -297,6 +298,7 @@ fn the_memory_budget_bounds_every_method_together() {
             settings: spec.settings.with("spp", 2_i64),
             passes: Passes::default(),
             request_id: 10 + i as u64,
+            warm_up: false,
         }))
         .unwrap();
         c.finish_render(10 + i as u64).unwrap();

@@ -53,6 +53,7 @@ fn a_render_over_the_memory_budget_is_refused_and_the_session_goes_on() {
             settings: NamedSettings::default(),
             passes,
             request_id: frame as u64,
+            warm_up: false,
         }))
         .unwrap();
         let (code, message, usable, request_id) = expect_error(c.recv().unwrap());

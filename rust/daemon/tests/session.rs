@@ -280,6 +280,7 @@ fn render_with_an_unknown_mesh_hash_names_the_object() {
         settings: NamedSettings::default(),
         passes: Passes::default(),
         request_id: 77,
+        warm_up: false,
     }))
     .unwrap();
     let (code, message, usable, request_id) = expect_error(c.recv().unwrap());
@@ -296,6 +297,7 @@ fn render_with_an_unknown_mesh_hash_names_the_object() {
         settings: NamedSettings::default(),
         passes: Passes::default(),
         request_id: 78,
+        warm_up: false,
     }))
     .unwrap();
     let (code, message, _, request_id) = expect_error(c.recv().unwrap());
@@ -354,6 +356,7 @@ fn too_many_lights_and_bad_settings_are_refused() {
         settings,
         passes: Passes::default(),
         request_id: 5,
+        warm_up: false,
     }))
     .unwrap();
     let (code, message, _, request_id) = expect_error(c.recv().unwrap());
@@ -376,6 +379,7 @@ fn client_disconnecting_mid_render_does_not_disturb_others() {
         settings,
         passes: Passes::default(),
         request_id: 1,
+        warm_up: false,
     }))
     .unwrap();
     // Wait until the render runs, then vanish.
@@ -405,6 +409,7 @@ fn queued_render_can_be_cancelled() {
         settings,
         passes: Passes::default(),
         request_id: 1,
+        warm_up: false,
     }))
     .unwrap();
     assert!(matches!(busy.recv().unwrap(), Reply::Progress { .. }));
@@ -415,6 +420,7 @@ fn queued_render_can_be_cancelled() {
         settings: NamedSettings::default(),
         passes: Passes::default(),
         request_id: 9,
+        warm_up: false,
     }))
     .unwrap();
     match c.recv().unwrap() {

@@ -80,6 +80,7 @@ fn recording(dir: &Path) -> Res {
             settings: NamedSettings::new().with("spp", 4i64),
             passes: Passes::default(),
             request_id: frame as u64,
+            warm_up: false,
         }))?;
     }
     w.append(&Request::Close)?;
@@ -201,6 +202,7 @@ fn decode_frame(dir: &Path) -> Res {
             .with("spatial_splits", false),
         passes: Passes::default(),
         request_id: 7,
+        warm_up: false,
     });
     let mut camera_path = Vec::new();
     if let Request::FrameUpdate(u) = &frame {

@@ -49,6 +49,10 @@ pub struct CompareRequest {
     /// Whether the reply carries each method's heat plane (`CompareResult.heat`).
     #[serde(default)]
     pub images: bool,
+    /// Advance every method's state only (as `RenderRequest::warm_up`): the `CompareResult`
+    /// has no rows, mismatches or heat. Omitted when false.
+    #[serde(default, skip_serializing_if = "crate::messages::is_false")]
+    pub warm_up: bool,
 }
 
 /// The reply to `Compare`: one row per method x pass x light, and the methods whose masks or
@@ -127,6 +131,18 @@ pub fn compare_result_reply(
     }
 }
 
+/// The reply to a warm-up: the methods, and no rows, mismatches or heat.
+fn warm_up_reply(comparison: &Comparison, frame: i32, request_id: u64) -> CompareResultReply {
+    CompareResultReply {
+        request_id,
+        frame,
+        methods: comparison.specs().iter().map(|s| s.to_string()).collect(),
+        rows: Vec::new(),
+        mismatches: Vec::new(),
+        heat: Vec::new(),
+    }
+}
+
 /// The heat planes of a reply, each named by its method's label; a plane whose data does not
 /// fill its size is an error naming it.
 pub fn heat_from_reply(reply: &CompareResultReply) -> Result<Vec<ImagePlane>, ProtocolError> {
@@ -150,7 +166,9 @@ pub const COMPARE_STAGE: &str = "compare";
 ///   the request reaches its render worker, to the same effect);
 /// - a frame that fails or is cancelled leaves the comparison as it was before that frame (the
 ///   core puts every method's state back), so the next frame continues the animation;
-/// - a panic while rendering leaves none (the comparison is taken out while it renders).
+/// - a panic while rendering leaves none (the comparison is taken out while it renders);
+/// - a warm-up request (`warm_up`) advances every method's state as a frame would, and its
+///   progress counts one step per method.
 ///
 /// Every error but `Cancelled` counts as a failed render; `Cancelled` as a cancelled one.
 #[derive(Default)]
@@ -194,17 +212,24 @@ impl CompareState {
                 }
             },
         };
-        let total = u32::try_from(comparison.steps()).unwrap_or(u32::MAX);
+        let steps = match request.warm_up {
+            true => comparison.labels().len(),
+            false => comparison.steps(),
+        };
+        let total = u32::try_from(steps).unwrap_or(u32::MAX);
         progress(0, total);
-        let result = comparison.frame_cancellable(scene_name, scene, cancel, &mut |s: Step| {
-            progress(u32::try_from(s.done).unwrap_or(u32::MAX), total)
+        let mut step = |s: Step| progress(u32::try_from(s.done).unwrap_or(u32::MAX), total);
+        let reply = if request.warm_up {
+            let warmed = comparison.warm_up_cancellable(scene, cancel, &mut step);
+            warmed.map(|()| warm_up_reply(&comparison, scene.frame, request.request_id))
+        } else {
+            let result = comparison.frame_cancellable(scene_name, scene, cancel, &mut step);
+            result.map(|r| compare_result_reply(&comparison, r, request.request_id, request.images))
+        };
+        let reply = reply.map_err(|error| ProtocolError::InFrame {
+            frame: scene.frame,
+            error,
         });
-        let reply = result
-            .map(|r| compare_result_reply(&comparison, r, request.request_id, request.images))
-            .map_err(|error| ProtocolError::InFrame {
-                frame: scene.frame,
-                error,
-            });
         self.kept = Some((kept, comparison));
         reply
     }

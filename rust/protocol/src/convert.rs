@@ -9,7 +9,7 @@ use std::hash::BuildHasher;
 use std::sync::Arc;
 
 use antumbra_core::image::ImagePlane;
-use antumbra_core::render::{FrameResult, RenderSettings};
+use antumbra_core::render::{FrameResult, RenderSettings, WarmUp};
 use antumbra_core::scene::{
     AreaShape, Camera, Light, LightKind, Mesh, Object, Resolution, Scene, SensorFit, TriangleRef,
 };
@@ -442,6 +442,22 @@ pub fn frame_result_reply(
         visible: passes
             .visible_set
             .then(|| triangle_refs_to_bytes(&result.visible)),
+    }
+}
+
+/// The reply to a warm-up (`RenderRequest::warm_up`): the frame's size, no images, no
+/// statistics rows, and the visible set when `passes` asks for it.
+pub fn warm_up_reply(warmed: &WarmUp, request_id: u64, passes: &Passes) -> FrameResultReply {
+    FrameResultReply {
+        request_id,
+        frame: warmed.frame,
+        width: warmed.width,
+        height: warmed.height,
+        images: Vec::new(),
+        stats: Vec::new(),
+        visible: passes
+            .visible_set
+            .then(|| triangle_refs_to_bytes(&warmed.visible)),
     }
 }
 

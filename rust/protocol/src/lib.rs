@@ -31,7 +31,7 @@ pub use compare::{
 pub use convert::{
     frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,
     planes_from_reply, render_settings, scene_from_frame, scene_to_messages, stats_from_reply,
-    upload_from_mesh, visible_from_reply, MeshStore,
+    upload_from_mesh, visible_from_reply, warm_up_reply, MeshStore,
 };
 pub use error::{FrameError, ProtocolError};
 pub use frame::{

@@ -226,6 +226,18 @@ pub struct RenderRequest {
     pub passes: Passes,
     /// Chosen by the client; echoed in `Progress` and `FrameResult`, named by `Cancel`.
     pub request_id: u64,
+    /// Render the frame only for the session's state (trees, previous-frame visible set), as
+    /// the frame before the first of a farm's chunk: a primary pass, no shadow ray. The
+    /// `FrameResult` has no images and no statistics rows (the visible set if asked for).
+    /// Omitted when false.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub warm_up: bool,
+}
+
+/// For `skip_serializing_if`: a flag that is off is left out, so older peers see the messages
+/// they know.
+pub(crate) fn is_false(flag: &bool) -> bool {
+    !*flag
 }
 
 /// Which outputs a `FrameResult` carries. Omitted fields take the defaults (all images, no

@@ -31,6 +31,7 @@ fn request(frame: i32, repeat: u32) -> CompareRequest {
         baseline: None,
         repeat,
         images: false,
+        warm_up: false,
     }
 }
 

@@ -351,6 +351,7 @@ fn limits_are_checked_and_named() {
         settings: NamedSettings::new().with("spp", 9i64),
         passes: Passes::default(),
         request_id: 1,
+        warm_up: false,
     });
     let err = check_limits(&render, &limits).unwrap_err();
     assert!(err.to_string().contains("frame 9: settings.spp"), "{err}");

@@ -28,6 +28,7 @@ fn write_read_replay_round_trip() {
             settings: Default::default(),
             passes: Default::default(),
             request_id: s.frame as u64,
+            warm_up: false,
         }))
         .unwrap();
     }

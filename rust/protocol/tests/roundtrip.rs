@@ -241,7 +241,7 @@ fn request() -> impl Strategy<Value = Request> {
         (
             any::<i32>(),
             settings(),
-            prop::array::uniform5(any::<bool>()),
+            prop::array::uniform6(any::<bool>()),
             any::<u64>()
         )
             .prop_map(
@@ -256,16 +256,17 @@ fn request() -> impl Strategy<Value = Request> {
                         object_ids: p[4],
                     },
                     request_id,
+                    warm_up: p[5],
                 })
             ),
         (
             (any::<i32>(), any::<u64>(), settings()),
             vec((name(), settings()), 0..3),
             proptest::option::of(name()),
-            (any::<u32>(), any::<bool>())
+            (any::<u32>(), any::<bool>(), any::<bool>())
         )
             .prop_map(
-                |((frame, request_id, settings), methods, baseline, (repeat, images))| {
+                |((frame, request_id, settings), methods, baseline, (repeat, images, warm_up))| {
                     Request::Compare(CompareRequest {
                         frame,
                         request_id,
@@ -277,6 +278,7 @@ fn request() -> impl Strategy<Value = Request> {
                         baseline,
                         repeat,
                         images,
+                        warm_up,
                     })
                 }
             ),
@@ -556,6 +558,7 @@ fn field_order_unknown_fields_and_defaults() {
             settings: NamedSettings::default(),
             passes: Passes::default(),
             request_id: 7,
+            warm_up: false,
         })
     );
     assert_eq!(

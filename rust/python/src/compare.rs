@@ -99,6 +99,7 @@ pub fn compare_request(
         baseline,
         repeat,
         images,
+        warm_up: false,
     };
     let baseline = request
         .comparison()

@@ -426,7 +426,9 @@ impl Connection {
     /// Renders a frame sent with frame_update; returns a dict that `antumbra.Result` wraps. A
     /// progress callback that raises (or returns False) and Ctrl-C cancel the render; its last
     /// reply is still read so the session stays in step, then the exception is raised.
-    #[pyo3(signature = (frame, settings, passes, progress = None, timeout = None))]
+    /// `warm_up`: only the session's state (`RenderRequest::warm_up`): no images, no rows.
+    #[pyo3(signature = (frame, settings, passes, progress = None, timeout = None, warm_up = false))]
+    #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn render<'py>(
         &self,
         py: Python<'py>,
@@ -435,6 +437,7 @@ impl Connection {
         passes: &Bound<'py, PyAny>,
         progress: Option<Bound<'py, PyAny>>,
         timeout: Option<f64>,
+        warm_up: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let mut wait = PyWait::new(py);
         (|| {
@@ -446,6 +449,7 @@ impl Connection {
                     settings: settings.clone(),
                     passes: Default::default(),
                     request_id: 0,
+                    warm_up: false,
                 }),
                 &self.limits,
             )
@@ -461,6 +465,7 @@ impl Connection {
                 settings,
                 passes,
                 request_id,
+                warm_up,
             });
             state
                 .client
@@ -487,7 +492,7 @@ impl Connection {
     /// for `methods`); returns `compare::compare_reply_to_py`'s dict, with each method's heat
     /// plane when `images`. `timeout`: seconds to wait between two replies (None: no limit).
     /// `progress` and Ctrl-C act as in `render`.
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false, progress = None))]
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false, progress = None, warm_up = false))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
@@ -500,6 +505,7 @@ impl Connection {
         timeout: Option<f64>,
         images: bool,
         progress: Option<Bound<'py, PyAny>>,
+        warm_up: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let mut wait = PyWait::new(py);
         (|| {
@@ -508,6 +514,7 @@ impl Connection {
             check_progress(progress.as_ref())?;
             let (mut request, baseline) =
                 compare_request(frame, methods, baseline, repeat, settings, images)?;
+            request.warm_up = warm_up;
             let asked = request.clone();
             antumbra_protocol::check_limits(&Request::Compare(request.clone()), &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;

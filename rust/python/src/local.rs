@@ -13,8 +13,8 @@ use antumbra_core::render::Renderer;
 use antumbra_core::scene::Mesh;
 use antumbra_protocol::{
     check_limits, frame_result_reply, mesh_from_upload, missing_meshes, render_settings,
-    scene_from_frame, upload_from_mesh, CameraState, CompareState, DaemonStats, ErrorCode,
-    FrameUpdate, Limits, ProtocolError, Request, TradeState, COMPARE_STAGE, TRADE_STAGE,
+    scene_from_frame, upload_from_mesh, warm_up_reply, CameraState, CompareState, DaemonStats,
+    ErrorCode, FrameUpdate, Limits, ProtocolError, Request, TradeState, COMPARE_STAGE, TRADE_STAGE,
 };
 
 /// The progress stages, as the daemon reports them: ("render", 0, 2), then ("encode", 1, 2).
@@ -331,7 +331,8 @@ impl LocalSession {
     /// Renders a frame sent with frame_update. `progress` is called as the daemon reports:
     /// ("render", 0, 2) before rendering, ("encode", 1, 2) after; returning False from the
     /// first call cancels.
-    #[pyo3(signature = (frame, settings, passes, progress = None, timeout = None))]
+    #[pyo3(signature = (frame, settings, passes, progress = None, timeout = None, warm_up = false))]
+    #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn render<'py>(
         &self,
         py: Python<'py>,
@@ -340,6 +341,7 @@ impl LocalSession {
         passes: &Bound<'py, PyAny>,
         progress: Option<Bound<'py, PyAny>>,
         timeout: Option<f64>,
+        warm_up: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = timeout;
         (|| {
@@ -390,7 +392,14 @@ impl LocalSession {
             let renderer = &mut state.renderer;
             let label = self.label.as_str();
             let reply = py
-                .detach(|| renderer.render(label, &scene, &settings))
+                .detach(|| match warm_up {
+                    true => renderer
+                        .warm_up(&scene, &settings)
+                        .map(|w| warm_up_reply(&w, request_id, &passes)),
+                    false => renderer
+                        .render(label, &scene, &settings)
+                        .map(|r| frame_result_reply(&r, request_id, &passes)),
+                })
                 .map_err(|error| {
                     state.stats.renders_failed += 1;
                     render_error(&ProtocolError::InFrame { frame, error }, request_id)
@@ -398,7 +407,6 @@ impl LocalSession {
             if let Some(cb) = &progress {
                 cb.call1(("encode", 1u32, STAGES))?;
             }
-            let reply = py.detach(|| frame_result_reply(&reply, request_id, &passes));
             state.stats.renders_done += 1;
             frame_result_to_py(py, reply)
         })()
@@ -410,7 +418,7 @@ impl LocalSession {
     /// `images`). `progress(stage, done, total)` is called as the daemon reports; returning
     /// False or raising cancels between method passes, as does Ctrl-C. `timeout` is accepted
     /// and unused, as in `render`.
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false, progress = None))]
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false, progress = None, warm_up = false))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
@@ -423,6 +431,7 @@ impl LocalSession {
         timeout: Option<f64>,
         images: bool,
         progress: Option<Bound<'py, PyAny>>,
+        warm_up: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let _ = timeout;
         (|| {
@@ -430,6 +439,7 @@ impl LocalSession {
             check_progress(progress.as_ref())?;
             let (mut request, baseline) =
                 compare_request(frame, methods, baseline, repeat, settings, images)?;
+            request.warm_up = warm_up;
             let asked = request.clone();
             check_limits(&Request::Compare(request.clone()), &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;

@@ -273,6 +273,41 @@ impl Comparison {
         result
     }
 
+    /// Advances every method's state as [`frame_cancellable`](Self::frame_cancellable) would,
+    /// each by a [`Renderer::warm_up`] (no shadow ray, row or check), calling `progress` after
+    /// each method (of [`methods`](Self::labels)`.len()`). A warm-up that fails or is cancelled
+    /// leaves every method's state as it was.
+    pub fn warm_up_cancellable(
+        &mut self,
+        scene: &Scene,
+        cancel: &CancelToken,
+        progress: &mut (dyn FnMut(Step) + Send),
+    ) -> Result<()> {
+        let before: Vec<Renderer> = self.methods.iter().map(|m| m.renderer.clone()).collect();
+        let total = self.methods.len();
+        let mut warm = || {
+            for (done, m) in self.methods.iter_mut().enumerate() {
+                m.renderer
+                    .warm_up_cancellable(scene, &m.settings, cancel)
+                    .map_err(|e| in_method(&m.spec.label, e))?;
+                progress(Step {
+                    label: &m.spec.label,
+                    timed: false,
+                    done: done + 1,
+                    total,
+                });
+            }
+            Ok(())
+        };
+        let result = warm();
+        if result.is_err() {
+            for (m, state) in self.methods.iter_mut().zip(before) {
+                m.renderer = state;
+            }
+        }
+        result
+    }
+
     fn run(
         &mut self,
         scene_name: &str,

@@ -23,7 +23,7 @@ pub use memory::{
     all_output_planes, estimate_comparison_bytes, estimate_render_bytes, format_bytes, RenderMemory,
 };
 pub use primary::{PrimaryPass, SurfacePoint};
-pub use renderer::{FrameResult, HeatMaps, Renderer, OBJECT_PLANE};
+pub use renderer::{FrameResult, HeatMaps, Renderer, WarmUp, OBJECT_PLANE};
 pub use settings::{RenderSettings, StatsMode, MAX_SPP};
 pub use shadow::{
     representative_rays, samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome,

@@ -1,6 +1,7 @@
 //! One frame end to end, and what carries over between frames: the geometry and BVHs of a frame
 //! whose geometry (and, for visibility-driven builds, visible-set input) did not change are
-//! reused, and the visible set is kept for the next frame's OSAH/ABVH build.
+//! reused, and the visible set is kept for the next frame's OSAH/ABVH build. A warm-up
+//! ([`Renderer::warm_up`]) advances that state as a render would, tracing no shadow ray.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -50,6 +51,16 @@ pub struct FrameResult {
     /// order of a frame update); u32::MAX where the ray missed. See [`FrameResult::object_plane`].
     pub primary_objects: Vec<u32>,
     pub stats: Vec<StatsRow>,
+}
+
+/// What a warm-up leaves besides the renderer's state: the frame's size and visible set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WarmUp {
+    pub frame: i32,
+    pub width: u32,
+    pub height: u32,
+    /// V(t), as [`FrameResult::visible`].
+    pub visible: Vec<TriangleRef>,
 }
 
 /// The name of the object-id plane (the `object_ids` pass).
@@ -147,7 +158,9 @@ pub struct Renderer {
     pub builds: u64,
     /// The visible set of the last rendered frame.
     pub previous_visible: Vec<TriangleRef>,
-    /// Frames rendered so far: the first has no previous visible set.
+    /// Shadow rays traced by counted and timed passes so far (a warm-up traces none).
+    pub shadow_rays: u64,
+    /// Frames rendered (or warmed up) so far: the first has no previous visible set.
     frames_rendered: u64,
 }
 
@@ -214,11 +227,55 @@ impl Renderer {
         };
         let (primary, primary_row) = primary_pass(cached, scene, settings, &rows, cancel)?;
         let shadows = shadow_passes(cached, &primary, scene, settings, &rows, cancel)?;
+        self.shadow_rays += shadows.rays;
         let result = combine(scene, cached, primary, primary_row, shadows, settings);
-        self.previous_visible = result.visible.clone();
+        self.finish_frame(result.visible.clone());
+        Ok(result)
+    }
+
+    /// Advances the state as [`render`](Self::render) would for this frame, for the frames
+    /// after it only: the trees (built or reused, collapsed, per-tree orders prepared) and the
+    /// visible set from an uncounted primary pass; no shadow ray, image or statistics row. A
+    /// chunk of an animation warms up on the frames before its first, so its frames render
+    /// what one run over the animation renders.
+    pub fn warm_up(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<WarmUp> {
+        self.warm_up_cancellable(scene, settings, &CancelToken::new())
+    }
+
+    /// As [`warm_up`](Self::warm_up), stopping as [`render_cancellable`](Self::render_cancellable) does.
+    pub fn warm_up_cancellable(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        cancel: &CancelToken,
+    ) -> Result<WarmUp> {
+        settings.validate()?;
+        scene.validate()?;
+        cancel.check()?;
+        self.prepare(scene, settings, cancel)?;
+        self.prepare_wide(settings, cancel)?;
+        let cached = self.cache.as_ref().expect("prepared above");
+        let primary = trace_camera(cached, scene, false, cancel)?;
+        let ids: Vec<u32> = primary
+            .surfaces
+            .iter()
+            .map(|s| s.map_or(u32::MAX, |s| s.triangle))
+            .collect();
+        let visible = visible_set(&ids, &cached.geometry.camera);
+        self.finish_frame(visible.clone());
+        Ok(WarmUp {
+            frame: scene.frame,
+            width: primary.width,
+            height: primary.height,
+            visible,
+        })
+    }
+
+    /// What every finished frame (rendered or warmed up) hands to the next.
+    fn finish_frame(&mut self, visible: Vec<TriangleRef>) {
+        self.previous_visible = visible;
         self.frames_rendered += 1;
         self.mark_reported();
-        Ok(result)
     }
 
     /// After a finished frame: the trees' build, collapse and per-tree order times have been
@@ -472,31 +529,15 @@ fn primary_pass(
     rows: &Rows,
     cancel: &CancelToken,
 ) -> Result<(PrimaryPass, StatsRow)> {
-    let wide_camera = cached
-        .wide
-        .as_ref()
-        .filter(|w| w.width != BvhWidth::Two)
-        .map(|w| &*w.camera);
-    let geometry = &cached.geometry;
-    let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
     let (counted, timed) = counted_timed(settings);
-    let trace = |counted: bool| match wide_camera {
-        Some(t) => trace_primary(counted, &rays, t, &geometry.camera, cancel),
-        None => trace_primary(
-            counted,
-            &rays,
-            &*cached.camera_bvh,
-            &geometry.camera,
-            cancel,
-        ),
-    };
+    let trace = |counted: bool| trace_camera(cached, scene, counted, cancel);
     let primary = trace(counted)?;
     let mut row = rows.row(
         "primary",
         "",
         &cached.camera_bvh,
         cached.camera_info,
-        wide_camera,
+        wide_camera(cached),
     );
     row.rays = primary.ray_count();
     row.occluded_fraction =
@@ -510,6 +551,33 @@ fn primary_pass(
         row.set_timing(primary.trace_ms, !counted);
     }
     Ok((primary, row))
+}
+
+/// The wide camera tree the primary pass traces (widths 4 and 8), else none (the binary one).
+fn wide_camera(cached: &Cached) -> Option<&WideTree> {
+    let wide = cached.wide.as_ref().filter(|w| w.width != BvhWidth::Two);
+    wide.map(|w| &*w.camera)
+}
+
+/// The camera rays of a frame on the tree its primary pass reads, counted or timed.
+fn trace_camera(
+    cached: &Cached,
+    scene: &Scene,
+    counted: bool,
+    cancel: &CancelToken,
+) -> Result<PrimaryPass> {
+    let geometry = &cached.geometry;
+    let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
+    match wide_camera(cached) {
+        Some(t) => trace_primary(counted, &rays, t, &geometry.camera, cancel),
+        None => trace_primary(
+            counted,
+            &rays,
+            &*cached.camera_bvh,
+            &geometry.camera,
+            cancel,
+        ),
+    }
 }
 
 /// Whether a frame's passes count work, and whether they are timed without counters.
@@ -526,6 +594,8 @@ struct ShadowPasses {
     masks: Vec<ImagePlane>,
     rows: Vec<StatsRow>,
     work: Vec<TraversalStats>,
+    /// Shadow rays traced, over every pass (counted and timed).
+    rays: u64,
 }
 
 /// Each shadow-casting light in turn: its tree and order ([`light_tracing`]), its shadow pass
@@ -560,6 +630,7 @@ fn shadow_passes(
         masks: Vec::new(),
         rows: Vec::new(),
         work: vec![TraversalStats::default(); if counted { primary.surfaces.len() } else { 0 }],
+        rays: 0,
     };
     for (index, light) in scene.lights.iter().enumerate() {
         if !light.casts_shadow {
@@ -591,6 +662,7 @@ fn shadow_passes(
             }
         };
         let pass = pass_of(counted)?;
+        out.rays += pass.outcome.rays;
         let mut r = rows.row(
             "shadow",
             &light.name,
@@ -610,6 +682,7 @@ fn shadow_passes(
         r.set_work(&pass.totals);
         if counted && timed {
             let t = pass_of(false)?;
+            out.rays += t.outcome.rays;
             debug_assert_eq!(t.mask, pass.mask);
             r.set_timing(t.trace_ms, true);
         } else {

@@ -232,6 +232,7 @@ impl Session<'_> {
             scene,
             settings,
             passes: r.passes,
+            warm_up: r.warm_up,
             ctl: ctl.clone(),
             kind: JobKind::Render,
         };

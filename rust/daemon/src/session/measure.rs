@@ -100,6 +100,7 @@ impl Session<'_> {
             scene,
             settings,
             passes: Default::default(),
+            warm_up: false,
             ctl: ctl.clone(),
             kind,
         };

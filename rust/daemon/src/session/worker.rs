@@ -10,11 +10,11 @@ use std::thread::JoinHandle;
 use std::time::Instant;
 
 use antumbra_core::cancel::CancelToken;
-use antumbra_core::render::{RenderSettings, Renderer};
+use antumbra_core::render::{FrameResult, RenderSettings, Renderer, WarmUp};
 use antumbra_core::scene::Scene;
 use antumbra_protocol::{
-    encode_message_within, frame_result_reply, CompareRequest, CompareState, ErrorCode, Passes,
-    ProtocolError, Reply, TradeRequest, TradeState, COMPARE_STAGE, TRADE_STAGE,
+    encode_message_within, frame_result_reply, warm_up_reply, CompareRequest, CompareState,
+    ErrorCode, Passes, ProtocolError, Reply, TradeRequest, TradeState, COMPARE_STAGE, TRADE_STAGE,
 };
 
 use super::out::{error_reply, protocol_error, Out};
@@ -39,6 +39,8 @@ pub(super) struct Job {
     pub(super) scene: Scene,
     pub(super) settings: RenderSettings,
     pub(super) passes: Passes,
+    /// A `Render` for the session's state only (`RenderRequest::warm_up`).
+    pub(super) warm_up: bool,
     pub(super) ctl: Arc<RenderCtl>,
     pub(super) kind: JobKind,
 }
@@ -60,6 +62,12 @@ impl JobKind {
             JobKind::Trade(_) => "Trade",
         }
     }
+}
+
+/// What a `Render` job produced: a frame, or a warm-up's state.
+enum Done {
+    Frame(Box<FrameResult>),
+    WarmUp(WarmUp),
 }
 
 pub(super) type Controls = Arc<Mutex<HashMap<u64, Arc<RenderCtl>>>>;
@@ -245,7 +253,14 @@ impl WorkerCtx {
         let t0 = Instant::now();
         let result = catch_unwind(AssertUnwindSafe(|| {
             slot.install(|| {
-                renderer.render_cancellable(&self.label, &job.scene, &job.settings, cancel)
+                let (scene, settings) = (&job.scene, &job.settings);
+                if job.warm_up {
+                    let warmed = renderer.warm_up_cancellable(scene, settings, cancel);
+                    warmed.map(Done::WarmUp)
+                } else {
+                    let result = renderer.render_cancellable(&self.label, scene, settings, cancel);
+                    result.map(|r| Done::Frame(Box::new(r)))
+                }
             })
         }));
         // The slot is free as soon as the render stops, finished or cancelled.
@@ -285,7 +300,12 @@ impl WorkerCtx {
             return self.cancelled(job, "after rendering; its render slot is free");
         }
         self.progress(id, "encode", 1, STAGES);
-        let reply = Reply::FrameResult(frame_result_reply(&result, id, &job.passes));
+        let result = match result {
+            Done::Frame(r) => frame_result_reply(&r, id, &job.passes),
+            Done::WarmUp(w) => warm_up_reply(&w, id, &job.passes),
+        };
+        let (width, height) = (result.width, result.height);
+        let reply = Reply::FrameResult(result);
         match encode_message_within(&reply, &self.out.limits) {
             Ok(bytes) => {
                 drop(reply);
@@ -294,8 +314,9 @@ impl WorkerCtx {
                     tracing::info!(
                         request_id = id,
                         frame,
-                        width = result.width,
-                        height = result.height,
+                        width,
+                        height,
+                        warm_up = job.warm_up,
                         render_ms,
                         bytes = bytes.len(),
                         "frame rendered"

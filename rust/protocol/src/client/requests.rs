@@ -216,6 +216,27 @@ impl Client {
             settings,
             passes,
             request_id,
+            warm_up: false,
+        }))?;
+        self.finish_render(request_id)
+    }
+
+    /// Warms the session up on a frame sent before (`RenderRequest::warm_up`): its trees and
+    /// visible set, no shadow ray; the result has no images and no rows (the visible set when
+    /// `passes` asks for it).
+    pub fn warm_up(
+        &mut self,
+        frame: i32,
+        settings: NamedSettings,
+        passes: Passes,
+        request_id: u64,
+    ) -> Result<Rendered, ClientError> {
+        self.send(&Request::Render(RenderRequest {
+            frame,
+            settings,
+            passes,
+            request_id,
+            warm_up: true,
         }))?;
         self.finish_render(request_id)
     }

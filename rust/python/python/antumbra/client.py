@@ -9,6 +9,7 @@ manages the daemon process, the socket path and the shape of the results.
 from __future__ import annotations
 
 import collections
+import dataclasses
 import json
 import os
 import shutil
@@ -335,6 +336,7 @@ class _Session:
         passes: Iterable[str] = DEFAULT_PASSES,
         progress: ProgressCallback | None = None,
         timeout: float | None = None,
+        warm_up: bool = False,
         **settings: Any,
     ) -> Result:
         """Renders a frame sent with :meth:`frame_update`.
@@ -353,10 +355,15 @@ class _Session:
                 :class:`RequestError` with code 'Cancelled'), raising cancels it and the
                 exception propagates. Ctrl-C cancels too.
             timeout: seconds to wait between two replies of the daemon (None: no limit).
+            warm_up: render the frame only for the session's state, as the frame before the
+                first of a chunk of an animation (a farm's task): its trees and its visible
+                set (OSAH from the previous frame, tree reuse), with a primary pass and no
+                shadow ray, so the next frames render what one run over the animation
+                renders. The result has no planes and no stats (``visible`` if asked for).
         """
         passes = tuple(passes) if not isinstance(passes, str) else (passes,)
         checked = _native.RenderSettings(**settings)
-        raw = self._native.render(frame, checked, passes, progress, timeout)
+        raw = self._native.render(frame, checked, passes, progress, timeout, warm_up)
         return Result._from_native(dict(raw), passes)
 
     def compare_frame(
@@ -369,6 +376,7 @@ class _Session:
         progress: ProgressCallback | None = None,
         timeout: float | None = None,
         images: bool = True,
+        warm_up: bool = False,
         **settings: Any,
     ) -> CompareFrame:
         """Renders a frame sent with :meth:`frame_update` with every method, as
@@ -394,6 +402,9 @@ class _Session:
             timeout: seconds to wait between two replies of the daemon (None: no limit).
             images: also return each method's shadow-ray node visits per pixel
                 (``CompareFrame.heat``) and their differences to the baseline's.
+            warm_up: advance every method's state only, as :meth:`render`'s ``warm_up``
+                (``progress`` counts one step per method): the frame has no rows, mismatches
+                or images, and :meth:`CompareReport.add` refuses it.
             settings: settings every method shares (``spp``, ``seed``), by name.
 
         Returns:
@@ -401,9 +412,18 @@ class _Session:
             images; :meth:`CompareReport.add` records it in a report folder.
         """
         raw = self._native.compare(
-            frame, methods, baseline, repeat, settings, timeout, images, progress=progress
+            frame,
+            methods,
+            baseline,
+            repeat,
+            settings,
+            timeout,
+            images,
+            progress=progress,
+            warm_up=warm_up,
         )
-        return CompareFrame._from_native(dict(raw))
+        cf = CompareFrame._from_native(dict(raw))
+        return dataclasses.replace(cf, _record=None) if warm_up else cf
 
     def compare(
         self,

@@ -111,7 +111,12 @@ class CompareReport:
         Mismatches are recorded, not raised. A frame of other methods, baseline or repeat, or
         of other shared settings than the frames recorded before, raises :class:`InvalidInput`.
         """
-        if not isinstance(cf, CompareFrame) or cf._record is None:
+        if isinstance(cf, CompareFrame) and cf._record is None:
+            raise InvalidInput(
+                f"add: frame {cf.frame} is a warm-up (compare_frame(warm_up=True)): it has no "
+                "rows to record"
+            )
+        if not isinstance(cf, CompareFrame):
             raise InvalidInput(
                 f"add: expected a CompareFrame from compare_frame(), got {type(cf).__name__}"
             )
