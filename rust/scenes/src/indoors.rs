@@ -304,7 +304,7 @@ impl Animation for Indoors {
         let u = ease(t);
         // High over the garden, down the path and straight through the middle of the door.
         let eye = bezier(CAMERA_PATH, u);
-        let target = lerp3(DVec3::new(0.0, 0.0, 0.8), DVec3::new(0.6, 6.0, 0.9), u);
+        let target = lerp3(DVec3::new(0.0, 0.0, 0.8), DVec3::new(-1.5, -1.0, 0.3), u);
         let cam = camera(eye, target, 20.0, (0.05, 120.0));
         let mut scene = self.stage.scene(frame, cam, Indoors::lights(u));
         // The door swings inwards in the first third; the blinds tilt slowly.
@@ -316,7 +316,7 @@ impl Animation for Indoors {
             self.door_mesh,
             hinge * DMat4::from_rotation_z(open),
         );
-        let tilt = -(0.5 + 0.3 * (TAU * self.clock.seconds(frame) / 6.0).sin());
+        let tilt = -(0.45 + 0.35 * (TAU * self.clock.seconds(frame) / 6.0).sin());
         for (k, &z) in self.slat_heights.iter().enumerate() {
             let xf =
                 DMat4::from_translation(DVec3::new(SLAT_X, 0.0, z)) * DMat4::from_rotation_y(tilt);
