@@ -4,6 +4,9 @@ objects, the camera and lights in Blender's own terms, and the camera path of a 
 Everything is read from the evaluated depsgraph, so modifiers, shape keys, armatures and
 geometry-node instances (``depsgraph.object_instances``) are what gets rendered. Bulk data goes
 through ``foreach_get`` into numpy; nothing loops over vertices in Python.
+
+As in Cycles, only evaluated meshes carry geometry: a text, curve, surface or metaball object is
+listed once as itself and once as the instance of its evaluated mesh, and only the mesh is sent.
 """
 
 from __future__ import annotations
@@ -14,8 +17,8 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-#: Object types whose evaluated geometry is a mesh.
-GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+#: The depsgraph's "no index" in an instance's persistent id.
+NO_INDEX = 0x7FFFFFFF
 
 
 class ExportError(ValueError):
@@ -180,8 +183,11 @@ def _instance_name(instance, obj) -> str:
     if not instance.is_instance:
         return obj.name
     parent = instance.parent.name if instance.parent else ""
-    ids = ".".join(str(i) for i in instance.persistent_id if i != 0x7FFFFFFF)
-    return f"{parent}/{obj.name}[{ids}]"
+    ids = [i for i in instance.persistent_id if i != NO_INDEX]
+    if ids == [0] and instance.parent and instance.parent.original == obj.original:
+        # The evaluated mesh of a text, curve, surface or metaball object: the object itself.
+        return parent
+    return f"{parent}/{obj.name}[{'.'.join(map(str, ids))}]"
 
 
 def camera_dict(camera_object, frame: int) -> dict:
@@ -271,7 +277,8 @@ class Exporter:
             if obj.type == "LIGHT":
                 lights.append(light_dict(name, obj, instance.matrix_world))
                 continue
-            if obj.type not in GEOMETRY_TYPES:
+            if obj.type != "MESH":
+                # Other geometry arrives as the instance of its evaluated mesh.
                 continue
             visible_camera, visible_shadow = _ray_visibility(original)
             if not (visible_camera or visible_shadow):
@@ -308,19 +315,10 @@ class Exporter:
         key = original.name
         if static and key in self.static:
             return self.static[key]
-        data_key = obj.data.as_pointer() if obj.type == "MESH" and obj.data else None
-        if data_key is not None and data_key in by_data:
+        data_key = obj.data.as_pointer()
+        if data_key in by_data:
             return by_data[data_key]
-        if obj.type == "MESH":
-            positions, triangles = self._arrays(obj.data, key, instance.is_instance)
-        else:
-            temporary = obj.to_mesh()
-            try:
-                if temporary is None:
-                    return None
-                positions, triangles = self._arrays(temporary, key, instance.is_instance)
-            finally:
-                obj.to_mesh_clear()
+        positions, triangles = self._arrays(obj.data, key, instance.is_instance)
         self._extracted += 1
         if len(triangles) == 0:
             return None
@@ -336,8 +334,7 @@ class Exporter:
             triangles=triangles,
             hash=self.client.mesh_hash(positions, triangles),
         )
-        if data_key is not None:
-            by_data[data_key] = mesh
+        by_data[data_key] = mesh
         if static:
             self.static[key] = mesh
         return mesh
