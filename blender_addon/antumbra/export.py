@@ -31,6 +31,8 @@ class MeshData:
     positions: np.ndarray
     triangles: np.ndarray
     hash: int
+    #: Shading normals at each triangle's corners, float32 (3m, 3); None when not exported.
+    normals: np.ndarray | None = None
 
 
 @dataclass
@@ -81,6 +83,28 @@ def _positions(mesh) -> np.ndarray:
     else:
         mesh.vertices.foreach_get("co", positions)
     return positions.reshape(-1, 3)
+
+
+def _corner_normals(mesh) -> np.ndarray | None:
+    """Shading normals at each triangle's corners (custom normals included), float32 (3m, 3)
+    in ``loop_triangles`` order; None for a mesh of flat faces only, whose normal is its
+    plane's."""
+    smooth = np.zeros(len(mesh.polygons), dtype=bool)
+    mesh.polygons.foreach_get("use_smooth", smooth)
+    if not smooth.any() and not mesh.has_custom_normals:
+        return None
+    if hasattr(mesh, "corner_normals"):  # Blender 4.1 and later
+        normals = np.empty(len(mesh.corner_normals) * 3, dtype=np.float32)
+        mesh.corner_normals.foreach_get("vector", normals)
+    else:
+        mesh.calc_normals_split()
+        normals = np.empty(len(mesh.loops) * 3, dtype=np.float32)
+        mesh.loops.foreach_get("normal", normals)
+    if not mesh.loop_triangles:
+        mesh.calc_loop_triangles()
+    loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    return normals.reshape(-1, 3)[loops]
 
 
 def _split_quads(
@@ -246,9 +270,11 @@ def resolution_dict(scene, percentage: int) -> dict:
 @dataclass
 class Exporter:
     """Exports frames; keeps the meshes of static objects between frames of one job, so a
-    1M-triangle set that only moves is read from Blender once."""
+    1M-triangle set that only moves is read from Blender once. With ``normals``, meshes with
+    smooth faces or custom normals carry their corner normals (for ``facing="shading"``)."""
 
     client: object
+    normals: bool = False
     static: dict[str, MeshData] = field(default_factory=dict)
     topology: dict[str, _Topology] = field(default_factory=dict)
     _extracted: int = 0
@@ -328,11 +354,13 @@ class Exporter:
                 f"frame {frame}: object '{original.name}' has a non-finite vertex "
                 f"(index {bad}: {positions[bad].tolist()})"
             )
+        normals = _corner_normals(obj.data) if self.normals else None
         mesh = MeshData(
             name=original.name,
             positions=positions,
             triangles=triangles,
-            hash=self.client.mesh_hash(positions, triangles),
+            hash=self.client.mesh_hash(positions, triangles, normals),
+            normals=normals,
         )
         by_data[data_key] = mesh
         if static:

@@ -149,7 +149,7 @@ class RenderJob:
     def _begin(self, frame: int):
         client = self.link.module
         if self._exporter is None:
-            self._exporter = Exporter(client)
+            self._exporter = Exporter(client, normals=self.options.wants_normals())
             if self.send_camera_path and len(self.frames) > 1:
                 self._camera_path, self.camera_path_seconds = camera_path(self.scene, self.frames)
         if self.scene.frame_current != frame:
@@ -174,7 +174,7 @@ class RenderJob:
             missing = session.frame_update(e.frame, e.objects, e.camera, e.lights, e.resolution)
             for h in missing:
                 mesh = e.meshes[h]
-                session.upload_mesh(mesh.name, mesh.positions, mesh.triangles)
+                session.upload_mesh(mesh.name, mesh.positions, mesh.triangles, mesh.normals)
             work.result = self._request(session, e.frame)
         except BaseException as error:  # noqa: BLE001 - handed to the main thread
             work.error = error

@@ -5,12 +5,13 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use super::facing::face_shading_normals;
 use super::light_tracer::{binary_order, light_tracing, LightRays, ShadowTrees};
 use super::primary::heat_planes;
 use super::shadow::{samples_for, SamplePlan};
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
 use super::wide_tree::WideTree;
-use super::VisibilitySource;
+use super::{Facing, VisibilitySource};
 use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
 use crate::build::{build_binned_sah, build_with_visibility, CollapseSettings};
 use crate::bvh::{Bvh, BvhWidth};
@@ -490,7 +491,10 @@ fn primary_pass(
             cancel,
         ),
     };
-    let primary = trace(counted)?;
+    let mut primary = trace(counted)?;
+    if settings.facing == Facing::Shading {
+        face_shading_normals(&mut primary, &rays, scene, &geometry.camera);
+    }
     let mut row = rows.row(
         "primary",
         "",
