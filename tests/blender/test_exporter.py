@@ -325,6 +325,35 @@ def test_frames_csv_says_which_triangles_it_counts(link, short_tmp):
 
 
 @pytest.mark.bpy
+def test_shading_facing_reads_custom_normals_through_the_daemon(link, short_tmp):
+    """A ground whose custom normals lean away from a low sun: lit under the default geometric
+    convention (as when no normals are sent), shadowed under Cycles' shading convention."""
+    scene = empty_scene()
+    big = [(x * 200, y * 200, 0) for x, y in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    ground = add_mesh(scene, "Ground", big, [(0, 1, 2, 3)]).data  # fills the view
+    if hasattr(ground, "use_auto_smooth"):
+        ground.use_auto_smooth = True
+    ground.normals_split_custom_set([(0.9, 0.0, 0.3)] * len(ground.loops))
+    add_light(scene, "Sun", "SUN", angle=0.0).rotation_euler = (0.0, -1.4, 0.0)
+
+    def sun_mask(settings):
+        job = jobs.RenderJob(
+            scene=scene,
+            frames=[scene.frame_current],
+            options=options.RenderOptions(settings={"spp": 1, **settings}, heat_maps=False),
+            link=link,
+            out_dir=None,
+            load_images=False,
+        ).run()
+        assert job.error is None, job.error
+        return dict(job.done[0].result.planes)["shadow.Sun"]
+
+    geometric, shading = sun_mask({}), sun_mask({"facing": "shading"})
+    assert geometric.min() == 1.0, "the sun is 10 degrees above the ground's plane"
+    assert shading.max() == 0.0, "and 10 degrees behind its shading normals"
+
+
+@pytest.mark.bpy
 def test_job_reconnects_after_the_daemon_dies(link, short_tmp):
     scene = animated_scene()
 

@@ -111,4 +111,5 @@ def main():
     Path(a.out).write_text(json.dumps(result, indent=1))
 
 
-main()
+if __name__ == "__main__":
+    main()
