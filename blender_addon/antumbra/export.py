@@ -50,6 +50,12 @@ class FrameExport:
     extracted: int = 0
 
 
+def mesh_arrays(positions, triangles, normals) -> tuple:
+    """The client's mesh arguments: normals only when there are any, so a flat mesh is hashed
+    and sent as by a client that predates them."""
+    return (positions, triangles) if normals is None else (positions, triangles, normals)
+
+
 def _matrix(m) -> list[list[float]]:
     return [list(row) for row in m]
 
@@ -359,7 +365,7 @@ class Exporter:
             name=original.name,
             positions=positions,
             triangles=triangles,
-            hash=self.client.mesh_hash(positions, triangles, normals),
+            hash=self.client.mesh_hash(*mesh_arrays(positions, triangles, normals)),
             normals=normals,
         )
         by_data[data_key] = mesh

@@ -20,7 +20,7 @@ from pathlib import Path
 import bpy
 
 from . import results
-from .export import Exporter, ExportError, FrameExport, camera_path
+from .export import Exporter, ExportError, FrameExport, camera_path, mesh_arrays
 from .options import RenderOptions
 
 #: How often one frame is sent again after the daemon went away.
@@ -174,7 +174,9 @@ class RenderJob:
             missing = session.frame_update(e.frame, e.objects, e.camera, e.lights, e.resolution)
             for h in missing:
                 mesh = e.meshes[h]
-                session.upload_mesh(mesh.name, mesh.positions, mesh.triangles, mesh.normals)
+                session.upload_mesh(
+                    mesh.name, *mesh_arrays(mesh.positions, mesh.triangles, mesh.normals)
+                )
             work.result = self._request(session, e.frame)
         except BaseException as error:  # noqa: BLE001 - handed to the main thread
             work.error = error
