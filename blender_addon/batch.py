@@ -457,7 +457,7 @@ def run_spool(args, scene, frames, options, out: Path, client) -> int:
             "seconds": sum(r["build_ms"] + r["trace_ms"] for r in rows) / 1000.0,
             "export_seconds": 0.0,
             "objects": None,
-            "triangles": rows[0]["triangles"] if rows else 0,
+            "triangles": None,  # a recording's sent triangles are not counted here
             "rows": rows,
         }
         results.write_frame_stats(out, record)

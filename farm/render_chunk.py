@@ -108,9 +108,10 @@ def set_up_engine(args: argparse.Namespace) -> None:
     addon_utils.enable("antumbra", default_set=True, handle_error=None)
     import batch
 
-    from antumbra import settings_ui
+    from antumbra import client_loader, settings_ui
 
-    flags = batch.parse_args(["--out", args.out, *shlex.split(args.batch_args)])
+    knobs = list(client_loader.load().KNOBS)
+    flags = batch.parse_args(["--out", args.out, *shlex.split(args.batch_args)], knobs)
 
     prefs = bpy.context.preferences.addons["antumbra"].preferences
     prefs.binary_path, prefs.socket_path = args.binary, str(private_socket())

@@ -170,7 +170,7 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
     def _export(self, job: EngineJob, depsgraph, frame: int):
         scene = depsgraph.scene
         if job.exporter is None:
-            job.exporter = Exporter(job.link.module)
+            job.exporter = Exporter(job.link.module, normals=job.options.wants_normals())
         self.update_stats("", f"antumbra: frame {frame}: export")
         return job.exporter.frame(depsgraph, scene, frame, scene.render.resolution_percentage)
 

@@ -4,6 +4,9 @@ objects, the camera and lights in Blender's own terms, and the camera path of a 
 Everything is read from the evaluated depsgraph, so modifiers, shape keys, armatures and
 geometry-node instances (``depsgraph.object_instances``) are what gets rendered. Bulk data goes
 through ``foreach_get`` into numpy; nothing loops over vertices in Python.
+
+As in Cycles, only evaluated meshes carry geometry: a text, curve, surface or metaball object is
+listed once as itself and once as the instance of its evaluated mesh, and only the mesh is sent.
 """
 
 from __future__ import annotations
@@ -14,8 +17,8 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-#: Object types whose evaluated geometry is a mesh.
-GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+#: The depsgraph's "no index" in an instance's persistent id.
+NO_INDEX = 0x7FFFFFFF
 
 
 class ExportError(ValueError):
@@ -28,6 +31,8 @@ class MeshData:
     positions: np.ndarray
     triangles: np.ndarray
     hash: int
+    #: Shading normals at each triangle's corners, float32 (3m, 3); None when not exported.
+    normals: np.ndarray | None = None
 
 
 @dataclass
@@ -43,6 +48,12 @@ class FrameExport:
     triangles: int = 0
     #: Meshes read from Blender this frame (the rest came from the static cache).
     extracted: int = 0
+
+
+def mesh_arrays(positions, triangles, normals) -> tuple:
+    """The client's mesh arguments: normals only when there are any, so a flat mesh is hashed
+    and sent as by a client that predates them."""
+    return (positions, triangles) if normals is None else (positions, triangles, normals)
 
 
 def _matrix(m) -> list[list[float]]:
@@ -78,6 +89,28 @@ def _positions(mesh) -> np.ndarray:
     else:
         mesh.vertices.foreach_get("co", positions)
     return positions.reshape(-1, 3)
+
+
+def _corner_normals(mesh) -> np.ndarray | None:
+    """Shading normals at each triangle's corners (custom normals included), float32 (3m, 3)
+    in ``loop_triangles`` order; None for a mesh of flat faces only, whose normal is its
+    plane's."""
+    smooth = np.zeros(len(mesh.polygons), dtype=bool)
+    mesh.polygons.foreach_get("use_smooth", smooth)
+    if not smooth.any() and not mesh.has_custom_normals:
+        return None
+    if hasattr(mesh, "corner_normals"):  # Blender 4.1 and later
+        normals = np.empty(len(mesh.corner_normals) * 3, dtype=np.float32)
+        mesh.corner_normals.foreach_get("vector", normals)
+    else:
+        mesh.calc_normals_split()
+        normals = np.empty(len(mesh.loops) * 3, dtype=np.float32)
+        mesh.loops.foreach_get("normal", normals)
+    if not mesh.loop_triangles:
+        mesh.calc_loop_triangles()
+    loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    return normals.reshape(-1, 3)[loops]
 
 
 def _split_quads(
@@ -180,8 +213,11 @@ def _instance_name(instance, obj) -> str:
     if not instance.is_instance:
         return obj.name
     parent = instance.parent.name if instance.parent else ""
-    ids = ".".join(str(i) for i in instance.persistent_id if i != 0x7FFFFFFF)
-    return f"{parent}/{obj.name}[{ids}]"
+    ids = [i for i in instance.persistent_id if i != NO_INDEX]
+    if ids == [0] and instance.parent and instance.parent.original == obj.original:
+        # The evaluated mesh of a text, curve, surface or metaball object: the object itself.
+        return parent
+    return f"{parent}/{obj.name}[{'.'.join(map(str, ids))}]"
 
 
 def camera_dict(camera_object, frame: int) -> dict:
@@ -240,9 +276,11 @@ def resolution_dict(scene, percentage: int) -> dict:
 @dataclass
 class Exporter:
     """Exports frames; keeps the meshes of static objects between frames of one job, so a
-    1M-triangle set that only moves is read from Blender once."""
+    1M-triangle set that only moves is read from Blender once. With ``normals``, meshes with
+    smooth faces or custom normals carry their corner normals (for ``facing="shading"``)."""
 
     client: object
+    normals: bool = False
     static: dict[str, MeshData] = field(default_factory=dict)
     topology: dict[str, _Topology] = field(default_factory=dict)
     _extracted: int = 0
@@ -271,7 +309,8 @@ class Exporter:
             if obj.type == "LIGHT":
                 lights.append(light_dict(name, obj, instance.matrix_world))
                 continue
-            if obj.type not in GEOMETRY_TYPES:
+            if obj.type != "MESH":
+                # Other geometry arrives as the instance of its evaluated mesh.
                 continue
             visible_camera, visible_shadow = _ray_visibility(original)
             if not (visible_camera or visible_shadow):
@@ -308,19 +347,10 @@ class Exporter:
         key = original.name
         if static and key in self.static:
             return self.static[key]
-        data_key = obj.data.as_pointer() if obj.type == "MESH" and obj.data else None
-        if data_key is not None and data_key in by_data:
+        data_key = obj.data.as_pointer()
+        if data_key in by_data:
             return by_data[data_key]
-        if obj.type == "MESH":
-            positions, triangles = self._arrays(obj.data, key, instance.is_instance)
-        else:
-            temporary = obj.to_mesh()
-            try:
-                if temporary is None:
-                    return None
-                positions, triangles = self._arrays(temporary, key, instance.is_instance)
-            finally:
-                obj.to_mesh_clear()
+        positions, triangles = self._arrays(obj.data, key, instance.is_instance)
         self._extracted += 1
         if len(triangles) == 0:
             return None
@@ -330,14 +360,15 @@ class Exporter:
                 f"frame {frame}: object '{original.name}' has a non-finite vertex "
                 f"(index {bad}: {positions[bad].tolist()})"
             )
+        normals = _corner_normals(obj.data) if self.normals else None
         mesh = MeshData(
             name=original.name,
             positions=positions,
             triangles=triangles,
-            hash=self.client.mesh_hash(positions, triangles),
+            hash=self.client.mesh_hash(*mesh_arrays(positions, triangles, normals)),
+            normals=normals,
         )
-        if data_key is not None:
-            by_data[data_key] = mesh
+        by_data[data_key] = mesh
         if static:
             self.static[key] = mesh
         return mesh

@@ -23,7 +23,7 @@ from pathlib import Path
 import bpy
 
 from . import results
-from .export import Exporter, ExportError, FrameExport, camera_path
+from .export import Exporter, ExportError, FrameExport, camera_path, mesh_arrays
 from .options import RenderOptions
 
 #: How often one frame is sent again after the daemon went away.
@@ -44,7 +44,7 @@ def send_frame(session, export: FrameExport) -> None:
     e = export
     for h in session.frame_update(e.frame, e.objects, e.camera, e.lights, e.resolution):
         mesh = e.meshes[h]
-        session.upload_mesh(mesh.name, mesh.positions, mesh.triangles)
+        session.upload_mesh(mesh.name, *mesh_arrays(mesh.positions, mesh.triangles, mesh.normals))
 
 
 def is_lost(client, error: BaseException) -> bool:
@@ -205,7 +205,7 @@ class RenderJob:
         frame = self._next_to_render(frame)
         client = self.link.module
         if self._exporter is None:
-            self._exporter = Exporter(client)
+            self._exporter = Exporter(client, normals=self.options.wants_normals())
             if self.send_camera_path and len(self.frames) > 1:
                 self._camera_path, self.camera_path_seconds = camera_path(self.scene, self.frames)
         if self.scene.frame_current != frame:

@@ -19,6 +19,10 @@ class RenderOptions:
     save_exr: bool = True
     save_png: bool = True
 
+    def wants_normals(self) -> bool:
+        """Whether the settings read shading normals (``facing="shading"``, docs/facing.md)."""
+        return self.settings.get("facing") == "shading"
+
     def settings_kwargs(self) -> dict:
         """The render settings, as ``render()`` and ``antumbra.render_settings()`` take them."""
         return dict(self.settings)

@@ -168,7 +168,12 @@ def finished_frames(out_dir: Path, key: str | None = None) -> dict[int, dict]:
 
 
 def frame_summary(record: dict) -> dict:
-    """One row per frame: timing, size, and the shadow rays' work summed over lights."""
+    """One row per frame: timing, size, and the shadow rays' work summed over lights.
+
+    Two triangle counts, which differ: ``triangles_sent`` is every triangle the exporter sent
+    (each object's evaluated mesh once per placement, what Blender counts), and
+    ``primary_triangles`` the camera rays' tree (``stats.csv``'s ``triangles`` on the primary
+    row): objects hidden from the camera and degenerate triangles left out."""
     rows = record["rows"]
     primary = next((r for r in rows if r["pass"] == "primary"), None)
     shadow = [r for r in rows if r["pass"] == "shadow"]
@@ -182,7 +187,8 @@ def frame_summary(record: dict) -> dict:
         "seconds": round(record["seconds"], 6),
         "export_seconds": round(record["export_seconds"], 6),
         "objects": record["objects"],
-        "triangles": record["triangles"],
+        "triangles_sent": record["triangles"],
+        "primary_triangles": primary["triangles"] if primary else 0,
         "primary_rays": primary["rays"] if primary else 0,
         "primary_nb_per_ray": primary["nb_per_ray"] if primary else 0.0,
         "shadow_rays": rays,

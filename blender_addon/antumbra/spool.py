@@ -17,7 +17,7 @@ from pathlib import Path
 
 import bpy
 
-from .export import Exporter
+from .export import Exporter, mesh_arrays
 from .options import RenderOptions
 
 
@@ -59,7 +59,7 @@ def submit(
     incoming = spool / "incoming" / f".{jid}-{os.getpid()}"
     shutil.rmtree(incoming, ignore_errors=True)
     incoming.mkdir(parents=True)
-    exporter = Exporter(client)
+    exporter = Exporter(client, normals=options.wants_normals())
     start_frame = scene.frame_current
     started = time.perf_counter()
     try:
@@ -76,7 +76,7 @@ def submit(
                 missing = recorder.frame_update(f, e.objects, e.camera, e.lights, e.resolution)
                 for h in missing:
                     m = e.meshes[h]
-                    recorder.upload_mesh(m.name, m.positions, m.triangles)
+                    recorder.upload_mesh(m.name, *mesh_arrays(m.positions, m.triangles, m.normals))
             recorded, dropped = recorder.stop_recording()
     finally:
         scene.frame_set(start_frame)

@@ -7,6 +7,7 @@ fix named."""
 
 from __future__ import annotations
 
+import csv
 import importlib.util
 import json
 import os
@@ -288,6 +289,68 @@ def test_cancelled_job_keeps_complete_frames_only(link, short_tmp):
     combined = bpy.data.images["antumbra combined"]
     assert combined["antumbra_frame"] == 1
     assert tuple(combined.size) == (48, 32)
+
+
+@pytest.mark.bpy
+def test_frames_csv_says_which_triangles_it_counts(link, short_tmp):
+    """frames.csv's ``triangles_sent`` is what the exporter sent; its ``primary_triangles`` is
+    stats.csv's ``triangles`` of the primary pass (the camera rays' tree), which leaves out
+    objects hidden from the camera and degenerate triangles; the shadow pass keeps the hidden
+    object."""
+    scene = empty_scene()
+    add_mesh(scene, "Ground", *GROUND)
+    add_mesh(scene, "Cube", CUBE_V, CUBE_F)
+    hidden = add_mesh(scene, "Hidden", CUBE_V, CUBE_F, location=(3, 0, 0))
+    hidden.visible_camera = False
+    sliver = [(0, 2, 1), (1, 2, 1), (2, 2, 1), (0, 3, 1)]
+    add_mesh(scene, "Sliver", sliver, [(0, 1, 2), (0, 1, 3)])  # the first is degenerate
+    add_light(scene, "Sun", "SUN", angle=0.0)
+    out = short_tmp / "out"
+    job = jobs.RenderJob(
+        scene=scene,
+        frames=[1],
+        options=options.RenderOptions(settings={"spp": 1}, heat_maps=False),
+        link=link,
+        out_dir=out,
+    ).run()
+    assert job.error is None, job.error
+    with open(out / "frames.csv") as f:
+        (frame,) = list(csv.DictReader(f))
+    with open(out / "stats.csv") as f:
+        passes = {row["pass"]: int(row["triangles"]) for row in csv.DictReader(f)}
+    assert "triangles" not in frame, "a column named for what it counts"
+    assert int(frame["triangles_sent"]) == job.done[0].triangles == 2 + 12 + 12 + 2
+    assert int(frame["primary_triangles"]) == passes["primary"] == 2 + 12 + 1
+    assert passes["shadow"] == 2 + 12 + 12 + 1
+
+
+@pytest.mark.bpy
+def test_shading_facing_reads_custom_normals_through_the_daemon(link, short_tmp):
+    """A ground whose custom normals lean away from a low sun: lit under the default geometric
+    convention (as when no normals are sent), shadowed under Cycles' shading convention."""
+    scene = empty_scene()
+    big = [(x * 200, y * 200, 0) for x, y in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    ground = add_mesh(scene, "Ground", big, [(0, 1, 2, 3)]).data  # fills the view
+    if hasattr(ground, "use_auto_smooth"):
+        ground.use_auto_smooth = True
+    ground.normals_split_custom_set([(0.9, 0.0, 0.3)] * len(ground.loops))
+    add_light(scene, "Sun", "SUN", angle=0.0).rotation_euler = (0.0, -1.4, 0.0)
+
+    def sun_mask(settings):
+        job = jobs.RenderJob(
+            scene=scene,
+            frames=[scene.frame_current],
+            options=options.RenderOptions(settings={"spp": 1, **settings}, heat_maps=False),
+            link=link,
+            out_dir=None,
+            load_images=False,
+        ).run()
+        assert job.error is None, job.error
+        return dict(job.done[0].result.planes)["shadow.Sun"]
+
+    geometric, shading = sun_mask({}), sun_mask({"facing": "shading"})
+    assert geometric.min() == 1.0, "the sun is 10 degrees above the ground's plane"
+    assert shading.max() == 0.0, "and 10 degrees behind its shading normals"
 
 
 @pytest.mark.bpy

@@ -11,7 +11,7 @@ use crate::scene_source::open_scene;
 
 #[derive(Args, Debug)]
 pub struct SceneArgs {
-    /// A built-in scene (bedroom, colonnade, city, forest, hairball; "-rot45" for the rotated
+    /// A built-in scene (bedroom, colonnade, city, forest, hairball, indoors; "-rot45" for the rotated
     /// variant), an OBJ/glTF file, or a recording (.antrec).
     #[arg(long)]
     pub scene: String,

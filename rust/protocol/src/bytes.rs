@@ -98,6 +98,18 @@ pub fn bytes_to_vec3s(bytes: &[u8], field: &str) -> Result<Vec<Vec3>, ProtocolEr
         .collect())
 }
 
+/// Corner normals: 3 x, y, z as f32 per triangle, 36 bytes a triangle.
+pub fn bytes_to_corner_normals(bytes: &[u8], field: &str) -> Result<Vec<[Vec3; 3]>, ProtocolError> {
+    Ok(
+        chunks::<36>(bytes, field, "3 normals of x, y, z as f32 per triangle")?
+            .map(|c| {
+                let f = |i: usize| f32::from_le_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
+                [0, 12, 24].map(|k| Vec3::new(f(k), f(k + 4), f(k + 8)))
+            })
+            .collect(),
+    )
+}
+
 pub fn bytes_to_triangles(bytes: &[u8], field: &str) -> Result<Vec<[u32; 3]>, ProtocolError> {
     Ok(chunks::<12>(bytes, field, "3 u32 indices per triangle")?
         .map(|c| {

@@ -18,8 +18,8 @@ use antumbra_core::stats::StatsRow;
 use glam::DMat4;
 
 use crate::bytes::{
-    bytes_to_f32s, bytes_to_triangle_refs, bytes_to_triangles, bytes_to_vec3s, f32s_to_bytes,
-    triangle_refs_to_bytes, triangles_to_bytes, vec3s_to_bytes,
+    bytes_to_corner_normals, bytes_to_f32s, bytes_to_triangle_refs, bytes_to_triangles,
+    bytes_to_vec3s, f32s_to_bytes, triangle_refs_to_bytes, triangles_to_bytes, vec3s_to_bytes,
 };
 use crate::error::ProtocolError;
 use crate::limits::Limits;
@@ -55,7 +55,8 @@ pub fn mesh_from_upload(upload: &UploadMesh, limits: &Limits) -> Result<Mesh, Pr
     }
     let positions = bytes_to_vec3s(&upload.positions, &format!("mesh '{name}'.positions"))?;
     let triangles = bytes_to_triangles(&upload.triangles, &format!("mesh '{name}'.triangles"))?;
-    let mesh = Mesh::new(name.clone(), positions, triangles);
+    let normals = bytes_to_corner_normals(&upload.normals, &format!("mesh '{name}'.normals"))?;
+    let mesh = Mesh::new(name.clone(), positions, triangles).with_normals(normals);
     mesh.validate()?;
     let actual = mesh.content_hash();
     if actual != upload.hash {
@@ -74,6 +75,7 @@ pub fn upload_from_mesh(mesh: &Mesh) -> UploadMesh {
         name: mesh.name.clone(),
         positions: vec3s_to_bytes(&mesh.positions),
         triangles: triangles_to_bytes(&mesh.triangles),
+        normals: vec3s_to_bytes(mesh.normals.as_flattened()),
     }
 }
 

@@ -119,6 +119,14 @@ pub struct UploadMesh {
     pub positions: ByteBuf,
     /// u32 little-endian vertex indices, 3 per triangle: 12 bytes a triangle.
     pub triangles: ByteBuf,
+    /// Optional shading normals at each triangle's corners: f32 little-endian x, y, z, 3 per
+    /// triangle (36 bytes a triangle), or empty (left out) for a flat-shaded mesh.
+    #[serde(default, skip_serializing_if = "no_bytes")]
+    pub normals: ByteBuf,
+}
+
+fn no_bytes(b: &ByteBuf) -> bool {
+    b.is_empty()
 }
 
 /// The scene state of one frame; meshes are referred to by hash.

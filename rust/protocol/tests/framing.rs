@@ -306,6 +306,7 @@ fn limits_are_checked_and_named() {
         name: "big".into(),
         positions: Default::default(),
         triangles: serde_bytes::ByteBuf::from(vec![0; 24]),
+        normals: Default::default(),
     });
     let err = check_limits(&upload, &limits).unwrap_err();
     assert_eq!(err.code(), ErrorCode::LimitExceeded);

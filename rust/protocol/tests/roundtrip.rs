@@ -213,14 +213,17 @@ fn request() -> impl Strategy<Value = Request> {
             token: None,
         }),
         vec(any::<u64>(), 0..8).prop_map(|hashes| Request::MissingMeshes { hashes }),
-        (any::<u64>(), name(), bytes(), bytes()).prop_map(|(hash, name, positions, triangles)| {
-            Request::UploadMesh(UploadMesh {
-                hash,
-                name,
-                positions,
-                triangles,
-            })
-        }),
+        (any::<u64>(), name(), bytes(), bytes(), bytes()).prop_map(
+            |(hash, name, positions, triangles, normals)| {
+                Request::UploadMesh(UploadMesh {
+                    hash,
+                    name,
+                    positions,
+                    triangles,
+                    normals,
+                })
+            }
+        ),
         (
             any::<i32>(),
             vec(object(), 0..4),

@@ -84,7 +84,31 @@ pub fn positions_from(
     obj: &Bound<'_, PyAny>,
     mesh: &str,
 ) -> ClientResult<Vec<Vec3>> {
-    let field = format!("mesh '{mesh}'.positions");
+    vec3s_from(py, obj, &format!("mesh '{mesh}'.positions"))
+}
+
+/// Corner normals: a float32 array of shape (3m, 3), the three corners of each triangle in turn.
+pub fn corner_normals_from(
+    py: Python<'_>,
+    obj: &Bound<'_, PyAny>,
+    mesh: &str,
+) -> ClientResult<Vec<[Vec3; 3]>> {
+    let field = format!("mesh '{mesh}'.normals");
+    let corners = vec3s_from(py, obj, &field)?;
+    if corners.len() % 3 != 0 {
+        return Err(ClientError::invalid(format!(
+            "{field}: {} rows is not 3 per triangle",
+            corners.len()
+        )));
+    }
+    Ok(corners
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect())
+}
+
+fn vec3s_from(py: Python<'_>, obj: &Bound<'_, PyAny>, field: &str) -> ClientResult<Vec<Vec3>> {
+    let field = field.to_string();
     check_n_by_3(obj, &field, "a float32 numpy array", "n")?;
     let array = obj.cast::<PyArray2<f32>>().map_err(|_| {
         ClientError::invalid(format!(
@@ -144,18 +168,23 @@ where
     Ok(out)
 }
 
-/// A mesh from numpy arrays, checked if `validate` (finite positions, indices in range) and
-/// hashed; the work on the arrays runs without the GIL. Returns the mesh and its content hash.
+/// A mesh from numpy arrays (corner normals optional), checked if `validate` (finite positions
+/// and normals, indices in range) and hashed; the work on the arrays runs without the GIL. Returns the mesh and its content hash.
 pub fn mesh_from_arrays(
     py: Python<'_>,
     name: &str,
     positions: &Bound<'_, PyAny>,
     triangles: &Bound<'_, PyAny>,
+    normals: Option<&Bound<'_, PyAny>>,
     validate: bool,
 ) -> ClientResult<(Mesh, u64)> {
     let positions = positions_from(py, positions, name)?;
     let triangles = triangles_from(py, triangles, name)?;
-    let mesh = Mesh::new(name, positions, triangles);
+    let normals = match normals {
+        Some(n) if !n.is_none() => corner_normals_from(py, n, name)?,
+        _ => Vec::new(),
+    };
+    let mesh = Mesh::new(name, positions, triangles).with_normals(normals);
     py.detach(|| {
         if validate {
             mesh.validate()

@@ -320,17 +320,19 @@ impl Connection {
     }
 
     /// Hashes, checks and uploads a mesh; returns its content hash.
+    #[pyo3(signature = (name, positions, triangles, normals = None))]
     fn upload_mesh(
         &self,
         py: Python<'_>,
         name: &Bound<'_, PyAny>,
         positions: &Bound<'_, PyAny>,
         triangles: &Bound<'_, PyAny>,
+        normals: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<u64> {
         let mut wait = PyWait::new(py);
         (|| {
             let name = crate::mesh_name(name)?;
-            let (mesh, hash) = mesh_from_arrays(py, &name, positions, triangles, true)?;
+            let (mesh, hash) = mesh_from_arrays(py, &name, positions, triangles, normals, true)?;
             let upload = py.detach(|| upload_from_mesh(&mesh));
             drop(mesh);
             let request = Request::UploadMesh(upload);

@@ -43,12 +43,14 @@ pub(crate) fn mesh_name(v: &Bound<'_, PyAny>) -> ClientResult<String> {
 /// positions a float32 array of shape (n, 3), triangles an integer array of shape (m, 3). The
 /// values are not checked (NaN hashes like any other bits); `upload_mesh` checks them.
 #[pyfunction]
+#[pyo3(signature = (positions, triangles, normals = None))]
 fn mesh_hash(
     py: Python<'_>,
     positions: &Bound<'_, PyAny>,
     triangles: &Bound<'_, PyAny>,
+    normals: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<u64> {
-    mesh_from_arrays(py, "mesh", positions, triangles, false)
+    mesh_from_arrays(py, "mesh", positions, triangles, normals, false)
         .map(|(_, hash)| hash)
         .py_result(py)
 }

@@ -251,16 +251,18 @@ impl LocalSession {
         .py_result(py)
     }
 
+    #[pyo3(signature = (name, positions, triangles, normals = None))]
     fn upload_mesh(
         &self,
         py: Python<'_>,
         name: &Bound<'_, PyAny>,
         positions: &Bound<'_, PyAny>,
         triangles: &Bound<'_, PyAny>,
+        normals: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<u64> {
         (|| {
             let name = crate::mesh_name(name)?;
-            let (mesh, hash) = mesh_from_arrays(py, &name, positions, triangles, true)?;
+            let (mesh, hash) = mesh_from_arrays(py, &name, positions, triangles, normals, true)?;
             let request = Request::UploadMesh(py.detach(|| upload_from_mesh(&mesh)));
             drop(mesh);
             check_limits(&request, &self.limits)

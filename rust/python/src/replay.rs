@@ -119,8 +119,9 @@ fn frame_dict<'py>(py: Python<'py>, f: &FrameUpdate) -> PyResult<Bound<'py, PyDi
     Ok(d)
 }
 
-/// `{"meshes": {hash: {"name", "positions": float32 (n, 3), "triangles": uint32 (m, 3)}},
-/// "frames": [frame dict, ...]}` in the file's order. Meshes are checked (hash, finite
+/// `{"meshes": {hash: {"name", "positions": float32 (n, 3), "triangles": uint32 (m, 3), and
+/// for a mesh with corner normals "normals": float32 (3m, 3)}}, "frames": [frame dict, ...]}`
+/// in the file's order. Meshes are checked (hash, finite
 /// positions, indices in range) as the daemon checks an upload.
 pub fn read_recording<'py>(py: Python<'py>, path: &str) -> ClientResult<Bound<'py, PyDict>> {
     let fail = |e: &dyn std::fmt::Display| ClientError::invalid(format!("recording {path}: {e}"));
@@ -144,6 +145,13 @@ pub fn read_recording<'py>(py: Python<'py>, path: &str) -> ClientResult<Bound<'p
                     .expect("three indices per triangle");
                 entry.set_item("positions", p.into_pyarray(py))?;
                 entry.set_item("triangles", t.into_pyarray(py))?;
+                if !mesh.normals.is_empty() {
+                    let corners = mesh.normals.as_flattened();
+                    let flat_n: Vec<f32> = corners.iter().flat_map(|n| n.to_array()).collect();
+                    let n = Array2::from_shape_vec((corners.len(), 3), flat_n)
+                        .expect("three floats per normal");
+                    entry.set_item("normals", n.into_pyarray(py))?;
+                }
                 meshes.set_item(upload.hash, entry)?;
             }
             Request::FrameUpdate(update) => frames.append(frame_dict(py, &update)?)?,

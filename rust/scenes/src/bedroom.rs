@@ -117,7 +117,7 @@ fn wardrobe(p: &mut Parts) {
 }
 
 /// A chair in its own frame: seat centred on the origin, back towards +Y.
-fn chair() -> Parts {
+pub(crate) fn chair() -> Parts {
     let mut p = Parts::new();
     let id = DAffine3::IDENTITY;
     let (min, max) = b([-0.22, -0.22, 0.43], [0.22, 0.22, 0.47]);

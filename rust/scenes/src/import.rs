@@ -183,6 +183,8 @@ fn gltf_mesh(
         .unwrap_or_else(|| format!("mesh.{}", mesh.index()));
     let mut positions: Vec<Vec3> = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
+    // Vertex normals (`NORMAL`), kept only if every primitive has them.
+    let mut normals: Option<Vec<Vec3>> = Some(Vec::new());
     for primitive in mesh.primitives() {
         let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
         let Some(read) = reader.read_positions() else {
@@ -191,6 +193,12 @@ fn gltf_mesh(
         let base = positions.len() as u32;
         positions.extend(read.map(Vec3::from_array));
         let count = positions.len() as u32 - base;
+        normals = normals
+            .zip(reader.read_normals())
+            .and_then(|(mut n, read)| {
+                n.extend(read.map(Vec3::from_array));
+                (n.len() == positions.len()).then_some(n)
+            });
         let indices: Vec<u32> = match reader.read_indices() {
             Some(i) => i.into_u32().collect(),
             None => (0..count).collect(),
@@ -220,7 +228,14 @@ fn gltf_mesh(
             Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => {}
         }
     }
-    Ok((!triangles.is_empty()).then(|| Mesh::new(name, positions, triangles)))
+    let corners = match normals {
+        Some(n) => triangles.iter().map(|t| t.map(|i| n[i as usize])).collect(),
+        None => Vec::new(),
+    };
+    Ok(
+        (!triangles.is_empty())
+            .then(|| Mesh::new(name, positions, triangles).with_normals(corners)),
+    )
 }
 
 /// The imported geometry with a camera that frames its bounding sphere from the front right,

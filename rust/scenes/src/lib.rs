@@ -13,6 +13,7 @@ mod colonnade;
 mod forest;
 mod hairball;
 mod import;
+mod indoors;
 mod params;
 mod primitives;
 mod rng;
@@ -30,7 +31,14 @@ pub use rotate::{rotate_scene, Rotated, ROTATED_SUFFIX};
 pub use viewpoints::viewpoints;
 
 /// The names [`builtin`] accepts (each also with the [`ROTATED_SUFFIX`], "-rot45").
-pub const BUILTIN_SCENES: &[&str] = &["bedroom", "colonnade", "city", "forest", "hairball"];
+pub const BUILTIN_SCENES: &[&str] = &[
+    "bedroom",
+    "colonnade",
+    "city",
+    "forest",
+    "hairball",
+    "indoors",
+];
 
 /// A built-in animated scene by name. A name ending in "-rot45" (e.g. "city-rot45") is the
 /// variant rotated by 45 degrees about the vertical axis, as is `params.rotated`.
@@ -45,6 +53,7 @@ pub fn builtin(name: &str, params: &SceneParams) -> Result<Box<dyn Animation>> {
         "city" => |p| Box::new(city::City::new(p)),
         "forest" => |p| Box::new(forest::Forest::new(p)),
         "hairball" => |p| Box::new(hairball::Hairball::new(p)),
+        "indoors" => |p| Box::new(indoors::Indoors::new(p)),
         _ => {
             let known = BUILTIN_SCENES.join(", ");
             return Err(Error::invalid(

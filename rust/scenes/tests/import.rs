@@ -144,6 +144,7 @@ fn check_two_quads(path: &Path) {
     scene.validate().unwrap();
     assert_eq!(scene.triangle_count(), 4);
     assert_eq!(scene.objects.len(), 2);
+    assert!(scene.meshes[0].normals.is_empty(), "no NORMAL, no normals");
     // One mesh, instanced by both nodes.
     assert_eq!(scene.meshes.len(), 1);
     let child = scene.objects.iter().find(|o| o.name == "child").unwrap();
@@ -166,6 +167,40 @@ fn gltf_with_embedded_buffer_applies_node_transforms() {
         gltf_json(Some(&uri), buffer.len()).as_bytes(),
     );
     check_two_quads(&path);
+}
+
+#[test]
+fn gltf_normals_become_corner_normals() {
+    let dir = TempDir::new().unwrap();
+    let mut buffer = quad_buffer();
+    let normals = [
+        [0.0f32, -1.0, 0.0],
+        [0.6, -0.8, 0.0],
+        [0.0, -0.8, 0.6],
+        [0.0, -1.0, 0.0],
+    ];
+    for c in normals.iter().flatten() {
+        buffer.extend_from_slice(&c.to_le_bytes());
+    }
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&buffer));
+    let json = gltf_json(Some(&uri), buffer.len())
+        .replace(r#"{"POSITION": 0}"#, r#"{"POSITION": 0, "NORMAL": 2}"#)
+        .replace(
+            r#"{"buffer": 0, "byteOffset": 48, "byteLength": 12}"#,
+            r#"{"buffer": 0, "byteOffset": 48, "byteLength": 12},
+    {"buffer": 0, "byteOffset": 60, "byteLength": 48}"#,
+        )
+        .replace(
+            r#"{"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}"#,
+            r#"{"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"},
+    {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC3"}"#,
+        );
+    let path = write(&dir, "normals.gltf", json.as_bytes());
+    let scene = load_file(&path, 1).unwrap().frame(1);
+    let mesh = &scene.meshes[0];
+    let n = normals.map(glam::Vec3::from_array);
+    // Indices 0 2 1, 0 3 2: each corner takes its vertex's normal.
+    assert_eq!(mesh.normals, vec![[n[0], n[2], n[1]], [n[0], n[3], n[2]]]);
 }
 
 #[test]

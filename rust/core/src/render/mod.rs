@@ -3,6 +3,7 @@
 //! statistics of both. [`Renderer`] keeps what carries over between frames.
 
 mod camera_rays;
+mod facing;
 mod light_tracer;
 mod lights;
 mod memory;
@@ -15,6 +16,7 @@ mod visibility;
 mod wide_tree;
 
 pub use camera_rays::PrimaryRays;
+pub use facing::Facing;
 pub use light_tracer::{
     binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
 };

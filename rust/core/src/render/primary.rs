@@ -19,6 +19,9 @@ use crate::Result;
 pub struct SurfacePoint {
     pub position: Vec3,
     pub normal: Vec3,
+    /// The unit normal whose side light samples must be on ([`super::Facing`]): `normal`, or
+    /// the shading normal turned with it.
+    pub facing: Vec3,
     pub triangle: u32,
 }
 
@@ -196,6 +199,7 @@ fn trace_pixel<C: Counters>(
     Some(SurfacePoint {
         position,
         normal,
+        facing: normal,
         triangle: hit.triangle,
     })
 }

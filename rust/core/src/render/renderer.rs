@@ -6,12 +6,13 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use super::facing::face_shading_normals;
 use super::light_tracer::{binary_order, light_tracing, LightRays, ShadowTrees};
 use super::primary::heat_planes;
 use super::shadow::{samples_for, SamplePlan};
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
 use super::wide_tree::WideTree;
-use super::VisibilitySource;
+use super::{Facing, VisibilitySource};
 use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
 use crate::build::{build_binned_sah, build_with_visibility, CollapseSettings};
 use crate::bvh::{Bvh, BvhWidth};
@@ -531,7 +532,7 @@ fn primary_pass(
 ) -> Result<(PrimaryPass, StatsRow)> {
     let (counted, timed) = counted_timed(settings);
     let trace = |counted: bool| trace_camera(cached, scene, counted, cancel);
-    let primary = trace(counted)?;
+    let mut primary = trace(counted)?;
     let mut row = rows.row(
         "primary",
         "",
@@ -549,6 +550,12 @@ fn primary_pass(
         row.set_timing(t.trace_ms, true);
     } else {
         row.set_timing(primary.trace_ms, !counted);
+    }
+    // After the timed pass's check: that pass's surfaces keep their geometric facing.
+    if settings.facing == Facing::Shading {
+        let geometry = &cached.geometry;
+        let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
+        face_shading_normals(&mut primary, &rays, scene, &geometry.camera);
     }
     Ok((primary, row))
 }

@@ -1,6 +1,6 @@
 use serde::{Deserialize, Serialize};
 
-use super::VisibilitySource;
+use super::{Facing, VisibilitySource};
 use crate::build::{BuildMethod, BuildSettings, CollapseMethod, CollapseSettings};
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
@@ -39,6 +39,9 @@ pub struct RenderSettings {
     /// Where ABVH, OSAH and VSAH builds take their visible-triangle set from.
     #[serde(default)]
     pub visibility: VisibilitySource,
+    /// Which normal decides that a light sample is behind the surface.
+    #[serde(default)]
+    pub facing: Facing,
 }
 
 impl Default for RenderSettings {
@@ -53,6 +56,7 @@ impl Default for RenderSettings {
             collapse: CollapseSettings::default(),
             stats: StatsMode::Counts,
             visibility: VisibilitySource::Previous,
+            facing: Facing::Geometric,
         }
     }
 }

@@ -202,7 +202,7 @@ impl ShadowPass {
 }
 
 /// The shadow ray from a surface point towards a light sample, or `None` when the sample lies
-/// behind the surface's own plane.
+/// behind the surface's facing normal (its own plane, or its shading normal: [`super::Facing`]).
 #[inline]
 pub fn shadow_ray(surface: &SurfacePoint, sample: LightSample) -> Option<Ray> {
     let p = surface.position;
@@ -211,10 +211,11 @@ pub fn shadow_ray(surface: &SurfacePoint, sample: LightSample) -> Option<Ray> {
         LightSample::Point(q) => q - p,
         LightSample::Direction(w) => w,
     };
-    if n.dot(towards) <= 0.0 {
+    if surface.facing.dot(towards) <= 0.0 {
         return None;
     }
-    let origin = offset_ray_origin(p, n);
+    // A shading normal may let a sample behind the plane through: the ray leaves on that side.
+    let origin = offset_ray_origin(p, if n.dot(towards) > 0.0 { n } else { -n });
     Some(match sample {
         // t in (0, 1]: the segment ends on the light (lights are not geometry).
         LightSample::Point(q) => Ray::new(origin, q - origin, 0.0, 1.0),

@@ -10,6 +10,11 @@ pub struct Mesh {
     pub name: String,
     pub positions: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
+    /// Shading normals at each triangle's three corners (Blender's corner normals, custom ones
+    /// included), parallel to `triangles`; empty for a flat-shaded mesh. Only the `shading`
+    /// facing convention reads them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub normals: Vec<[Vec3; 3]>,
 }
 
 impl Mesh {
@@ -18,7 +23,14 @@ impl Mesh {
             name: name.into(),
             positions,
             triangles,
+            normals: Vec::new(),
         }
+    }
+
+    /// The mesh with corner normals (one triple per triangle).
+    pub fn with_normals(mut self, normals: Vec<[Vec3; 3]>) -> Self {
+        self.normals = normals;
+        self
     }
 
     /// Rejects non-finite positions and out-of-range indices, naming the mesh and the first bad index.
@@ -33,6 +45,30 @@ impl Mesh {
                         value: value as f64,
                     });
                 }
+            }
+        }
+        if !self.normals.is_empty() && self.normals.len() != self.triangles.len() {
+            return Err(Error::invalid(
+                format!("mesh '{}'", self.name),
+                format!(
+                    "{} corner-normal triples for {} triangles (give one per triangle or none)",
+                    self.normals.len(),
+                    self.triangles.len()
+                ),
+            ));
+        }
+        for (index, corners) in self.normals.iter().enumerate() {
+            if let Some(value) = corners
+                .iter()
+                .flat_map(|n| n.to_array())
+                .find(|v| !v.is_finite())
+            {
+                return Err(Error::NonFinite {
+                    owner: format!("mesh '{}'", self.name),
+                    what: "corner normal",
+                    index,
+                    value: value as f64,
+                });
             }
         }
         let vertex_count = self.positions.len();
@@ -53,7 +89,9 @@ impl Mesh {
     /// the indices, all little-endian; the name is not hashed) so that unchanged meshes can be
     /// recognised across frames without comparing them element by element. The protocol's mesh
     /// hash (`docs/protocol.md`). XXH3, not BLAKE3: the hash only recognises a client's own
-    /// meshes, so speed matters and collision resistance against an attacker does not.
+    /// meshes, so speed matters and collision resistance against an attacker does not. Corner
+    /// normals, when there are any, follow (their count, then nine floats per triangle), so a
+    /// mesh without them keeps the hash it always had.
     pub fn content_hash(&self) -> u64 {
         let mut h = Xxh3::new();
         h.update(&(self.positions.len() as u64).to_le_bytes());
@@ -62,6 +100,11 @@ impl Mesh {
         });
         h.update(&(self.triangles.len() as u64).to_le_bytes());
         hash_in_chunks(&mut h, &self.triangles, |t| t.map(u32::to_le_bytes));
+        if !self.normals.is_empty() {
+            h.update(&(self.normals.len() as u64).to_le_bytes());
+            let corners = self.normals.as_flattened();
+            hash_in_chunks(&mut h, corners, |n| n.to_array().map(f32::to_le_bytes));
+        }
         h.digest()
     }
 }

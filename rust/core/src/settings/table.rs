@@ -4,7 +4,7 @@ use super::{Group, Kind, NamedSettings, Setting, SettingValue as V};
 use crate::build::{BuildMethod, CollapseMethod, SpatialAxes};
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
-use crate::render::{RenderSettings, StatsMode, VisibilitySource};
+use crate::render::{Facing, RenderSettings, StatsMode, VisibilitySource};
 use crate::{Error, Result};
 
 const U32_MAX: i64 = u32::MAX as i64;
@@ -69,6 +69,19 @@ pub static SCHEMA: &[Setting] = &[
                 "only" => StatsMode::TimingOnly,
                 _ => StatsMode::Counts,
             };
+            Ok(())
+        },
+    },
+    Setting {
+        name: "facing",
+        kind: Kind::Choice(&["geometric", "shading"]),
+        group: Group::Sampling,
+        help: "Which normal decides that a light sample is behind the surface (shadowed, no ray): \
+               geometric (the triangle's plane) or shading (the mesh's interpolated normals, as \
+               Cycles; docs/facing.md).",
+        get: |s| s.facing.name().into(),
+        set: |s, v| {
+            s.facing = parsed::<Facing>("facing", v)?;
             Ok(())
         },
     },

@@ -27,9 +27,13 @@ class RawResult(TypedDict):
     stats: list[dict[str, Any]]
     visible: npt.NDArray[np.uint32] | None
 
-def mesh_hash(positions: npt.NDArray[np.float32], triangles: npt.NDArray[np.integer]) -> int:
+def mesh_hash(
+    positions: npt.NDArray[np.float32],
+    triangles: npt.NDArray[np.integer],
+    normals: npt.NDArray[np.float32] | None = None,
+) -> int:
     """The protocol's content hash of a mesh: positions float32 (n, 3), triangles integer
-    (m, 3). Values are not checked."""
+    (m, 3), optional corner normals float32 (3m, 3). Values are not checked."""
 
 def read_recording(path: str) -> dict[str, Any]:
     """Meshes (numpy) and frames (`frame_update` dicts) of an `.antrec` recording."""
@@ -171,6 +175,7 @@ class _SessionMethods:
         name: str,
         positions: npt.NDArray[np.float32],
         triangles: npt.NDArray[np.integer],
+        normals: npt.NDArray[np.float32] | None = None,
     ) -> int: ...
     def frame_update(
         self,

@@ -88,13 +88,17 @@ def default_socket_path() -> str:
     return f"/tmp/antumbra-{os.getuid()}/daemon.sock"
 
 
-def mesh_hash(positions: np.ndarray, triangles: np.ndarray) -> int:
+def mesh_hash(
+    positions: np.ndarray, triangles: np.ndarray, normals: np.ndarray | None = None
+) -> int:
     """The protocol's content hash of a mesh (64-bit XXH3 over the vertex count, the float32
-    positions, the triangle count and the uint32 indices; computed in Rust).
+    positions, the triangle count and the uint32 indices, then any corner normals; computed in
+    Rust).
 
-    ``positions``: float32 array of shape (n, 3); ``triangles``: integer array of shape (m, 3).
+    ``positions``: float32 array of shape (n, 3); ``triangles``: integer array of shape (m, 3);
+    ``normals``: None or float32 array of shape (3m, 3), each triangle's corner normals.
     """
-    return _native.mesh_hash(positions, triangles)
+    return _native.mesh_hash(positions, triangles, normals)
 
 
 def read_recording(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -275,15 +279,23 @@ class _Session:
         """Which of these mesh hashes the session lacks (upload those)."""
         return self._native.missing_meshes(hashes)
 
-    def upload_mesh(self, name: str, positions: np.ndarray, triangles: np.ndarray) -> int:
+    def upload_mesh(
+        self,
+        name: str,
+        positions: np.ndarray,
+        triangles: np.ndarray,
+        normals: np.ndarray | None = None,
+    ) -> int:
         """Checks, hashes and uploads one mesh in object space; returns its content hash.
 
         ``positions``: float32 array of shape (n, 3); ``triangles``: integer array (uint32 or
-        int) of shape (m, 3) of vertex indices. A NaN or infinite position, or an index out of
+        int) of shape (m, 3) of vertex indices; ``normals``: None (flat shading) or float32
+        array of shape (3m, 3), the shading normals at each triangle's corners, read by
+        ``facing="shading"`` (docs/facing.md). A NaN or infinite value, or an index out of
         range, raises :class:`InvalidInput` naming the mesh. The GIL is released while the
         arrays are hashed and sent.
         """
-        return self._native.upload_mesh(name, positions, triangles)
+        return self._native.upload_mesh(name, positions, triangles, normals)
 
     # -- frames ---------------------------------------------------------------------------
 
