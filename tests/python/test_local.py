@@ -52,6 +52,8 @@ STATS_COLUMNS = {
     "visible_input",
     "visibility_ms",
     "nts_per_ray",
+    "auto_choice",
+    "auto_estimate_ms",
 }
 
 

@@ -2,10 +2,12 @@
 //! per light the shadow rays (any hit) that give the shadow mask and shadow heat maps, and the
 //! statistics of both. [`Renderer`] keeps what carries over between frames.
 
+pub mod auto;
 mod camera_rays;
 mod light_tracer;
 mod lights;
 mod memory;
+mod passes;
 mod primary;
 mod renderer;
 mod settings;
