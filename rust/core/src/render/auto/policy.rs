@@ -12,7 +12,7 @@ use super::history::{BuildChoice, History, OrderChoice};
 use crate::sampling::hash_combine;
 
 /// Lights with fewer shadow rays than this in a frame get no per-light preparation.
-pub const MIN_PREP_RAYS: u64 = 4096;
+pub const MIN_PREP_RAYS: u64 = 1024;
 /// A measurement this many frames old is taken again (on an exploration frame).
 pub const STALE_FRAMES: u64 = 24;
 /// Stale candidates are measured again on one frame in this many (per light, seeded).
