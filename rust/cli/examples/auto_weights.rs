@@ -44,33 +44,56 @@ fn ms<T>(mut f: impl FnMut() -> T) -> f64 {
     t[1]
 }
 
-/// Least squares x of A x = b for three unknowns (normal equations, Cramer's rule).
-fn fit3(rows: &[([f64; 3], f64)]) -> [f64; 3] {
-    let mut m = [[0.0; 3]; 3];
-    let mut v = [0.0; 3];
+/// Least squares x of A x = b over the unknowns in `keep` (others 0), by the normal equations.
+fn fit(rows: &[([f64; 3], f64)], keep: &[usize]) -> Option<[f64; 3]> {
+    let k = keep.len();
+    let mut m = vec![vec![0.0; k + 1]; k];
     for (a, b) in rows {
-        for i in 0..3 {
-            v[i] += a[i] * b;
-            for j in 0..3 {
-                m[i][j] += a[i] * a[j];
+        for (i, &p) in keep.iter().enumerate() {
+            m[i][k] += a[p] * b;
+            for (j, &q) in keep.iter().enumerate() {
+                m[i][j] += a[p] * a[q];
             }
         }
     }
-    let det = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(&m);
-    let mut x = [0.0; 3];
-    for (k, xk) in x.iter_mut().enumerate() {
-        let mut mk = m;
-        for i in 0..3 {
-            mk[i][k] = v[i];
+    // Gauss-Jordan on the small augmented matrix.
+    for c in 0..k {
+        let pivot = (c..k).max_by(|&x, &y| m[x][c].abs().total_cmp(&m[y][c].abs()))?;
+        m.swap(c, pivot);
+        if m[c][c].abs() < 1e-300 {
+            return None;
         }
-        *xk = det(&mk) / d;
+        for r in 0..k {
+            if r != c {
+                let f = m[r][c] / m[c][c];
+                for j in c..=k {
+                    m[r][j] -= f * m[c][j];
+                }
+            }
+        }
     }
-    x
+    let mut x = [0.0; 3];
+    for (i, &p) in keep.iter().enumerate() {
+        x[p] = m[i][k] / m[i][i];
+    }
+    Some(x)
+}
+
+/// Non-negative least squares over three unknowns: the best fit of every subset whose
+/// weights are all non-negative.
+fn fit_nonnegative(rows: &[([f64; 3], f64)]) -> [f64; 3] {
+    let residual = |x: &[f64; 3]| -> f64 {
+        rows.iter()
+            .map(|(a, b)| (a[0] * x[0] + a[1] * x[1] + a[2] * x[2] - b).powi(2))
+            .sum()
+    };
+    let subsets: [&[usize]; 7] = [&[0, 1, 2], &[0, 1], &[0, 2], &[1, 2], &[0], &[1], &[2]];
+    subsets
+        .iter()
+        .filter_map(|s| fit(rows, s))
+        .filter(|x| x.iter().all(|v| *v >= 0.0))
+        .min_by(|a, b| residual(a).total_cmp(&residual(b)))
+        .unwrap_or([0.0; 3])
 }
 
 fn main() {
@@ -185,8 +208,11 @@ fn main() {
             }
         }
     }
-    let w = fit3(&trace_rows);
-    println!("trace fit over {} passes (ns):", trace_rows.len());
+    let w = fit_nonnegative(&trace_rows);
+    println!(
+        "trace fit over {} passes (ns, non-negative least squares):",
+        trace_rows.len()
+    );
     println!(
         "  box_test {:.3}  triangle_test {:.3}  node_visit {:.3}",
         w[0], w[1], w[2]

@@ -92,12 +92,14 @@ pub fn order_candidates(c: &LightContext) -> Vec<OrderChoice> {
 pub fn prep_ns(c: &LightContext, order: OrderChoice, built: bool) -> f64 {
     let w = &WEIGHTS;
     let nodes = c.wide_nodes as f64;
-    let per_tree = |ready: bool| if ready { 0.0 } else { w.per_tree_node * nodes };
+    let once = |ready: bool, weight: f64| if ready { 0.0 } else { weight * nodes };
     match order {
         OrderChoice::Fbto => 0.0,
-        OrderChoice::Sato => per_tree(c.sato_ready),
+        OrderChoice::Sato => once(c.sato_ready, w.per_tree_node),
         OrderChoice::Sorted => {
-            per_tree(c.tables_ready) + w.log_ray * c.log_rays as f64 + w.sort_node * nodes
+            once(c.tables_ready, w.tables_node)
+                + w.log_ray * c.log_rays as f64
+                + w.sort_node * nodes
         }
         OrderChoice::Srdh => {
             w.srdh_ray * c.srdh_rays as f64
