@@ -63,12 +63,11 @@ fn fit(rows: &[([f64; 3], f64)], keep: &[usize]) -> Option<[f64; 3]> {
         if m[c][c].abs() < 1e-300 {
             return None;
         }
-        for r in 0..k {
-            if r != c {
-                let f = m[r][c] / m[c][c];
-                for j in c..=k {
-                    m[r][j] -= f * m[c][j];
-                }
+        let row = m[c].clone();
+        for (_, target) in m.iter_mut().enumerate().filter(|(r, _)| *r != c) {
+            let f = target[c] / row[c];
+            for (t, v) in target.iter_mut().zip(&row).skip(c) {
+                *t -= f * v;
             }
         }
     }

@@ -52,7 +52,7 @@ impl Moment {
     /// measured again this frame.
     fn explores(&self, key: u32) -> bool {
         let h = hash_combine(hash_combine(self.seed, self.frame as u32), key);
-        h % EXPLORE_ONE_IN == 0
+        h.is_multiple_of(EXPLORE_ONE_IN)
     }
 }
 
