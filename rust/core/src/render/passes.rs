@@ -120,14 +120,20 @@ pub(super) struct ShadowPasses {
     pub(super) masks: Vec<ImagePlane>,
     pub(super) rows: Vec<StatsRow>,
     pub(super) work: Vec<TraversalStats>,
-    /// Per light: the work of its rays, and whether it traced a tree of its own (SRDH).
-    pub(super) measured: Vec<(TraversalStats, bool)>,
+    /// Per light: the work of its rays, whether it traced a tree of its own (SRDH), and the
+    /// work and rays of `auto`'s sample, if it took one.
+    pub(super) measured: Vec<(TraversalStats, bool, Option<Sampled>)>,
 }
+
+/// The work and the rays of `auto`'s sample of a light.
+pub(super) type Sampled = (TraversalStats, u64);
 
 /// One shadow-casting light's order this frame, and `auto`'s choice behind it.
 pub(super) struct LightOrder {
     pub(super) order: ShadowOrder,
     pub(super) auto: Option<Choice<OrderChoice>>,
+    /// An order `auto` measures on a sample of the light's rays.
+    pub(super) sample: Option<OrderChoice>,
 }
 
 /// Each shadow-casting light in turn: its tree and order ([`light_tracing`]), its shadow pass
@@ -230,8 +236,13 @@ pub(super) fn shadow_passes(
         for (acc, wk) in out.work.iter_mut().zip(&pass.work) {
             *acc += *wk;
         }
+        // `auto`'s sample: the same in counted and timed frames, so timing includes it.
+        let sampled = order.sample.map(|o| {
+            let s = light_tracing(&trees, &o.order(), settings.width, &light_rays);
+            auto::sample_work(primary, &sampler, plan, &s.tracer())
+        });
         out.measured
-            .push((pass.totals, tracing.own_tree().is_some()));
+            .push((pass.totals, tracing.own_tree().is_some(), sampled));
         out.rows.push(r);
         out.masks.push(pass.mask);
     }

@@ -509,6 +509,7 @@ impl Renderer {
                 .map(|_| LightOrder {
                     order: settings.shadow_order,
                     auto: None,
+                    sample: None,
                 })
                 .collect());
         }
@@ -543,13 +544,17 @@ impl Renderer {
                     .is_some_and(|p| p.order == ShadowOrder::Sato),
                 tables_ready: wide.is_some_and(|w| w.sort_tables.is_some()),
             };
-            let choice = auto::choose_order(&self.auto, &context, at);
+            let plan = auto::choose_order(&self.auto, &context, at);
             out.push(LightOrder {
-                order: choice.choice.order(),
-                auto: Some(choice),
+                order: plan.choice.choice.order(),
+                auto: Some(plan.choice),
+                sample: plan.sample,
             });
         }
-        let orders: Vec<ShadowOrder> = out.iter().map(|o| o.order).collect();
+        let orders: Vec<ShadowOrder> = out
+            .iter()
+            .flat_map(|o| std::iter::once(o.order).chain(o.sample.map(|s| s.order())))
+            .collect();
         self.prepare_orders(&orders, cancel)?;
         Ok(out)
     }
@@ -568,12 +573,18 @@ impl Renderer {
                 self.auto.record_build(b.choice, m);
             }
         }
-        for ((o, row), (totals, own_tree)) in
+        for ((o, row), (totals, own_tree, sampled)) in
             orders.iter().zip(&shadows.rows).zip(&shadows.measured)
         {
             let Some(choice) = o.auto else { continue };
             if let Some(m) = auto::measured(totals, row.rays, frame, *own_tree) {
                 self.auto.record_order(&row.light, choice.choice, m);
+            }
+            let sample = o.sample.zip(*sampled);
+            if let Some((order, (work, rays))) = sample {
+                if let Some(m) = auto::measured(&work, rays, frame, false) {
+                    self.auto.record_order(&row.light, order, m);
+                }
             }
         }
     }

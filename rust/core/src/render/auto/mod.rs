@@ -9,15 +9,15 @@ pub use cost::{Weights, WEIGHTS};
 pub use history::{BuildChoice, History, Measured, OrderChoice};
 pub use policy::{
     build_candidates, build_ns, choose_build, choose_order, order_candidates, order_estimate,
-    prep_ns, BuildContext, Choice, LightContext, Moment, EXPLORE_ONE_IN, MIN_PREP_RAYS,
-    STALE_FRAMES,
+    prep_ns, BuildContext, Choice, LightContext, Moment, OrderPlan, EXPLORE_ONE_IN, MIN_PREP_RAYS,
+    SAMPLE_SHARE, STALE_FRAMES,
 };
 
-use super::shadow::samples_for;
+use super::shadow::{representative_rays, samples_for, SamplePlan};
 use super::{LightSampler, PrimaryPass};
 use crate::order::{RaySetSource, SortSettings, SrdhSettings};
 use crate::stats::StatsRow;
-use crate::trace::TraversalStats;
+use crate::trace::{OcclusionQuery, TraversalStats};
 
 /// A light's shadow rays this frame, before tracing: its samples at every surface it reaches
 /// (back-facing samples, which trace no ray, are not told apart).
@@ -68,4 +68,20 @@ pub fn scene_triangles(scene: &crate::scene::Scene) -> u64 {
         .filter_map(|o| scene.meshes.get(o.mesh))
         .map(|m| m.triangles.len() as u64)
         .sum()
+}
+
+/// The work of a light's rays from a [`SAMPLE_SHARE`] of its pixels (the same hashed pixels as
+/// sorting's representative rays) traced by `tracer`, and how many rays that was.
+pub fn sample_work(
+    primary: &PrimaryPass,
+    light: &LightSampler,
+    plan: SamplePlan,
+    tracer: &impl OcclusionQuery,
+) -> (TraversalStats, u64) {
+    let rays = representative_rays(primary, light, plan, SAMPLE_SHARE);
+    let mut work = TraversalStats::default();
+    for r in &rays {
+        tracer.occluded(r, &mut work);
+    }
+    (work, rays.len() as u64)
 }

@@ -2,8 +2,9 @@
 //! priced by [`WEIGHTS`], plus its preparation amortised over this frame's rays), and when to
 //! measure another candidate instead (exploration; see docs/auto.md).
 //!
-//! Exploration, bounded and seeded: a candidate never measured for a light (or for the camera
-//! tree) is tried on the next frame, one candidate per frame, cheapest preparation first; a
+//! Exploration, bounded and seeded: a candidate never measured (for a light, or for the camera
+//! tree) is measured on the next frame: orders without per-light preparation on a sample of
+//! the light's rays, others on the whole light, one a frame, only if they can win; a
 //! measurement older than [`STALE_FRAMES`] frames is taken again on frames where a hash of the
 //! seed, the frame and the light picks one in [`EXPLORE_ONE_IN`].
 
@@ -17,6 +18,8 @@ pub const MIN_PREP_RAYS: u64 = 1024;
 pub const STALE_FRAMES: u64 = 24;
 /// Stale candidates are measured again on one frame in this many (per light, seeded).
 pub const EXPLORE_ONE_IN: u32 = 8;
+/// The share of a light's pixels whose rays measure an order without per-light preparation.
+pub const SAMPLE_SHARE: f32 = 0.03;
 
 /// What `auto` chose and the estimate behind it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -118,15 +121,62 @@ pub fn order_estimate(h: &History, c: &LightContext, order: OrderChoice) -> Opti
     Some(m.per_ray_ns * c.rays as f64 + prep_ns(c, order, m.built))
 }
 
-/// The order of one light this frame.
-pub fn choose_order(h: &History, c: &LightContext, at: Moment) -> Choice<OrderChoice> {
+/// One light's orders this frame: the order that traces it, and an order without per-light
+/// preparation to measure on a sample of its rays beside it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OrderPlan {
+    pub choice: Choice<OrderChoice>,
+    pub sample: Option<OrderChoice>,
+}
+
+/// The orders of one light this frame. The least estimate traces the light (on the first frame
+/// SATO on a wide tree, else front to back). An order without per-light preparation that is
+/// due a measurement (never measured, or stale on an exploration frame) is measured on a
+/// [`SAMPLE_SHARE`] of the rays; one with per-light preparation traces the whole light instead
+/// (one a frame), and only if its preparation alone costs less than the best estimate, since
+/// otherwise it cannot win.
+pub fn choose_order(h: &History, c: &LightContext, at: Moment) -> OrderPlan {
     let candidates = order_candidates(c);
-    let estimates: Vec<(OrderChoice, Option<f64>)> = candidates
+    let best = candidates
         .iter()
-        .map(|&o| (o, order_estimate(h, c, o)))
-        .collect();
-    let measured = |o: OrderChoice| h.order(c.name, o).map(|m| m.frame);
-    explore_or_exploit(&estimates, measured, at, c.index, OrderChoice::Fbto)
+        .filter_map(|&o| order_estimate(h, c, o).map(|e| (o, e)))
+        .fold(None::<(OrderChoice, f64)>, |acc, (o, e)| match acc {
+            Some((_, b)) if b <= e => acc,
+            _ => Some((o, e)),
+        });
+    let (chosen, estimate_ns) = best.unwrap_or(if c.wide {
+        (OrderChoice::Sato, 0.0)
+    } else {
+        (OrderChoice::Fbto, 0.0)
+    });
+    let due = |o: OrderChoice| match h.order(c.name, o) {
+        None => true,
+        Some(m) => at.frame.saturating_sub(m.frame) >= STALE_FRAMES && at.explores(c.index),
+    };
+    let others = || {
+        candidates
+            .iter()
+            .copied()
+            .filter(|&o| o != chosen && due(o))
+    };
+    let sample = others().find(|o| !o.per_light());
+    let can_win = |o: OrderChoice| {
+        let built = h.order(c.name, o).is_none_or(|m| m.built);
+        best.is_some_and(|(_, e)| prep_ns(c, o, built) < e)
+    };
+    let choice = match others().find(|&o| o.per_light() && can_win(o)) {
+        Some(o) => Choice {
+            choice: o,
+            estimate_ns: order_estimate(h, c, o).unwrap_or(0.0),
+            explore: true,
+        },
+        None => Choice {
+            choice: chosen,
+            estimate_ns,
+            explore: false,
+        },
+    };
+    OrderPlan { choice, sample }
 }
 
 /// One frame's camera tree, as the build choice sees it.
@@ -283,21 +333,43 @@ mod tests {
     fn every_candidate_is_measured_once_then_the_cheapest_wins() {
         let mut h = History::default();
         let c = light(100_000);
-        let mut tried = Vec::new();
-        for frame in 0..4 {
-            let ch = choose_order(&h, &c, at(frame));
-            assert_eq!(ch.explore, frame > 0, "frame {frame}");
-            tried.push(ch.choice);
-            let per_ray = match ch.choice {
-                OrderChoice::Sorted => 50.0,
-                _ => 100.0,
-            };
-            h.record_order("L", ch.choice, measured(per_ray, frame));
+        let per_ray = |o| match o {
+            OrderChoice::Sorted => 50.0,
+            OrderChoice::Fbto => 300.0,
+            _ => 100.0,
+        };
+        let mut traced = Vec::new();
+        for frame in 0..3 {
+            let plan = choose_order(&h, &c, at(frame));
+            assert_eq!(plan.choice.explore, frame > 0, "frame {frame}");
+            assert_eq!(plan.sample.is_some(), frame == 0, "frame {frame}");
+            traced.push(plan.choice.choice);
+            for o in std::iter::once(plan.choice.choice).chain(plan.sample) {
+                h.record_order("L", o, measured(per_ray(o), frame));
+            }
         }
-        assert_eq!(tried, OrderChoice::ALL.to_vec());
-        let ch = choose_order(&h, &c, at(4));
-        assert_eq!((ch.choice, ch.explore), (OrderChoice::Sorted, false));
-        assert!(ch.estimate_ns > 50.0 * 100_000.0);
+        use OrderChoice::*;
+        assert_eq!(traced, vec![Sato, Sorted, Srdh]);
+        let plan = choose_order(&h, &c, at(3));
+        assert_eq!(
+            (plan.choice.choice, plan.choice.explore, plan.sample),
+            (Sorted, false, None)
+        );
+        assert!(plan.choice.estimate_ns > 50.0 * 100_000.0);
+    }
+
+    #[test]
+    fn orders_that_cannot_win_are_never_tried() {
+        let mut h = History::default();
+        let c = light(10_000);
+        h.record_order("L", OrderChoice::Fbto, measured(1.0, 0));
+        h.record_order("L", OrderChoice::Sato, measured(1.0, 0));
+        // Preparing SRDH or sorting costs more than tracing the light front to back.
+        let plan = choose_order(&h, &c, at(1));
+        assert_eq!(
+            (plan.choice.choice, plan.choice.explore),
+            (OrderChoice::Fbto, false)
+        );
     }
 
     #[test]
@@ -325,14 +397,9 @@ mod tests {
             h.record_order("L", o, measured(per_ray, 0));
         }
         // SRDH saves 40 ns a ray; its build pays only over enough rays.
-        assert_eq!(
-            choose_order(&h, &light(10_000), at(1)).choice,
-            OrderChoice::Fbto
-        );
-        assert_eq!(
-            choose_order(&h, &light(10_000_000), at(1)).choice,
-            OrderChoice::Srdh
-        );
+        let traced = |rays| choose_order(&h, &light(rays), at(1)).choice.choice;
+        assert_eq!(traced(10_000), OrderChoice::Fbto);
+        assert_eq!(traced(10_000_000), OrderChoice::Srdh);
     }
 
     #[test]
@@ -344,7 +411,7 @@ mod tests {
         }
         let c = light(100_000);
         let explored: Vec<u64> = (1..200)
-            .filter(|&f| choose_order(&h, &c, at(f)).explore)
+            .filter(|&f| choose_order(&h, &c, at(f)).sample.is_some())
             .collect();
         assert!(explored.iter().all(|&f| f >= STALE_FRAMES), "{explored:?}");
         let share = explored.len() as f64 / (200 - STALE_FRAMES) as f64;
