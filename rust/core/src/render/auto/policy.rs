@@ -18,6 +18,9 @@ pub const MIN_PREP_RAYS: u64 = 1024;
 pub const STALE_FRAMES: u64 = 24;
 /// Stale candidates are measured again on one frame in this many (per light, seeded).
 pub const EXPLORE_ONE_IN: u32 = 8;
+/// An order with per-light preparation is tried only if that preparation is estimated below
+/// this share of the light's best estimate: it must also save on tracing to win.
+pub const WIN_SHARE: f64 = 0.5;
 /// The share of a light's pixels whose rays measure an order without per-light preparation.
 pub const SAMPLE_SHARE: f32 = 0.03;
 
@@ -133,8 +136,8 @@ pub struct OrderPlan {
 /// SATO on a wide tree, else front to back). An order without per-light preparation that is
 /// due a measurement (never measured, or stale on an exploration frame) is measured on a
 /// [`SAMPLE_SHARE`] of the rays; one with per-light preparation traces the whole light instead
-/// (one a frame), and only if its preparation alone costs less than the best estimate, since
-/// otherwise it cannot win.
+/// (one a frame), and only if its preparation alone costs less than [`WIN_SHARE`] of the best
+/// estimate, since otherwise it can hardly win.
 pub fn choose_order(h: &History, c: &LightContext, at: Moment) -> OrderPlan {
     let candidates = order_candidates(c);
     let best = candidates
@@ -162,7 +165,7 @@ pub fn choose_order(h: &History, c: &LightContext, at: Moment) -> OrderPlan {
     let sample = others().find(|o| !o.per_light());
     let can_win = |o: OrderChoice| {
         let built = h.order(c.name, o).is_none_or(|m| m.built);
-        best.is_some_and(|(_, e)| prep_ns(c, o, built) < e)
+        best.is_some_and(|(_, e)| prep_ns(c, o, built) < WIN_SHARE * e)
     };
     let choice = match others().find(|&o| o.per_light() && can_win(o)) {
         Some(o) => Choice {
@@ -332,7 +335,7 @@ mod tests {
     #[test]
     fn every_candidate_is_measured_once_then_the_cheapest_wins() {
         let mut h = History::default();
-        let c = light(100_000);
+        let c = light(1_000_000);
         let per_ray = |o| match o {
             OrderChoice::Sorted => 50.0,
             OrderChoice::Fbto => 300.0,
@@ -355,7 +358,7 @@ mod tests {
             (plan.choice.choice, plan.choice.explore, plan.sample),
             (Sorted, false, None)
         );
-        assert!(plan.choice.estimate_ns > 50.0 * 100_000.0);
+        assert!(plan.choice.estimate_ns > 50.0 * 1_000_000.0);
     }
 
     #[test]
