@@ -28,7 +28,7 @@
 //! | visible_input | triangles of the structure's set the build was told are visible (ABVH/OSAH/VSAH) |
 //! | visibility_ms | time to get that set this frame (exact mode or first-frame prepass; else 0) |
 //! | nts_per_ray | N_TS, the OSAH paper's traversal steps: nodes entered, N_B + N_L |
-//! | auto_choice | what `auto` chose for this pass (empty for fixed methods): primary `sah`, `osah` or `keep` (the build); shadow `fbto`, `sato`, `sorted` or `srdh` (the light's order); `explore:` first when taken to measure it (docs/auto.md) |
+//! | auto_choice | what `auto` chose for this pass (empty for fixed methods): primary `sah`, `osah` or `keep` (the build); shadow `fbto`, `sato`, `sorted` or `srdh` (the light's order), then `;sample=ORDER` when another order was measured on a sample of its rays; `explore:` first for a build taken to measure it (docs/auto.md) |
 //! | auto_estimate_ms | the cost model's estimate behind that choice, ms (0 when it was never measured) |
 //!
 //! The paper's N_IT (ray/triangle intersection tests) is `nt_per_ray`.

@@ -216,6 +216,9 @@ pub(super) fn shadow_passes(
         r.sort_ms = tracing.sort_ms;
         if let Some(c) = &order.auto {
             auto::mark_row(&mut r, c, |o| o.name());
+            if let Some(o) = order.sample {
+                r.auto_choice += &format!(";sample={}", o.name());
+            }
         }
         if let Some(t) = tracing.own_tree() {
             r.bvh_nodes = t.bvh.nodes.len() as u64;

@@ -27,21 +27,21 @@ pub struct Weights {
 }
 
 /// Measured by `cargo run --release -p antumbra-cli --example auto_weights` (100k triangles,
-/// 640x360, bedroom, city, forest; 2 cores): box and triangle tests add nothing measurable
-/// beyond the nodes entered (non-negative least squares over 84 passes).
+/// 640x360, bedroom, city, forest; 2 cores, load about 4): box and triangle tests add nothing
+/// measurable beyond the nodes entered (non-negative least squares over 84 passes).
 pub const WEIGHTS: Weights = Weights {
     box_test: 0.0,
     triangle_test: 0.0,
-    node_visit: 53.4,
-    sah_triangle: 390.0,
-    osah_triangle: 830.0,
-    collapse_triangle: 126.0,
-    per_tree_node: 150.0,
-    tables_node: 320.0,
-    log_ray: 516.0,
-    sort_node: 80.0,
-    srdh_ray: 5387.0,
-    srdh_triangle: 1191.0,
+    node_visit: 27.2,
+    sah_triangle: 230.0,
+    osah_triangle: 285.0,
+    collapse_triangle: 46.0,
+    per_tree_node: 148.0,
+    tables_node: 322.0,
+    log_ray: 220.0,
+    sort_node: 81.0,
+    srdh_ray: 2097.0,
+    srdh_triangle: 460.0,
 };
 
 impl Weights {

@@ -13,9 +13,10 @@ pub use policy::{
     SAMPLE_SHARE, STALE_FRAMES,
 };
 
-use super::shadow::{representative_rays, samples_for, SamplePlan};
+use super::shadow::{samples_for, SamplePlan};
 use super::{LightSampler, PrimaryPass};
 use crate::order::{RaySetSource, SortSettings, SrdhSettings};
+use crate::sampling::hash_combine;
 use crate::stats::StatsRow;
 use crate::trace::{OcclusionQuery, TraversalStats};
 
@@ -70,18 +71,31 @@ pub fn scene_triangles(scene: &crate::scene::Scene) -> u64 {
         .sum()
 }
 
-/// The work of a light's rays from a [`SAMPLE_SHARE`] of its pixels (the same hashed pixels as
-/// sorting's representative rays) traced by `tracer`, and how many rays that was.
+/// The work of a light's rays from a [`SAMPLE_SHARE`] of its pixels traced by `tracer`, and
+/// how many rays that was. The pixels are a seeded hash's, apart from the representative rays
+/// sorting learns from, so a sorted order is not measured on the rays it was sorted by.
 pub fn sample_work(
     primary: &PrimaryPass,
     light: &LightSampler,
     plan: SamplePlan,
     tracer: &impl OcclusionQuery,
 ) -> (TraversalStats, u64) {
-    let rays = representative_rays(primary, light, plan, SAMPLE_SHARE);
+    let threshold = (SAMPLE_SHARE as f64 * u32::MAX as f64) as u32;
+    let salt = hash_combine(plan.seed ^ 0x5a5a_5a5a, plan.light_index);
     let mut work = TraversalStats::default();
-    for r in &rays {
-        tracer.occluded(r, &mut work);
+    let mut rays = 0;
+    let mut scratch = Vec::new();
+    for (pixel, s) in primary.surfaces.iter().enumerate() {
+        let Some(s) = s else { continue };
+        if hash_combine(salt, pixel as u32) >= threshold {
+            continue;
+        }
+        plan.for_each_ray(s, pixel, light, &mut scratch, |r| {
+            if let Some(r) = r {
+                rays += 1;
+                tracer.occluded(&r, &mut work);
+            }
+        });
     }
-    (work, rays.len() as u64)
+    (work, rays)
 }

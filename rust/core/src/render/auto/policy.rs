@@ -3,8 +3,8 @@
 //! measure another candidate instead (exploration; see docs/auto.md).
 //!
 //! Exploration, bounded and seeded: a candidate never measured (for a light, or for the camera
-//! tree) is measured on the next frame: orders without per-light preparation on a sample of
-//! the light's rays, others on the whole light, one a frame, only if they can win; a
+//! tree) is measured on the next frame: a light's orders on a sample of its rays, one a frame,
+//! those with per-light preparation only if they can win; a
 //! measurement older than [`STALE_FRAMES`] frames is taken again on frames where a hash of the
 //! seed, the frame and the light picks one in [`EXPLORE_ONE_IN`].
 
@@ -133,11 +133,10 @@ pub struct OrderPlan {
 }
 
 /// The orders of one light this frame. The least estimate traces the light (on the first frame
-/// SATO on a wide tree, else front to back). An order without per-light preparation that is
-/// due a measurement (never measured, or stale on an exploration frame) is measured on a
-/// [`SAMPLE_SHARE`] of the rays; one with per-light preparation traces the whole light instead
-/// (one a frame), and only if its preparation alone costs less than [`WIN_SHARE`] of the best
-/// estimate, since otherwise it can hardly win.
+/// SATO on a wide tree, else front to back). One order due a measurement (never measured, or
+/// stale on an exploration frame) is prepared and measured on a [`SAMPLE_SHARE`] of the rays
+/// beside it: one without per-light preparation first; one with it only if that preparation
+/// costs less than [`WIN_SHARE`] of the best estimate, since otherwise it can hardly win.
 pub fn choose_order(h: &History, c: &LightContext, at: Moment) -> OrderPlan {
     let candidates = order_candidates(c);
     let best = candidates
@@ -162,22 +161,18 @@ pub fn choose_order(h: &History, c: &LightContext, at: Moment) -> OrderPlan {
             .copied()
             .filter(|&o| o != chosen && due(o))
     };
-    let sample = others().find(|o| !o.per_light());
     let can_win = |o: OrderChoice| {
         let built = h.order(c.name, o).is_none_or(|m| m.built);
         best.is_some_and(|(_, e)| prep_ns(c, o, built) < WIN_SHARE * e)
     };
-    let choice = match others().find(|&o| o.per_light() && can_win(o)) {
-        Some(o) => Choice {
-            choice: o,
-            estimate_ns: order_estimate(h, c, o).unwrap_or(0.0),
-            explore: true,
-        },
-        None => Choice {
-            choice: chosen,
-            estimate_ns,
-            explore: false,
-        },
+    // Without per-light preparation first; those with it once something is measured.
+    let sample = others()
+        .find(|o| !o.per_light())
+        .or_else(|| others().find(|&o| can_win(o)));
+    let choice = Choice {
+        choice: chosen,
+        estimate_ns,
+        explore: false,
     };
     OrderPlan { choice, sample }
 }
@@ -341,23 +336,20 @@ mod tests {
             OrderChoice::Fbto => 300.0,
             _ => 100.0,
         };
-        let mut traced = Vec::new();
+        let (mut traced, mut sampled) = (Vec::new(), Vec::new());
         for frame in 0..3 {
             let plan = choose_order(&h, &c, at(frame));
-            assert_eq!(plan.choice.explore, frame > 0, "frame {frame}");
-            assert_eq!(plan.sample.is_some(), frame == 0, "frame {frame}");
             traced.push(plan.choice.choice);
+            sampled.extend(plan.sample);
             for o in std::iter::once(plan.choice.choice).chain(plan.sample) {
                 h.record_order("L", o, measured(per_ray(o), frame));
             }
         }
         use OrderChoice::*;
-        assert_eq!(traced, vec![Sato, Sorted, Srdh]);
+        assert_eq!(traced, vec![Sato, Sato, Sorted]);
+        assert_eq!(sampled, vec![Fbto, Sorted, Srdh]);
         let plan = choose_order(&h, &c, at(3));
-        assert_eq!(
-            (plan.choice.choice, plan.choice.explore, plan.sample),
-            (Sorted, false, None)
-        );
+        assert_eq!((plan.choice.choice, plan.sample), (Sorted, None));
         assert!(plan.choice.estimate_ns > 50.0 * 1_000_000.0);
     }
 
