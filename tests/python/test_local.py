@@ -52,6 +52,8 @@ STATS_COLUMNS = {
     "visible_input",
     "visibility_ms",
     "nts_per_ray",
+    "auto_choice",
+    "auto_estimate_ms",
 }
 
 
@@ -595,7 +597,7 @@ def test_bad_containers(scene):
         ({"width": 3}, r"width: expected one of 2, 4, 8, got an integer \(3\)"),
         (
             {"build": "lbvh"},
-            r"build: expected one of sah, sbvh, abvh, osah, vsah, srdh, got text \('lbvh'\)",
+            r"build: expected one of sah, sbvh, abvh, osah, vsah, srdh, auto, got text \('lbvh'\)",
         ),
         ({"timing": "always"}, r"timing: expected one of"),
         ({"osah_viability": "loose"}, r"osah_viability: expected one of strict, paper"),

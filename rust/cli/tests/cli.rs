@@ -115,7 +115,7 @@ fn bad_arguments_fail_with_a_clear_message() {
         ),
         (
             vec!["render", "--scene", "city", "--build", "kd", "--out"],
-            "build: expected one of sah, sbvh, abvh, osah, vsah, srdh, got text ('kd')",
+            "build: expected one of sah, sbvh, abvh, osah, vsah, srdh, auto, got text ('kd')",
         ),
         (
             vec![

@@ -28,6 +28,8 @@
 //! | visible_input | triangles of the structure's set the build was told are visible (ABVH/OSAH/VSAH) |
 //! | visibility_ms | time to get that set this frame (exact mode or first-frame prepass; else 0) |
 //! | nts_per_ray | N_TS, the OSAH paper's traversal steps: nodes entered, N_B + N_L |
+//! | auto_choice | what `auto` chose for this pass (empty for fixed methods): primary `sah`, `osah` or `keep` (the build); shadow `fbto`, `sato`, `sorted` or `srdh` (the light's order), then `;sample=ORDER` when another order was measured on a sample of its rays; `explore:` first for a build taken to measure it (docs/auto.md) |
+//! | auto_estimate_ms | the cost model's estimate behind that choice, ms (0 when it was never measured) |
 //!
 //! The paper's N_IT (ray/triangle intersection tests) is `nt_per_ray`.
 
@@ -71,6 +73,8 @@ pub struct StatsRow {
     pub visible_input: u64,
     pub visibility_ms: f64,
     pub nts_per_ray: f64,
+    pub auto_choice: String,
+    pub auto_estimate_ms: f64,
 }
 
 impl StatsRow {
@@ -137,6 +141,8 @@ impl StatsRow {
             ("visible_input", Count(self.visible_input)),
             ("visibility_ms", Real(self.visibility_ms)),
             ("nts_per_ray", Real(self.nts_per_ray)),
+            ("auto_choice", Text(&self.auto_choice)),
+            ("auto_estimate_ms", Real(self.auto_estimate_ms)),
         ]
     }
 
@@ -270,6 +276,8 @@ mod tests {
             visible_input: 16,
             visibility_ms: 17.5,
             nts_per_ray: 18.5,
+            auto_choice: "explore:srdh".into(),
+            auto_estimate_ms: 19.5,
         };
         let serde_json::Value::Object(fields) = serde_json::to_value(&row).unwrap() else {
             panic!("a row serialises to a map");

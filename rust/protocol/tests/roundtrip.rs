@@ -201,6 +201,8 @@ fn stats_row() -> impl Strategy<Value = StatsRowState> {
                 visible_input: triangles / 2,
                 visibility_ms: trace_ms,
                 nts_per_ray: nb,
+                auto_choice: format!("explore:{frame}"),
+                auto_estimate_ms: nl,
             },
         )
 }

@@ -43,15 +43,19 @@ pub enum BuildMethod {
     Osah,
     /// SAH over the visible triangles only: a bound for comparisons, not a complete tree.
     Vsah,
+    /// Chosen per frame by the renderer (`render/auto`): SAH, OSAH from the previous frame's
+    /// visible set, or last frame's tree kept. As a builder alone it is SAH.
+    Auto,
 }
 
 impl BuildMethod {
-    pub const ALL: [BuildMethod; 5] = [
+    pub const ALL: [BuildMethod; 6] = [
         BuildMethod::Sah,
         BuildMethod::Sbvh,
         BuildMethod::Abvh,
         BuildMethod::Osah,
         BuildMethod::Vsah,
+        BuildMethod::Auto,
     ];
 
     pub fn name(&self) -> &'static str {
@@ -61,6 +65,7 @@ impl BuildMethod {
             BuildMethod::Abvh => "abvh",
             BuildMethod::Osah => "osah",
             BuildMethod::Vsah => "vsah",
+            BuildMethod::Auto => "auto",
         }
     }
 
@@ -68,7 +73,7 @@ impl BuildMethod {
     pub fn uses_visibility(&self) -> bool {
         matches!(
             self,
-            BuildMethod::Abvh | BuildMethod::Osah | BuildMethod::Vsah
+            BuildMethod::Abvh | BuildMethod::Osah | BuildMethod::Vsah | BuildMethod::Auto
         )
     }
 
@@ -87,7 +92,9 @@ impl std::str::FromStr for BuildMethod {
             .ok_or_else(|| {
                 crate::Error::invalid(
                     "build",
-                    format!("unknown build method '{s}' (known: sah, sbvh, abvh, osah, vsah)"),
+                    format!(
+                        "unknown build method '{s}' (known: sah, sbvh, abvh, osah, vsah, auto)"
+                    ),
                 )
             })
     }
@@ -108,7 +115,7 @@ pub fn build_with_visibility(
     settings: &BuildSettings,
 ) -> Bvh {
     match method {
-        BuildMethod::Sah => build_binned_sah(triangles, settings),
+        BuildMethod::Sah | BuildMethod::Auto => build_binned_sah(triangles, settings),
         BuildMethod::Sbvh => build_split_bvh(triangles, None, SplitPolicy::Sbvh, settings),
         BuildMethod::Abvh => build_split_bvh(triangles, visible, SplitPolicy::Abvh, settings),
         BuildMethod::Osah => build_split_bvh(triangles, visible, SplitPolicy::Osah, settings),

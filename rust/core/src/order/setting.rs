@@ -1,6 +1,6 @@
 //! The child order of shadow (occlusion) rays as a run setting, with the command-line syntax
 //! `stored | fbto | sato | rtsah | random[:seed=S] | sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F]
-//! | srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional][:min_occluded=F]`
+//! | srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional][:min_occluded=F] | auto`
 //! (`near` is accepted for `fbto`, its older name).
 
 use std::fmt;
@@ -43,6 +43,9 @@ pub enum ShadowOrder {
     /// Per light, a binary SRDH tree with traversal kernels built from representative rays
     /// (lights with few occluded rays trace the binary tree front to back).
     Srdh(SrdhSettings),
+    /// Per light and frame, the order the renderer's cost model picks (`render/auto`); the
+    /// renderer resolves it to one of the others before any traversal reads it.
+    Auto,
 }
 
 impl ShadowOrder {
@@ -80,7 +83,8 @@ fn invalid(msg: String) -> Error {
 
 const KNOWN: &str = "stored, fbto, sato, rtsah, random[:seed=S], \
                      sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F], \
-                     srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional][:min_occluded=F]";
+                     srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional][:min_occluded=F], \
+                     auto";
 
 impl FromStr for ShadowOrder {
     type Err = Error;
@@ -102,6 +106,7 @@ impl FromStr for ShadowOrder {
             "fbto" | "near" => no_options(ShadowOrder::Fbto),
             "sato" => no_options(ShadowOrder::Sato),
             "rtsah" => no_options(ShadowOrder::Rtsah),
+            "auto" => no_options(ShadowOrder::Auto),
             "random" => {
                 let mut seed = 0;
                 for (k, v) in options {
@@ -186,6 +191,7 @@ impl fmt::Display for ShadowOrder {
                 write!(f, ":budget={}", s.budget)
             }
             ShadowOrder::Srdh(s) => write!(f, "{s}"),
+            ShadowOrder::Auto => write!(f, "auto"),
         }
     }
 }
@@ -224,6 +230,7 @@ mod tests {
             "srdh:rays=16x16:bins=32:leaf=1:kernels=all:min_occluded=0.2",
             "srdh:rays=all:bins=8:leaf=4:kernels=constant:min_occluded=0",
             "srdh:rays=0.05:bins=32:leaf=1:kernels=directional:min_occluded=0.5",
+            "auto",
         ] {
             let o: ShadowOrder = text.parse().unwrap();
             assert_eq!(o.to_string(), text);
@@ -259,6 +266,8 @@ mod tests {
             "srdh:kernels=some",
             "srdh:min_occluded=1.5",
             "srdh:depth=3",
+            "auto:xyz",
+            "auto:budget=0.1",
         ] {
             assert!(bad.parse::<ShadowOrder>().is_err(), "{bad}");
         }

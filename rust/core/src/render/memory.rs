@@ -108,15 +108,20 @@ fn pass_bytes_per_pixel(settings: &RenderSettings, lights: u64) -> (u64, u64) {
 fn prep_rays(settings: &RenderSettings, pixels: u64) -> u64 {
     let spp = settings.spp.max(1) as u64;
     let share = |f: f32| (pixels as f64 * f.clamp(0.0, 1.0) as f64).ceil() as u64;
+    let srdh = |s: &crate::order::SrdhSettings| match s.rays {
+        RaySetSource::All => pixels.saturating_mul(spp),
+        RaySetSource::Budget(f) => share(f).saturating_mul(spp),
+        RaySetSource::Prepass { width, height } => (width as u64 * height as u64)
+            .min(pixels)
+            .saturating_mul(spp),
+    };
     match &settings.shadow_order {
         ShadowOrder::Sorted(s) => share(s.budget).saturating_mul(spp),
-        ShadowOrder::Srdh(s) => match s.rays {
-            RaySetSource::All => pixels.saturating_mul(spp),
-            RaySetSource::Budget(f) => share(f).saturating_mul(spp),
-            RaySetSource::Prepass { width, height } => (width as u64 * height as u64)
-                .min(pixels)
-                .saturating_mul(spp),
-        },
+        ShadowOrder::Srdh(s) => srdh(s),
+        // Auto prepares a light with the sorted or the SRDH order at their defaults.
+        ShadowOrder::Auto => share(crate::order::SortSettings::default().budget)
+            .saturating_mul(spp)
+            .max(srdh(&Default::default())),
         _ => 0,
     }
 }
@@ -180,7 +185,7 @@ pub fn estimate_render_bytes(
     // visible set with one more tree.
     let splits = matches!(
         settings.build,
-        BuildMethod::Sbvh | BuildMethod::Abvh | BuildMethod::Osah
+        BuildMethod::Sbvh | BuildMethod::Abvh | BuildMethod::Osah | BuildMethod::Auto
     ) && settings.build_settings.spatial.enabled;
     let growth = if splits {
         1.0 + settings.build_settings.spatial.max_growth.clamp(0.0, 64.0) as f64
@@ -214,7 +219,10 @@ pub fn estimate_render_bytes(
     } else {
         let per_ray = size_of::<Ray>() as u64 + PREP_BYTES_PER_RAY;
         // A light's own SRDH tree is built over the shadow set.
-        let own_tree = if matches!(settings.shadow_order, ShadowOrder::Srdh(_)) {
+        let own_tree = if matches!(
+            settings.shadow_order,
+            ShadowOrder::Srdh(_) | ShadowOrder::Auto
+        ) {
             (if separate_shadow_set { shadow } else { camera }).saturating_mul(BUILD_BYTES_PER_REF)
         } else {
             0

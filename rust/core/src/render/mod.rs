@@ -2,11 +2,13 @@
 //! per light the shadow rays (any hit) that give the shadow mask and shadow heat maps, and the
 //! statistics of both. [`Renderer`] keeps what carries over between frames.
 
+pub mod auto;
 mod camera_rays;
 mod facing;
 mod light_tracer;
 mod lights;
 mod memory;
+mod passes;
 mod primary;
 mod renderer;
 mod settings;

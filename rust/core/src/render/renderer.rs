@@ -6,22 +6,24 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::facing::face_shading_normals;
-use super::light_tracer::{binary_order, light_tracing, LightRays, ShadowTrees};
-use super::primary::heat_planes;
-use super::shadow::{samples_for, SamplePlan};
+use super::auto::{self, BuildChoice, Choice, History};
+use super::light_tracer::binary_order;
+use super::passes::{
+    combine, counted_timed, primary_pass, shadow_passes, trace_camera, LightOrder, Rows,
+    ShadowPasses,
+};
+use super::shadow::samples_for;
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
 use super::wide_tree::WideTree;
-use super::{Facing, VisibilitySource};
-use super::{LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode};
-use crate::build::{build_binned_sah, build_with_visibility, CollapseSettings};
+use super::VisibilitySource;
+use super::{LightSampler, PrimaryPass, RenderSettings};
+use crate::build::{build_binned_sah, build_with_visibility, BuildMethod, CollapseSettings};
 use crate::bvh::{Bvh, BvhWidth};
 use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
 use crate::order::{PreparedOrder, ShadowOrder, SortTables};
 use crate::scene::{FrameGeometry, Mesh, Resolution, Scene, TriangleRef, TriangleSet};
 use crate::stats::StatsRow;
-use crate::trace::{ClosestHitQuery, TraversalStats};
 use crate::Result;
 
 /// Heat maps of traversal work per pixel: N_B, N_L, N_T for primary rays and for all shadow
@@ -90,7 +92,7 @@ struct GeometryKey {
 }
 
 #[derive(Clone)]
-struct Cached {
+pub(super) struct Cached {
     key: GeometryKey,
     /// Keeps the meshes alive so their addresses in the key cannot be reused.
     _meshes: Vec<Arc<Mesh>>,
@@ -98,55 +100,55 @@ struct Cached {
     /// Whether a finished frame has reported these trees' build (a cancelled render leaves
     /// the report to the next render that uses them, so it reads as a fresh render's).
     reported: bool,
-    geometry: Arc<FrameGeometry>,
-    camera_bvh: Arc<Bvh>,
-    shadow_bvh: Option<Arc<Bvh>>,
+    pub(super) geometry: Arc<FrameGeometry>,
+    pub(super) camera_bvh: Arc<Bvh>,
+    pub(super) shadow_bvh: Option<Arc<Bvh>>,
     /// The visible set the BVHs were built from (visibility-driven builds only).
     visible_input: Option<Vec<TriangleRef>>,
     /// Triangles flagged visible in the camera and shadow BVHs' sets, and distinct triangles
     /// in each structure.
-    camera_info: BvhInfo,
-    shadow_info: Option<BvhInfo>,
-    wide: Option<WideTrees>,
+    pub(super) camera_info: BvhInfo,
+    pub(super) shadow_info: Option<BvhInfo>,
+    pub(super) wide: Option<WideTrees>,
 }
 
 /// The collapsed trees of the cached BVHs for one width.
 #[derive(Clone)]
-struct WideTrees {
-    width: BvhWidth,
-    collapse: CollapseSettings,
-    camera: Arc<WideTree>,
+pub(super) struct WideTrees {
+    pub(super) width: BvhWidth,
+    pub(super) collapse: CollapseSettings,
+    pub(super) camera: Arc<WideTree>,
     /// `None`: the camera tree serves shadow rays too.
-    shadow: Option<Arc<WideTree>>,
+    pub(super) shadow: Option<Arc<WideTree>>,
     /// Made once per tree, on the first frame that sorts per light.
-    sort_tables: Option<SortTables>,
+    pub(super) sort_tables: Option<SortTables>,
     /// A per-tree order (SATO, RTSAH, random) made once for the shadow tree and shared by the
     /// lights of every frame that reuses the tree.
-    per_tree_order: Option<PerTreeOrder>,
+    pub(super) per_tree_order: Option<PerTreeOrder>,
     /// Collapse time, counted into the build time of the frame that collapsed.
-    collapse_ms: Option<f64>,
+    pub(super) collapse_ms: Option<f64>,
 }
 
 #[derive(Clone)]
-struct PerTreeOrder {
-    order: ShadowOrder,
-    prepared: PreparedOrder,
+pub(super) struct PerTreeOrder {
+    pub(super) order: ShadowOrder,
+    pub(super) prepared: PreparedOrder,
     /// Preparation time, reported (as the first shadow row's `sort_ms`) only by the frame
     /// that prepared it.
-    ms: Option<f64>,
+    pub(super) ms: Option<f64>,
 }
 
 #[derive(Clone, Copy, Default)]
-struct BvhInfo {
-    visible: u64,
-    triangles: u64,
+pub(super) struct BvhInfo {
+    pub(super) visible: u64,
+    pub(super) triangles: u64,
 }
 
 /// What `prepare` did this frame.
 #[derive(Clone, Copy)]
-struct Prepared {
-    rebuilt: bool,
-    visibility_ms: f64,
+pub(super) struct Prepared {
+    pub(super) rebuilt: bool,
+    pub(super) visibility_ms: f64,
 }
 
 /// Renders frames, keeping state across them.
@@ -163,6 +165,8 @@ pub struct Renderer {
     pub shadow_rays: u64,
     /// Frames rendered (or warmed up) so far: the first has no previous visible set.
     frames_rendered: u64,
+    /// What `auto` measured on the counted frames so far.
+    auto: History,
 }
 
 fn key_of(scene: &Scene) -> GeometryKey {
@@ -212,8 +216,10 @@ impl Renderer {
         settings.validate()?;
         scene.validate()?;
         cancel.check()?;
-        let prepared = self.prepare(scene, settings, cancel)?;
-        self.prepare_wide(settings, cancel)?;
+        let at = self.moment(settings);
+        let (build_choice, concrete, keep) = self.concrete_build(scene, settings, at);
+        let prepared = self.prepare(scene, &concrete, keep, cancel)?;
+        self.prepare_wide(&concrete, cancel)?;
         let cached = self.cache.as_ref().expect("prepared above");
         let rows = Rows {
             scene_name,
@@ -226,9 +232,18 @@ impl Renderer {
                 .and_then(|w| w.collapse_ms)
                 .unwrap_or(0.0),
         };
-        let (primary, primary_row) = primary_pass(cached, scene, settings, &rows, cancel)?;
-        let shadows = shadow_passes(cached, &primary, scene, settings, &rows, cancel)?;
+        let (primary, mut primary_row) = primary_pass(cached, scene, settings, &rows, cancel)?;
+        let orders = self.light_orders(scene, &primary, settings, at, cancel)?;
+        let cached = self.cache.as_ref().expect("prepared above");
+        let shadows = shadow_passes(cached, &primary, scene, settings, &orders, &rows, cancel)?;
         self.shadow_rays += shadows.rays;
+        if let Some(c) = &build_choice {
+            auto::mark_row(&mut primary_row, c, |b| b.name());
+        }
+        if counted_timed(settings).0 {
+            self.learn(build_choice, &primary, &orders, &shadows, at.frame);
+        }
+        let cached = self.cache.as_ref().expect("prepared above");
         let result = combine(scene, cached, primary, primary_row, shadows, settings);
         self.finish_frame(result.visible.clone());
         Ok(result)
@@ -253,8 +268,11 @@ impl Renderer {
         settings.validate()?;
         scene.validate()?;
         cancel.check()?;
-        self.prepare(scene, settings, cancel)?;
-        self.prepare_wide(settings, cancel)?;
+        // `auto` chooses as a render would from what it learned; a warm-up teaches it nothing.
+        let at = self.moment(settings);
+        let (_, concrete, keep) = self.concrete_build(scene, settings, at);
+        self.prepare(scene, &concrete, keep, cancel)?;
+        self.prepare_wide(&concrete, cancel)?;
         let cached = self.cache.as_ref().expect("prepared above");
         let primary = trace_camera(cached, scene, false, cancel)?;
         let ids: Vec<u32> = primary
@@ -270,6 +288,38 @@ impl Renderer {
             height: primary.height,
             visible,
         })
+    }
+
+    fn moment(&self, settings: &RenderSettings) -> auto::Moment {
+        auto::Moment {
+            seed: settings.seed,
+            frame: self.frames_rendered,
+        }
+    }
+
+    /// The frame's build: `settings.build`, or what `auto` chooses (then with its choice, and
+    /// whether it keeps last frame's trees).
+    fn concrete_build(
+        &self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        at: auto::Moment,
+    ) -> (Option<Choice<BuildChoice>>, RenderSettings, bool) {
+        let build_choice =
+            (settings.build == BuildMethod::Auto).then(|| self.choose_build(scene, settings, at));
+        let concrete = RenderSettings {
+            build: match build_choice.map(|c| c.choice) {
+                None => settings.build,
+                Some(BuildChoice::Sah) => BuildMethod::Sah,
+                Some(BuildChoice::Osah) => BuildMethod::Osah,
+                Some(BuildChoice::Keep) => {
+                    self.cache.as_ref().map_or(BuildMethod::Sah, |c| c.build.0)
+                }
+            },
+            ..settings.clone()
+        };
+        let keep = build_choice.is_some_and(|c| c.choice == BuildChoice::Keep);
+        (build_choice, concrete, keep)
     }
 
     /// What every finished frame (rendered or warmed up) hands to the next.
@@ -298,9 +348,17 @@ impl Renderer {
         &mut self,
         scene: &Scene,
         settings: &RenderSettings,
+        keep: bool,
         cancel: &CancelToken,
     ) -> Result<Prepared> {
         let key = key_of(scene);
+        // `auto` keeps last frame's trees, whatever visible set the next build would read.
+        if let Some(c) = self.cache.as_ref().filter(|c| keep && c.key == key) {
+            return Ok(Prepared {
+                rebuilt: !c.reported,
+                visibility_ms: 0.0,
+            });
+        }
         let build_key = (settings.build, settings.build_settings);
         let reusable = self.cache.as_ref().filter(|c| c.key == key);
         // `render` validated the scene already.
@@ -427,7 +485,11 @@ impl Renderer {
         let Some(c) = self.cache.as_mut() else {
             return Ok(());
         };
-        let srdh = matches!(settings.shadow_order, ShadowOrder::Srdh(_));
+        // `auto` at width 2 picks among the binary tree's orders (front to back, SRDH).
+        let srdh = matches!(
+            settings.shadow_order,
+            ShadowOrder::Srdh(_) | ShadowOrder::Auto
+        );
         let needed = settings.width != BvhWidth::Two
             || (binary_order(settings.width, &settings.shadow_order).is_none() && !srdh);
         if !needed {
@@ -454,13 +516,24 @@ impl Renderer {
             });
             cancel.check()?;
         }
-        let w = c.wide.as_mut().expect("collapsed above");
+        self.prepare_orders(std::slice::from_ref(&settings.shadow_order), cancel)
+    }
+
+    /// Makes, once per wide tree, what the lights' `orders` read: the sorting tables and a
+    /// per-tree order (one per tree: the lights' orders hold at most one kind).
+    fn prepare_orders(&mut self, orders: &[ShadowOrder], cancel: &CancelToken) -> Result<()> {
+        let Some(w) = self.cache.as_mut().and_then(|c| c.wide.as_mut()) else {
+            return Ok(());
+        };
         let tree = w.shadow.as_ref().unwrap_or(&w.camera);
-        if matches!(settings.shadow_order, ShadowOrder::Sorted(_)) && w.sort_tables.is_none() {
+        let sorted = orders.iter().any(|o| matches!(o, ShadowOrder::Sorted(_)));
+        if sorted && w.sort_tables.is_none() {
             w.sort_tables = Some(tree.sort_tables());
         }
-        let order = &settings.shadow_order;
-        if order.is_per_tree() && w.per_tree_order.as_ref().map(|p| &p.order) != Some(order) {
+        let per_tree = orders.iter().find(|o| o.is_per_tree());
+        if let Some(order) =
+            per_tree.filter(|o| w.per_tree_order.as_ref().map(|p| &p.order) != Some(*o))
+        {
             cancel.check()?;
             let start = Instant::now();
             let prepared = tree.prepare(order, None, &[]);
@@ -473,298 +546,131 @@ impl Renderer {
         Ok(())
     }
 
+    /// `auto`'s camera tree for this frame, from what earlier frames measured.
+    fn choose_build(
+        &self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        at: auto::Moment,
+    ) -> Choice<BuildChoice> {
+        let (w, h) = scene.resolution.pixels();
+        let cached = self.cache.as_ref();
+        let context = auto::BuildContext {
+            rays: w as u64 * h as u64,
+            triangles: auto::scene_triangles(scene),
+            unchanged: cached.is_some_and(|c| c.key == key_of(scene)),
+            current: cached.and_then(|c| match c.build.0 {
+                BuildMethod::Sah => Some(BuildChoice::Sah),
+                BuildMethod::Osah => Some(BuildChoice::Osah),
+                _ => None,
+            }),
+            visible: self.frames_rendered > 0 || settings.visibility != VisibilitySource::Previous,
+            wide: settings.width != BvhWidth::Two,
+        };
+        auto::choose_build(&self.auto, &context, at)
+    }
+
+    /// Each shadow-casting light's order this frame: the settings' own, or `auto`'s choice
+    /// (with what that choice needs of the wide tree made).
+    fn light_orders(
+        &mut self,
+        scene: &Scene,
+        primary: &PrimaryPass,
+        settings: &RenderSettings,
+        at: auto::Moment,
+        cancel: &CancelToken,
+    ) -> Result<Vec<LightOrder>> {
+        let lights = scene.lights.iter().filter(|l| l.casts_shadow);
+        if settings.shadow_order != ShadowOrder::Auto {
+            return Ok(lights
+                .map(|_| LightOrder {
+                    order: settings.shadow_order,
+                    auto: None,
+                    sample: None,
+                })
+                .collect());
+        }
+        let c = self.cache.as_ref().expect("prepared before the passes");
+        let geometry = &c.geometry;
+        let wide = c.wide.as_ref().filter(|_| settings.width != BvhWidth::Two);
+        let surfaces = primary.surfaces.iter().flatten().count() as u64;
+        let mut out = Vec::new();
+        for (index, light) in scene
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.casts_shadow)
+        {
+            let sampler = LightSampler::new(light, &geometry.space);
+            let rays = auto::light_rays(primary, &sampler, settings.spp);
+            let samples = samples_for(&sampler, settings.spp) as u64;
+            let (log_rays, srdh_rays) = auto::prep_rays(rays, surfaces, samples);
+            let context = auto::LightContext {
+                name: &light.name,
+                index: index as u32,
+                rays,
+                wide: wide.is_some(),
+                wide_nodes: wide.map_or(0, |w| {
+                    w.shadow.as_ref().unwrap_or(&w.camera).node_count() as u64
+                }),
+                triangles: geometry.shadow.as_ref().unwrap_or(&geometry.camera).len() as u64,
+                srdh_rays,
+                log_rays,
+                sato_ready: wide
+                    .and_then(|w| w.per_tree_order.as_ref())
+                    .is_some_and(|p| p.order == ShadowOrder::Sato),
+                tables_ready: wide.is_some_and(|w| w.sort_tables.is_some()),
+            };
+            let plan = auto::choose_order(&self.auto, &context, at);
+            out.push(LightOrder {
+                order: plan.choice.choice.order(),
+                auto: Some(plan.choice),
+                sample: plan.sample,
+            });
+        }
+        let orders: Vec<ShadowOrder> = out
+            .iter()
+            .flat_map(|o| std::iter::once(o.order).chain(o.sample.map(|s| s.order())))
+            .collect();
+        self.prepare_orders(&orders, cancel)?;
+        Ok(out)
+    }
+
+    /// Records what a counted frame measured for `auto`'s next choices.
+    fn learn(
+        &mut self,
+        build: Option<Choice<BuildChoice>>,
+        primary: &PrimaryPass,
+        orders: &[LightOrder],
+        shadows: &ShadowPasses,
+        frame: u64,
+    ) {
+        if let Some(b) = build {
+            if let Some(m) = auto::measured(&primary.totals, primary.ray_count(), frame, true) {
+                self.auto.record_build(b.choice, m);
+            }
+        }
+        for ((o, row), (totals, own_tree, sampled)) in
+            orders.iter().zip(&shadows.rows).zip(&shadows.measured)
+        {
+            let Some(choice) = o.auto else { continue };
+            if let Some(m) = auto::measured(totals, row.rays, frame, *own_tree) {
+                self.auto.record_order(&row.light, choice.choice, m);
+            }
+            let sample = o.sample.zip(*sampled);
+            if let Some((order, (work, rays))) = sample {
+                if let Some(m) = auto::measured(&work, rays, frame, false) {
+                    self.auto.record_order(&row.light, order, m);
+                }
+            }
+        }
+    }
+
     /// The geometry and BVHs of the last frame (for tests and tools that trace their own rays).
     pub fn current(&self) -> Option<(&FrameGeometry, &Bvh, &Bvh)> {
         self.cache.as_ref().map(|c| {
             let shadow = c.shadow_bvh.as_deref().unwrap_or(&c.camera_bvh);
             (&*c.geometry, &*c.camera_bvh, shadow)
         })
-    }
-}
-
-/// What every statistics row of a frame shares.
-struct Rows<'a> {
-    scene_name: &'a str,
-    scene: &'a Scene,
-    method: String,
-    prepared: Prepared,
-    collapse_ms: f64,
-}
-
-impl Rows<'_> {
-    /// A row for `pass` over `bvh` (or its collapse `tree`), work and timing still unset.
-    fn row(
-        &self,
-        pass: &str,
-        light: &str,
-        bvh: &Bvh,
-        info: BvhInfo,
-        tree: Option<&WideTree>,
-    ) -> StatsRow {
-        let rebuilt = self.prepared.rebuilt;
-        StatsRow {
-            scene: self.scene_name.to_string(),
-            frame: self.scene.frame,
-            method: self.method.clone(),
-            pass: pass.to_string(),
-            light: light.to_string(),
-            rebuilt: rebuilt || self.collapse_ms > 0.0,
-            build_ms: if rebuilt { bvh.build_ms } else { 0.0 } + self.collapse_ms,
-            bvh_nodes: tree.map_or(bvh.nodes.len(), |t| t.node_count()) as u64,
-            bvh_bytes: tree.map_or(bvh.bytes(), |t| t.bytes()) as u64,
-            triangles: info.triangles,
-            references: bvh.triangles.len() as u64,
-            visible_input: info.visible,
-            visibility_ms: self.prepared.visibility_ms,
-            ..StatsRow::default()
-        }
-    }
-}
-
-/// The primary pass (on the wide tree for widths 4 and 8) and its statistics row; traced a
-/// second time without counters when the row wants both counts and timing.
-fn primary_pass(
-    cached: &Cached,
-    scene: &Scene,
-    settings: &RenderSettings,
-    rows: &Rows,
-    cancel: &CancelToken,
-) -> Result<(PrimaryPass, StatsRow)> {
-    let (counted, timed) = counted_timed(settings);
-    let trace = |counted: bool| trace_camera(cached, scene, counted, cancel);
-    let mut primary = trace(counted)?;
-    let mut row = rows.row(
-        "primary",
-        "",
-        &cached.camera_bvh,
-        cached.camera_info,
-        wide_camera(cached),
-    );
-    row.rays = primary.ray_count();
-    row.occluded_fraction =
-        primary.surfaces.iter().filter(|s| s.is_some()).count() as f64 / row.rays.max(1) as f64;
-    row.set_work(&primary.totals);
-    if counted && timed {
-        let t = trace(false)?;
-        debug_assert_eq!(t.surfaces, primary.surfaces);
-        row.set_timing(t.trace_ms, true);
-    } else {
-        row.set_timing(primary.trace_ms, !counted);
-    }
-    // After the timed pass's check: that pass's surfaces keep their geometric facing.
-    if settings.facing == Facing::Shading {
-        let geometry = &cached.geometry;
-        let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
-        face_shading_normals(&mut primary, &rays, scene, &geometry.camera);
-    }
-    Ok((primary, row))
-}
-
-/// The wide camera tree the primary pass traces (widths 4 and 8), else none (the binary one).
-fn wide_camera(cached: &Cached) -> Option<&WideTree> {
-    let wide = cached.wide.as_ref().filter(|w| w.width != BvhWidth::Two);
-    wide.map(|w| &*w.camera)
-}
-
-/// The camera rays of a frame on the tree its primary pass reads, counted or timed.
-fn trace_camera(
-    cached: &Cached,
-    scene: &Scene,
-    counted: bool,
-    cancel: &CancelToken,
-) -> Result<PrimaryPass> {
-    let geometry = &cached.geometry;
-    let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
-    match wide_camera(cached) {
-        Some(t) => trace_primary(counted, &rays, t, &geometry.camera, cancel),
-        None => trace_primary(
-            counted,
-            &rays,
-            &*cached.camera_bvh,
-            &geometry.camera,
-            cancel,
-        ),
-    }
-}
-
-/// Whether a frame's passes count work, and whether they are timed without counters.
-fn counted_timed(settings: &RenderSettings) -> (bool, bool) {
-    (
-        settings.stats != StatsMode::TimingOnly,
-        settings.stats != StatsMode::Counts,
-    )
-}
-
-/// The shadow passes of a frame: per light, a mask and a statistics row; the summed work per
-/// pixel over lights when counting.
-struct ShadowPasses {
-    masks: Vec<ImagePlane>,
-    rows: Vec<StatsRow>,
-    work: Vec<TraversalStats>,
-    /// Shadow rays traced, over every pass (counted and timed).
-    rays: u64,
-}
-
-/// Each shadow-casting light in turn: its tree and order ([`light_tracing`]), its shadow pass
-/// and its row.
-fn shadow_passes(
-    cached: &Cached,
-    primary: &PrimaryPass,
-    scene: &Scene,
-    settings: &RenderSettings,
-    rows: &Rows,
-    cancel: &CancelToken,
-) -> Result<ShadowPasses> {
-    let geometry = &cached.geometry;
-    let wide = cached.wide.as_ref();
-    let shadow_bvh = cached.shadow_bvh.as_ref().unwrap_or(&cached.camera_bvh);
-    let shadow_info = cached.shadow_info.unwrap_or(cached.camera_info);
-    let trees = ShadowTrees {
-        bvh: shadow_bvh,
-        triangles: &geometry
-            .shadow
-            .as_ref()
-            .unwrap_or(&geometry.camera)
-            .vertices,
-        wide: wide.map(|w| w.shadow.as_deref().unwrap_or(&w.camera)),
-        sort_tables: wide.and_then(|w| w.sort_tables.as_ref()),
-        per_tree: wide
-            .and_then(|w| w.per_tree_order.as_ref())
-            .map(|p| (&p.order, &p.prepared, p.ms)),
-    };
-    let (counted, timed) = counted_timed(settings);
-    let mut out = ShadowPasses {
-        masks: Vec::new(),
-        rows: Vec::new(),
-        work: vec![TraversalStats::default(); if counted { primary.surfaces.len() } else { 0 }],
-        rays: 0,
-    };
-    for (index, light) in scene.lights.iter().enumerate() {
-        if !light.casts_shadow {
-            continue;
-        }
-        cancel.check()?;
-        let sampler = LightSampler::new(light, &geometry.space);
-        let plan = SamplePlan {
-            light_index: index as u32,
-            samples: samples_for(&sampler, settings.spp),
-            seed: settings.seed,
-        };
-        let light_rays = LightRays {
-            primary,
-            sampler: &sampler,
-            plan,
-            sah: &settings.build_settings,
-            first: out.rows.is_empty(),
-        };
-        let tracing = light_tracing(&trees, &settings.shadow_order, settings.width, &light_rays);
-        cancel.check()?;
-        let tracer = tracing.tracer();
-        let pass_of = |counted: bool| {
-            let (i, spp, seed) = (plan.light_index, plan.samples, plan.seed);
-            if counted {
-                ShadowPass::counted_cancellable(primary, &tracer, &sampler, i, spp, seed, cancel)
-            } else {
-                ShadowPass::timed_cancellable(primary, &tracer, &sampler, i, spp, seed, cancel)
-            }
-        };
-        let pass = pass_of(counted)?;
-        out.rays += pass.outcome.rays;
-        let mut r = rows.row(
-            "shadow",
-            &light.name,
-            shadow_bvh,
-            shadow_info,
-            tracing.wide_tree(),
-        );
-        r.sort_ms = tracing.sort_ms;
-        if let Some(t) = tracing.own_tree() {
-            r.bvh_nodes = t.bvh.nodes.len() as u64;
-            r.bvh_bytes = t.bytes() as u64;
-        }
-        r.rays = pass.outcome.rays;
-        r.occluded_fraction = pass.outcome.occluded as f64 / r.rays.max(1) as f64;
-        r.back_facing = pass.outcome.back_facing;
-        r.unreached = pass.outcome.unreached;
-        r.set_work(&pass.totals);
-        if counted && timed {
-            let t = pass_of(false)?;
-            out.rays += t.outcome.rays;
-            debug_assert_eq!(t.mask, pass.mask);
-            r.set_timing(t.trace_ms, true);
-        } else {
-            r.set_timing(pass.trace_ms, !counted);
-        }
-        for (acc, wk) in out.work.iter_mut().zip(&pass.work) {
-            *acc += *wk;
-        }
-        out.rows.push(r);
-        out.masks.push(pass.mask);
-    }
-    Ok(out)
-}
-
-/// The frame's result: the masks and their mean, heat maps when counting, the primary hits
-/// and the visible set.
-fn combine(
-    scene: &Scene,
-    cached: &Cached,
-    primary: PrimaryPass,
-    primary_row: StatsRow,
-    shadows: ShadowPasses,
-    settings: &RenderSettings,
-) -> FrameResult {
-    let (w, h) = (primary.width, primary.height);
-    let masks = shadows.masks;
-    let mut combined = ImagePlane::new("combined", w, h);
-    if masks.is_empty() {
-        combined.data.fill(1.0);
-    } else {
-        let k = 1.0 / masks.len() as f32;
-        for m in &masks {
-            for (c, v) in combined.data.iter_mut().zip(&m.data) {
-                *c += v * k;
-            }
-        }
-    }
-    let (counted, _) = counted_timed(settings);
-    let heat = counted.then(|| HeatMaps {
-        primary: primary.heat_maps("primary"),
-        shadow: heat_planes("shadow", w, h, &shadows.work),
-    });
-    let primary_ids: Vec<u32> = primary
-        .surfaces
-        .iter()
-        .map(|s| s.map_or(u32::MAX, |s| s.triangle))
-        .collect();
-    let camera = &cached.geometry.camera;
-    let mut stats = vec![primary_row];
-    stats.extend(shadows.rows);
-    FrameResult {
-        frame: scene.frame,
-        width: w,
-        height: h,
-        masks,
-        combined,
-        heat,
-        visible: visible_set(&primary_ids, camera),
-        primary_objects: camera.objects_of(&primary_ids),
-        primary_ids,
-        stats,
-    }
-}
-
-/// The primary pass on any tree, with counters or timed.
-fn trace_primary(
-    counted: bool,
-    rays: &PrimaryRays,
-    tree: &impl ClosestHitQuery,
-    triangles: &crate::scene::TriangleSet,
-    cancel: &CancelToken,
-) -> Result<PrimaryPass> {
-    if counted {
-        PrimaryPass::counted_cancellable(rays, tree, triangles, cancel)
-    } else {
-        PrimaryPass::timed_cancellable(rays, tree, triangles, cancel)
     }
 }

@@ -69,7 +69,10 @@ impl RenderSettings {
     /// order, e.g. `sah/bin8/sorted:logging=sato:p=1:budget=0.05`; a smallest leaf other than 1
     /// is named with the builder (`osah-previous:leaf8/bin2/fbto`).
     pub fn method_name(&self) -> String {
-        let mut build = if self.build.uses_visibility() {
+        // `auto` reads the previous frame's visible set unless told otherwise.
+        let auto_previous =
+            self.build == BuildMethod::Auto && self.visibility == VisibilitySource::Previous;
+        let mut build = if self.build.uses_visibility() && !auto_previous {
             format!("{}-{}", self.build.name(), self.visibility.name())
         } else {
             self.build.name().to_string()

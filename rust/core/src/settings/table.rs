@@ -88,11 +88,12 @@ pub static SCHEMA: &[Setting] = &[
     // Build.
     Setting {
         name: "build",
-        kind: Kind::Choice(&["sah", "sbvh", "abvh", "osah", "vsah", "srdh"]),
+        kind: Kind::Choice(&["sah", "sbvh", "abvh", "osah", "vsah", "srdh", "auto"]),
         group: Group::Build,
         help: "BVH builder: sah; sbvh (spatial splits); abvh (spatial splits where visible \
                triangles are); osah (occlusion heuristic); vsah (SAH over visible triangles, a \
-               reference); srdh (SAH for camera rays, an SRDH tree per light: order srdh).",
+               reference); srdh (SAH for camera rays, an SRDH tree per light: order srdh); auto \
+               (per frame SAH, OSAH or last frame's tree, from measured work: docs/auto.md).",
         get: |s| s.build.name().into(),
         set: |s, v| {
             // `srdh` is SAH plus the srdh order, settled with the order in `resolve_build_srdh`.
@@ -373,12 +374,13 @@ pub static SCHEMA: &[Setting] = &[
             syntax: "stored | fbto | sato | rtsah | random[:seed=S] | \
                      sorted[:logging=sato|fbto][:p=1|area][:depth=K][:budget=F] | \
                      srdh[:rays=WxH|all|F][:bins=B][:leaf=K][:kernels=all|constant|directional]\
-                     [:min_occluded=F]",
+                     [:min_occluded=F] | auto",
         },
         group: Group::ShadowOrder,
         help: "Child order of shadow-ray traversal: fbto (front to back), a static order (sato, \
                rtsah, random), sorted per light from a budget share of its shadow rays, or srdh \
-               (an SRDH tree with kernels per mostly occluded light).",
+               (an SRDH tree with kernels per mostly occluded light); auto picks one per light and \
+               frame from measured work (docs/auto.md).",
         get: |s| s.shadow_order.to_string().into(),
         set: |s, v| {
             s.shadow_order = parsed::<ShadowOrder>("order", v)?;

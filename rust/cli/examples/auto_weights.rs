@@ -1,0 +1,233 @@
+//! Calibrates the weights of `auto`'s cost model (`rust/core/src/render/auto/cost.rs`) on this
+//! machine: trace time against the exact counters of many passes (least squares, no intercept),
+//! and each preparation's time per unit of the count the model prices it by.
+//!
+//! ```text
+//! cargo run --release -p antumbra-cli --example auto_weights -- [TRIANGLES] [WxH] [SCENE ...]
+//! ```
+//! (defaults: 100000 640x360 bedroom city forest).
+
+use std::time::Instant;
+
+use antumbra_core::build::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
+use antumbra_core::bvh::BvhWidth;
+use antumbra_core::compare::MethodSpec;
+use antumbra_core::order::{ShadowOrder, SrdhSettings};
+use antumbra_core::render::{
+    representative_rays, samples_for, srdh_rays, visibility_flags, LightSampler, PrimaryPass,
+    PrimaryRays, Renderer, SamplePlan, StatsMode, WideTree,
+};
+use antumbra_core::scene::{FrameGeometry, ImageSize, Resolution};
+use antumbra_core::settings::NamedSettings;
+use antumbra_core::srdh::{build_srdh, RaySet};
+use antumbra_scenes::{builtin, SceneParams};
+
+const METHODS: &[&str] = &[
+    "a=build=sah,width=2,order=fbto",
+    "b=build=sah,width=4,order=fbto",
+    "c=build=sah,width=8,order=sato",
+    "d=build=sah,width=8,order=sorted",
+    "e=build=osah,width=8,order=fbto",
+    "f=build=srdh",
+];
+
+/// Median milliseconds of `f` over 3 runs.
+fn ms<T>(mut f: impl FnMut() -> T) -> f64 {
+    let mut t: Vec<f64> = (0..3)
+        .map(|_| {
+            let s = Instant::now();
+            std::hint::black_box(f());
+            s.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[1]
+}
+
+/// Least squares x of A x = b over the unknowns in `keep` (others 0), by the normal equations.
+fn fit(rows: &[([f64; 3], f64)], keep: &[usize]) -> Option<[f64; 3]> {
+    let k = keep.len();
+    let mut m = vec![vec![0.0; k + 1]; k];
+    for (a, b) in rows {
+        for (i, &p) in keep.iter().enumerate() {
+            m[i][k] += a[p] * b;
+            for (j, &q) in keep.iter().enumerate() {
+                m[i][j] += a[p] * a[q];
+            }
+        }
+    }
+    // Gauss-Jordan on the small augmented matrix.
+    for c in 0..k {
+        let pivot = (c..k).max_by(|&x, &y| m[x][c].abs().total_cmp(&m[y][c].abs()))?;
+        m.swap(c, pivot);
+        if m[c][c].abs() < 1e-300 {
+            return None;
+        }
+        let row = m[c].clone();
+        for (_, target) in m.iter_mut().enumerate().filter(|(r, _)| *r != c) {
+            let f = target[c] / row[c];
+            for (t, v) in target.iter_mut().zip(&row).skip(c) {
+                *t -= f * v;
+            }
+        }
+    }
+    let mut x = [0.0; 3];
+    for (i, &p) in keep.iter().enumerate() {
+        x[p] = m[i][k] / m[i][i];
+    }
+    Some(x)
+}
+
+/// Non-negative least squares over three unknowns: the best fit of every subset whose
+/// weights are all non-negative.
+fn fit_nonnegative(rows: &[([f64; 3], f64)]) -> [f64; 3] {
+    let residual = |x: &[f64; 3]| -> f64 {
+        rows.iter()
+            .map(|(a, b)| (a[0] * x[0] + a[1] * x[1] + a[2] * x[2] - b).powi(2))
+            .sum()
+    };
+    let subsets: [&[usize]; 7] = [&[0, 1, 2], &[0, 1], &[0, 2], &[1, 2], &[0], &[1], &[2]];
+    subsets
+        .iter()
+        .filter_map(|s| fit(rows, s))
+        .filter(|x| x.iter().all(|v| *v >= 0.0))
+        .min_by(|a, b| residual(a).total_cmp(&residual(b)))
+        .unwrap_or([0.0; 3])
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let triangles: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(100_000);
+    let size: ImageSize = args
+        .get(1)
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(ImageSize::new(640, 360));
+    let scenes: Vec<&str> = match args.get(2..) {
+        Some(s) if !s.is_empty() => s.iter().map(String::as_str).collect(),
+        _ => vec!["bedroom", "city", "forest"],
+    };
+    let mut trace_rows = Vec::new();
+    let mut per_unit: Vec<(&str, f64)> = Vec::new();
+    for name in &scenes {
+        let params = SceneParams {
+            triangles,
+            frames: 4,
+            rotated: false,
+        };
+        let anim = builtin(name, &params).unwrap();
+        let frames: Vec<_> = anim
+            .frame_range()
+            .take(3)
+            .map(|f| {
+                let mut s = anim.frame(f);
+                s.resolution = Resolution::new(size.width, size.height);
+                s
+            })
+            .collect();
+        // Trace: every pass of the last two frames, counted and timed without counters.
+        let common = NamedSettings::new().with("spp", 4).with("timing", "on");
+        let mut visible = Vec::new();
+        for spec in METHODS {
+            let settings = spec
+                .parse::<MethodSpec>()
+                .unwrap()
+                .resolve(&common)
+                .unwrap();
+            assert_eq!(settings.stats, StatsMode::CountsAndTiming);
+            let mut r = Renderer::new();
+            for (i, scene) in frames.iter().enumerate() {
+                let result = r.render(name, scene, &settings).unwrap();
+                if i == 1 {
+                    visible = result.visible.clone();
+                }
+                if i == 0 {
+                    continue;
+                }
+                for row in result.stats.iter().filter(|r| r.rays > 1000) {
+                    let n = row.rays as f64;
+                    let work = [
+                        row.nbox_per_ray * n,
+                        row.nt_per_ray * n,
+                        (row.nb_per_ray + row.nl_per_ray) * n,
+                    ];
+                    trace_rows.push((work, row.trace_ms * 1e6));
+                }
+            }
+        }
+        // Builds and per-tree preparations on the last frame's geometry.
+        let scene = &frames[2];
+        let g = FrameGeometry::from_scene(scene).unwrap();
+        let set = &g.camera;
+        let t = set.len() as f64;
+        let bs = BuildSettings::default();
+        let flags = visibility_flags(set, &visible);
+        per_unit.push((
+            "sah_triangle",
+            ms(|| build_binned_sah(&set.vertices, &bs)) / t,
+        ));
+        let osah = || build_with_visibility(BuildMethod::Osah, &set.vertices, Some(&flags), &bs);
+        per_unit.push(("osah_triangle", ms(osah) / t));
+        let bvh = build_binned_sah(&set.vertices, &bs);
+        let collapse = || WideTree::collapse(&bvh, BvhWidth::Eight, &Default::default());
+        per_unit.push(("collapse_triangle", ms(collapse) / t));
+        let wide = collapse();
+        let nodes = wide.node_count() as f64;
+        per_unit.push(("per_tree_node (tables)", ms(|| wide.sort_tables()) / nodes));
+        let sato = || wide.prepare(&ShadowOrder::Sato, None, &[]);
+        per_unit.push(("per_tree_node (sato)", ms(sato) / nodes));
+        // Per light: sorting and SRDH.
+        let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
+        let primary = PrimaryPass::timed(&rays, &bvh, set);
+        let tables = wide.sort_tables();
+        for (i, light) in scene.lights.iter().enumerate() {
+            let sampler = LightSampler::new(light, &g.space);
+            let plan = SamplePlan {
+                light_index: i as u32,
+                samples: samples_for(&sampler, 4),
+                seed: 0,
+            };
+            let sorted = ShadowOrder::Sorted(Default::default());
+            let rep = representative_rays(&primary, &sampler, plan, 0.05);
+            if rep.len() > 100 {
+                let order = wide.prepare(&sorted, Some(&tables), &rep);
+                let antumbra_core::order::PreparedOrder::Sorted(o) = order else {
+                    unreachable!()
+                };
+                per_unit.push(("log_ray", o.logging_ms / rep.len() as f64));
+                per_unit.push(("sort_node", o.sorting_ms / nodes));
+            }
+            let s = SrdhSettings::default();
+            let srdh = srdh_rays(&primary, &sampler, plan, s.rays);
+            if srdh.len() > 100 {
+                let n = srdh.len() as f64;
+                let rs = RaySet::trace(&bvh, srdh);
+                per_unit.push(("srdh_ray", rs.trace_ms / n));
+                let built = ms(|| build_srdh(&set.vertices, &rs, &s, &bs));
+                per_unit.push(("srdh_triangle", built / t));
+            }
+        }
+    }
+    let w = fit_nonnegative(&trace_rows);
+    println!(
+        "trace fit over {} passes (ns, non-negative least squares):",
+        trace_rows.len()
+    );
+    println!(
+        "  box_test {:.3}  triangle_test {:.3}  node_visit {:.3}",
+        w[0], w[1], w[2]
+    );
+    let mut names: Vec<&str> = per_unit.iter().map(|p| p.0).collect();
+    names.dedup();
+    names.sort_unstable();
+    names.dedup();
+    println!("preparation, ns per unit (median over scenes and lights):");
+    for n in names {
+        let mut v: Vec<f64> = per_unit
+            .iter()
+            .filter(|p| p.0 == n)
+            .map(|p| p.1 * 1e6)
+            .collect();
+        v.sort_by(f64::total_cmp);
+        println!("  {n:24} {:10.1}  (n = {})", v[v.len() / 2], v.len());
+    }
+}

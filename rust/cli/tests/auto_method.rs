@@ -1,0 +1,217 @@
+//! `auto` as a build and as an order: its masks and primary hits equal every fixed method's bit
+//! for bit on every built-in scene, its choices repeat for a seed, bad values are refused naming
+//! the setting, and `antumbra compare` takes it among the methods.
+
+mod common;
+
+use antumbra_core::compare::MethodSpec;
+use antumbra_core::render::{FrameResult, Renderer};
+use antumbra_core::scene::{Resolution, Scene};
+use antumbra_core::settings::NamedSettings;
+use antumbra_scenes::{builtin, SceneParams, BUILTIN_SCENES};
+use common::{antumbra, ok, read_csv};
+use tempfile::TempDir;
+
+/// Fixed methods first (the first is the reference), then `auto` at widths 8 and 2.
+const METHODS: &[&str] = &[
+    "base=build=sah,width=2,order=fbto",
+    "sato8=build=sah,width=8,order=sato",
+    "sorted8=build=sah,width=8,order=sorted",
+    "osah8=build=osah,width=8,order=sorted",
+    "srdh=build=srdh",
+    "auto8=build=auto,width=8,order=auto",
+    "auto2=build=auto,width=2,order=auto",
+    "auto_order=build=sah,width=4,order=auto",
+];
+
+const FRAMES: i32 = 5;
+
+fn frames(name: &str) -> Vec<Scene> {
+    let params = SceneParams {
+        triangles: 3000,
+        frames: FRAMES,
+        rotated: false,
+    };
+    let anim = builtin(name, &params).unwrap();
+    anim.frame_range()
+        .take(FRAMES as usize)
+        .map(|f| {
+            let mut s = anim.frame(f);
+            s.resolution = Resolution::new(64, 64);
+            s
+        })
+        .collect()
+}
+
+/// Every frame of `scenes` rendered by one renderer with `spec`'s settings.
+fn render_all(scene: &str, scenes: &[Scene], spec: &str, seed: i64) -> Vec<FrameResult> {
+    let common = NamedSettings::new().with("spp", 4).with("seed", seed);
+    let settings = spec
+        .parse::<MethodSpec>()
+        .unwrap()
+        .resolve(&common)
+        .unwrap();
+    let mut renderer = Renderer::new();
+    scenes
+        .iter()
+        .map(|s| renderer.render(scene, s, &settings).unwrap())
+        .collect()
+}
+
+#[test]
+fn auto_answers_equal_every_fixed_method_on_every_builtin_scene() {
+    let mut chosen = std::collections::BTreeSet::new();
+    for name in BUILTIN_SCENES {
+        let scenes = frames(name);
+        let reference = render_all(name, &scenes, METHODS[0], 0);
+        for spec in &METHODS[1..] {
+            let results = render_all(name, &scenes, spec, 0);
+            for (r, base) in results.iter().zip(&reference) {
+                let at = format!("{name} frame {} {spec}", r.frame);
+                assert_eq!(r.primary_ids, base.primary_ids, "{at}");
+                assert_eq!(r.masks.len(), base.masks.len(), "{at}");
+                for (m, b) in r.masks.iter().zip(&base.masks) {
+                    let bits = |p: &[f32]| p.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&m.data), bits(&b.data), "{at}: light {}", m.name);
+                }
+                let auto = spec.contains("order=auto");
+                for row in &r.stats {
+                    let marked = !row.auto_choice.is_empty();
+                    let expected = match row.pass.as_str() {
+                        "primary" => spec.contains("build=auto"),
+                        _ => auto,
+                    };
+                    assert_eq!(marked, expected, "{at}: {row:?}");
+                    // `sato;sample=srdh`: traced with SATO, SRDH measured on a sample.
+                    let tried = row.auto_choice.trim_start_matches("explore:");
+                    chosen.extend(
+                        tried
+                            .split(";sample=")
+                            .filter(|c| !c.is_empty())
+                            .map(String::from),
+                    );
+                }
+            }
+        }
+    }
+    // Over these scenes auto tried every build of moving geometry and every order it has.
+    for c in ["sah", "osah", "fbto", "sato", "sorted", "srdh"] {
+        assert!(chosen.contains(c), "auto never chose {c}: {chosen:?}");
+    }
+}
+
+#[test]
+fn auto_keeps_the_tree_of_unmoved_geometry() {
+    let still = vec![frames("city").remove(0); 4];
+    let base = render_all("city", &still, METHODS[0], 0);
+    let auto = render_all("city", &still, "a=build=auto,width=8,order=fbto", 0);
+    let builds: Vec<&str> = auto
+        .iter()
+        .map(|r| r.stats[0].auto_choice.as_str())
+        .collect();
+    assert_eq!(builds[0], "sah");
+    assert!(builds[1..].contains(&"keep"), "{builds:?}");
+    for (a, b) in auto.iter().zip(&base) {
+        assert_eq!(a.primary_ids, b.primary_ids);
+        for (m, n) in a.masks.iter().zip(&b.masks) {
+            assert!(m
+                .data
+                .iter()
+                .zip(&n.data)
+                .all(|(x, y)| x.to_bits() == y.to_bits()));
+        }
+    }
+}
+
+/// The `auto_choice` and `auto_estimate_ms` columns of every row of a run.
+fn choices(results: &[FrameResult]) -> Vec<(i32, String, String, String, u64)> {
+    results
+        .iter()
+        .flat_map(|r| &r.stats)
+        .map(|s| {
+            let estimate = s.auto_estimate_ms.to_bits();
+            (
+                s.frame,
+                s.pass.clone(),
+                s.light.clone(),
+                s.auto_choice.clone(),
+                estimate,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn choices_repeat_for_a_seed() {
+    let scenes = frames("bedroom");
+    let spec = "a=build=auto,width=8,order=auto";
+    let first = choices(&render_all("bedroom", &scenes, spec, 7));
+    assert_eq!(first, choices(&render_all("bedroom", &scenes, spec, 7)));
+    assert!(
+        first.iter().any(|c| c.3.starts_with("explore:")),
+        "{first:?}"
+    );
+}
+
+#[test]
+fn bad_auto_values_are_refused_naming_the_setting() {
+    for (flag, value) in [("--order", "auto:xyz"), ("--build", "autox")] {
+        let out = antumbra()
+            .args([
+                "render",
+                "--scene",
+                "bedroom",
+                "--triangles",
+                "500",
+                "--size",
+                "8x8",
+            ])
+            .args([flag, value])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{flag} {value} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(&flag[2..]) && err.contains(value), "{err}");
+    }
+    let named = NamedSettings::new().with("order", "auto:budget=0.1");
+    let err = named.resolve().unwrap_err().to_string();
+    assert!(err.contains("order") && err.contains("auto"), "{err}");
+}
+
+#[test]
+fn compare_takes_auto_among_the_methods() {
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path().join("cmp");
+    ok(antumbra()
+        .args([
+            "compare",
+            "--scene",
+            "bedroom",
+            "--triangles",
+            "3000",
+            "--frames",
+            "1-4",
+        ])
+        .args(["--size", "48x32", "--spp", "2", "--repeat", "1"])
+        .args(["--method", "base=build=sah,width=2,order=fbto"])
+        .args(["--method", "sorted8=width=8,order=sorted"])
+        .args(["--method", "auto8=build=auto,width=8,order=auto"])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap());
+    let rows = read_csv(&out.join("compare.csv"));
+    let auto: Vec<_> = rows.iter().filter(|r| r["label"] == "auto8").collect();
+    assert_eq!(auto.len() * 3, rows.len());
+    assert!(auto.iter().all(|r| r["method"] == "auto/bin8/auto"));
+    assert!(
+        auto.iter().all(|r| !r["auto_choice"].is_empty()),
+        "{auto:?}"
+    );
+    assert!(rows
+        .iter()
+        .filter(|r| r["label"] != "auto8")
+        .all(|r| r["auto_choice"].is_empty()));
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("auto8"), "{summary}");
+}
