@@ -22,9 +22,14 @@ use antumbra_core::settings::NamedSettings;
 use antumbra_core::srdh::{build_srdh, RaySet};
 use antumbra_scenes::{builtin, SceneParams};
 
+/// Unknowns of the trace fit: ns per box test, triangle test, node entered, and per node entered
+/// by a wide front-to-back traversal (its per-node sort).
+const K: usize = 4;
+
 const METHODS: &[&str] = &[
     "a=build=sah,width=2,order=fbto",
     "b=build=sah,width=4,order=fbto",
+    "b8=build=sah,width=8,order=fbto",
     "c=build=sah,width=8,order=sato",
     "d=build=sah,width=8,order=sorted",
     "e=build=osah,width=8,order=fbto",
@@ -45,7 +50,7 @@ fn ms<T>(mut f: impl FnMut() -> T) -> f64 {
 }
 
 /// Least squares x of A x = b over the unknowns in `keep` (others 0), by the normal equations.
-fn fit(rows: &[([f64; 3], f64)], keep: &[usize]) -> Option<[f64; 3]> {
+fn fit(rows: &[([f64; K], f64)], keep: &[usize]) -> Option<[f64; K]> {
     let k = keep.len();
     let mut m = vec![vec![0.0; k + 1]; k];
     for (a, b) in rows {
@@ -71,28 +76,27 @@ fn fit(rows: &[([f64; 3], f64)], keep: &[usize]) -> Option<[f64; 3]> {
             }
         }
     }
-    let mut x = [0.0; 3];
+    let mut x = [0.0; K];
     for (i, &p) in keep.iter().enumerate() {
         x[p] = m[i][k] / m[i][i];
     }
     Some(x)
 }
 
-/// Non-negative least squares over three unknowns: the best fit of every subset whose
-/// weights are all non-negative.
-fn fit_nonnegative(rows: &[([f64; 3], f64)]) -> [f64; 3] {
-    let residual = |x: &[f64; 3]| -> f64 {
+/// Non-negative least squares: the best fit of every subset of the unknowns whose weights are
+/// all non-negative.
+fn fit_nonnegative(rows: &[([f64; K], f64)]) -> [f64; K] {
+    let residual = |x: &[f64; K]| -> f64 {
         rows.iter()
-            .map(|(a, b)| (a[0] * x[0] + a[1] * x[1] + a[2] * x[2] - b).powi(2))
+            .map(|(a, b)| (a.iter().zip(x).map(|(a, x)| a * x).sum::<f64>() - b).powi(2))
             .sum()
     };
-    let subsets: [&[usize]; 7] = [&[0, 1, 2], &[0, 1], &[0, 2], &[1, 2], &[0], &[1], &[2]];
-    subsets
-        .iter()
-        .filter_map(|s| fit(rows, s))
+    (1..1u32 << K)
+        .map(|mask| (0..K).filter(|i| mask >> i & 1 == 1).collect::<Vec<_>>())
+        .filter_map(|s| fit(rows, &s))
         .filter(|x| x.iter().all(|v| *v >= 0.0))
         .min_by(|a, b| residual(a).total_cmp(&residual(b)))
-        .unwrap_or([0.0; 3])
+        .unwrap_or([0.0; K])
 }
 
 fn main() {
@@ -134,6 +138,8 @@ fn main() {
                 .resolve(&common)
                 .unwrap();
             assert_eq!(settings.stats, StatsMode::CountsAndTiming);
+            let wide_fbto =
+                settings.width != BvhWidth::Two && settings.shadow_order == ShadowOrder::Fbto;
             let mut r = Renderer::new();
             for (i, scene) in frames.iter().enumerate() {
                 let result = r.render(name, scene, &settings).unwrap();
@@ -145,10 +151,13 @@ fn main() {
                 }
                 for row in result.stats.iter().filter(|r| r.rays > 1000) {
                     let n = row.rays as f64;
+                    let nodes = (row.nb_per_ray + row.nl_per_ray) * n;
+                    let sorts = row.pass == "shadow" && wide_fbto;
                     let work = [
                         row.nbox_per_ray * n,
                         row.nt_per_ray * n,
-                        (row.nb_per_ray + row.nl_per_ray) * n,
+                        nodes,
+                        if sorts { nodes } else { 0.0 },
                     ];
                     trace_rows.push((work, row.trace_ms * 1e6));
                 }
@@ -213,8 +222,8 @@ fn main() {
         trace_rows.len()
     );
     println!(
-        "  box_test {:.3}  triangle_test {:.3}  node_visit {:.3}",
-        w[0], w[1], w[2]
+        "  box_test {:.3}  triangle_test {:.3}  node_visit {:.3}  fbto_node {:.3}",
+        w[0], w[1], w[2], w[3]
     );
     let mut names: Vec<&str> = per_unit.iter().map(|p| p.0).collect();
     names.dedup();
