@@ -1,11 +1,13 @@
 //! Calibrates the weights of `auto`'s cost model (`rust/core/src/render/auto/cost.rs`) on this
-//! machine: trace time against the exact counters of many passes (least squares, no intercept),
-//! and each preparation's time per unit of the count the model prices it by.
+//! machine: trace time (median of 3 timed passes) against the exact counters of many passes
+//! (non-negative least squares: per ray, per node entered by each traversal kernel, per box and
+//! triangle test), and each preparation's time per unit of the count the model prices it by.
+//! Run it on an otherwise idle machine.
 //!
 //! ```text
 //! cargo run --release -p antumbra-cli --example auto_weights -- [TRIANGLES] [WxH] [SCENE ...]
 //! ```
-//! (defaults: 100000 640x360 bedroom city forest).
+//! (defaults: 100000 640x360 and the five animated scenes).
 
 use std::time::Instant;
 
@@ -13,6 +15,7 @@ use antumbra_core::build::{build_binned_sah, build_with_visibility, BuildMethod,
 use antumbra_core::bvh::BvhWidth;
 use antumbra_core::compare::MethodSpec;
 use antumbra_core::order::{ShadowOrder, SrdhSettings};
+use antumbra_core::render::auto::{Kernel, OrderChoice};
 use antumbra_core::render::{
     representative_rays, samples_for, srdh_rays, visibility_flags, LightSampler, PrimaryPass,
     PrimaryRays, Renderer, SamplePlan, StatsMode, WideTree,
@@ -22,9 +25,20 @@ use antumbra_core::settings::NamedSettings;
 use antumbra_core::srdh::{build_srdh, RaySet};
 use antumbra_scenes::{builtin, SceneParams};
 
-/// Unknowns of the trace fit: ns per box test, triangle test, node entered, and per node entered
-/// by a wide front-to-back traversal (its per-node sort).
-const K: usize = 4;
+/// Unknowns of the trace fit: ns per box test, triangle test, shadow ray, camera ray, and per
+/// node entered by each kernel (in the order of `Kernel::ALL`).
+const K: usize = 4 + Kernel::ALL.len();
+const NAMES: [&str; K] = [
+    "box_test",
+    "triangle_test",
+    "shadow_ray",
+    "camera_ray",
+    "node binary_any_hit",
+    "node wide_any_hit",
+    "node wide_front_to_back",
+    "node binary_closest",
+    "node wide_closest",
+];
 
 const METHODS: &[&str] = &[
     "a=build=sah,width=2,order=fbto",
@@ -108,7 +122,7 @@ fn main() {
         .unwrap_or(ImageSize::new(640, 360));
     let scenes: Vec<&str> = match args.get(2..) {
         Some(s) if !s.is_empty() => s.iter().map(String::as_str).collect(),
-        _ => vec!["bedroom", "city", "forest"],
+        _ => vec!["bedroom", "city", "forest", "colonnade", "hairball"],
     };
     let mut trace_rows = Vec::new();
     let mut per_unit: Vec<(&str, f64)> = Vec::new();
@@ -138,10 +152,20 @@ fn main() {
                 .resolve(&common)
                 .unwrap();
             assert_eq!(settings.stats, StatsMode::CountsAndTiming);
-            let wide_fbto =
-                settings.width != BvhWidth::Two && settings.shadow_order == ShadowOrder::Fbto;
+            let wide = settings.width != BvhWidth::Two;
+            let order = match settings.shadow_order {
+                ShadowOrder::Fbto => OrderChoice::Fbto,
+                ShadowOrder::Sato => OrderChoice::Sato,
+                ShadowOrder::Sorted(_) => OrderChoice::Sorted,
+                ShadowOrder::Srdh(_) => OrderChoice::Srdh,
+                o => panic!("no kernel for {o:?}"),
+            };
             let mut r = Renderer::new();
             for (i, scene) in frames.iter().enumerate() {
+                // Three timed passes from the same state; the median times each row.
+                let runs: Vec<_> = (0..3)
+                    .map(|_| r.clone().render(name, scene, &settings).unwrap())
+                    .collect();
                 let result = r.render(name, scene, &settings).unwrap();
                 if i == 1 {
                     visible = result.visible.clone();
@@ -149,17 +173,26 @@ fn main() {
                 if i == 0 {
                     continue;
                 }
-                for row in result.stats.iter().filter(|r| r.rays > 1000) {
+                for (j, row) in result.stats.iter().enumerate() {
+                    if row.rays <= 1000 {
+                        continue;
+                    }
+                    let mut times: Vec<f64> = runs.iter().map(|x| x.stats[j].trace_ms).collect();
+                    times.sort_by(f64::total_cmp);
                     let n = row.rays as f64;
                     let nodes = (row.nb_per_ray + row.nl_per_ray) * n;
-                    let sorts = row.pass == "shadow" && wide_fbto;
-                    let work = [
-                        row.nbox_per_ray * n,
-                        row.nt_per_ray * n,
-                        nodes,
-                        if sorts { nodes } else { 0.0 },
-                    ];
-                    trace_rows.push((work, row.trace_ms * 1e6));
+                    let camera = row.pass == "primary";
+                    let kernel = match (camera, wide) {
+                        (true, true) => Kernel::WideClosest,
+                        (true, false) => Kernel::BinaryClosest,
+                        (false, _) => order.kernel(wide),
+                    };
+                    let mut work = [0.0; K];
+                    work[0] = row.nbox_per_ray * n;
+                    work[1] = row.nt_per_ray * n;
+                    work[if camera { 3 } else { 2 }] = n;
+                    work[4 + kernel as usize] = nodes;
+                    trace_rows.push((work, times[1] * 1e6));
                 }
             }
         }
@@ -221,10 +254,18 @@ fn main() {
         "trace fit over {} passes (ns, non-negative least squares):",
         trace_rows.len()
     );
-    println!(
-        "  box_test {:.3}  triangle_test {:.3}  node_visit {:.3}  fbto_node {:.3}",
-        w[0], w[1], w[2], w[3]
-    );
+    for (name, v) in NAMES.iter().zip(w) {
+        println!("  {name:24} {v:10.3}");
+    }
+    let residual: f64 = trace_rows
+        .iter()
+        .map(|(a, b)| {
+            let e = a.iter().zip(&w).map(|(a, x)| a * x).sum::<f64>();
+            ((e - b) / b).abs()
+        })
+        .sum::<f64>()
+        / trace_rows.len() as f64;
+    println!("  mean relative error of a pass's estimate: {residual:.3}");
     let mut names: Vec<&str> = per_unit.iter().map(|p| p.0).collect();
     names.dedup();
     names.sort_unstable();

@@ -27,6 +27,10 @@ const METHODS: &[&str] = &[
 const FRAMES: i32 = 5;
 
 fn frames(name: &str) -> Vec<Scene> {
+    frames_at(name, Resolution::new(64, 64))
+}
+
+fn frames_at(name: &str, resolution: Resolution) -> Vec<Scene> {
     let params = SceneParams {
         triangles: 3000,
         frames: FRAMES,
@@ -37,7 +41,7 @@ fn frames(name: &str) -> Vec<Scene> {
         .take(FRAMES as usize)
         .map(|f| {
             let mut s = anim.frame(f);
-            s.resolution = Resolution::new(64, 64);
+            s.resolution = resolution;
             s
         })
         .collect()
@@ -94,10 +98,34 @@ fn auto_answers_equal_every_fixed_method_on_every_builtin_scene() {
             }
         }
     }
-    // Over these scenes auto tried every build of moving geometry and every order it has.
-    for c in ["sah", "osah", "fbto", "sato", "sorted", "srdh"] {
+    // Over these scenes auto tried every build of moving geometry and every order it has (OSAH
+    // on larger frames: `osah_is_tried_only_where_its_build_can_pay`).
+    for c in ["sah", "fbto", "sato", "sorted", "srdh"] {
         assert!(chosen.contains(c), "auto never chose {c}: {chosen:?}");
     }
+}
+
+/// The camera-tree choices (`auto_choice` of the primary rows) of `auto8` on `scenes`.
+fn build_choices(name: &str, scenes: &[Scene]) -> Vec<String> {
+    let results = render_all(name, scenes, "auto8=build=auto,width=8,order=auto", 0);
+    let base = render_all(name, scenes, METHODS[0], 0);
+    for (r, b) in results.iter().zip(&base) {
+        assert_eq!(r.primary_ids, b.primary_ids, "frame {}", r.frame);
+    }
+    let primary = results.iter().flat_map(|r| &r.stats);
+    primary
+        .filter(|row| row.pass == "primary")
+        .map(|row| row.auto_choice.clone())
+        .collect()
+}
+
+#[test]
+fn osah_is_tried_only_where_its_build_can_pay() {
+    // 64x64 camera rays cannot win back what an OSAH build costs beyond SAH; 160x120 can.
+    let small = build_choices("city", &frames_at("city", Resolution::new(64, 64)));
+    assert!(small.iter().all(|c| c == "sah"), "{small:?}");
+    let large = build_choices("city", &frames_at("city", Resolution::new(160, 120)));
+    assert!(large.iter().any(|c| c == "explore:osah"), "{large:?}");
 }
 
 #[test]
@@ -143,7 +171,8 @@ fn choices(results: &[FrameResult]) -> Vec<(i32, String, String, String, u64)> {
 
 #[test]
 fn choices_repeat_for_a_seed() {
-    let scenes = frames("bedroom");
+    // Frames large enough for OSAH to be tried (an exploration of the camera tree).
+    let scenes = frames_at("bedroom", Resolution::new(160, 120));
     let spec = "a=build=auto,width=8,order=auto";
     let first = choices(&render_all("bedroom", &scenes, spec, 7));
     assert_eq!(first, choices(&render_all("bedroom", &scenes, spec, 7)));

@@ -241,7 +241,14 @@ impl Renderer {
             auto::mark_row(&mut primary_row, c, |b| b.name());
         }
         if counted_timed(settings).0 {
-            self.learn(build_choice, &primary, &orders, &shadows, at.frame);
+            self.learn(
+                build_choice,
+                &primary,
+                &orders,
+                &shadows,
+                settings,
+                at.frame,
+            );
         }
         let cached = self.cache.as_ref().expect("prepared above");
         let result = combine(scene, cached, primary, primary_row, shadows, settings);
@@ -643,10 +650,18 @@ impl Renderer {
         primary: &PrimaryPass,
         orders: &[LightOrder],
         shadows: &ShadowPasses,
+        settings: &RenderSettings,
         frame: u64,
     ) {
+        let wide = settings.width != BvhWidth::Two;
         if let Some(b) = build {
-            if let Some(m) = auto::measured(&primary.totals, primary.ray_count(), frame, true) {
+            let kernel = if wide {
+                auto::Kernel::WideClosest
+            } else {
+                auto::Kernel::BinaryClosest
+            };
+            let rays = primary.ray_count();
+            if let Some(m) = auto::measured(kernel, &primary.totals, rays, frame, true) {
                 self.auto.record_build(b.choice, m);
             }
         }
@@ -654,12 +669,14 @@ impl Renderer {
             orders.iter().zip(&shadows.rows).zip(&shadows.measured)
         {
             let Some(choice) = o.auto else { continue };
-            if let Some(m) = auto::measured(totals, row.rays, frame, *own_tree) {
+            let kernel = choice.choice.kernel(wide);
+            if let Some(m) = auto::measured(kernel, totals, row.rays, frame, *own_tree) {
                 self.auto.record_order(&row.light, choice.choice, m);
             }
             let sample = o.sample.zip(*sampled);
             if let Some((order, (work, rays))) = sample {
-                if let Some(m) = auto::measured(&work, rays, frame, false) {
+                let kernel = order.kernel(wide);
+                if let Some(m) = auto::measured(kernel, &work, rays, frame, false) {
                     self.auto.record_order(&row.light, order, m);
                 }
             }

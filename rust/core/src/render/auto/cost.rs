@@ -1,15 +1,61 @@
 //! The cost model of `auto`: exact work counts to estimated nanoseconds of this machine kind,
-//! through one table of calibrated weights ([`WEIGHTS`]).
+//! through one table of calibrated weights ([`WEIGHTS`]), priced per traversal kernel.
 
 use crate::trace::TraversalStats;
+
+/// The traversal a pass's rays ran: each prices a node entered differently (a binary node tests
+/// two boxes one by one, a wide one eight at once; front to back on a wide tree also sorts the
+/// children it hits), and camera and shadow rays cost differently to make.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// Shadow rays on a binary tree (front to back, or a light's SRDH tree).
+    BinaryAnyHit,
+    /// Shadow rays on a wide tree in a stored order (SATO, sorted per light).
+    WideAnyHit,
+    /// Shadow rays on a wide tree front to back (a sort of the hit children per node).
+    WideFrontToBack,
+    /// Camera rays (closest hit) on the binary tree.
+    BinaryClosest,
+    /// Camera rays (closest hit) on a wide tree.
+    WideClosest,
+}
+
+impl Kernel {
+    pub const ALL: [Kernel; 5] = [
+        Kernel::BinaryAnyHit,
+        Kernel::WideAnyHit,
+        Kernel::WideFrontToBack,
+        Kernel::BinaryClosest,
+        Kernel::WideClosest,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::BinaryAnyHit => "binary_any_hit",
+            Kernel::WideAnyHit => "wide_any_hit",
+            Kernel::WideFrontToBack => "wide_front_to_back",
+            Kernel::BinaryClosest => "binary_closest",
+            Kernel::WideClosest => "wide_closest",
+        }
+    }
+
+    fn is_camera(self) -> bool {
+        matches!(self, Kernel::BinaryClosest | Kernel::WideClosest)
+    }
+}
 
 /// Nanoseconds of wall time (both cores of the calibration machine) per unit of work.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Weights {
-    /// Per ray/box test (N_box), per ray/triangle test (N_T), per node entered (N_B + N_L).
+    /// Per ray/box test (N_box) and per ray/triangle test (N_T), whatever the kernel.
     pub box_test: f64,
     pub triangle_test: f64,
-    pub node_visit: f64,
+    /// Per ray made and traced, apart from its nodes: a shadow ray (light sample, ray set-up,
+    /// the mask's write) and a camera ray (its surface record).
+    pub shadow_ray: f64,
+    pub camera_ray: f64,
+    /// Per node entered (N_B + N_L), by kernel in the order of [`Kernel::ALL`].
+    pub node: [f64; 5],
     /// Building the binary tree, per triangle: binned SAH, and OSAH (the split builder).
     pub sah_triangle: f64,
     pub osah_triangle: f64,
@@ -27,38 +73,46 @@ pub struct Weights {
 }
 
 /// Measured by `cargo run --release -p antumbra-cli --example auto_weights` (100k triangles,
-/// 640x360, bedroom, city, forest; 2 cores, load about 4): box and triangle tests, and a wide
-/// front-to-back traversal's per-node sort, add nothing measurable beyond the nodes entered
-/// (non-negative least squares over 98 passes).
+/// 640x360, the five scenes; 2 cores, otherwise idle; medians of 3 timed passes). Without the
+/// per-ray terms the nodes were priced at 27 ns and took the rays' own cost with them, so
+/// orders that enter fewer nodes looked far cheaper than they trace.
 pub const WEIGHTS: Weights = Weights {
     box_test: 0.0,
-    triangle_test: 0.0,
-    node_visit: 27.2,
-    sah_triangle: 230.0,
-    osah_triangle: 285.0,
-    collapse_triangle: 46.0,
-    per_tree_node: 148.0,
-    tables_node: 322.0,
-    log_ray: 220.0,
-    sort_node: 81.0,
-    srdh_ray: 2097.0,
-    srdh_triangle: 460.0,
+    triangle_test: 3.37,
+    shadow_ray: 39.3,
+    camera_ray: 53.9,
+    node: [11.9, 5.20, 4.91, 9.30, 2.95],
+    sah_triangle: 139.0,
+    osah_triangle: 269.0,
+    collapse_triangle: 70.7,
+    per_tree_node: 164.0,
+    tables_node: 375.0,
+    log_ray: 135.0,
+    sort_node: 120.0,
+    srdh_ray: 1415.0,
+    srdh_triangle: 457.0,
 };
 
 impl Weights {
-    /// The estimated time of the traversal work `w`, ns.
-    pub fn trace_ns(&self, w: &TraversalStats) -> f64 {
-        self.box_test * w.boxes as f64
+    /// The estimated time of the traversal work `w` of `rays` rays on `kernel`, ns.
+    pub fn trace_ns(&self, kernel: Kernel, w: &TraversalStats, rays: u64) -> f64 {
+        let ray = if kernel.is_camera() {
+            self.camera_ray
+        } else {
+            self.shadow_ray
+        };
+        ray * rays as f64
+            + self.box_test * w.boxes as f64
             + self.triangle_test * w.triangles as f64
-            + self.node_visit * (w.inner + w.leaves) as f64
+            + self.node[kernel as usize] * (w.inner + w.leaves) as f64
     }
 
-    /// Estimated time per ray of the work `w` over `rays` rays, ns (0 without rays).
-    pub fn per_ray_ns(&self, w: &TraversalStats, rays: u64) -> f64 {
+    /// Estimated time per ray of the work `w` over `rays` rays on `kernel`, ns (0 without rays).
+    pub fn per_ray_ns(&self, kernel: Kernel, w: &TraversalStats, rays: u64) -> f64 {
         if rays == 0 {
             0.0
         } else {
-            self.trace_ns(w) / rays as f64
+            self.trace_ns(kernel, w, rays) / rays as f64
         }
     }
 }
@@ -68,18 +122,27 @@ mod tests {
     use super::*;
 
     #[test]
-    fn work_is_priced_linearly() {
+    fn work_is_priced_linearly_per_kernel() {
         let w = TraversalStats {
             inner: 2,
             leaves: 1,
             triangles: 4,
             boxes: 8,
         };
-        let ns = WEIGHTS.trace_ns(&w);
-        let expected =
-            8.0 * WEIGHTS.box_test + 4.0 * WEIGHTS.triangle_test + 3.0 * WEIGHTS.node_visit;
-        assert!((ns - expected).abs() < 1e-9);
-        assert!((WEIGHTS.per_ray_ns(&w, 2) - ns / 2.0).abs() < 1e-9);
-        assert_eq!(WEIGHTS.per_ray_ns(&w, 0), 0.0);
+        for kernel in Kernel::ALL {
+            let ns = WEIGHTS.trace_ns(kernel, &w, 2);
+            let ray = if kernel.is_camera() {
+                WEIGHTS.camera_ray
+            } else {
+                WEIGHTS.shadow_ray
+            };
+            let expected = 2.0 * ray
+                + 8.0 * WEIGHTS.box_test
+                + 4.0 * WEIGHTS.triangle_test
+                + 3.0 * WEIGHTS.node[kernel as usize];
+            assert!((ns - expected).abs() < 1e-9, "{kernel:?}");
+            assert!((WEIGHTS.per_ray_ns(kernel, &w, 2) - ns / 2.0).abs() < 1e-9);
+            assert_eq!(WEIGHTS.per_ray_ns(kernel, &w, 0), 0.0);
+        }
     }
 }

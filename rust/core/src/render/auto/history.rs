@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use super::cost::Kernel;
 use crate::order::ShadowOrder;
 
 /// A shadow order `auto` may pick for a light.
@@ -42,6 +43,17 @@ impl OrderChoice {
             OrderChoice::Sato => ShadowOrder::Sato,
             OrderChoice::Sorted => ShadowOrder::Sorted(Default::default()),
             OrderChoice::Srdh => ShadowOrder::Srdh(Default::default()),
+        }
+    }
+
+    /// The traversal its rays run, on a wide tree or not (SRDH always traces a binary tree:
+    /// the light's own, or the shared one front to back).
+    pub fn kernel(self, wide: bool) -> Kernel {
+        match self {
+            OrderChoice::Srdh => Kernel::BinaryAnyHit,
+            _ if !wide => Kernel::BinaryAnyHit,
+            OrderChoice::Fbto => Kernel::WideFrontToBack,
+            OrderChoice::Sato | OrderChoice::Sorted => Kernel::WideAnyHit,
         }
     }
 

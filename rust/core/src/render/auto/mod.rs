@@ -5,7 +5,7 @@ mod cost;
 mod history;
 mod policy;
 
-pub use cost::{Weights, WEIGHTS};
+pub use cost::{Kernel, Weights, WEIGHTS};
 pub use history::{BuildChoice, History, Measured, OrderChoice};
 pub use policy::{
     build_candidates, build_ns, choose_build, choose_order, order_candidates, order_estimate,
@@ -44,10 +44,17 @@ pub fn prep_rays(rays: u64, surfaces: u64, samples: u64) -> (u64, u64) {
     (log, srdh * samples)
 }
 
-/// What a counted frame teaches: the measured cost per ray of the work `totals` over `rays`.
-pub fn measured(totals: &TraversalStats, rays: u64, frame: u64, built: bool) -> Option<Measured> {
+/// What a counted frame teaches: the measured cost per ray of the work `totals` of `rays` rays
+/// on `kernel`.
+pub fn measured(
+    kernel: Kernel,
+    totals: &TraversalStats,
+    rays: u64,
+    frame: u64,
+    built: bool,
+) -> Option<Measured> {
     (rays > 0).then(|| Measured {
-        per_ray_ns: WEIGHTS.per_ray_ns(totals, rays),
+        per_ray_ns: WEIGHTS.per_ray_ns(kernel, totals, rays),
         frame,
         built,
     })

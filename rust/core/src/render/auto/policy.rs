@@ -241,15 +241,23 @@ pub fn choose_build(h: &History, c: &BuildContext, at: Moment) -> Choice<BuildCh
         BuildChoice::Keep => Some(at.frame),
         _ => h.build(b).map(|m| m.frame),
     };
-    explore_or_exploit(&estimates, measured, at, u32::MAX, candidates[0])
+    // Another build can win only by saving on the camera rays more than it costs over the best
+    // choice's build: tried only if that extra build is below WIN_SHARE of the best's trace.
+    let can_win = |b: BuildChoice, best: BuildChoice, best_ns: f64| {
+        let trace_ns = best_ns - build_ns(c, best);
+        build_ns(c, b) - build_ns(c, best) < WIN_SHARE * trace_ns
+    };
+    explore_or_exploit(&estimates, measured, can_win, at, u32::MAX, candidates[0])
 }
 
 /// The candidate of least estimate (the first on ties; `fallback` when none was measured yet),
-/// unless another is due a measurement: the first never measured, else on an exploration frame
-/// the one measured longest ago if that is at least [`STALE_FRAMES`] old.
+/// unless another that `can_win` against it is due a measurement: the first never measured,
+/// else on an exploration frame the one measured longest ago if that is at least
+/// [`STALE_FRAMES`] old.
 fn explore_or_exploit<T: Copy + PartialEq>(
     estimates: &[(T, Option<f64>)],
     measured_at: impl Fn(T) -> Option<u64>,
+    can_win: impl Fn(T, T, f64) -> bool,
     at: Moment,
     key: u32,
     fallback: T,
@@ -276,7 +284,12 @@ fn explore_or_exploit<T: Copy + PartialEq>(
             }
         }
     };
-    let others = || estimates.iter().filter(move |(o, _)| *o != exploit.choice);
+    let others = || {
+        let can_win = &can_win;
+        estimates.iter().filter(move |(o, _)| {
+            *o != exploit.choice && can_win(*o, exploit.choice, exploit.estimate_ns)
+        })
+    };
     let explore = |&(o, e): &(T, Option<f64>)| Choice {
         choice: o,
         estimate_ns: e.unwrap_or(0.0),
@@ -432,9 +445,12 @@ mod tests {
             vec![BuildChoice::Keep, BuildChoice::Osah]
         );
         h.record_build(BuildChoice::Sah, measured(100.0, 0));
-        // OSAH never measured: explored on the next frame.
+        // OSAH never measured: explored on the next frame, if its build could pay back.
         let ch = choose_build(&h, &c, at(1));
         assert_eq!((ch.choice, ch.explore), (BuildChoice::Osah, true));
+        let few_rays = BuildContext { rays: 1000, ..c };
+        let ch = choose_build(&h, &few_rays, at(1));
+        assert_eq!((ch.choice, ch.explore), (BuildChoice::Keep, false));
         // OSAH saves half or twice its build over this frame's rays.
         let build_per_ray = build_ns(&c, BuildChoice::Osah) / c.rays as f64;
         for (saving, expected) in [(0.5, BuildChoice::Keep), (2.0, BuildChoice::Osah)] {
