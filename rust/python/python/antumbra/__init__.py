@@ -16,27 +16,7 @@ accuracy over the :data:`KNOBS` (``trade_frame`` into a :class:`TradeFrame`, rec
 
 from . import errors
 from ._native import __version__
-from .client import (
-    COMPARE_COLUMNS,
-    DEFAULT_METHODS,
-    DEFAULT_PASSES,
-    PROTOCOL_VERSION,
-    Client,
-    LocalSession,
-    ProgressCallback,
-    Result,
-    colorize_difference,
-    colorize_heat,
-    default_socket_path,
-    mesh_hash,
-    read_exr,
-    read_recording,
-    render_settings,
-    settings_schema,
-    write_file_atomic,
-    write_stats_csv,
-    write_stats_json,
-)
+from .client import Client, default_socket_path
 from .errors import (
     AnswersDiffer,
     AntumbraError,
@@ -49,7 +29,27 @@ from .errors import (
     RequestError,
     SessionBusy,
 )
+from .files import (
+    colorize_difference,
+    colorize_heat,
+    read_exr,
+    read_recording,
+    write_file_atomic,
+    write_stats_csv,
+    write_stats_json,
+)
 from .report import CompareFrame, CompareReport
+from .result import Result
+from .session import (
+    COMPARE_COLUMNS,
+    DEFAULT_METHODS,
+    DEFAULT_PASSES,
+    PROTOCOL_VERSION,
+    LocalSession,
+    ProgressCallback,
+    mesh_hash,
+)
+from .settings import render_settings, settings_schema
 from .trade import KNOBS, TRADE_COLUMNS, TradeFrame, TradeReport
 
 __all__ = [
