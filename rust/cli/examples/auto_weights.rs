@@ -125,6 +125,7 @@ fn main() {
         _ => vec!["bedroom", "city", "forest", "colonnade", "hairball"],
     };
     let mut trace_rows = Vec::new();
+    let mut tags: Vec<String> = Vec::new();
     let mut per_unit: Vec<(&str, f64)> = Vec::new();
     for name in &scenes {
         let params = SceneParams {
@@ -193,6 +194,7 @@ fn main() {
                     work[if camera { 3 } else { 2 }] = n;
                     work[4 + kernel as usize] = nodes;
                     trace_rows.push((work, times[1] * 1e6));
+                    tags.push(format!("{name} {}", kernel.name()));
                 }
             }
         }
@@ -266,6 +268,18 @@ fn main() {
         .sum::<f64>()
         / trace_rows.len() as f64;
     println!("  mean relative error of a pass's estimate: {residual:.3}");
+    // Measured over estimated time per scene and kernel: what the model misses where.
+    let mut by_tag: std::collections::BTreeMap<&str, (f64, f64)> = Default::default();
+    for ((a, b), tag) in trace_rows.iter().zip(&tags) {
+        let e: f64 = a.iter().zip(&w).map(|(a, x)| a * x).sum();
+        let t = by_tag.entry(tag).or_default();
+        t.0 += b;
+        t.1 += e;
+    }
+    println!("measured / estimated, per scene and kernel:");
+    for (tag, (b, e)) in by_tag {
+        println!("  {tag:36} {:.3}", b / e);
+    }
     let mut names: Vec<&str> = per_unit.iter().map(|p| p.0).collect();
     names.dedup();
     names.sort_unstable();
