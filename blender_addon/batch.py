@@ -304,60 +304,19 @@ def run_merge(args, scene, frames, out: Path, client) -> int:
 
 def run_compare(args, scene, frames, options, out: Path, client, link) -> int:
     report, methods, baseline = compare_report(args, scene, client)
-    folder = report_dir(out)
-
-    def progress(job: CompareJob, done):
-        n = len(job.done) + len(job.skipped)
-        print(
-            f"antumbra: frame {done.frame} ({n}/{len(job.frames)}) {done.seconds:.2f} s | "
-            + " | ".join(done.stats_lines),
-            flush=True,
-        )
-
     job = CompareJob(
-        scene=scene,
-        frames=frames,
-        options=options,
-        link=link,
-        out_dir=folder,
-        load_images=False,
-        on_frame=progress,
+        **sweep_job(args, scene, frames, options, link, report_dir(out), report),
         methods=methods,
         baseline=baseline,
-        repeat=args.repeat,
-        report=report,
-        **warm_up(args, frames),
     )
-    if not args.restart:
-        job.skip_finished(set(report.frames()))
-        if job.skipped:
-            _say(f"resuming: {len(job.skipped)} frame(s) already compared")
-    _say(
-        f"{Path(bpy.data.filepath).name or '(unsaved scene)'}: {len(job.pending)} frame(s) to "
-        f"compare, {len(methods)} methods against {baseline}, "
-        + options.describe(settings_ui.defaults())
+    start = run_sweep(
+        job, args, link, "compared", f"compare, {len(methods)} methods against {baseline}"
     )
-    start = time.perf_counter()
-    try:
-        job.run()
-    finally:
-        link.close()
     html = report.write()
-    again = ", ".join(str(f) for f in job.warmed) or "none"
-    _say(
-        f"summary: {len(job.done)} compared, {len(job.skipped)} already done, "
-        f"{len(job.pending)} not compared, methods warmed up on (state only): {again}, "
-        f"{time.perf_counter() - start:.1f} s; report {html}"
-    )
+    say_summary(job, "compared", "methods warmed up on (state only)", start, f"report {html}")
     for line in compare_results.frame_lines(job.rows, baseline, job.mismatches):
         _say(f"  {line}")
-    for m in job.mismatches:
-        print(f"antumbra: error: {m['message']}", file=sys.stderr, flush=True)
-    if job.error:
-        print(f"antumbra: error: {job.error}", file=sys.stderr, flush=True)
-    if job.pending and not job.error:
-        print("antumbra: error: stopped before the last frame", file=sys.stderr, flush=True)
-    return 1 if job.mismatches or job.error or job.pending else 0
+    return sweep_status(job, [m["message"] for m in job.mismatches])
 
 
 def run_trade(args, scene, frames, options, out: Path, client, link) -> int:
@@ -368,8 +327,27 @@ def run_trade(args, scene, frames, options, out: Path, client, link) -> int:
         )
     except client.InvalidInput as e:
         raise SystemExit(f"--trade: {e}") from None
+    job = TradeJob(
+        **sweep_job(args, scene, frames, options, link, folder, report), knobs=args.trade
+    )
+    start = run_sweep(
+        job, args, link, "traded", f"trade over {', '.join(args.trade) or 'every knob'}"
+    )
+    md = report.write()
+    say_summary(job, "traded", "traded again for the knobs' state", start, str(md))
+    for r in report.recommendations():
+        _say(f"  {r['knob']}: {r['recommended']} (default {r['default']}): {r['why']}")
+    return sweep_status(job, report.mismatches)
 
-    def progress(job: TradeJob, done):
+
+# What --compare and --trade share: a job over the frames into a report folder, resumed from
+# what the folder holds, said and summed up in the same words but for the verb.
+
+
+def sweep_job(args, scene, frames, options, link, folder: Path, report) -> dict:
+    """The arguments a comparison's and a trade's job share (the batch loads no images)."""
+
+    def progress(job: CompareJob, done):
         n = len(job.done) + len(job.skipped)
         print(
             f"antumbra: frame {done.frame} ({n}/{len(job.frames)}) {done.seconds:.2f} s | "
@@ -377,7 +355,7 @@ def run_trade(args, scene, frames, options, out: Path, client, link) -> int:
             flush=True,
         )
 
-    job = TradeJob(
+    return dict(
         scene=scene,
         frames=frames,
         options=options,
@@ -385,41 +363,50 @@ def run_trade(args, scene, frames, options, out: Path, client, link) -> int:
         out_dir=folder,
         load_images=False,
         on_frame=progress,
-        knobs=args.trade,
         repeat=args.repeat,
         report=report,
         **warm_up(args, frames),
     )
+
+
+def run_sweep(job: CompareJob, args, link, done: str, plan: str) -> float:
+    """Runs the job on the frames its report lacks (``done``: "compared", "traded"; ``plan``:
+    what is to be done to each frame); its start time."""
     if not args.restart:
-        job.skip_finished(set(report.frames()))
+        job.skip_finished(set(job.report.frames()))
         if job.skipped:
-            _say(f"resuming: {len(job.skipped)} frame(s) already traded")
-    knobs = ", ".join(args.trade) or "every knob"
+            _say(f"resuming: {len(job.skipped)} frame(s) already {done}")
     _say(
         f"{Path(bpy.data.filepath).name or '(unsaved scene)'}: {len(job.pending)} frame(s) to "
-        f"trade over {knobs}, " + options.describe(settings_ui.defaults())
+        f"{plan}, " + job.options.describe(settings_ui.defaults())
     )
     start = time.perf_counter()
     try:
         job.run()
     finally:
         link.close()
-    md = report.write()
+    return start
+
+
+def say_summary(job: CompareJob, done: str, warmed: str, start: float, written: str):
+    """The summary line: frames done, skipped and left, the warm-ups, time, what was written."""
     again = ", ".join(str(f) for f in job.warmed) or "none"
     _say(
-        f"summary: {len(job.done)} traded, {len(job.skipped)} already done, "
-        f"{len(job.pending)} not traded, traded again for the knobs' state: {again}, "
-        f"{time.perf_counter() - start:.1f} s; {md}"
+        f"summary: {len(job.done)} {done}, {len(job.skipped)} already done, "
+        f"{len(job.pending)} not {done}, {warmed}: {again}, "
+        f"{time.perf_counter() - start:.1f} s; {written}"
     )
-    for r in report.recommendations():
-        _say(f"  {r['knob']}: {r['recommended']} (default {r['default']}): {r['why']}")
-    for m in report.mismatches:
+
+
+def sweep_status(job: CompareJob, mismatches: list[str]) -> int:
+    """Prints the mismatches and what stopped the job; the exit status (1 on any of them)."""
+    for m in mismatches:
         print(f"antumbra: error: {m}", file=sys.stderr, flush=True)
     if job.error:
         print(f"antumbra: error: {job.error}", file=sys.stderr, flush=True)
     if job.pending and not job.error:
         print("antumbra: error: stopped before the last frame", file=sys.stderr, flush=True)
-    return 1 if report.mismatches or job.error or job.pending else 0
+    return 1 if mismatches or job.error or job.pending else 0
 
 
 def run_spool(args, scene, frames, options, out: Path, client) -> int:

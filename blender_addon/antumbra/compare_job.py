@@ -116,8 +116,7 @@ class CompareJob(RenderJob):
         if self.report is not None:
             self.report.add(compared)
             self.report.write()
-        client = self.link.module
-        images = compare_results.load_images(client, compared) if self.load_images else {}
+        images = self._images(compared)
         self.rows.extend(compared.rows)
         self.mismatches.extend(compared.mismatches)
         done = FrameDone(
@@ -125,9 +124,7 @@ class CompareJob(RenderJob):
             result=compared.rows,  # the images stay out: a long run would hold them all
             seconds=time.perf_counter() - work.started + work.export.seconds,
             export_seconds=work.export.seconds,
-            stats_lines=compare_results.frame_lines(
-                compared.rows, compared.baseline, compared.mismatches
-            ),
+            stats_lines=self._frame_lines(compared),
             images=images,
             files=[],
             objects=len(work.export.objects),
@@ -136,3 +133,12 @@ class CompareJob(RenderJob):
         self.done.append(done)
         if self.on_frame is not None:
             self.on_frame(self, done)
+
+    # What a trade (``TradeJob``) records otherwise: its lines per frame, and no images.
+
+    def _images(self, compared) -> dict:
+        client = self.link.module
+        return compare_results.load_images(client, compared) if self.load_images else {}
+
+    def _frame_lines(self, compared) -> list[str]:
+        return compare_results.frame_lines(compared.rows, compared.baseline, compared.mismatches)

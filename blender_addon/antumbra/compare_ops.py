@@ -4,12 +4,11 @@ the end (the table, images, mismatches reported), and the operators that edit th
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import bpy
 
-from . import client_loader, compare_results, properties, results
+from . import client_loader, compare_results, properties, results, sweep_ops
 from .compare_job import CompareJob, report_dir, scene_name
 
 
@@ -27,53 +26,38 @@ def make_job(scene, frames: list[int], link, out_dir: Path) -> CompareJob:
         baseline=baseline,
         repeat=settings.compare_repeat,
     )
-    step = max(1, scene.frame_step)
-    before = frames[0] - step if frames[0] - step >= scene.frame_start else None
     settings.compare_table = ""
     return CompareJob(
-        scene=scene,
-        frames=frames,
-        options=settings.options(),
-        link=link,
-        out_dir=folder,
+        **sweep_ops.job_args(
+            scene, frames, link, folder, report, settings.compare_repeat, _on_frame(scene)
+        ),
         methods=specs,
         baseline=baseline,
-        repeat=settings.compare_repeat,
-        report=report,
-        before=before,
-        on_frame=_on_frame(scene),
     )
 
 
-def _on_frame(scene):
-    def record(job: CompareJob, done):
-        settings = scene.antumbra
-        settings.last_frame = done.frame
-        settings.compare_table = json.dumps(
-            {
-                "baseline": job.baseline,
-                "frames": len(job.done),
-                "methods": compare_results.table(job.rows, job.baseline, job.mismatches),
-            }
-        )
-        settings.progress = job.fraction
-        shown = [name for name in done.images.values() if " - " in name]
-        if shown:
-            results.show_in_image_editors(shown[-1])
+def _table(job: CompareJob) -> dict:
+    return {
+        "baseline": job.baseline,
+        "frames": len(job.done),
+        "methods": compare_results.table(job.rows, job.baseline, job.mismatches),
+    }
 
-    return record
+
+def _show_difference(done) -> None:
+    shown = [name for name in done.images.values() if " - " in name]
+    if shown:
+        results.show_in_image_editors(shown[-1])
+
+
+def _on_frame(scene):
+    return sweep_ops.on_frame(scene, "compare_table", _table, show=_show_difference)
 
 
 def report_mismatches(operator, job: CompareJob) -> None:
     """After the job ended as a render ends: the report's place, and every mismatch (frame,
     method, light, pixels) reported as an error."""
-    settings = job.scene.antumbra
-    if job.report is not None and job.done:
-        settings.status += f"; report in {job.out_dir}"
-    for m in job.mismatches:
-        operator.report({"ERROR"}, f"antumbra: {m['message']}")
-    if job.mismatches:
-        settings.status = f"answers differ in {len(job.mismatches)} case(s): {settings.status}"
+    sweep_ops.report_mismatches(operator, job, "report" if job.report is not None else None)
 
 
 class ANTUMBRA_OT_compare_method_add(bpy.types.Operator):

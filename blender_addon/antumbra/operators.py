@@ -13,7 +13,6 @@ import bpy
 from . import compare_ops, daemon, preferences, results, trade_ops
 from .compare_job import CompareJob
 from .jobs import RenderJob
-from .trade_job import TradeJob
 
 #: The job the UI is running (one at a time).
 _ACTIVE: RenderJob | None = None
@@ -195,50 +194,49 @@ class ANTUMBRA_OT_render(_JobOperator, bpy.types.Operator):
         return _make_job(context, self.animation)
 
 
-class ANTUMBRA_OT_compare(_JobOperator, bpy.types.Operator):
+class _SweepOperator(_JobOperator):
+    """A comparison or a trade: ``_ops`` (``compare_ops``, ``trade_ops``) makes its job and
+    reports its mismatches after the render's end."""
+
+    _ops = None
+
+    def make_job(self, context) -> CompareJob:
+        scene = context.scene
+        frames = frames_of(scene, self.animation)
+        return self._ops.make_job(scene, frames, current_link(), output_dir(scene.antumbra))
+
+    def report_end(self, job) -> set[str]:
+        ended = _report_end(self, job)
+        self._ops.report_mismatches(self, job)
+        return ended
+
+
+class ANTUMBRA_OT_compare(_SweepOperator, bpy.types.Operator):
     """Compare the methods of the list on this frame or the frame range: work per ray, time and
     answers per method, a report folder under the output folder, heat maps and differences"""
 
     bl_idname = "antumbra.compare"
     bl_label = "Compare methods"
     bl_options = {"REGISTER"}
+    _ops = compare_ops
 
     animation: bpy.props.BoolProperty(
         name="Animation", description="Compare over the scene's frame range", default=False
     )
 
-    def make_job(self, context) -> CompareJob:
-        scene = context.scene
-        frames = frames_of(scene, self.animation)
-        return compare_ops.make_job(scene, frames, current_link(), output_dir(scene.antumbra))
 
-    def report_end(self, job) -> set[str]:
-        ended = _report_end(self, job)
-        compare_ops.report_mismatches(self, job)
-        return ended
-
-
-class ANTUMBRA_OT_trade(_JobOperator, bpy.types.Operator):
+class ANTUMBRA_OT_trade(_SweepOperator, bpy.types.Operator):
     """Trade speed against accuracy on this frame or the frame range: each ticked knob (none:
     every knob) swept over its values, trade.csv, plots and trade.md under the output folder"""
 
     bl_idname = "antumbra.trade"
     bl_label = "Trade speed against accuracy"
     bl_options = {"REGISTER"}
+    _ops = trade_ops
 
     animation: bpy.props.BoolProperty(
         name="Animation", description="Trade over the scene's frame range", default=False
     )
-
-    def make_job(self, context) -> TradeJob:
-        scene = context.scene
-        frames = frames_of(scene, self.animation)
-        return trade_ops.make_job(scene, frames, current_link(), output_dir(scene.antumbra))
-
-    def report_end(self, job) -> set[str]:
-        ended = _report_end(self, job)
-        trade_ops.report_mismatches(self, job)
-        return ended
 
 
 class ANTUMBRA_OT_daemon_start(bpy.types.Operator):

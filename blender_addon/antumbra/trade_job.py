@@ -5,12 +5,10 @@ recorded in the trade folder, which is written after every frame."""
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .compare_job import CompareJob
-from .jobs import FrameDone
 
 #: The trade folder's name under the output folder (panel and batch).
 TRADE_DIR = "trade"
@@ -57,24 +55,9 @@ class TradeJob(CompareJob):
             **self.options.settings_kwargs(),
         )
 
-    def _record(self, work):
-        traded = work.result
-        if self.report is not None:
-            self.report.add(traded)
-            self.report.write()
-        self.rows.extend(traded.rows)
-        self.mismatches.extend(traded.mismatches)
-        done = FrameDone(
-            frame=work.frame,
-            result=traded.rows,
-            seconds=time.perf_counter() - work.started + work.export.seconds,
-            export_seconds=work.export.seconds,
-            stats_lines=frame_lines(traded.rows),
-            images={},
-            files=[],
-            objects=len(work.export.objects),
-            triangles=work.export.triangles,
-        )
-        self.done.append(done)
-        if self.on_frame is not None:
-            self.on_frame(self, done)
+    def _images(self, traded) -> dict:
+        """A trade's frames bring no images back."""
+        return {}
+
+    def _frame_lines(self, traded) -> list[str]:
+        return frame_lines(traded.rows)

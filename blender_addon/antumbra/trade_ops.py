@@ -4,12 +4,11 @@ shows after each frame, the mismatches it reports, and the operator that lists t
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import bpy
 
-from . import client_loader, properties
+from . import client_loader, properties, sweep_ops
 from .compare_job import scene_name
 from .trade_job import TradeJob, trade_dir
 
@@ -23,50 +22,32 @@ def make_job(scene, frames: list[int], link, out_dir: Path) -> TradeJob:
     report = client.TradeReport(
         folder, scene=scene_name(scene), knobs=knobs, repeat=settings.trade_repeat
     )
-    step = max(1, scene.frame_step)
-    before = frames[0] - step if frames[0] - step >= scene.frame_start else None
     settings.trade_table = ""
     return TradeJob(
-        scene=scene,
-        frames=frames,
-        options=settings.options(),
-        link=link,
-        out_dir=folder,
+        **sweep_ops.job_args(
+            scene, frames, link, folder, report, settings.trade_repeat, _on_frame(scene)
+        ),
         load_images=False,
         knobs=knobs,
-        repeat=settings.trade_repeat,
-        report=report,
-        before=before,
-        on_frame=_on_frame(scene),
     )
 
 
-def _on_frame(scene):
-    def record(job: TradeJob, done):
-        settings = scene.antumbra
-        settings.last_frame = done.frame
-        settings.trade_table = json.dumps(
-            {
-                "frames": len(job.done),
-                "folder": str(job.out_dir),
-                "recommendations": job.report.recommendations(),
-            }
-        )
-        settings.progress = job.fraction
+def _table(job: TradeJob) -> dict:
+    return {
+        "frames": len(job.done),
+        "folder": str(job.out_dir),
+        "recommendations": job.report.recommendations(),
+    }
 
-    return record
+
+def _on_frame(scene):
+    return sweep_ops.on_frame(scene, "trade_table", _table)
 
 
 def report_mismatches(operator, job: TradeJob) -> None:
     """After the job ended as a render ends: the folder's place, and every mismatch (knob,
     frame, value, light, pixels) reported as an error."""
-    settings = job.scene.antumbra
-    if job.done:
-        settings.status += f"; trade.md in {job.out_dir}"
-    for m in job.mismatches:
-        operator.report({"ERROR"}, f"antumbra: {m['message']}")
-    if job.mismatches:
-        settings.status = f"answers differ in {len(job.mismatches)} case(s): {settings.status}"
+    sweep_ops.report_mismatches(operator, job, "trade.md")
 
 
 class ANTUMBRA_OT_trade_knobs_reset(bpy.types.Operator):

@@ -8,50 +8,22 @@ method, light and pixels."""
 from __future__ import annotations
 
 import csv
-import json
-import shutil
-import subprocess
-import sys
-from importlib import metadata
-from pathlib import Path
 
 import pytest
-from conftest import SIZE, blender_env, run_blender
+from conftest import SIZE
+from sweep_panel import run_script
 
 import antumbra
 
-SCRIPT = Path(__file__).parent / "scripts" / "operator_compare.py"
 FRAMES = 3
 LIGHTS = ("Sun", "Window")
 
 
-def run_script(kind, zips, blend, antumbra_bin, tmp: Path) -> dict:
-    out = tmp / "out"
-    args = ["--zip", str(zips[kind]), "--kind", kind, "--blend", str(blend)]
-    args += ["--frames", str(FRAMES), "--out", str(out), "--binary", str(antumbra_bin)]
-    args += ["--socket", str(tmp / "d.sock")]
-    if kind == "legacy":
-        done = run_blender(["-P", str(SCRIPT), "--", *args], tmp / "home")
-    else:
-        (tmp / "home").mkdir()
-        done = subprocess.run(
-            [sys.executable, str(SCRIPT), "--", *args],
-            env=blender_env(tmp / "home"),
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
-    return json.loads((out / "report.json").read_text())
-
-
 @pytest.mark.parametrize("kind", ["legacy", pytest.param("extension", marks=pytest.mark.bpy)])
 def test_compare_operator(kind, addon_zips, scene_blend, antumbra_bin, short_tmp):
-    if kind == "legacy" and shutil.which("blender") is None:
-        pytest.fail("Debian's blender is not installed")
-    report = run_script(kind, addon_zips, scene_blend, antumbra_bin, short_tmp)
-    want = "3.4" if kind == "legacy" else ".".join(metadata.version("bpy").split(".")[:2])
-    assert report["version"].startswith(want), report
+    report = run_script(
+        "operator_compare.py", FRAMES, kind, addon_zips, scene_blend, antumbra_bin, short_tmp
+    )
     assert report["methods"] == list(antumbra.DEFAULT_METHODS)
     labels = [m.partition("=")[0] for m in antumbra.DEFAULT_METHODS]
     base = labels[0]
