@@ -5,6 +5,7 @@
 
 mod diff_maps;
 mod folder;
+mod frame_records;
 mod html;
 pub mod plots;
 mod record;

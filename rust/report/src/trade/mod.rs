@@ -4,21 +4,23 @@
 
 mod write;
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use antumbra_core::atomic_file::write_bytes_atomic;
-use antumbra_core::output::frame_stem;
 use antumbra_core::settings::NamedSettings;
 use antumbra_core::trade::{knob_choices, Trade, TradeFrame, TradeMismatch, TradeRow};
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
+
+use crate::frame_records::{self, settings_text, FrameRecords, Layout};
 
 pub use write::{recommendations, KnobReport, RunInfo};
 
-/// Where the records live, inside the folder, and the setup's file there.
-const FRAMES_DIR: &str = "frames";
-const SETUP_FILE: &str = "trade.json";
+const LAYOUT: Layout = Layout {
+    setup_file: "trade.json",
+    folder: "trade folder",
+    run: "trade",
+    pretty_frames: false,
+};
 
 /// What a trade measures; a folder is resumed only with the same setup.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -100,11 +102,25 @@ impl TradeRecord {
     }
 }
 
+impl frame_records::Setup for TradeSetup {
+    fn differences(&self, other: &Self, recorded: &str, given: &str) -> Vec<String> {
+        TradeSetup::differences(self, other, recorded, given)
+    }
+}
+
+impl frame_records::Frame for TradeRecord {
+    fn frame(&self) -> i32 {
+        self.frame
+    }
+
+    fn settings(&self) -> &NamedSettings {
+        &self.settings
+    }
+}
+
 /// A trade folder: its setup, the frames recorded so far, and the files written from them.
 pub struct TradeFolder {
-    out: PathBuf,
-    setup: TradeSetup,
-    frames: BTreeMap<i32, TradeRecord>,
+    records: FrameRecords<TradeSetup, TradeRecord>,
 }
 
 impl TradeFolder {
@@ -112,95 +128,39 @@ impl TradeFolder {
     /// folder recorded with another scene, other knobs or repeat is an error naming what
     /// differs.
     pub fn open(out: &Path, setup: TradeSetup) -> Result<Self> {
-        let path = out.join(FRAMES_DIR).join(SETUP_FILE);
-        if path.exists() {
-            let recorded: TradeSetup = read_json(&path)?;
-            let differ = recorded.differences(&setup, "recorded", "now");
-            if !differ.is_empty() {
-                bail!(
-                    "the trade folder {} was recorded for another trade: {} (use another \
-                     folder, or remove {})",
-                    out.display(),
-                    differ.join("; "),
-                    out.join(FRAMES_DIR).display()
-                );
-            }
-        }
-        let mut folder = Self::start(out, setup)?;
-        for (frame, path) in folder.record_files()? {
-            let record: TradeRecord = read_json(&path)?;
-            if record.frame != frame {
-                bail!("{} holds frame {}", path.display(), record.frame);
-            }
-            folder.frames.insert(frame, record);
-        }
-        Ok(folder)
+        let records = FrameRecords::open(out, &LAYOUT, setup)?;
+        Ok(TradeFolder { records })
     }
 
     /// Opens `out` afresh for `setup`: frames recorded there before are forgotten.
     pub fn create(out: &Path, setup: TradeSetup) -> Result<Self> {
-        let folder = Self::start(out, setup)?;
-        for (_, path) in folder.record_files()? {
-            std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
-        }
-        Ok(folder)
-    }
-
-    fn start(out: &Path, setup: TradeSetup) -> Result<Self> {
-        let text = serde_json::to_string_pretty(&setup)?;
-        write_bytes_atomic(&out.join(FRAMES_DIR).join(SETUP_FILE), text.as_bytes())?;
-        Ok(TradeFolder {
-            out: out.to_path_buf(),
-            setup,
-            frames: BTreeMap::new(),
-        })
-    }
-
-    /// `(frame, path)` of every record file in the folder, in frame order.
-    fn record_files(&self) -> Result<Vec<(i32, PathBuf)>> {
-        let dir = self.out.join(FRAMES_DIR);
-        let entries =
-            std::fs::read_dir(&dir).with_context(|| format!("reading {}", dir.display()))?;
-        let mut out = Vec::new();
-        for entry in entries {
-            let entry = entry.with_context(|| format!("reading {}", dir.display()))?;
-            let name = entry.file_name();
-            let frame = name
-                .to_str()
-                .and_then(|n| n.strip_prefix("frame_"))
-                .and_then(|n| n.strip_suffix(".json"))
-                .and_then(|n| n.parse::<i32>().ok());
-            if let Some(frame) = frame {
-                out.push((frame, entry.path()));
-            }
-        }
-        out.sort();
-        Ok(out)
+        let records = FrameRecords::create(out, &LAYOUT, setup)?;
+        Ok(TradeFolder { records })
     }
 
     pub fn out(&self) -> &Path {
-        &self.out
+        self.records.out()
     }
 
     pub fn setup(&self) -> &TradeSetup {
-        &self.setup
+        self.records.setup()
     }
 
     /// The frames recorded so far, in order.
     pub fn frames(&self) -> Vec<i32> {
-        self.frames.keys().copied().collect()
+        self.records.frames()
     }
 
     /// Every recorded mismatch, knob after knob, each in frame order.
     pub fn mismatches(&self) -> Vec<&TradeMismatch> {
         let mut all: Vec<&TradeMismatch> =
-            self.frames.values().flat_map(|f| &f.mismatches).collect();
+            self.records.records().flat_map(|f| &f.mismatches).collect();
         all.sort_by_key(|m| self.knob_index(&m.knob));
         all
     }
 
     fn knob_index(&self, name: &str) -> usize {
-        self.setup
+        self.setup()
             .knobs
             .iter()
             .position(|k| k.split('=').next() == Some(name))
@@ -211,12 +171,12 @@ impl TradeFolder {
     /// repeat, or of other shared settings than the frames recorded before, is refused.
     pub fn add(&mut self, record: TradeRecord) -> Result<()> {
         let mine = TradeSetup {
-            scene: self.setup.scene.clone(),
+            scene: self.setup().scene.clone(),
             knobs: record.knobs.clone(),
             repeat: record.repeat,
         };
         let differ = self
-            .setup
+            .setup()
             .differences(&mine, "the folder has", "the frame has");
         if !differ.is_empty() {
             bail!(
@@ -225,32 +185,22 @@ impl TradeFolder {
                 differ.join("; ")
             );
         }
-        if let Some(other) = self
-            .frames
-            .values()
-            .find(|r| r.frame != record.frame && r.settings != record.settings)
-        {
+        if let Some(other) = self.records.other_settings(record.frame, &record.settings) {
             bail!(
                 "frame {} was traded with other shared settings than frame {} of the folder: \
                  {} against {}",
                 record.frame,
                 other.frame,
-                settings_text(&record.settings),
-                settings_text(&other.settings)
+                settings_text(&record.settings, ", "),
+                settings_text(&other.settings, ", ")
             );
         }
-        let path = self
-            .out
-            .join(FRAMES_DIR)
-            .join(format!("{}.json", frame_stem(record.frame)));
-        write_bytes_atomic(&path, serde_json::to_string(&record)?.as_bytes())?;
-        self.frames.insert(record.frame, record);
-        Ok(())
+        self.records.add(record)
     }
 
     /// Every recorded row, knob after knob, each knob's in frame order (as the sweeps ran).
     pub fn rows(&self) -> Vec<&TradeRow> {
-        let mut rows: Vec<&TradeRow> = self.frames.values().flat_map(|f| &f.rows).collect();
+        let mut rows: Vec<&TradeRow> = self.records.records().flat_map(|f| &f.rows).collect();
         rows.sort_by_key(|r| self.knob_index(&r.knob));
         rows
     }
@@ -258,7 +208,7 @@ impl TradeFolder {
     /// One report per knob, in the setup's order.
     pub fn reports(&self) -> Result<Vec<KnobReport<'static>>> {
         let rows: Vec<TradeRow> = self.rows().into_iter().cloned().collect();
-        Ok(knob_choices(&self.setup.knobs)?
+        Ok(knob_choices(&self.setup().knobs)?
             .into_iter()
             .map(|(k, _)| KnobReport::of(k, &rows))
             .collect())
@@ -269,28 +219,28 @@ impl TradeFolder {
         let rows: Vec<TradeRow> = self.rows().into_iter().cloned().collect();
         let reports = self.reports()?;
         let settings = self
-            .frames
-            .values()
+            .records
+            .records()
             .next()
-            .map(|r| settings_text(&r.settings))
+            .map(|r| settings_text(&r.settings, ", "))
             .unwrap_or_default();
         let info = RunInfo {
-            scene: &self.setup.scene,
+            scene: &self.setup().scene,
             frames: frames_text(&self.frames()),
             size: rows
                 .iter()
                 .map(|r| (r.width, r.height))
                 .max()
                 .map_or(String::new(), |(w, h)| format!("{w}x{h}")),
-            repeat: self.setup.repeat,
+            repeat: self.setup().repeat,
             common: if settings == "none" {
                 String::new()
             } else {
                 settings
             },
         };
-        write::write(&self.out, &info, &reports, &rows)?;
-        Ok(self.out.join("trade.md"))
+        write::write(self.out(), &info, &reports, &rows)?;
+        Ok(self.out().join("trade.md"))
     }
 }
 
@@ -304,20 +254,4 @@ fn frames_text(frames: &[i32]) -> String {
             .collect::<Vec<_>>()
             .join(","),
     }
-}
-
-fn settings_text(s: &NamedSettings) -> String {
-    if s.0.is_empty() {
-        return "none".into();
-    }
-    s.0.iter()
-        .map(|(k, v)| format!("{k}={v}"))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))
 }
