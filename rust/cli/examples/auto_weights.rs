@@ -183,10 +183,10 @@ fn main() {
                     let n = row.rays as f64;
                     let nodes = (row.nb_per_ray + row.nl_per_ray) * n;
                     let camera = row.pass == "primary";
-                    let kernel = match (camera, wide) {
-                        (true, true) => Kernel::WideClosest,
-                        (true, false) => Kernel::BinaryClosest,
-                        (false, _) => order.kernel(wide),
+                    let kernel = if camera {
+                        Kernel::camera(wide)
+                    } else {
+                        order.kernel(wide)
                     };
                     let mut work = [0.0; K];
                     work[0] = row.nbox_per_ray * n;

@@ -655,11 +655,7 @@ impl Renderer {
     ) {
         let wide = settings.width != BvhWidth::Two;
         if let Some(b) = build {
-            let kernel = if wide {
-                auto::Kernel::WideClosest
-            } else {
-                auto::Kernel::BinaryClosest
-            };
+            let kernel = auto::Kernel::camera(wide);
             let rays = primary.ray_count();
             if let Some(m) = auto::measured(kernel, &primary.totals, rays, frame, true) {
                 self.auto.record_build(b.choice, m);

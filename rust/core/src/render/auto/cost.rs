@@ -39,6 +39,15 @@ impl Kernel {
         }
     }
 
+    /// The camera rays' traversal: on the wide tree at widths 4 and 8, else the binary one.
+    pub fn camera(wide: bool) -> Kernel {
+        if wide {
+            Kernel::WideClosest
+        } else {
+            Kernel::BinaryClosest
+        }
+    }
+
     fn is_camera(self) -> bool {
         matches!(self, Kernel::BinaryClosest | Kernel::WideClosest)
     }
