@@ -151,6 +151,32 @@ fn auto_keeps_the_tree_of_unmoved_geometry() {
     }
 }
 
+#[test]
+fn lights_with_few_rays_are_traced_with_nothing_prepared() {
+    // 16x15 pixels at 4 samples: fewer than MIN_PREP_RAYS rays for every light of every frame,
+    // so no light is sorted, given SRDH or SATO, or sampled (its sample could hold no ray).
+    const { assert!(16 * 15 * 4 < antumbra_core::render::auto::MIN_PREP_RAYS) };
+    for name in ["city", "bedroom"] {
+        let scenes = frames_at(name, Resolution::new(16, 15));
+        let auto = render_all(name, &scenes, "a=build=auto,width=8,order=auto", 0);
+        let shadow: Vec<_> = auto
+            .iter()
+            .flat_map(|r| &r.stats)
+            .filter(|s| s.pass == "shadow")
+            .collect();
+        assert!(!shadow.is_empty());
+        for s in shadow {
+            assert_eq!(
+                (s.auto_choice.as_str(), s.sort_ms),
+                ("fbto", 0.0),
+                "{name} frame {} light {}",
+                s.frame,
+                s.light
+            );
+        }
+    }
+}
+
 /// The `auto_choice` and `auto_estimate_ms` columns of every row of a run.
 fn choices(results: &[FrameResult]) -> Vec<(i32, String, String, String, u64)> {
     results
@@ -243,4 +269,36 @@ fn compare_takes_auto_among_the_methods() {
         .all(|r| r["auto_choice"].is_empty()));
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(summary.contains("auto8"), "{summary}");
+    // The hindsight bounds are over the fixed methods only; auto is judged against them.
+    assert!(
+        summary.contains("Choosing per frame, in hindsight"),
+        "{summary}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("compare.json")).unwrap()).unwrap();
+    let h = &json["hindsight"];
+    let total = |label: &str| -> f64 {
+        let mut frames: Vec<(&str, f64)> = rows
+            .iter()
+            .filter(|r| r["label"] == label)
+            .map(|r| (r["frame"].as_str(), r["frame_ms"].parse::<f64>().unwrap()))
+            .collect();
+        frames.dedup();
+        frames.iter().map(|(_, ms)| ms).sum()
+    };
+    let best = h["best_label"].as_str().unwrap();
+    let (base, sorted) = (total("base"), total("sorted8"));
+    assert_eq!(best, if base <= sorted { "base" } else { "sorted8" });
+    let best_ms = h["best_ms"].as_f64().unwrap();
+    assert!((best_ms - base.min(sorted)).abs() < 1e-9, "{h}");
+    let per_frame = h["per_frame_ms"].as_f64().unwrap();
+    let per_pass = h["per_pass_ms"].as_f64().unwrap();
+    // Equal up to rounding where one method wins every pass of a frame.
+    assert!(
+        per_pass <= per_frame + 1e-6 && per_frame <= best_ms + 1e-6,
+        "{h}"
+    );
+    assert_eq!(h["frames"], 4);
+    assert_eq!(h["choosers"][0][0], "auto8");
+    assert!((h["choosers"][0][1].as_f64().unwrap() - total("auto8")).abs() < 1e-9);
 }

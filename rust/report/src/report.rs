@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use antumbra_core::atomic_file::write_bytes_atomic;
 use antumbra_core::compare::{
-    pass_summaries, time_summaries, to_csv, CompareRow, Figures, JsonRow, MethodSpec, Mismatch,
-    PassSummary, TimeSummary,
+    hindsight, pass_summaries, time_summaries, to_csv, CompareRow, Figures, Hindsight, JsonRow,
+    MethodSpec, Mismatch, PassSummary, TimeSummary,
 };
 use antumbra_core::render::RenderSettings;
 use anyhow::{Context, Result};
@@ -64,12 +64,25 @@ struct JsonReport<'a> {
     mismatches: Vec<JsonMismatch<'a>>,
     passes: &'a [PassSummary],
     times: &'a [TimeSummary],
+    hindsight: Option<&'a Hindsight>,
     rows: Vec<JsonRow<'a>>,
 }
 
 impl Report<'_> {
     fn figures(&self) -> Figures {
         Figures::new(&self.rows)
+    }
+
+    /// What a per-frame or per-pass choice among the fixed methods could gain at most.
+    fn hindsight(&self) -> Option<Hindsight> {
+        let fixed: Vec<&str> = self
+            .specs
+            .iter()
+            .zip(&self.settings)
+            .filter(|(_, s)| !s.chooses())
+            .map(|(spec, _)| spec.label.as_str())
+            .collect();
+        hindsight(&self.rows, &fixed)
     }
 
     fn frame_span(&self) -> String {
@@ -100,6 +113,7 @@ impl Report<'_> {
         let baseline = self.baseline;
         let passes = pass_summaries(&figures, baseline);
         let times = time_summaries(&figures, baseline);
+        let hindsight = self.hindsight();
         let json = JsonReport {
             scene: self.scene,
             baseline,
@@ -126,11 +140,12 @@ impl Report<'_> {
                 .collect(),
             passes: &passes,
             times: &times,
+            hindsight: hindsight.as_ref(),
             rows: self.rows.iter().map(JsonRow::from).collect(),
         };
         let text = serde_json::to_string_pretty(&json)?;
         write_bytes_atomic(&out.join("compare.json"), text.as_bytes())?;
-        let tables = self.tables(&passes, &times);
+        let tables = self.tables(&passes, &times, hindsight.as_ref());
         let mut md = format!("# {}\n\n{}\n\n", self.heading(), self.verdict());
         for t in &tables {
             md += &t.markdown();
@@ -189,7 +204,12 @@ impl Report<'_> {
     }
 
     /// The summary tables: methods, work per pass kind, time per frame.
-    pub fn tables(&self, passes: &[PassSummary], times: &[TimeSummary]) -> Vec<Table> {
+    pub fn tables(
+        &self,
+        passes: &[PassSummary],
+        times: &[TimeSummary],
+        hindsight: Option<&Hindsight>,
+    ) -> Vec<Table> {
         let mut tables = vec![Table {
             title: "Methods".into(),
             note: "Settings not named take their defaults (docs/settings.md).".into(),
@@ -273,6 +293,7 @@ impl Report<'_> {
                 })
                 .collect(),
         });
+        tables.extend(hindsight.map(hindsight_table));
         tables
     }
 
@@ -281,7 +302,7 @@ impl Report<'_> {
         let figures = self.figures();
         let passes = pass_summaries(&figures, self.baseline);
         let times = time_summaries(&figures, self.baseline);
-        let tables = self.tables(&passes, &times);
+        let tables = self.tables(&passes, &times, self.hindsight().as_ref());
         let mut s = format!("{}\n{}\n\n", self.heading(), self.verdict());
         for t in tables
             .iter()
@@ -376,5 +397,34 @@ impl Report<'_> {
             .svg(900, 420)?,
         ));
         Ok(plots)
+    }
+}
+
+/// The hindsight bounds and the choosing methods against the best fixed method.
+fn hindsight_table(h: &Hindsight) -> Table {
+    let row = |what: String, ms: f64| vec![what, f2(ms), f3(ms / h.best_ms)];
+    let mut rows = vec![
+        row(format!("best fixed method ({})", h.best_label), h.best_ms),
+        row("each frame's fastest fixed method".into(), h.per_frame_ms),
+        row(
+            "each frame's fastest camera part and light passes".into(),
+            h.per_pass_ms,
+        ),
+    ];
+    rows.extend(h.choosers.iter().map(|(l, ms)| row(l.clone(), *ms)));
+    Table {
+        title: "Choosing per frame, in hindsight".into(),
+        note: format!(
+            "Totals over the {} frames every method rendered (sums of the per-frame medians). \
+             The two hindsight rows pick among the fixed methods after the fact: the most any \
+             choice per frame, or per light and frame, among them could save; the second may \
+             pair one method's tree with another's order, so it is a bound, not a method. Noise \
+             favours them: each takes the least of several noisy times.",
+            h.frames
+        ),
+        header: ["what", "total ms", "ratio to the best fixed"]
+            .map(String::from)
+            .to_vec(),
+        rows,
     }
 }

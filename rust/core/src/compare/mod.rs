@@ -2,11 +2,13 @@
 //! renders every frame with each, checks their answers against the baseline's and times them
 //! fairly ([`Comparison`]), and the summary tables in the papers' forms.
 
+mod hindsight;
 mod method;
 mod run;
 mod summary;
 mod tables;
 
+pub use hindsight::{hindsight, Hindsight};
 pub use method::{default_methods, MethodSpec, DEFAULT_METHODS};
 pub use run::{CompareRow, Comparison, FrameComparison, MethodFrame, Mismatch, Step, Timing};
 pub use summary::{

@@ -65,6 +65,12 @@ impl Default for RenderSettings {
 pub const MAX_SPP: u32 = 4096;
 
 impl RenderSettings {
+    /// Whether `auto` chooses the build or the shadow order as the frames go (else the method
+    /// is fixed).
+    pub fn chooses(&self) -> bool {
+        self.build == BuildMethod::Auto || self.shadow_order == ShadowOrder::Auto
+    }
+
     /// The method's name as it appears in statistics: builder, BVH width and shadow-ray child
     /// order, e.g. `sah/bin8/sorted:logging=sato:p=1:budget=0.05`; a smallest leaf other than 1
     /// is named with the builder (`osah-previous:leaf8/bin2/fbto`).

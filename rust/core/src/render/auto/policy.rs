@@ -84,12 +84,14 @@ pub struct LightContext<'a> {
 }
 
 /// The orders `auto` considers for a light: every order on a wide tree, front to back and SRDH
-/// on the binary one; none with per-light preparation for a light with few rays.
+/// on the binary one; for a light with few rays only those with nothing to prepare this frame
+/// (front to back, and SATO where the tree has it already): its whole pass may cost less than
+/// any preparation, and a sample of its few rays may hold none to measure an order by.
 pub fn order_candidates(c: &LightContext) -> Vec<OrderChoice> {
     OrderChoice::ALL
         .into_iter()
         .filter(|o| c.wide || matches!(o, OrderChoice::Fbto | OrderChoice::Srdh))
-        .filter(|o| c.rays >= MIN_PREP_RAYS || !o.per_light())
+        .filter(|&o| c.rays >= MIN_PREP_RAYS || prep_ns(c, o, true) == 0.0)
         .collect()
 }
 
@@ -133,7 +135,7 @@ pub struct OrderPlan {
 }
 
 /// The orders of one light this frame. The least estimate traces the light (on the first frame
-/// SATO on a wide tree, else front to back). One order due a measurement (never measured, or
+/// SATO where it is a candidate, else front to back). One order due a measurement (never measured, or
 /// stale on an exploration frame) is prepared and measured on a [`SAMPLE_SHARE`] of the rays
 /// beside it: one without per-light preparation first; one with it only if that preparation
 /// costs less than [`WIN_SHARE`] of the best estimate, since otherwise it can hardly win.
@@ -146,11 +148,12 @@ pub fn choose_order(h: &History, c: &LightContext, at: Moment) -> OrderPlan {
             Some((_, b)) if b <= e => acc,
             _ => Some((o, e)),
         });
-    let (chosen, estimate_ns) = best.unwrap_or(if c.wide {
-        (OrderChoice::Sato, 0.0)
+    let first = if candidates.contains(&OrderChoice::Sato) {
+        OrderChoice::Sato
     } else {
-        (OrderChoice::Fbto, 0.0)
-    });
+        OrderChoice::Fbto
+    };
+    let (chosen, estimate_ns) = best.unwrap_or((first, 0.0));
     let due = |o: OrderChoice| match h.order(c.name, o) {
         None => true,
         Some(m) => at.frame.saturating_sub(m.frame) >= STALE_FRAMES && at.explores(c.index),
@@ -381,10 +384,18 @@ mod tests {
     }
 
     #[test]
-    fn few_rays_get_no_per_light_preparation() {
+    fn few_rays_get_nothing_prepared() {
         let c = light(MIN_PREP_RAYS - 1);
+        assert_eq!(order_candidates(&c), vec![OrderChoice::Fbto]);
+        // Nothing to measure beside it, and front to back from the first frame on.
+        let plan = choose_order(&History::default(), &c, at(0));
+        assert_eq!((plan.choice.choice, plan.sample), (OrderChoice::Fbto, None));
+        let ready = LightContext {
+            sato_ready: true,
+            ..c
+        };
         assert_eq!(
-            order_candidates(&c),
+            order_candidates(&ready),
             vec![OrderChoice::Fbto, OrderChoice::Sato]
         );
         let binary = LightContext {
