@@ -231,13 +231,18 @@ fn main() {
                 seed: 0,
             };
             let sorted = ShadowOrder::Sorted(Default::default());
+            // Choosing the representative rays is part of the logging, as the renderer
+            // reports it.
+            let s = Instant::now();
             let rep = representative_rays(&primary, &sampler, plan, 0.05);
+            let choosing_ms = s.elapsed().as_secs_f64() * 1e3;
             if rep.len() > 100 {
                 let order = wide.prepare(&sorted, Some(&tables), &rep);
                 let antumbra_core::order::PreparedOrder::Sorted(o) = order else {
                     unreachable!()
                 };
-                per_unit.push(("log_ray", o.logging_ms / rep.len() as f64));
+                let logging_ms = choosing_ms + o.logging_ms;
+                per_unit.push(("log_ray", logging_ms / rep.len() as f64));
                 per_unit.push(("sort_node", o.sorting_ms / nodes));
             }
             let s = SrdhSettings::default();

@@ -23,7 +23,7 @@
 //! | nbox_per_ray | N_box: ray/box tests per ray |
 //! | back_facing | shadow samples behind the surface's own plane (shadowed, no ray) |
 //! | unreached | shadow samples of points outside a spot cone or behind an area light |
-//! | sort_ms | shadow: per-light preparation: logging + sorting of the sorted order; for `srdh`, ray selection + hit lists + SRDH build; for `sato`, `rtsah`, `random` (made once per tree and shared by the lights), the preparation on the first shadow row of the frame that made it (0 elsewhere and for other orders) |
+//! | sort_ms | shadow: per-light preparation: choosing the representative rays, logging and sorting of the sorted order; for `srdh`, ray selection + hit lists + SRDH build; for `sato`, `rtsah`, `random` (made once per tree and shared by the lights), the preparation on the first shadow row of the frame that made it (0 elsewhere and for other orders) |
 //! | references | triangle references in the structure's leaves (> triangles with spatial splits) |
 //! | visible_input | triangles of the structure's set the build was told are visible (ABVH/OSAH/VSAH) |
 //! | visibility_ms | time to get that set this frame (exact mode or first-frame prepass; else 0) |
