@@ -12,7 +12,8 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from sweep_script import args, cheap, exit_after, finish, open_scene, run
+from addon_script import exit_after
+from sweep_script import args, cheap, finish, open_scene, run
 
 
 def images() -> dict:

@@ -8,56 +8,31 @@ and OUT/report.json (operator result, scene state, add-on module name).
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
-import traceback
 
 import bpy
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from addon_script import exit_after, install, open_blend, parse_args
 
-def args():
-    argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
-    p = argparse.ArgumentParser()
-    p.add_argument("--zip", required=True)
-    p.add_argument("--kind", choices=("legacy", "extension"), required=True)
-    p.add_argument("--blend", required=True)
+
+def more_args(p) -> None:
     p.add_argument("--frame", type=int, required=True)
-    p.add_argument("--out", required=True)
-    p.add_argument("--binary", required=True)
-    p.add_argument("--socket", required=True)
     p.add_argument("--spp", type=int, default=2)
     p.add_argument("--record", default="")
-    return p.parse_args(argv)
-
-
-def install(kind: str, zip_path: str) -> str:
-    if kind == "legacy":
-        import addon_utils
-
-        bpy.ops.preferences.addon_install(filepath=zip_path)
-        addon_utils.enable("antumbra", default_set=True)
-        return "antumbra"
-    bpy.ops.extensions.package_install_files(
-        filepath=zip_path, repo="user_default", enable_on_install=True
-    )
-    return "bl_ext.user_default.antumbra"
 
 
 def main():
-    a = args()
+    a = parse_args(more_args)
     os.makedirs(a.out, exist_ok=True)
     report = {"version": bpy.app.version_string}
     module_name = install(a.kind, a.zip)
     report["module"] = module_name
     report["enabled"] = module_name in bpy.context.preferences.addons
-    bpy.ops.wm.open_mainfile(filepath=a.blend)
-    prefs = bpy.context.preferences.addons[module_name].preferences
-    prefs.binary_path = a.binary
-    prefs.socket_path = a.socket
-    scene = bpy.context.scene
+    scene = open_blend(a, module_name)
     scene.frame_set(a.frame)
     settings = scene.antumbra
     settings.method.spp = a.spp
@@ -94,12 +69,4 @@ def main():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-        code = 0
-    except Exception:  # noqa: BLE001 - the test reads the traceback
-        traceback.print_exc()
-        code = 1
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(code)
+    exit_after(main)
