@@ -34,7 +34,8 @@ struct Frame {
 }
 
 /// The bounds over `fixed` methods (labels of methods that keep one build and one order),
-/// on the frames that all of them rendered; `None` with fewer than two such methods.
+/// on the frames that every method rendered; `None` with fewer than two such methods or
+/// without frame times.
 pub fn hindsight(rows: &[CompareRow], fixed: &[&str]) -> Option<Hindsight> {
     let mut frames: BTreeMap<(&str, i32), Frame> = BTreeMap::new();
     let mut labels: Vec<&str> = Vec::new();
@@ -76,6 +77,11 @@ pub fn hindsight(rows: &[CompareRow], fixed: &[&str]) -> Option<Hindsight> {
             .map(|l| f(&frames[&(*l, n)]))
             .fold(f64::INFINITY, f64::min)
     };
+    let best_ms = total(best_label);
+    // Frames recorded without their totals (older records) give nothing to compare.
+    if best_ms <= 0.0 {
+        return None;
+    }
     let mut per_frame_ms = 0.0;
     let mut per_pass_ms = 0.0;
     for &n in &numbers {
@@ -90,7 +96,7 @@ pub fn hindsight(rows: &[CompareRow], fixed: &[&str]) -> Option<Hindsight> {
     }
     Some(Hindsight {
         best_label: best_label.to_string(),
-        best_ms: total(best_label),
+        best_ms,
         per_frame_ms,
         per_pass_ms,
         choosers: labels
@@ -161,7 +167,7 @@ mod tests {
     }
 
     #[test]
-    fn frames_some_method_lacks_are_left_out_and_one_fixed_method_gives_none() {
+    fn frames_some_method_lacks_are_left_out_and_one_fixed_method_or_no_times_give_none() {
         let rows: Vec<CompareRow> = [
             frame("a", 1, 100.0, &[("sun", 40.0, 0.0)]),
             frame("b", 1, 90.0, &[("sun", 40.0, 0.0)]),
@@ -171,5 +177,11 @@ mod tests {
         let h = hindsight(&rows, &["a", "b"]).expect("two fixed methods");
         assert_eq!((h.frames, h.best_label.as_str(), h.best_ms), (1, "b", 90.0));
         assert!(hindsight(&rows, &["a"]).is_none());
+        let untimed: Vec<CompareRow> = [
+            frame("a", 1, 0.0, &[("sun", 0.0, 0.0)]),
+            frame("b", 1, 0.0, &[("sun", 0.0, 0.0)]),
+        ]
+        .concat();
+        assert!(hindsight(&untimed, &["a", "b"]).is_none());
     }
 }
