@@ -203,7 +203,8 @@ impl Report<'_> {
         }
     }
 
-    /// The summary tables: methods, work per pass kind, time per frame.
+    /// The summary tables: methods, work per pass kind, time per frame, and the hindsight
+    /// bounds when there are two fixed methods or more.
     pub fn tables(
         &self,
         passes: &[PassSummary],

@@ -135,9 +135,9 @@ pub struct OrderPlan {
 }
 
 /// The orders of one light this frame. The least estimate traces the light (on the first frame
-/// SATO where it is a candidate, else front to back). One order due a measurement (never measured, or
-/// stale on an exploration frame) is prepared and measured on a [`SAMPLE_SHARE`] of the rays
-/// beside it: one without per-light preparation first; one with it only if that preparation
+/// SATO where it is a candidate, else front to back). One order due a measurement (never
+/// measured, or stale on an exploration frame) is prepared and measured on a [`SAMPLE_SHARE`]
+/// of the rays beside it: one without per-light preparation first; one with it only if that preparation
 /// costs less than [`WIN_SHARE`] of the best estimate, since otherwise it can hardly win.
 pub fn choose_order(h: &History, c: &LightContext, at: Moment) -> OrderPlan {
     let candidates = order_candidates(c);
