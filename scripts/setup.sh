@@ -4,7 +4,8 @@
 # headless, Xvfb (a test drives Blender's UI), Chromium and its driver (a test opens the
 # comparison report), the Rust toolchain's components, and a Python
 # venv (.venv) with the tools that build and test the Python client and the bpy 5.0.1 module,
-# and the version matrix's venvs (docs/blender.md): .venv-bpy53 (pyenv's Python 3.13, bpy 5.3)
+# and the version matrix's venvs (docs/blender.md): .venv-bpy42 and .venv-bpy45 (pyenv's Python
+# 3.11, the LTS bpy 4.2 and 4.5), .venv-bpy53 (pyenv's Python 3.13, bpy 5.3)
 # and .venv-py310 (pyenv's Python 3.10, the client alone), and .venv-openjd (openjd-cli, which
 # runs the farm job's tests). Safe to run again.
 set -euo pipefail
@@ -57,6 +58,8 @@ matrix_venv() { # DIR PYTHON_VERSION PACKAGES...
   fi
   "$dir/bin/pip" install -q --disable-pip-version-check "$@"
 }
+matrix_venv .venv-bpy42 3.11 "bpy==4.2.23" "numpy==1.26.4" "pytest==9.2.0"
+matrix_venv .venv-bpy45 3.11 "bpy==4.5.15" "numpy==1.26.4" "pytest==9.2.0"
 matrix_venv .venv-bpy53 3.13 "bpy==5.3.0" "numpy==2.5.5" "pytest==9.2.0"
 matrix_venv .venv-py310 3.10 "numpy==1.23.5" "pytest==9.2.0"
 

@@ -4,7 +4,8 @@
 # the Python client's tests against the real daemon binary, then the Blender add-on end to end
 # in Debian's Blender 3.4 (`blender -b`) and in the bpy 5.0.1 module, with the farm job run by
 # openjd (tests/blender/test_farm.py); then the version matrix's
-# other legs (docs/blender.md): the client on Python 3.10 and the add-on in the bpy 5.3 module.
+# other legs (docs/blender.md): the client on Python 3.10 and the add-on in the bpy 4.2 LTS,
+# 4.5 LTS and 5.3 modules, each script there ending through Python's own exit.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -50,4 +51,6 @@ matrix_leg() { # TITLE VENV PYTEST_ARGS...
 # drives the command line's report in Chromium through selenium and uses no client code.
 matrix_leg "python client on Python 3.10 (numpy 1.23)" .venv-py310 \
   tests/python --ignore tests/python/test_compare_report.py
+matrix_leg "blender add-on in the bpy 4.2 LTS module (Python 3.11)" .venv-bpy42 tests/blender -m bpy
+matrix_leg "blender add-on in the bpy 4.5 LTS module (Python 3.11)" .venv-bpy45 tests/blender -m bpy
 matrix_leg "blender add-on in the bpy 5.3 module (Python 3.13, numpy 2)" .venv-bpy53 tests/blender -m bpy

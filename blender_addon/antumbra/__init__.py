@@ -8,7 +8,7 @@ Installs as a legacy add-on (``bl_info``, Blender 3.4 to 4.1) or as an extension
 ``_vendor/`` for the legacy add-on; see ``client_loader``.
 """
 
-from . import daemon, engine, operators, preferences, properties, ui
+from . import daemon, engine, exit_hook, operators, preferences, properties, ui
 
 bl_info = {
     "name": "antumbra",
@@ -26,9 +26,11 @@ _MODULES = (preferences, properties, operators, ui, engine)
 def register():
     for module in _MODULES:
         module.register()
+    exit_hook.install(__name__, unregister)
 
 
 def unregister():
+    exit_hook.removed()
     daemon.shutdown_link()
     for module in reversed(_MODULES):
         module.unregister()

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import threading
 import traceback
 
 import bpy
@@ -52,13 +53,25 @@ def open_blend(a: argparse.Namespace, module_name: str):
 
 
 def exit_after(main) -> None:
-    """Runs ``main`` and exits 1 on any exception, 0 otherwise."""
+    """Runs ``main`` and exits 1 on any exception, 0 otherwise.
+
+    In the ``bpy`` module the script ends through Python's own exit, as any user's script does,
+    so a crash or hang at exit (Blender 4.2 and 4.5 with add-ons left registered) fails the
+    test; a Python thread still running then is an error too. Blender's binary exits 0 after a
+    ``-P`` script whatever happened, so there the status is set by ``os._exit``."""
     try:
         main()
         code = 0
     except Exception:  # noqa: BLE001 - the test reads the traceback
         traceback.print_exc()
         code = 1
+    if not bpy.app.binary_path:  # the bpy module
+        left = [t.name for t in threading.enumerate() if t is not threading.main_thread()]
+        if left:
+            print(f"addon_script: threads left at exit: {left}", file=sys.stderr)
+            code = code or 1
+        sys.stdout.flush()
+        sys.exit(code)
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)
