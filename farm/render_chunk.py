@@ -9,7 +9,8 @@ The one place that says how a chunk is rendered.
         --first S --last E --out DIR --addon DIR [--batch-args "..."]
 
 A chunk is Blender's own ``-a`` of frames A..min(A+K-1, E) (what ``-s A -e B`` would set) with
-the antumbra engine: the first ``-P`` enables the add-on from ``--addon`` and sets up the scene
+the antumbra engine: the first ``-P`` enables the add-on from ``--addon`` (a release zip, the
+folder it unzips to, or a checkout's ``blender_addon/``) and sets up the scene
 (frame range, multilayer EXR into DIR/frame_####.exr without overwriting, the method settings of
 the batch flags, the animation's start S for the engine's warm-up, a daemon of the task's own),
 Blender renders, and the second ``-P`` fails the task unless every frame of the chunk has its
@@ -30,6 +31,7 @@ import shlex
 import shutil
 import sys
 import tempfile
+import zipfile
 from pathlib import Path
 
 import bpy
@@ -74,7 +76,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--chunk-start", type=int, help="chunk: its first frame")
     parser.add_argument("--chunk-size", type=int, help="chunk: frames per chunk")
     parser.add_argument("--out", required=True, help="the output folder (shared by the chunks)")
-    parser.add_argument("--addon", required=True, help="the add-on's folder (batch.py)")
+    parser.add_argument(
+        "--addon",
+        required=True,
+        help="the add-on: a release zip, the folder it unzips to, or a checkout's blender_addon/",
+    )
     parser.add_argument("--binary", default="", help="the antumbra executable (daemon)")
     parser.add_argument("--batch-args", default="", help="more batch.py flags: settings, --compare")
     args = parser.parse_args(argv)
@@ -86,18 +92,72 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 
 def add_on_path(addon: str) -> None:
-    """Puts the add-on's folder (batch.py and the ``antumbra`` package) on the module path."""
-    if not (Path(addon) / "batch.py").is_file():
-        raise SystemExit(f"no batch.py in {addon}: --addon is the add-on's folder")
-    sys.path.insert(0, str(Path(addon).resolve()))
+    """Puts the add-on (the ``antumbra`` package) and its batch driver on the module path."""
+    root = add_on_root(Path(addon))
+    batch_dir = root if (root / "batch.py").is_file() else root / "antumbra"
+    sys.path.insert(0, str(root.resolve()))
+    sys.path.insert(0, str(batch_dir.resolve()))
+
+
+def add_on_root(addon: Path) -> Path:
+    """The folder holding the ``antumbra`` package, from what ``--addon`` names: a checkout's
+    ``blender_addon/`` (after ``build.py``), either release zip, or the folder it unzips to (the
+    folder holding ``antumbra/``, or the add-on's own folder). An extension (its wheel not
+    unpacked) or a zip is first set out as the legacy add-on in a folder of the task's own."""
+    if addon.is_dir():
+        if _is_legacy_package(addon / "antumbra"):
+            return addon
+        if addon.name == "antumbra" and _is_legacy_package(addon):
+            return addon.parent
+        if (addon / "__init__.py").is_file() and (addon / "batch.py").is_file():
+            return _set_out(addon)
+    elif zipfile.is_zipfile(addon):
+        unzipped = _task_folder("antumbra-zip-")
+        with zipfile.ZipFile(addon) as z:
+            z.extractall(unzipped)
+        return add_on_root(unzipped)
+    raise SystemExit(
+        f"--addon {addon}: not the antumbra add-on: give the release zip, the folder it unzips "
+        "to, or a checkout's blender_addon/ after blender_addon/build.py"
+    )
+
+
+def _is_legacy_package(folder: Path) -> bool:
+    """The add-on with its client unpacked under ``_vendor`` and ``batch.py`` (the legacy zip's
+    folder; a checkout's package after build.py has its batch.py beside it)."""
+    vendored = folder / "_vendor" / "antumbra" / "__init__.py"
+    batch = (folder / "batch.py").is_file() or (folder.parent / "batch.py").is_file()
+    return (folder / "__init__.py").is_file() and vendored.is_file() and batch
+
+
+def _set_out(extension: Path) -> Path:
+    """An extension's folder as the legacy add-on: a copy named ``antumbra`` with its bundled
+    wheel's client unpacked under ``_vendor`` (as build.py makes the legacy zip)."""
+    wheels = sorted((extension / "wheels").glob("antumbra-*.whl"))
+    if not wheels:
+        raise SystemExit(f"--addon {extension}: no client wheel under wheels/")
+    root = _task_folder("antumbra-addon-")
+    package = root / "antumbra"
+    shutil.copytree(extension, package)
+    with zipfile.ZipFile(wheels[-1]) as z:
+        z.extractall(package / "_vendor", [m for m in z.namelist() if m.startswith("antumbra/")])
+    bundled = package / "bin" / "antumbra"
+    if bundled.is_file():  # zip members lose their mode bits
+        bundled.chmod(0o755)
+    return root
+
+
+def _task_folder(prefix: str) -> Path:
+    """A folder of this task's own, removed when Blender exits."""
+    folder = Path(tempfile.mkdtemp(prefix=prefix, dir="/tmp"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder
 
 
 def private_socket() -> Path:
     """A socket of the task's own (short: Unix socket paths are limited), so the task starts a
-    daemon for itself alone; the folder goes when Blender exits."""
-    folder = Path(tempfile.mkdtemp(prefix="antumbra-chunk-", dir="/tmp"))
-    atexit.register(shutil.rmtree, folder, ignore_errors=True)
-    return folder / "d.sock"
+    daemon for itself alone."""
+    return _task_folder("antumbra-chunk-") / "d.sock"
 
 
 def set_up_engine(args: argparse.Namespace) -> None:
@@ -108,7 +168,7 @@ def set_up_engine(args: argparse.Namespace) -> None:
     addon_utils.enable("antumbra", default_set=True, handle_error=None)
     import batch
 
-    from antumbra import client_loader, settings_ui
+    from antumbra import client_loader, output_format, settings_ui
 
     knobs = list(client_loader.load().KNOBS)
     flags = batch.parse_args(["--out", args.out, *shlex.split(args.batch_args)], knobs)
@@ -122,8 +182,7 @@ def set_up_engine(args: argparse.Namespace) -> None:
     )
     r = scene.render
     r.filepath = str(Path(args.out).resolve() / OUTPUT)
-    r.image_settings.file_format = "OPEN_EXR_MULTILAYER"
-    r.image_settings.color_depth = "32"
+    output_format.set_multilayer_exr(r.image_settings)
     # A frame whose EXR exists is skipped (a task run again renders what is missing); no
     # placeholders, so a task that dies mid-frame leaves no empty file that counts as done.
     r.use_overwrite, r.use_placeholder = False, False

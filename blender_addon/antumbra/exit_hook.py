@@ -11,22 +11,20 @@ is still registered, and its classes drop their functions and property definitio
 from __future__ import annotations
 
 import atexit
-import sys
 
 import bpy
 
 #: The add-on's unregister while it is registered, else None.
 _unregister = None
-#: The add-on's modules, as they were when it was last registered.
-_modules: list = []
+#: The add-on's package name (``antumbra``, or ``bl_ext.REPO.antumbra`` as an extension).
+_package = ""
 _installed = False
 
 
 def install(package: str, unregister) -> None:
     """The add-on is registered: ``unregister`` runs at Python's exit unless it ran before."""
-    global _unregister, _modules, _installed
-    _unregister = unregister
-    _modules = [m for n, m in sys.modules.items() if n == package or n.startswith(package + ".")]
+    global _unregister, _package, _installed
+    _unregister, _package = unregister, package
     if not _installed:
         atexit.register(_at_exit)
         _installed = True
@@ -43,14 +41,25 @@ def _at_exit() -> None:
         if _unregister is not None:
             _unregister()
     finally:
-        for module in _modules:
-            _strip_classes(module)
+        for cls in _classes_of(_package):
+            _strip(cls)
 
 
-def _strip_classes(module) -> None:
-    for value in list(vars(module).values()):
-        if isinstance(value, type) and issubclass(value, bpy.types.bpy_struct):
-            for attr, member in list(vars(value).items()):
-                if callable(member) or isinstance(member, (staticmethod, classmethod, property)):
-                    delattr(value, attr)
-            value.__annotations__ = {}
+def _classes_of(package: str) -> list[type]:
+    """Every Blender class the package defined, also those made anew at each registration (the
+    panel's settings group) that no module refers to any more."""
+    found, todo = [], [bpy.types.bpy_struct]
+    while todo:
+        cls = todo.pop()
+        todo.extend(cls.__subclasses__())
+        module = getattr(cls, "__module__", "") or ""
+        if module == package or module.startswith(package + "."):
+            found.append(cls)
+    return found
+
+
+def _strip(cls: type) -> None:
+    for attr, member in list(vars(cls).items()):
+        if callable(member) or isinstance(member, (staticmethod, classmethod, property)):
+            delattr(cls, attr)
+    cls.__annotations__ = {}

@@ -194,7 +194,9 @@ def register():
     bpy.types.Scene.antumbra = bpy.props.PointerProperty(type=AntumbraSettings)
     bpy.app.handlers.load_post.append(_prefill_methods)
     # The scenes open now (enabling the add-on); bpy.data is read-only inside register().
-    bpy.app.timers.register(_prefill_methods, first_interval=0.0)
+    # Persistent: a file loaded before it ran (the bpy module runs no timer) would drop it and
+    # Blender would keep its function, and with it bpy, alive past Python (exit_hook).
+    bpy.app.timers.register(_prefill_methods, first_interval=0.0, persistent=True)
 
 
 def unregister():

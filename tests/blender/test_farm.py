@@ -15,6 +15,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -80,11 +81,13 @@ def openjd(env: dict, *args: str) -> subprocess.CompletedProcess:
     )
 
 
-def job_params(blend: Path, out: Path, antumbra_bin: Path, *extra: str) -> list[str]:
+def job_params(
+    blend: Path, out: Path, antumbra_bin: Path, *extra: str, addon: Path = ADDON
+) -> list[str]:
     params = {
         "BlendFile": blend,
         "OutputDir": out,
-        "AddonDir": ADDON,
+        "AddonDir": addon,
         "AntumbraBinary": antumbra_bin,
         "FrameStart": 1,
         "FrameEnd": FRAMES,
@@ -150,6 +153,13 @@ class Farm:
         assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
         return done
 
+    def sequential(self) -> Path:
+        """The engine's one sequential run over every frame (made once)."""
+        seq = self.tmp / "seq"
+        if not (seq / "stats.csv").is_file():
+            self.engine(seq)
+        return seq
+
     def batch(self, out: Path, *extra: str) -> subprocess.CompletedProcess:
         """One sequential batch run over every frame."""
         args = [str(self.blend), "-P", str(ADDON / "batch.py"), "--", "--out", str(out)]
@@ -203,8 +213,7 @@ def test_bundle_passes_openjd_check(antumbra_bin, tmp_path):
 
 
 def test_chunks_equal_one_run_and_a_chunk_resumes(farm):
-    seq, out = farm.tmp / "seq", farm.tmp / "farm"
-    farm.engine(seq)
+    seq, out = farm.sequential(), farm.tmp / "farm"
     # The test means something: one run reuses its trees at frame 5, the second chunk's first.
     _, seq_rows = rows_without_times(seq / "stats.csv")
     assert {r["rebuilt"] for r in seq_rows if r["frame"] == "5"} == {"false"}
@@ -271,3 +280,23 @@ def test_chunked_comparison_equals_one_run(farm):
     assert len(rows) == FRAMES * 2 * 3  # frames x methods x passes (primary, Sun, Lamp)
     assert (header, rows) == rows_without_times(seq / "compare" / "compare.csv")
     assert (out / "compare" / "report.html").is_file()
+
+
+@pytest.mark.parametrize("kind", ["legacy", "extension"])
+def test_a_chunk_runs_from_the_release_zip(farm, kind, tmp_path):
+    """No checkout: the job bundle and the add-on unzipped from either release zip, each in a
+    folder of its own (the extension's client wheel is unpacked by the task)."""
+    bundle, addon, out = tmp_path / "farm", tmp_path / "addon", tmp_path / "out"
+    shutil.copytree(FARM, bundle)
+    with zipfile.ZipFile(farm.addon_zips[kind]) as z:
+        z.extractall(addon)
+    params = job_params(farm.blend, out, farm.antumbra_bin, addon=addon)
+    done = openjd(
+        farm.env,
+        *("run", str(bundle / "template.yaml"), *params, "-p", f"FarmDir={bundle}"),
+        *("--step", "Render", "--task-param", "ChunkStart=5"),
+    )
+    assert done.returncode == 0, done.stdout[-5000:] + done.stderr[-3000:]
+    assert frame_lines(done.stdout) == [5, 6, 7, 8], done.stdout
+    assert "warmed up on (state only): 3, 4" in done.stdout
+    assert differing_exrs(farm.sequential(), out, range(5, 9)) == []
