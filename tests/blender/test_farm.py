@@ -26,6 +26,8 @@ import antumbra
 
 FARM = REPO / "farm"
 TEMPLATE = FARM / "template.yaml"
+#: Blender's command line over the bpy module (the farm job in the module's Blender).
+BPY_BLENDER = Path(__file__).parent / "bpy_blender.py"
 FRAMES, CHUNK = 12, 4
 #: The settings every run here uses: OSAH from the previous frame's visible set (as batch flags,
 #: and as the engine's settings).
@@ -168,10 +170,9 @@ class Farm:
         assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
         return done
 
-    def job(self, out: Path, *extra: str) -> subprocess.CompletedProcess:
-        return openjd(
-            self.env, "run", str(TEMPLATE), *job_params(self.blend, out, self.antumbra_bin, *extra)
-        )
+    def job(self, out: Path, *extra: str, addon: Path = ADDON) -> subprocess.CompletedProcess:
+        params = job_params(self.blend, out, self.antumbra_bin, *extra, addon=addon)
+        return openjd(self.env, "run", str(TEMPLATE), *params)
 
 
 @pytest.fixture(scope="module")
@@ -299,4 +300,27 @@ def test_a_chunk_runs_from_the_release_zip(farm, kind, tmp_path):
     assert done.returncode == 0, done.stdout[-5000:] + done.stderr[-3000:]
     assert frame_lines(done.stdout) == [5, 6, 7, 8], done.stdout
     assert "warmed up on (state only): 3, 4" in done.stdout
+    assert differing_exrs(farm.sequential(), out, range(5, 9)) == []
+
+
+@pytest.mark.bpy
+def test_a_chunk_runs_in_the_bpy_module(farm, tmp_path):
+    """The job in this Python's bpy module (4.2, 4.5, 5.x: each sets the output format its own
+    way) through ``bpy_blender.py``, Blender's command line over the module, from the legacy
+    zip alone: the chunk's frames equal Debian 3.4's sequential run, bit for bit."""
+    import sys
+
+    blender = tmp_path / "blender"
+    blender.write_text(f'#!/bin/sh\nexec "{sys.executable}" "{BPY_BLENDER}" "$@"\n')
+    blender.chmod(0o755)
+    addon, out = tmp_path / "addon", tmp_path / "out"
+    with zipfile.ZipFile(farm.addon_zips["legacy"]) as z:
+        z.extractall(addon)
+    done = farm.job(
+        out,
+        *("-p", f"BlenderExecutable={blender}", "--step", "Render", "--task-param", "ChunkStart=5"),
+        addon=addon,
+    )
+    assert done.returncode == 0, done.stdout[-5000:] + done.stderr[-3000:]
+    assert frame_lines(done.stdout) == [5, 6, 7, 8], done.stdout
     assert differing_exrs(farm.sequential(), out, range(5, 9)) == []
