@@ -34,7 +34,8 @@ if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
 .venv/bin/pip install -q --disable-pip-version-check \
-  "maturin==1.16.0" "numpy==1.26.4" "pytest==9.2.0" "ruff==0.17.5" "bpy==5.0.1" "selenium==4.38.0"
+  "maturin==1.16.0" "numpy==1.26.4" "pytest==9.2.0" "ruff==0.17.5" "bpy==5.0.1" "selenium==4.38.0" \
+  "pillow==11.3.0"
 
 # The version matrix: each venv needs its Python from pyenv (or PATH); a machine without it gets
 # no venv and scripts/test.sh says the leg was not run.

@@ -14,6 +14,7 @@ exists): the daemon builds their trees and traces their camera rays only
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from dataclasses import dataclass, field
@@ -21,7 +22,7 @@ from pathlib import Path
 
 import bpy
 
-from . import daemon, passes, preferences, results
+from . import daemon, passes, preferences, results, view_settings
 from .export import Exporter, ExportError
 from .jobs import (
     RETRIES_PER_FRAME,
@@ -161,27 +162,29 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
             for f in before:
                 # The render's own depsgraph at another frame (as for motion blur).
                 self.frame_set(f, 0.0)
-                self._request(job, self._export(job, depsgraph, f), warm_up=True)
+                label = f"warm-up on frame {f} for frame {frame}"
+                self._request(job, self._export(job, depsgraph, f, label), label, warm_up=True)
                 job.last = f
         finally:
             self.frame_set(frame, 0.0)
         _say("warmed up on (state only): " + ", ".join(map(str, before)))
 
-    def _export(self, job: EngineJob, depsgraph, frame: int):
+    def _export(self, job: EngineJob, depsgraph, frame: int, label: str):
+        """The frame exported; ``label`` names it on the status line (a frame or a warm-up)."""
         scene = depsgraph.scene
         if job.exporter is None:
             job.exporter = Exporter(job.link.module, normals=job.options.wants_normals())
-        self.update_stats("", f"antumbra: frame {frame}: export")
+        self.update_stats("", f"antumbra: {label}: export")
         return job.exporter.frame(depsgraph, scene, frame, scene.render.resolution_percentage)
 
-    def _request(self, job: EngineJob, export, warm_up: bool = False):
+    def _request(self, job: EngineJob, export, label: str, warm_up: bool = False):
         """Sends a frame and renders it (or warms up on it), through daemon losses."""
         client = job.link.module
         retries = 0
         while True:
             work = _Request(job, export, reconnect=retries > 0, warm_up=warm_up)
             work.start()
-            self._wait(job, work, export.frame)
+            self._wait(job, work, label)
             if work.error is None:
                 return work.result
             if is_cancelled(client, work.error):
@@ -197,7 +200,8 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
     def _render_frame(self, job: EngineJob, depsgraph, frame: int) -> FrameDone:
         started = time.perf_counter()
         scene = depsgraph.scene
-        export = self._export(job, depsgraph, frame)
+        label = f"frame {frame}"
+        export = self._export(job, depsgraph, frame, label)
         r = scene.render
         size = job.options.size(r.resolution_x, r.resolution_y, r.resolution_percentage)
         if size != (self.resolution_x, self.resolution_y):
@@ -206,7 +210,7 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
                 f"antumbra {size[0]} x {size[1]}"
             )
         self.update_progress(0.1)
-        result = self._request(job, export)
+        result = self._request(job, export, label)
         job.last = frame
         self.update_progress(1.0)
         return FrameDone(
@@ -221,7 +225,7 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
             triangles=export.triangles,
         )
 
-    def _wait(self, job: EngineJob, work: _Request, frame: int):
+    def _wait(self, job: EngineJob, work: _Request, label: str):
         """On the render thread while the daemon works: progress, and Blender's cancel flag
         passed on to the daemon (until a cancel is sent or the request ends)."""
         cancel_sent, shown = False, None
@@ -230,7 +234,7 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
             stage, done, total = work.stage
             if stage and work.stage != shown:
                 shown = work.stage
-                self.update_stats("", f"antumbra: frame {frame}: {stage}")
+                self.update_stats("", f"antumbra: {label}: {stage}")
                 self.update_progress(0.1 + 0.8 * (done + 1) / max(1, total + 1))
             if not cancel_sent and self.test_break():
                 work.cancelled = True
@@ -300,15 +304,31 @@ def _on_write(scene, *_args):
     if job is None or frame not in job.pending:
         return
     record = job.pending.pop(frame)
-    out = Path(bpy.path.abspath(scene.render.frame_path(frame=frame))).parent
+    out = stats_folder(scene, frame)
     out.mkdir(parents=True, exist_ok=True)
     results.write_frame_stats(out, record)
     results.write_tables(out)
 
 
+def stats_folder(scene, frame: int) -> Path:
+    """Where the job's statistics go. Beside Blender's frames when the output path names their
+    files (``//render/shot_####``: the user's own name for this job's frames); when it names
+    only a folder (Blender's default ``/tmp/``, shared by every scene), in a folder of the
+    .blend's own inside it (``/tmp/bedroom.antumbra/``), so another scene's render does not
+    overwrite the tables."""
+    frames = Path(bpy.path.abspath(scene.render.frame_path(frame=frame))).parent
+    if os.path.basename(bpy.path.abspath(scene.render.filepath)):
+        return frames
+    return frames / f"{Path(bpy.data.filepath).stem or 'untitled'}.antumbra"
+
+
 @bpy.app.handlers.persistent
-def _on_init(*_args):
+def _on_init(scene=None, *_args):
     end_job()  # a job left over (a render whose end Blender did not report)
+    scene = scene if isinstance(scene, bpy.types.Scene) else bpy.context.scene
+    if scene is not None:
+        # Before any frame is written: antumbra's values as values, another engine's own view.
+        view_settings.follow_engine(scene, ENGINE_ID)
 
 
 @bpy.app.handlers.persistent
@@ -338,10 +358,12 @@ def register():
         panel.COMPAT_ENGINES.add(ENGINE_ID)
     for name, handler in _HANDLERS:
         getattr(bpy.app.handlers, name).append(handler)
+    view_settings.register(ENGINE_ID)
 
 
 def unregister():
     end_job()
+    view_settings.unregister()
     for name, handler in _HANDLERS:
         handlers = getattr(bpy.app.handlers, name)
         if handler in handlers:

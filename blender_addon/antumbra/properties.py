@@ -55,6 +55,17 @@ class AntumbraSettings(bpy.types.PropertyGroup):
     heat_maps: bpy.props.BoolProperty(
         name="Heat maps", description="Node, leaf and triangle work per pixel", default=True
     )
+    view_as_values: bpy.props.BoolProperty(
+        name="Show values as values",
+        description="While antumbra renders this scene, show and save its passes through the "
+        "Standard view (a lit pixel is 255, a heat map has its legend's colours); your view "
+        "transform and look come back with another engine",
+        default=True,
+    )
+    saved_view: bpy.props.StringProperty(
+        description="The view settings antumbra's Standard view replaced (JSON)",
+        options={"HIDDEN"},
+    )
     output_dir: bpy.props.StringProperty(
         name="Output",
         description="Folder for per-frame EXR/PNG files and the statistics tables",

@@ -78,6 +78,10 @@ def draw_panel(layout, context):
     col.prop(settings, "resolution_scale")
     col.label(text=size_text(context.scene))
     col.prop(settings, "heat_maps")
+    col.prop(settings, "view_as_values")
+    if settings.saved_view:  # say whose view is on, and that the user's comes back
+        saved = json.loads(settings.saved_view).get("view_transform", "")
+        col.label(text=f"Standard view while antumbra renders ({saved} with other engines)")
     row = layout.row(align=True)  # the engine's warm-up (a farm's chunk)
     row.prop(settings, "use_animation_start", text="")
     sub = row.row()

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -19,6 +20,7 @@ import zipfile
 from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import blender_env, cli_render, run_blender
 from test_batch import NAN_SCENE
@@ -443,3 +445,101 @@ def test_pass_names_longer_than_blender_keeps_are_shortened_uniquely(
         # The pass was filled: the light lights some pixels and the cube shadows others.
         assert 0.0 < channels[k].mean() < 1.0, k
     assert channels[masks[0]].tobytes() != channels[masks[1]].tobytes()
+
+
+#: A new scene as Blender makes it (its default view transform: Filmic in 3.4), a sun lighting a
+#: ground plane and a cube, output left a folder (as Blender's default ``/tmp/``) of PNGs.
+VALUES_SCENE = """
+import bpy, sys
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+bpy.ops.mesh.primitive_plane_add(size=40)
+bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.location = (0.0, -8.0, 6.0)
+camera.rotation_euler = (0.9, 0, 0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+sun.rotation_euler = (0.5, 0.2, 0)
+scene.collection.objects.link(sun)
+scene.render.resolution_x, scene.render.resolution_y = 48, 32
+scene.render.resolution_percentage = 100
+scene.render.image_settings.file_format = "PNG"
+scene.render.filepath = sys.argv[-2]
+scene.cycles.samples, scene.cycles.use_denoising = 1, False
+assert scene.view_settings.view_transform != "Standard", scene.view_settings.view_transform
+for path in sys.argv[-1].split(","):
+    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
+"""
+#: Prints the scene's view transform and what antumbra keeps of the user's.
+VIEW_PROBE = (
+    "import bpy; s = bpy.context.scene; "
+    "print('VIEW', s.view_settings.view_transform, repr(s.antumbra.saved_view), flush=True)"
+)
+
+
+def test_values_reach_the_user_as_values_and_statistics_stay_with_their_job(
+    addon_zips, antumbra_bin, short_tmp
+):
+    """A new scene's colour management: antumbra's PNG has 255 where a pixel is lit (Filmic
+    would write 207); the user's view comes back with another engine in the same session. With
+    Blender's output a bare folder (its default ``/tmp/``), each .blend's statistics go into a
+    folder of its own, so a second scene's render does not overwrite the first's tables; the
+    status line names a warm-up as one."""
+    env = engine_env(short_tmp, addon_zips)
+    out, cycles_out = short_tmp / "out", short_tmp / "cycles"
+    script = short_tmp / "values.py"
+    script.write_text(VALUES_SCENE)
+    first, second = short_tmp / "first.blend", short_tmp / "second.blend"
+    made = run_blender(
+        ["-P", str(script), "--", f"{out}/", f"{first},{second}"], short_tmp / "home"
+    )
+    assert made.returncode == 0, made.stdout[-3000:] + made.stderr[-3000:]
+
+    done = blender_engine(
+        first,
+        short_tmp,
+        env,
+        "import bpy; s = bpy.context.scene; s.antumbra.use_animation_start = True",
+        "-f",
+        "3",
+        "--python-expr",
+        VIEW_PROBE,
+        "-E",
+        "CYCLES",
+        "--python-expr",
+        f"import bpy; bpy.context.scene.render.filepath = {str(cycles_out) + '/'!r}",
+        "-f",
+        "1",
+        "--python-expr",
+        VIEW_PROBE,
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    views = re.findall(r"^VIEW (\S+) '(.*)'$", done.stdout, re.M)
+    assert [v for v, _ in views] == ["Standard", "Filmic"], views
+    assert json.loads(views[0][1])["view_transform"] == "Filmic" and views[1][1] == "", views
+    from PIL import Image  # the .venv's (Debian's Blender leg); the bpy legs skip no test here
+
+    png = np.asarray(Image.open(out / "0003.png").convert("RGB"))
+    # Lit ground is 255 (Filmic: 207), the cube's shadow 0.
+    assert png.max() == 255 and png.min() == 0, (png.min(), png.max())
+    # The warm-up (frames 1 and 2 before 3) is named as one on Blender's status line.
+    assert "antumbra: warm-up on frame 1 for frame 3: export" in done.stdout
+    assert not re.search(r"Fra:3 .*antumbra: frame 1:", done.stdout), done.stdout[-3000:]
+
+    # The statistics: in first.antumbra/, none loose in the shared folder.
+    tables = out / "first.antumbra"
+    assert sorted(p.name for p in tables.iterdir()) == [
+        "frame_0003.stats.json",
+        "frames.csv",
+        "stats.csv",
+        "stats.json",
+    ]
+    assert not (out / "frames.csv").exists()
+    before = {p.name: p.read_bytes() for p in tables.iterdir()}
+    again = blender_engine(second, short_tmp, env, "", "-f", "4")
+    assert again.returncode == 0, again.stdout[-3000:] + again.stderr[-3000:]
+    assert {p.name: p.read_bytes() for p in tables.iterdir()} == before
+    with open(out / "second.antumbra" / "frames.csv") as f:
+        assert [int(r["frame"]) for r in csv.DictReader(f)] == [4]
