@@ -1,6 +1,8 @@
 """`antumbra compare`'s report.html in a real headless browser (Debian's Chromium through
 chromedriver): it loads with no console error, every plot is drawn and every difference image
-decodes. Also writes the screenshot docs/compare-report.png when ANTUMBRA_SCREENSHOT is set."""
+decodes; the answer (what to use) opens the page and the wide work tables open on a click.
+Also writes the screenshot of the report's top, docs/compare-report.png, when
+ANTUMBRA_SCREENSHOT is set."""
 
 import os
 import subprocess
@@ -90,11 +92,26 @@ def test_report_loads_with_every_plot_and_image(report, browser):
     # 4 methods besides the baseline x 2 frames.
     assert len(sizes) == 8
     assert all(c and w == 48 and h == 36 for c, w, h in sizes), sizes
-    verdict = browser.find_element("id", "verdict").text
-    assert "bit for bit" in verdict
+    verdict = browser.find_element("id", "verdict")
+    assert "bit for bit" in verdict.text
     tables = browser.execute_script("return document.querySelectorAll('table').length")
     assert tables >= 5
+    # The answer opens the page, above the verdict and every table, in plain words.
+    answer = browser.find_element("id", "answer")
+    assert answer.text.startswith("What to use\nUse "), answer.text
+    first_table = browser.find_element("css selector", "table")
+    assert answer.location["y"] < verdict.location["y"] < first_table.location["y"]
+    # The 16-column work tables are folded: shown on a click.
+    shadow = browser.execute_script(
+        "return [...document.querySelectorAll('details.table')]"
+        ".find(d => d.querySelector('h2').textContent === 'Shadow rays');"
+    )
+    assert shadow is not None and not shadow.find_element("css selector", "table").is_displayed()
+    shadow.find_element("css selector", "summary").click()
+    assert shadow.find_element("css selector", "table").is_displayed()
     if os.environ.get("ANTUMBRA_SCREENSHOT"):
-        height = browser.execute_script("return document.body.scrollHeight")
-        browser.set_window_size(1400, min(height + 40, 4000))
+        # The top of the report: the answer, the verdict and the key table.
+        shadow.find_element("css selector", "summary").click()
+        browser.set_window_size(1400, 900)
+        browser.execute_script("window.scrollTo(0, 0)")
         browser.save_screenshot(str(REPO / "docs" / "compare-report.png"))

@@ -177,3 +177,58 @@ fn bad_methods_are_refused_before_any_work() {
         assert!(err.contains(expected), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn the_report_opens_with_the_fastest_method_as_measured() {
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path().join("cmp");
+    ok(antumbra()
+        .arg("compare")
+        .args(SCENE)
+        .args(["--repeat", "3", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap());
+    // The fastest method recomputed from compare.csv: the least mean over frames of the
+    // frame's median time (every row of a frame carries it).
+    let mut frames: std::collections::BTreeMap<(String, String), f64> = Default::default();
+    for r in read_csv(&out.join("compare.csv")) {
+        frames.insert(
+            (r["label"].clone(), r["frame"].clone()),
+            r["frame_ms"].parse().unwrap(),
+        );
+    }
+    let mut totals: std::collections::BTreeMap<String, f64> = Default::default();
+    for ((label, _), ms) in &frames {
+        *totals.entry(label.clone()).or_default() += ms;
+    }
+    let fastest = totals
+        .iter()
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(l, _)| l.clone())
+        .unwrap();
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    let first_paragraph = summary.split("\n\n").nth(1).unwrap();
+    assert!(
+        first_paragraph.starts_with(&format!(
+            "**What to use.** Use {fastest} for this animation: the fastest on these 3 frames"
+        )),
+        "{summary}"
+    );
+    assert!(
+        first_paragraph.contains("its timed passes spread by"),
+        "{first_paragraph}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
+    assert_eq!(json["recommendation"]["label"], fastest.as_str());
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    let answer = html
+        .find("<section id=\"answer\">")
+        .expect("the answer section");
+    assert!(
+        answer < html.find("id=\"verdict\"").unwrap(),
+        "the answer opens the page"
+    );
+    assert!(html.contains("<details class=\"table\"><summary><h2>Shadow rays</h2>"));
+}

@@ -29,11 +29,23 @@ fn cell(s: &str) -> String {
 }
 
 fn table(t: &Table) -> String {
-    let mut s = format!(
-        "<section class=\"table\"><h2>{}</h2><p>{}</p><table><thead><tr>",
-        escape(&t.title),
-        escape(&t.note)
-    );
+    // A folded table opens on a click (<details>: no script needed).
+    let (open, close) = if t.folded {
+        (
+            format!(
+                "<details class=\"table\"><summary><h2>{}</h2> ({} columns: show)</summary>",
+                escape(&t.title),
+                t.header.len()
+            ),
+            "</details>\n",
+        )
+    } else {
+        (
+            format!("<section class=\"table\"><h2>{}</h2>", escape(&t.title)),
+            "</section>\n",
+        )
+    };
+    let mut s = format!("{open}<p>{}</p><table><thead><tr>", escape(&t.note));
     for h in &t.header {
         s += &format!("<th>{}</th>", escape(h));
     }
@@ -45,7 +57,7 @@ fn table(t: &Table) -> String {
         }
         s += "</tr>";
     }
-    s + "</tbody></table></section>\n"
+    s + "</tbody></table>" + close
 }
 
 /// The colour scale of a difference image: blue at -scale, white at 0, red at +scale.
@@ -109,10 +121,13 @@ text-align:left}td.n{text-align:right}th{background:#f0f0f0}\
 figure{margin:1.5em 0}figcaption{font-size:90%;color:#555}img.diff{image-rendering:pixelated;\
 width:256px;display:block}.scale{display:flex;align-items:center;gap:4px;font-size:80%}\
 .scale .bar{display:inline-block;width:160px;height:10px;background:linear-gradient(to right,\
-rgb(59,76,192),rgb(247,247,247),rgb(180,4,38))}.total{font-size:80%;color:#555}code{font-size:90%}";
+rgb(59,76,192),rgb(247,247,247),rgb(180,4,38))}.total{font-size:80%;color:#555}code{font-size:90%}\
+#answer{background:#eef6ee;border-left:4px solid #3a8a3a;padding:0.2em 1em;margin:1em 0}\
+details.table summary{cursor:pointer;margin:1em 0}details.table summary h2{display:inline}";
 
 pub fn page(
     heading: &str,
+    answer: &[String],
     verdict: &str,
     tables: &[Table],
     plots: &[(String, String, String)],
@@ -121,11 +136,18 @@ pub fn page(
 ) -> Result<String> {
     let mut s = format!(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title>\
-         <style>{STYLE}</style></head><body>\n<h1>{}</h1><p id=\"verdict\">{}</p>\n",
+         <style>{STYLE}</style></head><body>\n<h1>{}</h1>\n",
         escape(heading),
         escape(heading),
-        escape(verdict)
     );
+    if !answer.is_empty() {
+        s += "<section id=\"answer\"><h2>What to use</h2>";
+        for sentence in answer {
+            s += &format!("<p>{}</p>", escape(sentence));
+        }
+        s += "</section>\n";
+    }
+    s += &format!("<p id=\"verdict\">{}</p>\n", escape(verdict));
     for t in tables {
         s += &table(t);
     }

@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use antumbra_core::atomic_file::write_bytes_atomic;
 use antumbra_core::compare::{
-    hindsight, pass_summaries, time_summaries, to_csv, CompareRow, Figures, Hindsight, JsonRow,
-    MethodSpec, Mismatch, PassSummary, TimeSummary,
+    hindsight, pass_summaries, recommend, time_summaries, to_csv, CompareRow, Figures, Hindsight,
+    JsonRow, MethodSpec, Mismatch, PassSummary, Recommendation, TimeSummary,
 };
 use antumbra_core::render::RenderSettings;
 use anyhow::{Context, Result};
@@ -65,6 +65,7 @@ struct JsonReport<'a> {
     passes: &'a [PassSummary],
     times: &'a [TimeSummary],
     hindsight: Option<&'a Hindsight>,
+    recommendation: Option<&'a Recommendation>,
     rows: Vec<JsonRow<'a>>,
 }
 
@@ -83,6 +84,18 @@ impl Report<'_> {
             .map(|(spec, _)| spec.label.as_str())
             .collect();
         hindsight(&self.rows, &fixed)
+    }
+
+    /// Which method to use and why, in sentences (none without frame times).
+    fn recommendation(&self, hindsight: Option<&Hindsight>) -> Option<Recommendation> {
+        let labels: Vec<&str> = self.specs.iter().map(|s| s.label.as_str()).collect();
+        recommend(
+            &self.rows,
+            &labels,
+            self.baseline,
+            &self.mismatches,
+            hindsight,
+        )
     }
 
     fn frame_span(&self) -> String {
@@ -114,6 +127,7 @@ impl Report<'_> {
         let passes = pass_summaries(&figures, baseline);
         let times = time_summaries(&figures, baseline);
         let hindsight = self.hindsight();
+        let recommendation = self.recommendation(hindsight.as_ref());
         let json = JsonReport {
             scene: self.scene,
             baseline,
@@ -141,12 +155,18 @@ impl Report<'_> {
             passes: &passes,
             times: &times,
             hindsight: hindsight.as_ref(),
+            recommendation: recommendation.as_ref(),
             rows: self.rows.iter().map(JsonRow::from).collect(),
         };
         let text = serde_json::to_string_pretty(&json)?;
         write_bytes_atomic(&out.join("compare.json"), text.as_bytes())?;
-        let tables = self.tables(&passes, &times, hindsight.as_ref());
-        let mut md = format!("# {}\n\n{}\n\n", self.heading(), self.verdict());
+        let tables = self.tables(&passes, &times, hindsight.as_ref(), recommendation.as_ref());
+        let answer = answer(recommendation.as_ref());
+        let mut md = format!("# {}\n\n", self.heading());
+        if !answer.is_empty() {
+            md += &format!("**What to use.** {}\n\n", answer.join(" "));
+        }
+        md += &format!("{}\n\n", self.verdict());
         for t in &tables {
             md += &t.markdown();
             md += "\n";
@@ -160,6 +180,7 @@ impl Report<'_> {
         }
         let page = html::page(
             &self.heading(),
+            &answer,
             &self.verdict(),
             &tables,
             &plots,
@@ -210,8 +231,10 @@ impl Report<'_> {
         passes: &[PassSummary],
         times: &[TimeSummary],
         hindsight: Option<&Hindsight>,
+        recommendation: Option<&Recommendation>,
     ) -> Vec<Table> {
-        let mut tables = vec![Table {
+        let mut tables: Vec<Table> = recommendation.map(glance_table).into_iter().collect();
+        tables.push(Table {
             title: "Methods".into(),
             note: "Settings not named take their defaults (docs/settings.md).".into(),
             header: vec!["label".into(), "settings".into(), "method".into()],
@@ -221,7 +244,8 @@ impl Report<'_> {
                 .zip(&self.settings)
                 .map(|(s, st)| vec![s.label.clone(), format!("`{s}`"), st.method_name()])
                 .collect(),
-        }];
+            folded: false,
+        });
         for pass in ["shadow", "primary"] {
             let rows: Vec<Vec<String>> = passes
                 .iter()
@@ -262,6 +286,7 @@ impl Report<'_> {
                     .into(),
                 header,
                 rows,
+                folded: true,
             });
         }
         tables.push(Table {
@@ -293,6 +318,7 @@ impl Report<'_> {
                     ]
                 })
                 .collect(),
+            folded: false,
         });
         tables.extend(hindsight.map(hindsight_table));
         tables
@@ -303,11 +329,17 @@ impl Report<'_> {
         let figures = self.figures();
         let passes = pass_summaries(&figures, self.baseline);
         let times = time_summaries(&figures, self.baseline);
-        let tables = self.tables(&passes, &times, self.hindsight().as_ref());
-        let mut s = format!("{}\n{}\n\n", self.heading(), self.verdict());
+        let hindsight = self.hindsight();
+        let recommendation = self.recommendation(hindsight.as_ref());
+        let tables = self.tables(&passes, &times, hindsight.as_ref(), recommendation.as_ref());
+        let mut s = format!("{}\n", self.heading());
+        for sentence in answer(recommendation.as_ref()) {
+            s += &format!("{sentence}\n");
+        }
+        s += &format!("{}\n\n", self.verdict());
         for t in tables
             .iter()
-            .filter(|t| t.title != "Methods" && t.title != "Primary rays")
+            .filter(|t| !matches!(t.title.as_str(), "Methods" | "Primary rays" | GLANCE))
         {
             s += &t.plain();
             s += "\n";
@@ -427,5 +459,62 @@ fn hindsight_table(h: &Hindsight) -> Table {
             .map(String::from)
             .to_vec(),
         rows,
+        folded: false,
+    }
+}
+
+/// The answer's sentences (none without a recommendation).
+fn answer(recommendation: Option<&Recommendation>) -> Vec<String> {
+    recommendation.map_or_else(Vec::new, |r| r.sentences.clone())
+}
+
+const GLANCE: &str = "At a glance";
+
+/// The key columns per method, fastest first: what the recommendation is read from.
+fn glance_table(r: &Recommendation) -> Table {
+    let fastest = r.methods.first().map_or(0.0, |m| m.frame_ms);
+    Table {
+        title: GLANCE.into(),
+        note: format!(
+            "Means per frame over the {} frames every method rendered whose answers equal the \
+             baseline's, fastest first. Spread: the slowest timed pass less the fastest, a \
+             frame's noise; a method within the spread of the fastest ties with it. Nodes: \
+             interior and leaf nodes entered per ray, every ray of every pass.",
+            r.frames
+        ),
+        header: [
+            "method",
+            "frame ms",
+            "spread ms",
+            "against the fastest",
+            "preparation ms",
+            "trace ms",
+            "nodes per ray",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: r
+            .methods
+            .iter()
+            .map(|m| {
+                let against = if m.label == r.label {
+                    "fastest".to_string()
+                } else if r.ties.contains(&m.label) {
+                    format!("{:+.1}% (tie)", 100.0 * (m.frame_ms / fastest - 1.0))
+                } else {
+                    format!("{:+.1}%", 100.0 * (m.frame_ms / fastest - 1.0))
+                };
+                vec![
+                    m.label.clone(),
+                    f2(m.frame_ms),
+                    f2(m.spread_ms),
+                    against,
+                    f2(m.prep_ms),
+                    f2(m.trace_ms),
+                    f2(m.nodes_per_ray),
+                ]
+            })
+            .collect(),
+        folded: false,
     }
 }

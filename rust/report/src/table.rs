@@ -6,6 +6,8 @@ pub struct Table {
     pub note: String,
     pub header: Vec<String>,
     pub rows: Vec<Vec<String>>,
+    /// Detail a reader opens on demand: folded away in the HTML page (in full elsewhere).
+    pub folded: bool,
 }
 
 impl Table {

@@ -4,12 +4,14 @@
 
 mod hindsight;
 mod method;
+mod recommend;
 mod run;
 mod summary;
 mod tables;
 
 pub use hindsight::{hindsight, Hindsight};
 pub use method::{default_methods, MethodSpec, DEFAULT_METHODS};
+pub use recommend::{recommend, MethodTime, Recommendation};
 pub use run::{CompareRow, Comparison, FrameComparison, MethodFrame, Mismatch, Step, Timing};
 pub use summary::{
     pass_summaries, time_summaries, Figures, FrameFigures, PassSummary, TimeSummary, Work,

@@ -89,9 +89,11 @@ fn fastest<'a>(it: impl Iterator<Item = &'a ValueSummary>) -> Option<&'a ValueSu
     it.min_by(|a, b| a.frame_ms.total_cmp(&b.frame_ms))
 }
 
-/// Work knobs: the fastest value if its mean frame time beats the default's by more than the
-/// measured spread (the larger of the two values' mean spreads), else the default. Image
-/// knobs: the fastest value whose mean RMSE is at most [`RMSE_BOUND`], else the most accurate.
+/// Work knobs: the fastest value, every value judged against it; a value no slower than it by
+/// more than the measured spread (the larger of the two values' mean spreads) ties with it,
+/// and a tie goes to the cheaper value (fewest box and triangle tests per ray), then to the
+/// default. Image knobs: the fastest value whose mean RMSE is at most [`RMSE_BOUND`], else the
+/// most accurate.
 pub fn recommend(kind: KnobKind, values: &[ValueSummary]) -> Option<Recommendation> {
     let default = values.iter().find(|v| v.is_default)?;
     let pick = |v: &ValueSummary, reason: String| {
@@ -103,28 +105,49 @@ pub fn recommend(kind: KnobKind, values: &[ValueSummary]) -> Option<Recommendati
     match kind {
         KnobKind::Work => {
             let best = fastest(values.iter())?;
-            let spread = best.spread_ms.max(default.spread_ms);
-            let gain = default.frame_ms - best.frame_ms;
-            if !best.is_default && gain > spread {
-                pick(
-                    best,
-                    format!(
-                        "{:.2} ms per frame against the default's {:.2} ms ({:+.1}%), beyond the spread of {:.2} ms",
-                        best.frame_ms,
-                        default.frame_ms,
-                        -100.0 * gain / default.frame_ms.max(1e-12),
-                        spread
-                    ),
+            // Within the larger of the two values' spreads of the fastest: a tie.
+            let tied: Vec<&ValueSummary> = values
+                .iter()
+                .filter(|v| v.frame_ms - best.frame_ms <= v.spread_ms.max(best.spread_ms))
+                .collect();
+            // A tie goes to the cheaper value (fewer tests per ray), then to the default.
+            let pick_of = tied
+                .iter()
+                .copied()
+                .min_by(|a, b| {
+                    a.work_per_ray
+                        .total_cmp(&b.work_per_ray)
+                        .then(b.is_default.cmp(&a.is_default))
+                })
+                .unwrap_or(best);
+            let versus_default = if pick_of.is_default {
+                "the default".to_string()
+            } else {
+                format!(
+                    "{:+.1}% against the default's {:.2} ms",
+                    100.0 * (pick_of.frame_ms / default.frame_ms.max(1e-12) - 1.0),
+                    default.frame_ms
+                )
+            };
+            let others: Vec<&str> = tied
+                .iter()
+                .filter(|v| v.value != pick_of.value)
+                .map(|v| v.value.as_str())
+                .collect();
+            let reason = if others.is_empty() {
+                format!(
+                    "the fastest: {:.2} ms per frame ({versus_default}), beyond the spread of the others",
+                    pick_of.frame_ms
                 )
             } else {
-                pick(
-                    default,
-                    format!(
-                        "the default: no value beats its {:.2} ms per frame by more than the spread of {:.2} ms",
-                        default.frame_ms, spread
-                    ),
+                format!(
+                    "ties with {} within the spread of the timings ({:.2} ms per frame, {versus_default}); the fewest tests per ray among them ({:.1})",
+                    others.join(", "),
+                    pick_of.frame_ms,
+                    pick_of.work_per_ray
                 )
-            }
+            };
+            pick(pick_of, reason)
         }
         KnobKind::Image => {
             let under = |v: &&ValueSummary| v.rmse.is_some_and(|e| e <= RMSE_BOUND);
@@ -186,6 +209,38 @@ mod tests {
         let r = recommend(KnobKind::Work, &values).unwrap();
         assert_eq!(r.value, "a");
         assert!(r.reason.contains("the default"), "{}", r.reason);
+    }
+
+    #[test]
+    fn a_tie_goes_to_the_cheaper_value_and_the_fastest_is_judged_against_all() {
+        // Width 8 (the default) a hair faster than width 4, within the spread: width 4 does
+        // fewer tests per ray.
+        let mut eight = v("8", true, 218.57, 1.2, None);
+        let mut four = v("4", false, 218.83, 1.1, None);
+        eight.work_per_ray = 52.0;
+        four.work_per_ray = 47.5;
+        let r = recommend(KnobKind::Work, &[eight.clone(), four.clone()]).unwrap();
+        assert_eq!(r.value, "4");
+        assert!(
+            r.reason.starts_with("ties with 8 within the spread"),
+            "{}",
+            r.reason
+        );
+        // Beyond the spread the faster value wins whatever its work.
+        four.frame_ms = 225.0;
+        assert_eq!(
+            recommend(KnobKind::Work, &[eight, four]).unwrap().value,
+            "8"
+        );
+        // Two values beat the default: the fastest of all is taken, not the first found.
+        let values = [
+            v("a", true, 10.0, 0.1, None),
+            v("b", false, 9.0, 0.1, None),
+            v("c", false, 8.0, 0.1, None),
+        ];
+        let r = recommend(KnobKind::Work, &values).unwrap();
+        assert_eq!(r.value, "c");
+        assert!(r.reason.starts_with("the fastest: 8.00 ms"), "{}", r.reason);
     }
 
     #[test]
