@@ -355,6 +355,11 @@ def sweep_job(args, scene, frames, options, link, folder: Path, report) -> dict:
             flush=True,
         )
 
+    def stage(job: CompareJob, frame: int, stage: str, done: int, total: int):
+        # Each method pass as it ends: a frame of a long comparison is not 40 s of silence.
+        if stage in ("compare", "trade") and done > 0:
+            print(f"antumbra: frame {frame}: {stage} pass {done}/{total}", flush=True)
+
     return dict(
         scene=scene,
         frames=frames,
@@ -363,6 +368,7 @@ def sweep_job(args, scene, frames, options, link, folder: Path, report) -> dict:
         out_dir=folder,
         load_images=False,
         on_frame=progress,
+        on_stage=stage,
         repeat=args.repeat,
         report=report,
         **warm_up(args, frames),

@@ -91,6 +91,9 @@ class RenderJob:
     load_images: bool = True
     send_camera_path: bool = True
     on_frame: object = None
+    #: ``on_stage(job, frame, stage, done, total)`` on the main thread as ``run`` sees the
+    #: daemon's progress move (a comparison: each method pass).
+    on_stage: object = None
     #: Recorded with each frame's statistics (``results.run_key``): what a resume compares.
     key: str | None = None
     #: The animation's frames before ``frames[0]``, in order, that a warm-up may render.
@@ -160,9 +163,13 @@ class RenderJob:
 
     def run(self, poll: float = 0.005) -> RenderJob:
         """Runs to the end in this thread (batches, ``execute``)."""
+        shown = None
         while not self.step():
             if self._work is not None and self._work.thread is not None:
                 self._work.thread.join(poll)
+                if self.on_stage is not None and self.stage[0] and self.stage != shown:
+                    shown = self.stage
+                    self.on_stage(self, self._work.frame, *self.stage)
         return self
 
     def cancel(self):

@@ -28,7 +28,9 @@ def batch(blend: Path, out: Path, tmp: Path, antumbra_bin: Path, *extra: str):
 
 def compared_frames(stdout: str) -> list[int]:
     return [
-        int(line.split()[2]) for line in stdout.splitlines() if line.startswith("antumbra: frame ")
+        int(line.split()[2])
+        for line in stdout.splitlines()
+        if line.startswith("antumbra: frame ") and " pass " not in line
     ]
 
 
@@ -50,6 +52,8 @@ def test_compare_batch_resumes(scene_blend, antumbra_bin, short_tmp):
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert compared_frames(done.stdout) == list(range(1, FRAMES + 1)), done.stdout
     assert "methods warmed up on (state only): none" in done.stdout
+    # Progress per method pass, before the frame's line.
+    assert "antumbra: frame 2: compare pass 1/" in done.stdout, done.stdout[-3000:]
     folder = out / "compare"
     labels = [m.partition("=")[0] for m in antumbra.DEFAULT_METHODS]
     whole = rows_without_times(folder / "compare.csv")

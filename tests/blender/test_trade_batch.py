@@ -27,7 +27,9 @@ def batch(blend: Path, out: Path, tmp: Path, antumbra_bin: Path, *extra: str):
 
 def traded_frames(stdout: str) -> list[int]:
     return [
-        int(line.split()[2]) for line in stdout.splitlines() if line.startswith("antumbra: frame ")
+        int(line.split()[2])
+        for line in stdout.splitlines()
+        if line.startswith("antumbra: frame ") and " pass " not in line
     ]
 
 

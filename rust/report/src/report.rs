@@ -363,6 +363,25 @@ impl Report<'_> {
         };
         let shadow_nb = curve(&|x| x.work.get("shadow").map_or(0.0, |w| w.per_ray()[0]));
         let frame_ms = curve(&|x| x.frame_ms);
+        // Each frame's fastest and slowest timed pass, per method, in the curves' order.
+        let mut range: std::collections::BTreeMap<(&str, i32), (f64, f64)> = Default::default();
+        for r in &self.rows {
+            range.insert((&r.label, r.stats.frame), (r.frame_ms.min, r.frame_ms.max));
+        }
+        let frame_ranges: Vec<Vec<(f64, f64)>> = labels
+            .iter()
+            .map(|l| {
+                figures
+                    .of(l)
+                    .map(|(f, x)| {
+                        range
+                            .get(&(*l, f))
+                            .copied()
+                            .unwrap_or((x.frame_ms, x.frame_ms))
+                    })
+                    .collect()
+            })
+            .collect();
         let mut plots = vec![
             (
                 "shadow_nb".to_string(),
@@ -372,17 +391,21 @@ impl Report<'_> {
                     y_label: "N_B per ray",
                     first_frame: first,
                     series: &shadow_nb,
+                    ranges: None,
                 }
                 .svg(900, 420)?,
             ),
             (
                 "frame_ms".to_string(),
-                "Frame time per method (median of the timed passes), per frame".to_string(),
+                "Frame time per method, per frame: the median of the timed passes (interleaved \
+                 across methods), a bar from the fastest to the slowest of them"
+                    .to_string(),
                 LinePlot {
                     title: "frame time",
                     y_label: "ms",
                     first_frame: first,
                     series: &frame_ms,
+                    ranges: Some(&frame_ranges),
                 }
                 .svg(900, 420)?,
             ),

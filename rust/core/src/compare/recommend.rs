@@ -245,7 +245,10 @@ mod tests {
         }
     }
 
-    fn rows(methods: &[(&str, f64, f64, (f64, f64), f64)]) -> Vec<CompareRow> {
+    /// A method's label, frame time and spread, (preparation, trace) and N_B per ray.
+    type Method<'a> = (&'a str, f64, f64, (f64, f64), f64);
+
+    fn rows(methods: &[Method]) -> Vec<CompareRow> {
         (1..=4)
             .flat_map(|f| {
                 methods

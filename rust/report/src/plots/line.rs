@@ -15,6 +15,9 @@ pub struct LinePlot<'a> {
     pub y_label: &'a str,
     pub first_frame: i32,
     pub series: &'a [(String, Vec<f64>)],
+    /// Per series and frame, the range of the repeated measurements (the slowest and fastest
+    /// timed pass), drawn as a bar through the point: a reader sees the noise beside the trend.
+    pub ranges: Option<&'a [Vec<(f64, f64)>]>,
 }
 
 impl LinePlot<'_> {
@@ -36,10 +39,16 @@ impl LinePlot<'_> {
         root.fill(&WHITE).map_err(err)?;
         let (width, _) = root.dim_in_pixel();
         let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(LEGEND_WIDTH));
+        let range_tops = self
+            .ranges
+            .into_iter()
+            .flatten()
+            .flat_map(|r| r.iter().map(|&(_, hi)| hi));
         let y_max = self
             .series
             .iter()
             .flat_map(|(_, v)| v.iter().copied())
+            .chain(range_tops)
             .filter(|v| v.is_finite())
             .fold(0.0f64, f64::max)
             .max(1e-9)
@@ -69,6 +78,12 @@ impl LinePlot<'_> {
             chart
                 .draw_series(LineSeries::new(points, color))
                 .map_err(err)?;
+            let ranges = self.ranges.and_then(|r| r.get(i)).into_iter().flatten();
+            let bars = ranges.enumerate().map(|(k, &(lo, hi))| {
+                let x = first + k as i32;
+                PathElement::new(vec![(x, lo), (x, hi)], super::colour(i).stroke_width(1))
+            });
+            chart.draw_series(bars).map_err(err)?;
         }
         draw_legend(&legend_area, self.series.iter().map(|(n, _)| n.as_str())).map_err(err)?;
         root.present().map_err(err)?;
@@ -89,6 +104,7 @@ mod tests {
             ("OSAH (2.00)".to_string(), vec![2.0, 2.5, 2.0, 1.5]),
         ];
         LinePlot {
+            ranges: None,
             title: "bedroom: primary Mrays/s per frame",
             y_label: "Mrays/s",
             first_frame: 1,

@@ -56,6 +56,7 @@ pub(super) fn animation_curve(
     }
     write_bytes_atomic(&out.join("animation.csv"), csv.as_bytes())?;
     LinePlot {
+        ranges: None,
         title: &format!("{scene_name}: primary Mrays/s per frame"),
         y_label: "primary Mrays/s",
         first_frame: *anim.frame_range().start(),
