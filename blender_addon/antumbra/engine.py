@@ -28,6 +28,7 @@ from .jobs import (
     RETRIES_PER_FRAME,
     WARM_UP_FRAMES,
     FrameDone,
+    frames_to_warm_up,
     is_cancelled,
     is_lost,
     send_frame,
@@ -64,11 +65,9 @@ class EngineJob:
 
     def warm_up_frames(self, frame: int, start: int, step: int) -> list[int]:
         """The frames before ``frame`` (from ``start`` on, every ``step``) the session warms up
-        on first: up to WARM_UP_FRAMES, fewer when it has just rendered some of them."""
-        before = [f for f in range(frame - WARM_UP_FRAMES * step, frame, step) if f >= start]
-        if self.last in before:
-            before = before[before.index(self.last) + 1 :]
-        return before
+        on first (``jobs.frames_to_warm_up``, the one rule)."""
+        run = [f for f in range(frame - WARM_UP_FRAMES * step, frame + 1, step) if f >= start]
+        return frames_to_warm_up(run, frame, self.last)
 
 
 _JOB: EngineJob | None = None

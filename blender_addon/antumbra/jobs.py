@@ -35,6 +35,22 @@ RETRIES_PER_FRAME = 2
 WARM_UP_FRAMES = 2
 
 
+def frames_to_warm_up(
+    run: list[int], frame: int, last_rendered: int | None, count: int = WARM_UP_FRAMES
+) -> list[int]:
+    """The warm-up rule, for every frame driver (jobs, batches, the render engine): the frames
+    of ``run`` (the animation's frames in order) before ``frame`` that a session renders state
+    only before it, up to ``count``, fewer when the session has just rendered some of them (up
+    to ``last_rendered``)."""
+    if frame not in run:  # before the animation's start: nothing to warm up on
+        return []
+    i = run.index(frame)
+    before = run[max(0, i - count) : i]
+    if last_rendered in before:
+        before = before[before.index(last_rendered) + 1 :]
+    return before
+
+
 class JobFailed(RuntimeError):
     """A frame could not be rendered; the message names the frame (and object or field)."""
 
@@ -193,10 +209,7 @@ class RenderJob:
         if not self.warm_up:
             return frame
         run = self.lead_in + self.frames
-        i = run.index(frame)
-        before = run[max(0, i - self.warm_up) : i]
-        if self._last_rendered in before:
-            before = before[before.index(self._last_rendered) + 1 :]
+        before = frames_to_warm_up(run, frame, self._last_rendered, self.warm_up)
         return before[0] if before else frame
 
     def _is_warm_up(self, frame: int) -> bool:
