@@ -523,7 +523,11 @@ fn spool_job_killed_during_one_frame_is_resumed_with_every_frame_equal() {
     let error = results.join(ERROR_FILE);
     let mut kills = 0;
     let d = loop {
-        assert!(kills < 12, "no ERROR after {kills} kills: {:?}", started_frames(&results));
+        assert!(
+            kills < 12,
+            "no ERROR after {kills} kills: {:?}",
+            started_frames(&results)
+        );
         let before = started_frames(&results).len();
         let d = DaemonProcess::spawn(dir.path(), &args, Duration::from_secs(120));
         let deadline = Instant::now() + Duration::from_secs(30);
@@ -542,7 +546,10 @@ fn spool_job_killed_during_one_frame_is_resumed_with_every_frame_equal() {
     let resume = format!("antumbra spool resume {} shot-kill", spool.display());
     assert!(e.contains(&resume), "{e}");
     let finished_before = frame_dirs(&results).len();
-    assert!(finished_before < scenes.len(), "{finished_before} frames finished");
+    assert!(
+        finished_before < scenes.len(),
+        "{finished_before} frames finished"
+    );
     eprintln!("{kills} kills; ERROR with {finished_before} frames finished: {e}");
     // Resumed while the daemon serves: it goes on by itself.
     let out = Command::new(env!("CARGO_BIN_EXE_antumbra"))
@@ -560,13 +567,19 @@ fn spool_job_killed_during_one_frame_is_resumed_with_every_frame_equal() {
     assert!(stdout.contains("resumed job shot-kill"), "{stdout}");
     let deadline = Instant::now() + Duration::from_secs(60);
     while !results.join(DONE_FILE).exists() {
-        assert!(Instant::now() < deadline, "not done after resume:\n{}", d.log());
+        assert!(
+            Instant::now() < deadline,
+            "not done after resume:\n{}",
+            d.log()
+        );
         std::thread::sleep(Duration::from_millis(10));
     }
     assert!(!error.exists());
     let mut c = d.client("check");
     match c.call(&Request::Stats).unwrap() {
-        Reply::DaemonStats(s) => assert_eq!(s.renders_done as usize, scenes.len() - finished_before),
+        Reply::DaemonStats(s) => {
+            assert_eq!(s.renders_done as usize, scenes.len() - finished_before)
+        }
         other => panic!("{other:?}"),
     }
     let manifest: Manifest =
@@ -589,10 +602,17 @@ fn spool_job_killed_during_one_frame_is_resumed_with_every_frame_equal() {
 /// Every frame folder of a finished spool job is complete and right: each EXR equals an
 /// in-process render of its scene, every listed file is there, and every file is readable by
 /// others (the daemons of these tests run under umask 022).
-fn assert_frames_equal_in_process(results: &Path, manifest: &Manifest, scenes: &[Scene], label: &str) {
+fn assert_frames_equal_in_process(
+    results: &Path,
+    manifest: &Manifest,
+    scenes: &[Scene],
+    label: &str,
+) {
     let mut renderer = Renderer::new();
     for (f, s) in manifest.frames.iter().zip(scenes) {
-        let want = renderer.render(label, s, &RenderSettings::default()).unwrap();
+        let want = renderer
+            .render(label, s, &RenderSettings::default())
+            .unwrap();
         let folder = results.join(&f.dir);
         let got = read_exr(&folder.join(format!("{}.exr", f.dir))).unwrap();
         let want = planes(&want);
@@ -615,7 +635,11 @@ fn assert_frames_equal_in_process(results: &Path, manifest: &Manifest, scenes: &
         assert!(f.files.iter().filter(|n| n.ends_with(".png")).count() >= 8);
     }
     for name in [MANIFEST_FILE, DONE_FILE] {
-        let mode = std::fs::metadata(results.join(name)).unwrap().permissions().mode() & 0o777;
+        let mode = std::fs::metadata(results.join(name))
+            .unwrap()
+            .permissions()
+            .mode()
+            & 0o777;
         assert_eq!(mode, 0o644, "{name}: mode {mode:o}");
     }
 }

@@ -55,7 +55,7 @@ impl AtomicFile {
         let temp = tempfile::Builder::new()
             .prefix(&prefix)
             .suffix(TEMP_SUFFIX)
-            .make_in(&dir, |temp| open_new(temp))
+            .make_in(&dir, open_new)
             .map_err(|e| Error::io(path, e))?;
         Ok(AtomicFile {
             path: path.to_path_buf(),

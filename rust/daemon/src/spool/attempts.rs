@@ -88,7 +88,10 @@ impl Attempts {
 
     /// Records that a person resumed the job: the starts so far no longer count against it.
     pub fn record_resume(results: &JobResults) -> Result<(), WriteError> {
-        append(results, &format!("{RESUME} pid={} unix_s={}\n", std::process::id(), unix_s()))
+        append(
+            results,
+            &format!("{RESUME} pid={} unix_s={}\n", std::process::id(), unix_s()),
+        )
     }
 
     /// Records that the daemon stopped cleanly while `frame` was under way: not a failure.

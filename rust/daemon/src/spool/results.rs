@@ -216,7 +216,8 @@ impl JobResults {
     /// retry would wait for ever.
     fn classify(&self, e: antumbra_core::Error) -> WriteError {
         let message = e.to_string();
-        let full = os_error(&message).is_some_and(|code| [libc::ENOSPC, libc::EDQUOT].contains(&code));
+        let full =
+            os_error(&message).is_some_and(|code| [libc::ENOSPC, libc::EDQUOT].contains(&code));
         if matches!(e, antumbra_core::Error::Io { .. }) && (full || !self.can_write()) {
             WriteError::Io(format!("cannot write {message}"))
         } else {
