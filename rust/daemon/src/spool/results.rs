@@ -42,8 +42,13 @@ impl WriteError {
     }
 }
 
-pub(crate) fn io_error(path: &Path, e: impl std::fmt::Display) -> WriteError {
-    WriteError::Io(format!("cannot write {}: {e}", path.display()))
+/// A failed write at `path`: retried, unless no retry can cure it.
+pub(crate) fn io_error(path: &Path, e: std::io::Error) -> WriteError {
+    let message = format!("cannot write {}: {e}", path.display());
+    match e.raw_os_error() {
+        Some(code) if HOPELESS_OS_ERRORS.contains(&code) => WriteError::Invalid(message),
+        _ => WriteError::Io(message),
+    }
 }
 
 /// Errors of the system that no retry can cure: the name itself is refused (too long, or not a
@@ -331,6 +336,11 @@ mod tests {
 
     #[test]
     fn spool_name_too_long_is_not_retried() {
+        let path = Path::new("results/x");
+        let e = std::io::Error::from_raw_os_error(libc::ENAMETOOLONG);
+        assert!(matches!(io_error(path, e), WriteError::Invalid(_)));
+        let e = std::io::Error::from_raw_os_error(libc::EROFS);
+        assert!(matches!(io_error(path, e), WriteError::Io(_)));
         let e = antumbra_core::Error::io("r/x.ERROR", std::io::Error::from_raw_os_error(36));
         assert!(matches!(write_failure(e), WriteError::Invalid(_)));
         let e = antumbra_core::Error::io("r/x.ERROR", std::io::Error::from_raw_os_error(13));
