@@ -51,7 +51,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -443,7 +442,8 @@ def run_spool(args, scene, frames, options, out: Path, client) -> int:
         rows = json.loads((folder_of_frame / "stats.json").read_text())
         for f in folder_of_frame.iterdir():
             if f.name != "stats.json" and not f.name.startswith("."):
-                shutil.copyfile(f, out / f.name)
+                # Atomically, as every antumbra file: a reader never sees half a copied EXR.
+                client.write_file_atomic(out / f.name, f.read_bytes())
         record = {
             "frame": frame,
             "key": key,

@@ -29,7 +29,9 @@ def job_id(blend: str, frames: list[int], options: RenderOptions) -> str:
     stem = Path(blend).stem or "unsaved"
     mtime = os.stat(blend).st_mtime_ns if blend and os.path.exists(blend) else 0
     key = json.dumps([blend, mtime, frames, options.render_kwargs()], sort_keys=True, default=str)
-    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)
+    # A short readable part (48 characters, at most 192 bytes): the daemon bounds job ids
+    # (MAX_JOB_ID_BYTES), and a long .blend name must not make the job impossible to submit.
+    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in stem)[:48]
     return f"{safe}-{hashlib.sha1(key.encode()).hexdigest()[:12]}"
 
 

@@ -36,6 +36,8 @@ enum Command {
     /// Run the daemon Blender talks to: a Unix socket (and optional loopback TCP), a spool
     /// folder for batch jobs.
     Serve(commands::serve::ServeArgs),
+    /// Act on a spool folder's jobs: `resume` a job that ended in ERROR.
+    Spool(commands::spool::SpoolArgs),
 }
 
 fn main() {
@@ -49,6 +51,7 @@ fn main() {
         Command::Compare(a) => commands::compare::run(a),
         Command::Trade(a) => commands::trade::run(a),
         Command::Serve(a) => commands::serve::run(a, allocator::release_freed_memory),
+        Command::Spool(a) => commands::spool::run(a),
     };
     if let Err(e) = result {
         eprintln!("antumbra: error: {e:#}");

@@ -14,7 +14,9 @@ use std::time::{Duration, Instant};
 use antumbra_core::output::read_exr;
 use antumbra_core::render::{FrameResult, RenderSettings, Renderer};
 use antumbra_core::scene::{Resolution, Scene};
-use antumbra_daemon::spool::{submit_job, JobSpec, Manifest, DONE_FILE, ERROR_FILE, MANIFEST_FILE};
+use antumbra_daemon::spool::{
+    submit_job, JobSpec, Manifest, ATTEMPTS_FILE, DONE_FILE, ERROR_FILE, MANIFEST_FILE,
+};
 use antumbra_protocol::client::Client;
 use antumbra_protocol::{
     planes_from_reply, stats_from_reply, FrameResultReply, NamedSettings, Passes, RecordingWriter,
@@ -75,21 +77,23 @@ impl DaemonProcess {
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(std::fs::File::create(&stderr).unwrap());
-        if let Some(bytes) = address_space {
+        let rlimit = address_space.map(|bytes| libc::rlimit {
+            rlim_cur: bytes,
+            rlim_max: bytes,
+        });
+        // SAFETY: umask and setrlimit are async-signal-safe; the closure touches nothing else.
+        // Umask 022, as a farm's shell has: the files' modes are checked against it.
+        unsafe {
             use std::os::unix::process::CommandExt;
-            let rlimit = libc::rlimit {
-                rlim_cur: bytes,
-                rlim_max: bytes,
-            };
-            // SAFETY: setrlimit is async-signal-safe; the closure touches nothing else.
-            unsafe {
-                command.pre_exec(move || {
-                    if libc::setrlimit(libc::RLIMIT_AS, &rlimit) != 0 {
+            command.pre_exec(move || {
+                libc::umask(0o022);
+                if let Some(rlimit) = &rlimit {
+                    if libc::setrlimit(libc::RLIMIT_AS, rlimit) != 0 {
                         return Err(std::io::Error::last_os_error());
                     }
-                    Ok(())
-                });
-            }
+                }
+                Ok(())
+            });
         }
         let mut child = command.spawn().unwrap();
         let pid = child.id() as i32;
@@ -464,11 +468,150 @@ fn spool_job_survives_kill_9_with_every_frame_exactly_once() {
         .filter(|n| n.starts_with('.'))
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
-    // Every frame folder is complete and right: the EXR equals an in-process render.
+    assert_frames_equal_in_process(&results, &manifest, &scenes, "killed");
+    eprintln!(
+        "spool kill test: {kills} kills, {} frames left for the last run, {:.1} s",
+        20 - before_last,
+        t0.elapsed().as_secs_f64()
+    );
+    drop(d);
+}
+
+/// The spool's test job: `scenes` recorded as job `id`.
+fn submit_scenes(spool: &Path, id: &str, label: &str, scenes: &[Scene]) {
+    let spec = JobSpec {
+        name: Some(label.into()),
+        ..JobSpec::default()
+    };
+    submit_job(spool, id, &spec, |path| {
+        let mut w = RecordingWriter::create(path).map_err(|e| e.to_string())?;
+        for s in scenes {
+            w.append_scene(s).map_err(|e| e.to_string())?;
+        }
+        w.finish().map_err(|e| e.to_string())?;
+        Ok(())
+    })
+    .unwrap();
+}
+
+/// The frames `attempts.log` says were started, in order.
+fn started_frames(results: &Path) -> Vec<String> {
+    std::fs::read_to_string(results.join(ATTEMPTS_FILE))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| l.strip_prefix("start "))
+        .filter_map(|l| l.split_whitespace().next().map(String::from))
+        .collect()
+}
+
+/// `kill -9` from outside, each time the daemon starts a frame (issue 33: five kills in 7 s
+/// ended a job in ERROR at frame 3 of 20). The daemon cannot tell these kills from a frame that
+/// kills it (the kernel's out-of-memory killer sends SIGKILL too), so the third kill during one
+/// frame ends the job like a crash loop, with an ERROR that names the command that resumes it;
+/// `antumbra spool resume`, run while the daemon serves, makes it go on from the first missing
+/// frame, and every frame ends up rendered once and equal to an in-process render.
+#[test]
+fn spool_job_killed_during_one_frame_is_resumed_with_every_frame_equal() {
+    let dir = temp_dir("spool-resume");
+    let spool = dir.path().join("spool");
+    let spool_arg = spool.to_str().unwrap().to_string();
+    let args = ["--spool", spool_arg.as_str(), "--spool-rescan-s", "0.2"];
+    // Frames that take long enough for a kill to land while they render.
+    let scenes = city(40_000, 4, 480, 300);
+    submit_scenes(&spool, "shot-kill", "resumed", &scenes);
+    let results = spool.join("results/shot-kill");
+    let error = results.join(ERROR_FILE);
+    let mut kills = 0;
+    let d = loop {
+        assert!(
+            kills < 12,
+            "no ERROR after {kills} kills: {:?}",
+            started_frames(&results)
+        );
+        let before = started_frames(&results).len();
+        let d = DaemonProcess::spawn(dir.path(), &args, Duration::from_secs(120));
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while started_frames(&results).len() == before && !error.exists() {
+            assert!(Instant::now() < deadline, "no frame started:\n{}", d.log());
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        if error.exists() {
+            break d;
+        }
+        d.kill9();
+        kills += 1;
+    };
+    let e = std::fs::read_to_string(&error).unwrap();
+    assert!(e.contains("was started 3 times and never finished"), "{e}");
+    let resume = format!("antumbra spool resume {} shot-kill", spool.display());
+    assert!(e.contains(&resume), "{e}");
+    let finished_before = frame_dirs(&results).len();
+    assert!(
+        finished_before < scenes.len(),
+        "{finished_before} frames finished"
+    );
+    eprintln!("{kills} kills; ERROR with {finished_before} frames finished: {e}");
+    // Resumed while the daemon serves: it goes on by itself.
+    let out = Command::new(env!("CARGO_BIN_EXE_antumbra"))
+        .args(["spool", "resume"])
+        .arg(&spool)
+        .arg("shot-kill")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("resumed job shot-kill"), "{stdout}");
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !results.join(DONE_FILE).exists() {
+        assert!(
+            Instant::now() < deadline,
+            "not done after resume:\n{}",
+            d.log()
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(!error.exists());
+    let mut c = d.client("check");
+    match c.call(&Request::Stats).unwrap() {
+        Reply::DaemonStats(s) => {
+            assert_eq!(s.renders_done as usize, scenes.len() - finished_before)
+        }
+        other => panic!("{other:?}"),
+    }
+    let manifest: Manifest =
+        serde_json::from_slice(&std::fs::read(results.join(MANIFEST_FILE)).unwrap()).unwrap();
+    let listed: Vec<i32> = manifest.frames.iter().map(|f| f.frame).collect();
+    assert_eq!(listed, (1..=scenes.len() as i32).collect::<Vec<_>>());
+    assert_frames_equal_in_process(&results, &manifest, &scenes, "resumed");
+    // A done job is not resumed again.
+    let out = Command::new(env!("CARGO_BIN_EXE_antumbra"))
+        .args(["spool", "resume"])
+        .arg(&spool)
+        .arg("shot-kill")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("the job is done"), "{stderr}");
+}
+
+/// Every frame folder of a finished spool job is complete and right: each EXR equals an
+/// in-process render of its scene, every listed file is there, and every file is readable by
+/// others (the daemons of these tests run under umask 022).
+fn assert_frames_equal_in_process(
+    results: &Path,
+    manifest: &Manifest,
+    scenes: &[Scene],
+    label: &str,
+) {
     let mut renderer = Renderer::new();
-    for (f, s) in manifest.frames.iter().zip(&scenes) {
+    for (f, s) in manifest.frames.iter().zip(scenes) {
         let want = renderer
-            .render("killed", s, &RenderSettings::default())
+            .render(label, s, &RenderSettings::default())
             .unwrap();
         let folder = results.join(&f.dir);
         let got = read_exr(&folder.join(format!("{}.exr", f.dir))).unwrap();
@@ -483,17 +626,22 @@ fn spool_job_survives_kill_9_with_every_frame_exactly_once() {
             assert!(same_bits(&g.data, &w.data), "{} {}", f.dir, g.name);
         }
         for file in &f.files {
-            assert!(folder.join(file).is_file(), "{}/{file}", f.dir);
+            let path = folder.join(file);
+            assert!(path.is_file(), "{}/{file}", f.dir);
+            let mode = std::fs::metadata(&path).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode, 0o644, "{}/{file}: mode {mode:o}", f.dir);
         }
         assert!(f.files.iter().any(|n| n == "stats.json"));
         assert!(f.files.iter().filter(|n| n.ends_with(".png")).count() >= 8);
     }
-    eprintln!(
-        "spool kill test: {kills} kills, {} frames left for the last run, {:.1} s",
-        20 - before_last,
-        t0.elapsed().as_secs_f64()
-    );
-    drop(d);
+    for name in [MANIFEST_FILE, DONE_FILE] {
+        let mode = std::fs::metadata(results.join(name))
+            .unwrap()
+            .permissions()
+            .mode()
+            & 0o777;
+        assert_eq!(mode, 0o644, "{name}: mode {mode:o}");
+    }
 }
 
 /// `clients` concurrent sessions each send and render `frames` frames of a small city; every

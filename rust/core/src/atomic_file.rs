@@ -2,8 +2,11 @@
 //! to disk, rename it over the target, then flush the folder. A crash or an error leaves either
 //! the old file or the new one under the final name, never a truncated one (readers such as
 //! Blender may pick files up at any time), and two writers of one target never share a temporary.
+//! The file gets the mode the user's umask gives any new file (0644 under umask 022), so results
+//! on a farm's shared storage are readable as the user expects.
 
-use std::fs::File;
+use std::ffi::{OsStr, OsString};
+use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
@@ -14,6 +17,19 @@ use crate::{Error, Result};
 /// Marks our temporary files, so a folder listing shows what they are (the spool removes
 /// leftovers by it).
 pub const TEMP_SUFFIX: &str = ".antumbra-tmp";
+
+/// The mode a new file is created with before the umask applies, as `open(2)` callers such as
+/// `touch` use: the kernel narrows it by the umask, which is process-wide and racy to read.
+/// (tempfile's default, 0600, would make every result private whatever the umask.)
+#[cfg(unix)]
+pub const NEW_FILE_MODE: u32 = 0o666;
+
+/// Target names longer than this (bytes) appear shortened in the temporary's name, with a hash
+/// of the whole name: `.` + name + `.` + 6 random characters + [`TEMP_SUFFIX`] must stay within
+/// the 255 bytes a file name may have, or a long target could never be written.
+const MAX_NAME_IN_TEMP: usize = 200;
+/// How much of a long name the temporary's name keeps, so a listing still shows whose it is.
+const KEPT_OF_LONG_NAME: usize = 64;
 
 /// A file being written under a temporary name beside `path`; [`AtomicFile::commit`] puts it in
 /// place. Dropped without a commit, the temporary file is removed and `path` is untouched.
@@ -33,14 +49,13 @@ impl AtomicFile {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        let mut prefix = std::ffi::OsString::from(".");
-        prefix.push(name);
-        prefix.push(".");
-        // Same folder, so the rename cannot cross file systems and is atomic.
+        let prefix = temp_prefix(name);
+        // Same folder, so the rename cannot cross file systems and is atomic. Errors name the
+        // target, not the temporary: its random name would make every failure look new.
         let temp = tempfile::Builder::new()
             .prefix(&prefix)
             .suffix(TEMP_SUFFIX)
-            .tempfile_in(&dir)
+            .make_in(&dir, open_new)
             .map_err(|e| Error::io(path, e))?;
         Ok(AtomicFile {
             path: path.to_path_buf(),
@@ -79,6 +94,34 @@ impl Seek for AtomicFile {
     fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
         self.w.seek(pos)
     }
+}
+
+/// `.NAME.`, or for a long name its first [`KEPT_OF_LONG_NAME`] bytes (whole characters) and a
+/// hash of all of it, so the temporary's name fits whatever the target's length.
+fn temp_prefix(name: &OsStr) -> OsString {
+    let mut prefix = OsString::from(".");
+    if name.len() <= MAX_NAME_IN_TEMP {
+        prefix.push(name);
+    } else {
+        let lossy = name.to_string_lossy();
+        let mut end = KEPT_OF_LONG_NAME.min(lossy.len());
+        while !lossy.is_char_boundary(end) {
+            end -= 1;
+        }
+        let hash = xxhash_rust::xxh3::xxh3_64(name.as_encoded_bytes());
+        prefix.push(format!("{}~{hash:016x}", &lossy[..end]));
+    }
+    prefix.push(".");
+    prefix
+}
+
+/// Creates a fresh file (never an existing name) with the umask's mode for new files.
+fn open_new(path: &Path) -> std::io::Result<File> {
+    let mut options = OpenOptions::new();
+    options.read(true).write(true).create_new(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut options, NEW_FILE_MODE);
+    options.open(path)
 }
 
 /// Writes `path` atomically; `fill` writes the whole content into the given writer.
@@ -162,6 +205,56 @@ mod tests {
         assert!(matches!(err, Error::Invalid { .. }));
         assert_eq!(fs::read(&target).unwrap(), b"old");
         assert_eq!(file_names(dir.path()), vec!["a.bin".to_string()]);
+    }
+
+    /// The umask in force, from `/proc/self/status` (reading it with `umask(2)` would change it
+    /// for every thread for a moment).
+    #[cfg(target_os = "linux")]
+    fn current_umask() -> u32 {
+        let status = fs::read_to_string("/proc/self/status").unwrap();
+        let line = status.lines().find(|l| l.starts_with("Umask:")).unwrap();
+        u32::from_str_radix(line["Umask:".len()..].trim(), 8).unwrap()
+    }
+
+    /// A written file has the mode any new file of the user gets (0644 under umask 022), not
+    /// the temporary's private 0600.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn output_atomic_file_gets_the_umask_mode() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = TempDir::new().unwrap();
+        let target = dir.path().join("frame_0001.exr");
+        write_bytes_atomic(&target, b"pixels").unwrap();
+        let mode = fs::metadata(&target).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, NEW_FILE_MODE & !current_umask(), "mode {mode:o}");
+    }
+
+    /// A name of 250 bytes (the longest a file may have is 255) is written: its temporary's
+    /// name is shortened, and an error would name the target, not the temporary.
+    #[test]
+    fn output_atomic_long_name_is_written() {
+        let dir = TempDir::new().unwrap();
+        let name = format!("{}.ERROR", "j".repeat(243));
+        assert_eq!(name.len(), 249);
+        let target = dir.path().join(&name);
+        write_bytes_atomic(&target, b"why").unwrap();
+        assert_eq!(fs::read(&target).unwrap(), b"why");
+        assert_eq!(file_names(dir.path()), vec![name.clone()]);
+        let prefix = temp_prefix(OsStr::new(&name));
+        assert!(prefix.len() < 100, "{prefix:?}");
+        assert!(prefix.to_string_lossy().starts_with(".jjjj"), "{prefix:?}");
+        // Two long names with the same beginning get different temporaries.
+        let other = format!("{}.DONE", "j".repeat(243));
+        assert_ne!(prefix, temp_prefix(OsStr::new(&other)));
+    }
+
+    #[test]
+    fn output_atomic_error_names_the_target_not_the_temporary() {
+        let dir = TempDir::new().unwrap();
+        let target = dir.path().join("no_such_folder").join("stats.csv");
+        let err = write_atomic(&target, |_| Ok(())).unwrap_err().to_string();
+        assert!(err.contains("stats.csv"), "{err}");
+        assert!(!err.contains(TEMP_SUFFIX), "{err}");
     }
 
     #[test]

@@ -1,16 +1,51 @@
 //! The spool under fault, with an in-process daemon: a results folder that cannot be written
-//! makes the job wait and resume by itself; symbolic links in `jobs/` and `results/` are refused.
+//! makes the job wait and resume by itself (said once in the log); symbolic links in `jobs/` and
+//! `results/` are refused; long and non-UTF-8 job ids end. This binary captures its log.
 
 mod common;
 
+use std::io::Write;
 use std::os::unix::fs::{symlink, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::{Mutex, Once};
+use std::time::Duration;
 
 use antumbra_core::scene::Scene;
 use antumbra_daemon::spool::{JobSpec, DONE_FILE, ERROR_FILE};
 use common::spool::*;
 use common::*;
+
+static LOG: Mutex<Vec<u8>> = Mutex::new(Vec::new());
+
+struct Capture;
+
+impl Write for Capture {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        LOG.lock().unwrap().extend_from_slice(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// The log of every test of this binary so far (tests filter it by their job's id).
+fn log_lines() -> Vec<String> {
+    static INIT: Once = Once::new();
+    INIT.call_once(|| {
+        tracing_subscriber::fmt()
+            .with_writer(|| Capture)
+            .with_ansi(false)
+            .with_max_level(tracing::Level::INFO)
+            .try_init()
+            .unwrap();
+    });
+    String::from_utf8_lossy(&LOG.lock().unwrap())
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
 
 fn is_root() -> bool {
     // SAFETY: geteuid has no preconditions.
@@ -219,4 +254,117 @@ fn symlinked_job_folder_is_refused() {
     let e = read(&results.join("job-s").join(ERROR_FILE));
     assert!(e.contains("jobs/job-s"), "{e}");
     assert!(e.contains("symbolic link"), "{e}");
+}
+
+/// Submits `id` before any daemon runs, under a short id renamed to `id` afterwards: ids that
+/// `submit_job` refuses (too long, not UTF-8) can still be made by hand.
+fn submit_as(spool: &Path, id: &std::ffi::OsStr, frames: i32) {
+    submit(spool, "renamed-later", &scenes(frames), &JobSpec::default());
+    let jobs = spool.join("jobs");
+    std::fs::rename(jobs.join("renamed-later"), jobs.join(id)).unwrap();
+}
+
+/// A job id so long that the temporary name of `results/<id>.ERROR` passed 255 bytes: the
+/// refusal was retried for ever and every later job waited (issue 33). Its refusal is now
+/// written; an id so long that even `<id>.ERROR` cannot be a name is skipped without a wait.
+#[test]
+fn long_job_ids_with_a_refused_results_folder_end_and_later_jobs_run() {
+    let spool = temp_dir("spool-long-id");
+    let elsewhere = temp_dir("spool-long-id-target");
+    let long = format!("j{}", "x".repeat(239));
+    let too_long = format!("k{}", "x".repeat(251));
+    submit_as(spool.path(), long.as_ref(), 1);
+    submit_as(spool.path(), too_long.as_ref(), 1);
+    submit(spool.path(), "zz-good", &scenes(1), &JobSpec::default());
+    let results_root = spool.path().join("results");
+    std::fs::create_dir_all(&results_root).unwrap();
+    for id in [&long, &too_long] {
+        symlink(elsewhere.path(), results_root.join(id)).unwrap();
+    }
+    let d = start(spool.path());
+    wait_for_file(&results_root.join("zz-good").join(DONE_FILE));
+    let e = read(&results_root.join(format!("{long}.ERROR")));
+    assert!(e.contains("symbolic link"), "{e}");
+    assert!(status(spool.path())["state"] != "waiting");
+    assert_eq!(std::fs::read_dir(elsewhere.path()).unwrap().count(), 0);
+    assert_eq!(d.handle.stats().renders_done, 1);
+}
+
+/// A job folder whose name is not UTF-8 ended in ERROR under a name with U+FFFD in it, saying
+/// its job.json was missing. Its ERROR is now under the name with `\xNN` escapes, says why, and
+/// a later daemon does not write it again.
+#[test]
+fn job_folder_not_utf8_ends_in_error_under_a_readable_name() {
+    use std::os::unix::ffi::OsStrExt;
+    let spool = temp_dir("spool-not-utf8");
+    submit_as(spool.path(), std::ffi::OsStr::from_bytes(b"bad-\xff"), 1);
+    submit(spool.path(), "zz-good", &scenes(1), &JobSpec::default());
+    let results_root = spool.path().join("results");
+    let error = results_root.join("bad-\\xFF").join(ERROR_FILE);
+    let written = {
+        let _d = start(spool.path());
+        wait_for_file(&results_root.join("zz-good").join(DONE_FILE));
+        let e = read(&error);
+        assert!(e.contains("jobs/bad-\\xFF"), "{e}");
+        assert!(e.contains("not UTF-8"), "{e}");
+        std::fs::metadata(&error).unwrap().modified().unwrap()
+    };
+    let names: Vec<String> = std::fs::read_dir(&results_root)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| n.contains('\u{FFFD}')), "{names:?}");
+    // The next daemon sees the job ended: nothing written again.
+    submit(spool.path(), "zz-later", &scenes(1), &JobSpec::default());
+    let _d = start(spool.path());
+    wait_for_file(&results_root.join("zz-later").join(DONE_FILE));
+    assert_eq!(
+        std::fs::metadata(&error).unwrap().modified().unwrap(),
+        written
+    );
+}
+
+/// A frame folder that cannot be made was logged at every retry: its message held the
+/// temporary folder's name, new at each try (issue 33). Now once per wait, and the status names
+/// the frame's folder.
+#[test]
+fn a_waiting_write_is_logged_once_not_at_every_retry() {
+    log_lines();
+    let spool = temp_dir("spool-log");
+    let root = spool.path().to_path_buf();
+    let _d = TestDaemon::start_with("spool-log", |c| {
+        c.spool = Some(root);
+        c.spool_retry_min = Duration::from_millis(20);
+        c.spool_retry_max = Duration::from_millis(40);
+    });
+    let results_root = spool.path().join("results");
+    let results = results_root.join("job-log");
+    // attempts.log exists and takes lines; only new names (the frame's folder) fail.
+    std::fs::create_dir_all(&results).unwrap();
+    std::fs::write(results.join("attempts.log"), b"").unwrap();
+    let mut blocked = Blocked::new(&results_root, "job-log");
+    submit(spool.path(), "job-log", &scenes(1), &JobSpec::default());
+    wait_until("a waiting status after six retries", || {
+        let s = status(spool.path());
+        s["state"] == "waiting" && s["retry"].as_u64().is_some_and(|r| r >= 6)
+    });
+    let s = status(spool.path());
+    let message = s["message"].as_str().unwrap();
+    assert!(!message.contains(".tmp-"), "{s}");
+    blocked.restore();
+    wait_for_file(&results.join(DONE_FILE));
+    let mine: Vec<String> = log_lines()
+        .into_iter()
+        .filter(|l| l.contains("job-log"))
+        .collect();
+    let waits = mine
+        .iter()
+        .filter(|l| l.contains("waiting and retrying"))
+        .count();
+    assert_eq!(waits, 1, "{mine:#?}");
+    let again = mine
+        .iter()
+        .filter(|l| l.contains("writing works again"))
+        .count();
+    assert_eq!(again, 1, "{mine:#?}");
 }

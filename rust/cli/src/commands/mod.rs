@@ -4,4 +4,5 @@ pub mod demo;
 pub mod record;
 pub mod render;
 pub mod serve;
+pub mod spool;
 pub mod trade;

@@ -71,7 +71,8 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = 16)]
     pub max_pending_handshakes: usize,
     /// Starts of a spool frame that never finished (the daemon died rendering it: out of
-    /// memory, a crash) after which its job ends in ERROR and the spool goes on.
+    /// memory, a crash, or killed from outside, which it cannot tell apart) after which its job
+    /// ends in ERROR and the spool goes on; `antumbra spool resume` continues such a job.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     pub spool_max_attempts: u32,
     /// Seconds before the first retry of a spool result that cannot be written (read-only

@@ -9,6 +9,8 @@ use std::os::unix::fs::OpenOptionsExt;
 use super::results::{io_error, refuse_link, sync_dir, JobResults, WriteError};
 
 pub const ATTEMPTS_FILE: &str = "attempts.log";
+/// The line `antumbra spool resume` appends.
+const RESUME: &str = "resume";
 /// More than any real log holds (a line per start); a larger file is read only this far.
 const MAX_BYTES: u64 = 1 << 20;
 
@@ -18,9 +20,10 @@ pub(crate) struct Attempts {
 }
 
 impl Attempts {
-    /// Reads the job's `attempts.log` (none yet: no starts). Lines are `start F ...` and
-    /// `stopped F` (a clean stop while the frame was under way, which takes one start back);
-    /// a torn last line of a killed daemon parses as nothing.
+    /// Reads the job's `attempts.log` (none yet: no starts). Lines are `start F ...`,
+    /// `stopped F` (a clean stop while the frame was under way, which takes one start back) and
+    /// `resume ...` (`antumbra spool resume`: every start before it is forgiven); a torn last
+    /// line of a killed daemon parses as nothing.
     pub fn load(results: &JobResults) -> Result<Attempts, WriteError> {
         let path = results.path(ATTEMPTS_FILE);
         let mut text = String::new();
@@ -48,6 +51,10 @@ impl Attempts {
         }
         let mut starts: HashMap<i32, u32> = HashMap::new();
         for line in text.lines() {
+            if line.split_whitespace().next() == Some(RESUME) {
+                starts.clear();
+                continue;
+            }
             let mut words = line.split_whitespace();
             let (Some(what), Some(Ok(frame))) = (words.next(), words.next().map(str::parse)) else {
                 continue;
@@ -69,13 +76,22 @@ impl Attempts {
 
     /// Records that `frame` starts now, on disk (synced) before it renders.
     pub fn record_start(&mut self, results: &JobResults, frame: i32) -> Result<(), WriteError> {
-        let unix_s = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_secs());
-        let line = format!("start {frame} pid={} unix_s={unix_s}\n", std::process::id());
+        let line = format!(
+            "start {frame} pid={} unix_s={}\n",
+            std::process::id(),
+            unix_s()
+        );
         append(results, &line)?;
         *self.starts.entry(frame).or_default() += 1;
         Ok(())
+    }
+
+    /// Records that a person resumed the job: the starts so far no longer count against it.
+    pub fn record_resume(results: &JobResults) -> Result<(), WriteError> {
+        append(
+            results,
+            &format!("{RESUME} pid={} unix_s={}\n", std::process::id(), unix_s()),
+        )
     }
 
     /// Records that the daemon stopped cleanly while `frame` was under way: not a failure.
@@ -86,6 +102,12 @@ impl Attempts {
             *n = n.saturating_sub(1);
         }
     }
+}
+
+fn unix_s() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
 }
 
 /// Appends a line to `attempts.log` and syncs it (and the folder, which may have got the file).

@@ -14,20 +14,22 @@ use antumbra_protocol::{
 };
 
 use super::attempts::Attempts;
+use super::name::JobName;
 use super::results::{link_message, JobResults, WriteError};
 use super::retry::{until_written, Status};
 use super::{failed, read_job_spec, JobError, SpoolDirs, JOB_FILE, SCENE_FILE};
 use crate::shared::{bump, Shared};
 use crate::slots::Acquired;
 
-/// Renders job `id`, and writes its `ERROR` if it fails. Returns `Refused` if its results
+/// Renders job `name`, and writes its `ERROR` if it fails. Returns `Refused` if its results
 /// folder is not safe to write into (the caller writes `results/<id>.ERROR`).
 pub(super) fn run_job(
     shared: &Shared,
     dirs: &SpoolDirs,
     status: &mut Status,
-    id: &str,
+    name: &JobName,
 ) -> Result<(), JobError> {
+    let id = name.id.as_str();
     let dir = dirs.results.join(id);
     let results = until_written(shared, status, id, None, || JobResults::open(&dir)).map_err(
         |e| match e {
@@ -41,7 +43,7 @@ pub(super) fn run_job(
         id,
         results: &results,
     };
-    match job.render(dirs) {
+    match job.render(dirs, name) {
         Err(JobError::Failed(message)) => {
             tracing::error!(job = %id, error = %message, "job failed");
             job.write(None, || results.write_error(&message))?;
@@ -68,9 +70,16 @@ impl Job<'_> {
         until_written(self.shared, self.status, self.id, frame, write)
     }
 
-    fn render(&mut self, dirs: &SpoolDirs) -> Result<(), JobError> {
+    fn render(&mut self, dirs: &SpoolDirs, name: &JobName) -> Result<(), JobError> {
         let (shared, id, results) = (self.shared, self.id, self.results);
-        let job_dir = dirs.jobs.join(id);
+        let job_dir = dirs.jobs.join(&name.os);
+        if !name.is_utf8() {
+            return Err(failed(format!(
+                "{}: the job folder's name is not UTF-8 (shown here with \\xNN for the bytes \
+                 that are not); rename the folder to a UTF-8 name to render it",
+                dirs.jobs.join(id).display()
+            )));
+        }
         if job_dir
             .symlink_metadata()
             .is_ok_and(|m| m.file_type().is_symlink())
@@ -115,7 +124,9 @@ impl Job<'_> {
                 bump(&shared.counters.renders_failed);
                 return Err(failed(format!(
                     "frame {frame} was started {starts} times and never finished: the daemon \
-                     stopped while rendering it (out of memory or a crash?)"
+                     stopped while rendering it (out of memory, a crash, or killed from \
+                     outside); to go on from the first missing frame: antumbra spool resume {} {id}",
+                    dirs.root.display()
                 )));
             }
             let scene = anim.frame(frame);

@@ -16,14 +16,17 @@
 //! `frame_NNNN` is always complete; a restarted daemon skips those frames, removes leftover
 //! temporary folders and finishes the rest. The manifest is rebuilt from the frame folders
 //! that exist, so it lists each finished frame exactly once whatever happened before. A frame
-//! started too often without finishing (it kills the daemon) ends its job in `ERROR`; a failed
-//! write waits and retries; nothing is written or counted through a symbolic link.
+//! started too often without finishing (it kills the daemon) ends its job in `ERROR`, which
+//! `antumbra spool resume` ([`resume_job`]) undoes; a failed write waits and retries unless it
+//! can never work; nothing is written or counted through a symbolic link.
 //! `docs/daemon.md` documents the layout and the policies.
 
 mod attempts;
 mod job;
+mod name;
 mod prepare;
 mod results;
+mod resume;
 mod retry;
 mod scan;
 mod spec;
@@ -39,7 +42,9 @@ use notify::Watcher;
 use crate::shared::Shared;
 
 pub use attempts::ATTEMPTS_FILE;
+pub use name::MAX_JOB_ID_BYTES;
 pub use prepare::{prepare, SpoolLock};
+pub use resume::{resume_job, Resumed};
 pub use retry::STATUS_FILE;
 pub use spec::{read_job_spec, JobSpec, Manifest, ManifestFrame};
 pub use submit::submit_job;
@@ -90,11 +95,11 @@ pub(crate) fn run(shared: Arc<Shared>, root: PathBuf) {
         }
     };
     tracing::info!(spool = %root.display(), "spool started");
-    let mut status = retry::Status::new(&dirs.root);
+    let mut scanner = scan::Scanner::new(retry::Status::new(&dirs.root));
     while !shared.stopping() {
         // Drain pending events first: the scan below sees everything they announced.
         while rx.try_recv().is_ok() {}
-        scan::scan(&shared, &dirs, &mut status);
+        scan::scan(&shared, &dirs, &mut scanner);
         let next_scan = Instant::now() + shared.config.spool_rescan;
         while !shared.stopping() {
             let left = next_scan.saturating_duration_since(Instant::now());

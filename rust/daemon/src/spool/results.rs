@@ -26,8 +26,49 @@ pub(crate) enum WriteError {
     Invalid(String),
 }
 
-pub(crate) fn io_error(path: &Path, e: impl std::fmt::Display) -> WriteError {
-    WriteError::Io(format!("cannot write {}: {e}", path.display()))
+impl WriteError {
+    pub fn into_message(self) -> String {
+        match self {
+            WriteError::Io(m) | WriteError::Unsafe(m) | WriteError::Invalid(m) => m,
+        }
+    }
+
+    fn map_message(self, f: impl FnOnce(String) -> String) -> WriteError {
+        match self {
+            WriteError::Io(m) => WriteError::Io(f(m)),
+            WriteError::Unsafe(m) => WriteError::Unsafe(f(m)),
+            WriteError::Invalid(m) => WriteError::Invalid(f(m)),
+        }
+    }
+}
+
+/// A failed write at `path`: retried, unless no retry can cure it.
+pub(crate) fn io_error(path: &Path, e: std::io::Error) -> WriteError {
+    let message = format!("cannot write {}: {e}", path.display());
+    match e.raw_os_error() {
+        Some(code) if HOPELESS_OS_ERRORS.contains(&code) => WriteError::Invalid(message),
+        _ => WriteError::Io(message),
+    }
+}
+
+/// Errors of the system that no retry can cure: the name itself is refused (too long, or not a
+/// name the file system takes). Waiting on them would stall the spool for ever.
+const HOPELESS_OS_ERRORS: [i32; 3] = [libc::ENAMETOOLONG, libc::EILSEQ, libc::EINVAL];
+
+/// The system error code in a message, as `io::Error` spells it: `... (os error 36)`.
+fn os_error(message: &str) -> Option<i32> {
+    let start = message.rfind("(os error ")? + "(os error ".len();
+    let end = start + message[start..].find(')')?;
+    message[start..end].parse().ok()
+}
+
+/// A failed atomic write of a small file: retried unless the name can never be written.
+fn write_failure(e: antumbra_core::Error) -> WriteError {
+    let message = format!("cannot write {e}");
+    match os_error(&message) {
+        Some(code) if HOPELESS_OS_ERRORS.contains(&code) => WriteError::Invalid(message),
+        _ => WriteError::Io(message),
+    }
 }
 
 /// Refuses a symbolic link at `path`, naming it.
@@ -126,7 +167,10 @@ impl JobResults {
         if r.is_err() {
             let _ = fs::remove_dir_all(&temp);
         }
-        r
+        // Errors name the frame's folder, not the temporary: its name changes at every try, and
+        // a message that never repeats would be logged as a new failure each time.
+        let (temp_name, fin_name) = (temp.display().to_string(), fin.display().to_string());
+        r.map_err(|e| e.map_message(|m| m.replace(&temp_name, &fin_name)))
     }
 
     /// Rebuilds `manifest.json` from the frame folders that exist (real folders only).
@@ -177,9 +221,8 @@ impl JobResults {
     /// retry would wait for ever.
     fn classify(&self, e: antumbra_core::Error) -> WriteError {
         let message = e.to_string();
-        let full = [libc::ENOSPC, libc::EDQUOT]
-            .iter()
-            .any(|code| message.contains(&format!("(os error {code})")));
+        let full =
+            os_error(&message).is_some_and(|code| [libc::ENOSPC, libc::EDQUOT].contains(&code));
         if matches!(e, antumbra_core::Error::Io { .. }) && (full || !self.can_write()) {
             WriteError::Io(format!("cannot write {message}"))
         } else {
@@ -214,7 +257,7 @@ impl JobResults {
     fn write_file(&self, name: &str, bytes: &[u8]) -> Result<(), WriteError> {
         self.verify()?;
         let path = self.dir.join(name);
-        write_bytes_atomic(&path, bytes).map_err(|e| WriteError::Io(format!("cannot write {e}")))
+        write_bytes_atomic(&path, bytes).map_err(write_failure)
     }
 }
 
@@ -259,8 +302,7 @@ pub(crate) fn write_refusal(
     message: &str,
 ) -> Result<(), WriteError> {
     let path = refusal_path(results_root, job);
-    write_bytes_atomic(&path, format!("{message}\n").as_bytes())
-        .map_err(|e| WriteError::Io(format!("cannot write {e}")))
+    write_bytes_atomic(&path, format!("{message}\n").as_bytes()).map_err(write_failure)
 }
 
 pub(crate) fn refusal_path(results_root: &Path, job: &str) -> PathBuf {
@@ -275,5 +317,33 @@ pub(crate) fn is_file(path: &Path) -> bool {
 pub(crate) fn sync_dir(dir: &Path) {
     if let Ok(d) = File::open(dir) {
         let _ = d.sync_all();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spool_os_error_is_read_from_the_message() {
+        assert_eq!(
+            os_error("x: File name too long (os error 36)"),
+            Some(libc::ENAMETOOLONG)
+        );
+        assert_eq!(os_error("x (os error 2): y (os error 13)"), Some(13));
+        assert_eq!(os_error("no code here"), None);
+    }
+
+    #[test]
+    fn spool_name_too_long_is_not_retried() {
+        let path = Path::new("results/x");
+        let e = std::io::Error::from_raw_os_error(libc::ENAMETOOLONG);
+        assert!(matches!(io_error(path, e), WriteError::Invalid(_)));
+        let e = std::io::Error::from_raw_os_error(libc::EROFS);
+        assert!(matches!(io_error(path, e), WriteError::Io(_)));
+        let e = antumbra_core::Error::io("r/x.ERROR", std::io::Error::from_raw_os_error(36));
+        assert!(matches!(write_failure(e), WriteError::Invalid(_)));
+        let e = antumbra_core::Error::io("r/x.ERROR", std::io::Error::from_raw_os_error(13));
+        assert!(matches!(write_failure(e), WriteError::Io(_)));
     }
 }

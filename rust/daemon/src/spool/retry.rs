@@ -118,9 +118,13 @@ impl Status {
     }
 }
 
+/// Distinct failures of one wait said in the log; past them the status file alone tells.
+const MAX_LOGGED_FAILURES: usize = 8;
+
 /// Runs `write` until it works: a failed write is retried after `spool_retry_min`, doubling
 /// up to `spool_retry_max`, with the state in the status file (each retry) and the log (each
-/// change). An unsafe name fails the job at once; a stopping daemon ends the wait.
+/// change). An unsafe name, or one the file system can never take, fails the job at once; a
+/// stopping daemon ends the wait.
 pub(crate) fn until_written<T>(
     shared: &Shared,
     status: &mut Status,
@@ -129,7 +133,9 @@ pub(crate) fn until_written<T>(
     mut write: impl FnMut() -> Result<T, WriteError>,
 ) -> Result<T, JobError> {
     let mut retry = 0u32;
-    let mut logged: Option<String> = None;
+    // The failures of this wait said in the log: each once, not once per retry (their text
+    // holds no temporary name, so a repeated failure reads the same).
+    let mut logged: Vec<String> = Vec::new();
     loop {
         match write() {
             Ok(v) => {
@@ -148,10 +154,10 @@ pub(crate) fn until_written<T>(
             Err(WriteError::Io(message)) => {
                 retry += 1;
                 let wait = backoff(shared, retry);
-                if logged.as_deref() != Some(message.as_str()) {
+                if !logged.contains(&message) && logged.len() < MAX_LOGGED_FAILURES {
                     tracing::warn!(job, error = %message, retry_in_s = wait.as_secs_f64(),
                         "cannot write the job's results; waiting and retrying");
-                    logged = Some(message.clone());
+                    logged.push(message.clone());
                 }
                 status.waiting(job, frame, &message, retry, wait);
                 if !sleep_unless_stopping(shared, wait) {

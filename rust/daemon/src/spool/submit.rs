@@ -6,11 +6,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use antumbra_core::atomic_file::write_bytes_atomic;
 
+use super::name::check_job_id;
 use super::{JobSpec, SpoolDirs, JOB_FILE, SCENE_FILE};
 
 /// Submits a job the way a client should: writes `job.json` and the recording into
 /// `DIR/incoming/<unique>/`, then renames that folder to `DIR/jobs/<id>/`. Fails if a job with
-/// this id exists.
+/// this id exists, or if the id is not a plain folder name of at most [`MAX_JOB_ID_BYTES`].
+///
+/// [`MAX_JOB_ID_BYTES`]: super::MAX_JOB_ID_BYTES
 pub fn submit_job(
     root: &Path,
     id: &str,
@@ -18,15 +21,17 @@ pub fn submit_job(
     write_scene: impl FnOnce(&Path) -> Result<(), String>,
 ) -> Result<PathBuf, String> {
     let dirs = SpoolDirs::new(root);
-    if id.is_empty() || id.starts_with('.') || id.contains(['/', '\\']) {
-        return Err(format!("job id '{id}': must be a plain folder name"));
-    }
+    check_job_id(id)?;
     for d in [&dirs.incoming, &dirs.jobs] {
         fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
     }
-    let temp = dirs
-        .incoming
-        .join(format!("{id}-{}-{}", std::process::id(), unique()));
+    // The id's beginning only: with the suffix a long id would pass the 255 bytes of a name.
+    let temp = dirs.incoming.join(format!(
+        "{}-{}-{}",
+        beginning(id, 64),
+        std::process::id(),
+        unique()
+    ));
     fs::create_dir(&temp).map_err(|e| format!("{}: {e}", temp.display()))?;
     let text = serde_json::to_string_pretty(spec).map_err(|e| e.to_string())?;
     write_bytes_atomic(&temp.join(JOB_FILE), text.as_bytes()).map_err(|e| e.to_string())?;
@@ -38,6 +43,15 @@ pub fn submit_job(
     }
     fs::rename(&temp, &target).map_err(|e| format!("{}: {e}", target.display()))?;
     Ok(target)
+}
+
+/// At most `max` bytes of `text`, cut between characters.
+fn beginning(text: &str, max: usize) -> &str {
+    let mut end = max.min(text.len());
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    &text[..end]
 }
 
 fn unique() -> u64 {

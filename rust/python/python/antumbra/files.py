@@ -38,7 +38,8 @@ def read_recording(path: str | os.PathLike[str]) -> dict[str, Any]:
 def write_file_atomic(path: str | os.PathLike[str], data: bytes) -> None:
     """Writes ``data`` to ``path`` as every antumbra file is written: into a uniquely named
     temporary file beside it, synced to disk, then renamed over ``path`` (so a reader never sees
-    half a file, and two writers never share a temporary file)."""
+    half a file, and two writers never share a temporary file). The file gets the mode the
+    umask gives any new file (0644 under umask 022)."""
     _native.write_file_atomic(os.fspath(path), bytes(data))
 
 

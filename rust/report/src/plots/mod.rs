@@ -57,12 +57,14 @@ fn to_png(
     draw(BitMapBackend::with_buffer(&mut rgb, (width, height)))
         .map_err(|e| anyhow::anyhow!("plotting '{title}': {e}"))?;
     // The best compression: plots are committed to the docs, and they are small to encode.
+    // Written atomically like every other file, so a reader never sees half a plot.
     let write = || -> anyhow::Result<()> {
         use image::codecs::png::{CompressionType, FilterType, PngEncoder};
         use image::ImageEncoder;
-        let file = std::io::BufWriter::new(std::fs::File::create(path)?);
-        PngEncoder::new_with_quality(file, CompressionType::Best, FilterType::Adaptive)
+        let mut file = antumbra_core::atomic_file::AtomicFile::create(path)?;
+        PngEncoder::new_with_quality(&mut file, CompressionType::Best, FilterType::Adaptive)
             .write_image(&rgb, width, height, image::ExtendedColorType::Rgb8)?;
+        file.commit()?;
         Ok(())
     };
     write().map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))
