@@ -1,5 +1,5 @@
-//! glTF and GLB from bytes: the document parsed and validated by the `gltf` crate, the buffers
-//! and accessors checked and read here, the node tree walked with counts bounded.
+//! glTF and GLB from bytes: the document's JSON parsed by the `gltf` crate's model, everything
+//! else (indices between its arrays, buffers, accessors, the node tree) checked here where used.
 
 mod accessor;
 mod buffers;
@@ -10,7 +10,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use antumbra_core::scene::{Mesh, Object};
-use glam::{DMat4, Vec3};
+use glam::{DMat4, DQuat, DVec3, Vec3};
 use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 use gltf::json::Root;
@@ -36,37 +36,43 @@ pub(super) fn read_gltf(
     } else {
         (bytes, None)
     };
-    let document = parse(json)?;
-    let root = document.as_json();
-    let buffers = buffers::load(root, bin, folder, &mut totals, limits)?;
+    let root = parse(json)?;
+    let buffers = buffers::load(&root, bin, folder, &mut totals, limits)?;
     let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b[..]).collect();
     let accessors = Accessors {
-        root,
+        root: &root,
         buffers: &buffers,
     };
-    let roots: Vec<gltf::Node> = match document
-        .default_scene()
-        .or_else(|| document.scenes().next())
-    {
-        Some(scene) => scene.nodes().collect(),
+    let roots: Vec<usize> = match root.scene.map(|s| s.value()).or(if root.scenes.is_empty() {
+        None
+    } else {
+        Some(0)
+    }) {
+        Some(s) => {
+            let scene = root
+                .scenes
+                .get(s)
+                .ok_or_else(|| format!("scene {s} does not exist"))?;
+            scene.nodes.iter().map(|n| n.value()).collect()
+        }
         // No scene: every node that is nobody's child is a root.
         None => {
-            let children: HashSet<usize> = document
-                .nodes()
-                .flat_map(|n| n.children().map(|c| c.index()))
+            let children: HashSet<usize> = root
+                .nodes
+                .iter()
+                .flat_map(|n| n.children.iter().flatten().map(|c| c.value()))
                 .collect();
-            document
-                .nodes()
-                .filter(|n| !children.contains(&n.index()))
+            (0..root.nodes.len())
+                .filter(|n| !children.contains(n))
                 .collect()
         }
     };
     let mut out = Imported::default();
     let mut mesh_of: HashMap<usize, Option<usize>> = HashMap::new();
     let mut visits = 0u64;
-    let mut stack: Vec<(gltf::Node, DMat4, usize)> =
+    let mut stack: Vec<(usize, DMat4, usize)> =
         roots.into_iter().map(|n| (n, y_up_to_z_up(), 0)).collect();
-    while let Some((node, parent, depth)) = stack.pop() {
+    while let Some((index, parent, depth)) = stack.pop() {
         if depth > MAX_NODE_DEPTH {
             return Err(format!(
                 "node hierarchy deeper than {MAX_NODE_DEPTH} levels (a cycle?)"
@@ -76,40 +82,64 @@ pub(super) fn read_gltf(
         // can place exponentially many.
         visits += 1;
         check("nodes placed", visits, limits.max_objects, "max_objects")?;
-        let local = node.transform().matrix().map(|c| c.map(|v| v as f64));
-        let world = parent * DMat4::from_cols_array_2d(&local);
-        if let Some(mesh) = node.mesh() {
-            let index = match mesh_of.get(&mesh.index()) {
-                Some(&index) => index,
+        let node = root
+            .nodes
+            .get(index)
+            .ok_or_else(|| format!("node {index} does not exist"))?;
+        let world = parent * local_transform(node);
+        if let Some(mesh) = node.mesh.map(|m| m.value()) {
+            let built = match mesh_of.get(&mesh) {
+                Some(&built) => built,
                 None => {
-                    let built = read_mesh(&accessors, mesh.index(), &mut totals, limits)?;
-                    let index = built.map(|m| {
+                    let built = read_mesh(&accessors, mesh, &mut totals, limits)?.map(|m| {
                         out.meshes.push(Arc::new(m));
                         out.meshes.len() - 1
                     });
-                    if index.is_some() {
+                    if built.is_some() {
                         totals.add_mesh("meshes", limits)?;
                     }
-                    mesh_of.insert(mesh.index(), index);
-                    index
+                    mesh_of.insert(mesh, built);
+                    built
                 }
             };
-            if let Some(index) = index {
+            if let Some(built) = built {
                 totals.add_object("objects", limits)?;
                 let name = node
-                    .name()
-                    .map(str::to_owned)
-                    .unwrap_or_else(|| format!("node.{}", node.index()));
-                out.objects.push(Object::new(name, index, world));
+                    .name
+                    .clone()
+                    .unwrap_or_else(|| format!("node.{index}"));
+                out.objects.push(Object::new(name, built, world));
             }
         }
-        stack.extend(node.children().map(|c| (c, world, depth + 1)));
+        let children = node.children.iter().flatten();
+        stack.extend(children.map(|c| (c.value(), world, depth + 1)));
     }
     Ok(out)
 }
 
-/// The document, parsed and validated. Errors give where and what kind, not the text found.
-fn parse(json: &[u8]) -> Result<gltf::Document, String> {
+/// A node's matrix, or its translation, rotation and scale (in that order of application
+/// from the left, as glTF defines).
+fn local_transform(node: &gltf::json::Node) -> DMat4 {
+    let f = |v: f32| v as f64;
+    match node.matrix {
+        Some(m) => DMat4::from_cols_array(&m.map(f)),
+        None => {
+            let t = node.translation.unwrap_or([0.0; 3]).map(f);
+            let r = node.rotation.map_or([0.0, 0.0, 0.0, 1.0], |q| q.0).map(f);
+            let s = node.scale.unwrap_or([1.0; 3]).map(f);
+            DMat4::from_scale_rotation_translation(
+                DVec3::from_array(s),
+                DQuat::from_array(r),
+                DVec3::from_array(t),
+            )
+        }
+    }
+}
+
+/// The document's JSON, parsed (not validated: the `gltf` crate's validation indexes arrays
+/// unchecked; every index and value used is checked where it is used). Errors give where and
+/// what kind, not the text found. Required extensions are refused: none is read.
+fn parse(json: &[u8]) -> Result<Root, String> {
     let root = Root::from_slice(json).map_err(|e| {
         let kind = if e.is_eof() {
             "ends early"
@@ -124,21 +154,13 @@ fn parse(json: &[u8]) -> Result<gltf::Document, String> {
             e.column()
         )
     })?;
-    gltf::Document::from_json(root).map_err(|e| match e {
-        gltf::Error::Validation(errors) => {
-            let shown: Vec<String> = errors
-                .iter()
-                .take(3)
-                .map(|(path, error)| format!("{path}: {error}"))
-                .collect();
-            format!(
-                "not a valid glTF file: {}{}",
-                shown.join("; "),
-                if errors.len() > 3 { "; ..." } else { "" }
-            )
-        }
-        _ => "not a valid glTF file".into(),
-    })
+    if !root.extensions_required.is_empty() {
+        return Err(format!(
+            "requires {} extension(s) (extensionsRequired); none is read",
+            root.extensions_required.len()
+        ));
+    }
+    Ok(root)
 }
 
 /// All triangles of glTF mesh `index`'s primitives (triangle lists, strips and fans) in one
