@@ -137,7 +137,7 @@ fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
 }
 
 const OBJ_WORDS: &[&str] = &[
-    "v ", "f ", "o ", "g ", "vt ", "vn ", "/", "//", "-1", "\\n", "#",
+    "v ", "f ", "o ", "g ", "vt ", "vn ", "/", "//", "-1", "\\x0A", "#",
 ];
 
 const GLTF_WORDS: &[&str] = &[
@@ -187,7 +187,7 @@ const GLTF_WORDS: &[&str] = &[
     "BIN\\x00",
 ];
 
-/// A libFuzzer dictionary: one quoted word a line.
+/// A libFuzzer dictionary: one quoted word a line (bytes other than printable ASCII as `\xNN`).
 fn dict(words: &[&str]) -> String {
     words.iter().map(|w| format!("\"{w}\"\n")).collect()
 }

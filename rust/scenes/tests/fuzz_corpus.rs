@@ -30,16 +30,30 @@ fn corpus(target: &str) -> Vec<(String, Vec<u8>)> {
         .collect()
 }
 
-/// A target's dictionary words (`<target>.dict`, one quoted word a line; `\n` unescaped).
+/// A target's dictionary words (`<target>.dict`, one quoted word a line, `\xNN` escapes).
 fn words(target: &str) -> Vec<String> {
     let dict = std::fs::read_to_string(fuzz_dir().join(format!("{target}.dict"))).unwrap();
     let words: Vec<String> = dict
         .lines()
         .filter_map(|l| l.strip_prefix('"')?.strip_suffix('"'))
-        .map(|w| w.replace("\\n", "\n").replace("\\x00", "\0"))
+        .map(unescape)
         .collect();
     assert!(words.len() > 5, "{target}.dict is nearly empty");
     words
+}
+
+/// A libFuzzer dictionary word's `\xNN` escapes as the bytes they stand for.
+fn unescape(word: &str) -> String {
+    let mut out = String::new();
+    let mut rest = word;
+    while let Some(at) = rest.find("\\x") {
+        out.push_str(&rest[..at]);
+        let byte = u8::from_str_radix(&rest[at + 2..at + 4], 16).unwrap();
+        out.push(char::from(byte));
+        rest = &rest[at + 4..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// The seeds, then `MUTATIONS` mutations of them and some pure noise, through `body`.
