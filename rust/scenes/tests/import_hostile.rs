@@ -235,3 +235,57 @@ fn buffer_uris_outside_the_files_folder_are_refused() {
         assert!(!message.contains("SECRET"), "{name}: {message}");
     }
 }
+
+#[test]
+fn references_to_what_does_not_exist_are_refused() {
+    let dir = TempDir::new().unwrap();
+    let bytes = buffer(&[0, 2, 1, 0, 3, 2]);
+    let index = r#""bufferView": 1, "componentType": 5121, "count": 6, "type": "SCALAR""#;
+    let json = gltf(&embedded(&bytes), bytes.len(), POSITIONS, index);
+    // The first, found by the bounded fuzzing: the `gltf` crate's validation indexed the
+    // accessors unchecked for POSITION's bounds and panicked.
+    for (name, from, to, expected) in [
+        (
+            "position.gltf",
+            r#""POSITION": 0"#,
+            r#""POSITION": 7"#,
+            "accessor 7",
+        ),
+        (
+            "indices.gltf",
+            r#""indices": 1"#,
+            r#""indices": 9"#,
+            "accessor 9",
+        ),
+        (
+            "view.gltf",
+            r#""bufferView": 1,"#,
+            r#""bufferView": 5,"#,
+            "bufferView 5",
+        ),
+        (
+            "buffer.gltf",
+            r#"{"buffer": 0, "byteOffset": 48"#,
+            r#"{"buffer": 3, "byteOffset": 48"#,
+            "buffer 3",
+        ),
+        ("mesh.gltf", r#"{"mesh": 0}"#, r#"{"mesh": 4}"#, "mesh 4"),
+        (
+            "node.gltf",
+            r#"{"nodes": [0]}"#,
+            r#"{"nodes": [0, 6]}"#,
+            "node 6",
+        ),
+        (
+            "scene.gltf",
+            r#""scenes""#,
+            r#""scene": 2, "scenes""#,
+            "scene 2",
+        ),
+    ] {
+        assert!(json.contains(from), "{name}: the test's JSON changed");
+        let path = write(dir.path(), name, json.replace(from, to).as_bytes());
+        let message = refusal(&path);
+        assert!(message.contains(expected), "{name}: {message}");
+    }
+}

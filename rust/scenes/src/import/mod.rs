@@ -36,7 +36,7 @@ struct Imported {
 
 /// The formats read, by file extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Format {
+enum Format {
     Obj,
     /// `.gltf` or `.glb`: which one is told by the bytes.
     Gltf,
@@ -44,7 +44,7 @@ pub enum Format {
 
 impl Format {
     /// The format a path's extension names, or `None`.
-    pub fn of(path: &Path) -> Option<Format> {
+    fn of(path: &Path) -> Option<Format> {
         let extension = path.extension()?.to_str()?.to_ascii_lowercase();
         match extension.as_str() {
             "obj" => Some(Format::Obj),

@@ -108,7 +108,7 @@ pub(super) fn read_obj(
                 }
                 let new = corners.len() as u64 - 2;
                 check(
-                    &format!("line {number}: triangles of mesh '{}'", group.name),
+                    &format!("line {number}: triangles of this mesh"),
                     group.triangles.len() as u64 + new,
                     limits.max_triangles_per_mesh,
                     "max_triangles_per_mesh",

@@ -228,13 +228,13 @@ impl<'a> Accessors<'a> {
             Some(s) if strided && s.0 != 0 => s.0 as u64,
             _ => size,
         };
-        if stride < size || stride % component.size() as u64 != 0 {
+        if stride < size || !stride.is_multiple_of(component.size() as u64) {
             return Err(format!(
                 "{what}: bufferView {view}'s byteStride {stride} is under the element's {size} \
                  bytes or not a multiple of its component's"
             ));
         }
-        if offset % component.size() as u64 != 0 {
+        if !offset.is_multiple_of(component.size() as u64) {
             return Err(format!(
                 "{what}: byteOffset {offset} is not a multiple of the component size {}",
                 component.size()

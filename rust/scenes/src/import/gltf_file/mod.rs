@@ -104,10 +104,7 @@ pub(super) fn read_gltf(
             };
             if let Some(built) = built {
                 totals.add_object("objects", limits)?;
-                let name = node
-                    .name
-                    .clone()
-                    .unwrap_or_else(|| format!("node.{index}"));
+                let name = node.name.clone().unwrap_or_else(|| format!("node.{index}"));
                 out.objects.push(Object::new(name, built, world));
             }
         }
