@@ -289,3 +289,25 @@ fn references_to_what_does_not_exist_are_refused() {
         assert!(message.contains(expected), "{name}: {message}");
     }
 }
+
+#[test]
+fn node_trees_that_place_too_many_nodes_are_refused() {
+    let dir = TempDir::new().unwrap();
+    let bytes = buffer(&[0, 2, 1, 0, 3, 2]);
+    let index = r#""bufferView": 1, "componentType": 5121, "count": 6, "type": "SCALAR""#;
+    // Node k lists node k + 1 twice: 2^22 placements of the quad from 23 nodes.
+    let nodes: Vec<String> = (0..22)
+        .map(|k| format!(r#"{{"children": [{0}, {0}]}}"#, k + 1))
+        .chain([r#"{"mesh": 0}"#.to_owned()])
+        .collect();
+    let json = gltf(&embedded(&bytes), bytes.len(), POSITIONS, index).replace(
+        r#""nodes": [{"mesh": 0}]"#,
+        &format!(r#""nodes": [{}]"#, nodes.join(", ")),
+    );
+    let path = write(dir.path(), "shared.gltf", json.as_bytes());
+    let message = refusal(&path);
+    assert!(
+        message.contains("nodes placed") && message.contains("max_objects"),
+        "{message}"
+    );
+}

@@ -69,7 +69,15 @@ pub(super) fn read_gltf(
     };
     let mut out = Imported::default();
     let mut mesh_of: HashMap<usize, Option<usize>> = HashMap::new();
-    let mut visits = 0u64;
+    // Nodes are counted as they are put on the stack, so that the stack stays within the
+    // limit too; a node reached through several parents counts each time (a tree of shared
+    // nodes can place exponentially many).
+    let mut placed = 0u64;
+    let mut place = |n: usize| {
+        placed += n as u64;
+        check("nodes placed", placed, limits.max_objects, "max_objects")
+    };
+    place(roots.len())?;
     let mut stack: Vec<(usize, DMat4, usize)> =
         roots.into_iter().map(|n| (n, y_up_to_z_up(), 0)).collect();
     while let Some((index, parent, depth)) = stack.pop() {
@@ -78,10 +86,6 @@ pub(super) fn read_gltf(
                 "node hierarchy deeper than {MAX_NODE_DEPTH} levels (a cycle?)"
             ));
         }
-        // A node reached through several parents counts each time: a tree of shared nodes
-        // can place exponentially many.
-        visits += 1;
-        check("nodes placed", visits, limits.max_objects, "max_objects")?;
         let node = root
             .nodes
             .get(index)
@@ -108,8 +112,9 @@ pub(super) fn read_gltf(
                 out.objects.push(Object::new(name, built, world));
             }
         }
-        let children = node.children.iter().flatten();
-        stack.extend(children.map(|c| (c.value(), world, depth + 1)));
+        let children = node.children.as_deref().unwrap_or_default();
+        place(children.len())?;
+        stack.extend(children.iter().map(|c| (c.value(), world, depth + 1)));
     }
     Ok(out)
 }
@@ -231,13 +236,14 @@ fn read_mesh(
         let count = positions.len() as u32 - base;
         normals = match (normals, attribute(Semantic::Normals)) {
             (Some(mut n), Some(normal)) => {
-                let read = accessors.read::<3>(normal, Use::Normal)?;
-                if read.len() != count as usize {
+                // Compared before reading: the count alone sizes a sparse accessor.
+                let normals = accessors.count(normal)?;
+                if normals != count as u64 {
                     return Err(format!(
-                        "{what}: NORMAL has {} elements, POSITION {count}",
-                        read.len()
+                        "{what}: NORMAL has {normals} elements, POSITION {count}"
                     ));
                 }
+                let read = accessors.read::<3>(normal, Use::Normal)?;
                 n.extend(
                     read.into_iter()
                         .map(|v| Vec3::from_array(v.map(f32::from_bits))),

@@ -1,7 +1,7 @@
 //! Writes the seed corpora of the importers' fuzz targets (`obj`, `gltf`) from small valid
 //! files, and their libFuzzer dictionaries (`obj.dict`, `gltf.dict`).
 //!
-//! `cargo run -p antumbra-scenes --example write_fuzz_corpus` (from the workspace root); the
+//! `cargo run -p antumbra-scenes --example write_import_fuzz_corpus` (from the workspace root); the
 //! files go to `rust/protocol/fuzz/corpus/<target>/`, beside the protocol's targets.
 
 use std::path::Path;
