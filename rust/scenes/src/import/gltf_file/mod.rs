@@ -43,11 +43,12 @@ pub(super) fn read_gltf(
         root: &root,
         buffers: &buffers,
     };
-    let roots: Vec<usize> = match root.scene.map(|s| s.value()).or(if root.scenes.is_empty() {
-        None
-    } else {
-        Some(0)
-    }) {
+    // The default scene, else the first.
+    let scene = root
+        .scene
+        .map(|s| s.value())
+        .or((!root.scenes.is_empty()).then_some(0));
+    let roots: Vec<usize> = match scene {
         Some(s) => {
             let scene = root
                 .scenes
