@@ -201,3 +201,76 @@ fn record_then_render_the_recording_equals_rendering_the_scene() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("nowhere"));
 }
+
+/// Issue 33: a glTF whose index accessor is FLOAT made every command that opens a scene panic
+/// (exit 101), and an OBJ linked to /dev/zero abort (exit 134). Both are refused, naming the
+/// file, with exit code 1.
+#[cfg(unix)]
+#[test]
+fn commands_refuse_scene_files_that_crashed_the_importers() {
+    let tmp = TempDir::new().unwrap();
+    let dir = tmp.path();
+    // A quad's 4 positions and 6 FLOAT "indices" (zeros), base64 in a data: URI.
+    let mut bytes = Vec::new();
+    for c in [0f32, 0., 0., 1., 0., 0., 1., 0., 1., 0., 0., 1.] {
+        bytes.extend_from_slice(&c.to_le_bytes());
+    }
+    bytes.resize(48 + 24, 0);
+    let gltf = dir.join("float_indices.gltf");
+    std::fs::write(
+        &gltf,
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+"buffers":[{{"uri":"data:application/octet-stream;base64,{}","byteLength":72}}],
+"bufferViews":[{{"buffer":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":24}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3"}},
+{{"bufferView":1,"componentType":5126,"count":6,"type":"SCALAR"}}]}}"#,
+            base64(&bytes)
+        ),
+    )
+    .unwrap();
+    let zero = dir.join("zero.obj");
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    for (scene, needle) in [
+        (
+            &gltf,
+            "float_indices.gltf: accessor 1 (indices): componentType 5126",
+        ),
+        (&zero, "zero.obj: not a regular file"),
+    ] {
+        for command in ["render", "record", "compare", "trade"] {
+            let out = dir.join(format!("{command}.out"));
+            let o = antumbra()
+                .args([command, "--scene"])
+                .arg(scene)
+                .arg("--out")
+                .arg(&out)
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(1), "{command} {needle}: {err}");
+            assert!(err.contains(needle), "{command}: {err}");
+        }
+    }
+}
+
+/// Standard base64 with padding (the test needs no dependency for it).
+fn base64(bytes: &[u8]) -> String {
+    const TABLE: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let n = chunk
+            .iter()
+            .enumerate()
+            .fold(0u32, |n, (i, &b)| n | (b as u32) << (16 - 8 * i));
+        for i in 0..4 {
+            if i <= chunk.len() {
+                out.push(TABLE[(n >> (18 - 6 * i) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}

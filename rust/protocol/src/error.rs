@@ -2,6 +2,7 @@
 //! the daemon can send it to Blender as is (see [`ProtocolError::to_reply`]).
 
 use antumbra_core::render::{format_bytes, RenderMemory};
+use antumbra_core::scene::limits::limit_exceeded;
 use thiserror::Error;
 
 use crate::messages::{ErrorCode, Reply};
@@ -91,7 +92,7 @@ pub enum ProtocolError {
         object: String,
         hash: u64,
     },
-    #[error("{what}: {value} exceeds the limit of {limit} ({limit_name})")]
+    #[error("{}", limit_exceeded(what, *value, *limit, limit_name))]
     LimitExceeded {
         what: String,
         value: u64,

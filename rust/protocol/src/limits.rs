@@ -1,6 +1,7 @@
 //! What a daemon accepts: sizes and counts that bound the memory and time one request can take.
 //! The daemon sends its limits in `Welcome` so a client can check before it sends.
 
+use antumbra_core::scene::limits::{MAX_MESHES, MAX_OBJECTS, MAX_TRIANGLES_PER_MESH};
 use serde::{Deserialize, Serialize};
 
 const GIB: u64 = 1 << 30;
@@ -33,9 +34,10 @@ impl Default for Limits {
     fn default() -> Self {
         Limits {
             max_frame_bytes: GIB,
-            max_triangles_per_mesh: 50_000_000,
-            max_meshes: 100_000,
-            max_objects: 1_000_000,
+            // The figures the importers also check (core's `scene::limits`).
+            max_triangles_per_mesh: MAX_TRIANGLES_PER_MESH,
+            max_meshes: MAX_MESHES,
+            max_objects: MAX_OBJECTS,
             max_image_pixels: 8192 * 8192,
             // Core's RenderSettings::validate allows at most 4096.
             max_spp: 4096,

@@ -11,6 +11,7 @@ mod builder;
 mod city;
 mod colonnade;
 mod forest;
+pub mod fuzzing;
 mod hairball;
 mod import;
 mod indoors;
@@ -25,7 +26,7 @@ mod viewpoints;
 use antumbra_core::scene::Animation;
 use antumbra_core::{Error, Result};
 
-pub use import::load_file;
+pub use import::{load_file, load_file_with, load_gltf, load_obj, ImportLimits};
 pub use params::SceneParams;
 pub use rotate::{rotate_scene, Rotated, ROTATED_SUFFIX};
 pub use viewpoints::viewpoints;

@@ -9,6 +9,7 @@ mod camera;
 mod frame_geometry;
 mod image_size;
 mod light;
+pub mod limits;
 mod mesh;
 mod object;
 #[allow(clippy::module_inception)]

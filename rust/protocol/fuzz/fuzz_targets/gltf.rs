@@ -1,0 +1,13 @@
+//! Arbitrary bytes as a glTF or GLB file, and as the binary chunk of a fixed GLB document: the
+//! importer refuses them with an error naming the file or gives a valid framed scene within its
+//! limits, never a panic or an allocation it cannot make.
+//!
+//! `cargo fuzz run gltf` from `rust/protocol/` (seeds in `corpus/gltf`, words in `gltf.dict`).
+//! The same body runs in CI as `rust/scenes/tests/fuzz_corpus.rs`.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    antumbra_scenes::fuzzing::gltf(data);
+});
