@@ -1,6 +1,7 @@
 //! OBJ read line by line from any reader, checking counts against the limits as they grow, so
 //! memory stays within the limits whatever the input (a file's size bounds nothing when one
-//! polygon line makes thousands of triangles).
+//! polygon line makes thousands of triangles). Hand-written rather than tobj, which reads the
+//! whole file into its own buffers before a count could be checked.
 //!
 //! Read: `v` (x y z; more numbers ignored), `f` (polygons, triangulated as fans; `v`, `v/vt`,
 //! `v//vn`, `v/vt/vn`, negative indices count back), `o` and `g` (a new mesh). Everything else
