@@ -352,6 +352,34 @@ mod tests {
     }
 
     #[test]
+    fn the_visibility_prepass_counts_at_its_own_size() {
+        // Issue 33: a 64x48 frame with an OSAH build whose first visible set comes from a
+        // 4096x4096 prepass peaked at 828 MB and was estimated at 41 MiB.
+        let sc = scene(1000, 64, 48);
+        let osah = |visibility: VisibilitySource| RenderSettings {
+            build: BuildMethod::Osah,
+            visibility,
+            ..RenderSettings::default()
+        };
+        let prepass = osah(VisibilitySource::Prepass {
+            width: 4096,
+            height: 4096,
+        });
+        let big = estimate_render_bytes(&sc, &prepass, 1).total();
+        assert!(big > 828_000_000, "{}", format_bytes(big));
+        assert!(big < 2 * 828_000_000, "{}", format_bytes(big));
+        let previous = estimate_render_bytes(&sc, &osah(VisibilitySource::Previous), 1).total();
+        assert!(previous < 64 << 20, "{}", format_bytes(previous));
+        // A comparison holds one prepass at a time: eight such methods need about one.
+        let many = estimate_comparison_bytes(&sc, &[&prepass; 8], 0).total();
+        assert!(
+            many > 883_000_000 && many < 2 * 883_000_000,
+            "{}",
+            format_bytes(many)
+        );
+    }
+
+    #[test]
     fn a_comparison_bounds_every_method_together() {
         let sc = scene(1000, 64, 64);
         let sah = RenderSettings::default();

@@ -528,4 +528,27 @@ mod tests {
         let (k, v) = parse_knob_arg("resolution=0").unwrap();
         assert!(k.sweep(v.as_deref(), &NamedSettings::new()).is_err());
     }
+
+    #[test]
+    fn empty_values_are_refused_naming_the_knob_and_the_place() {
+        // Issue 33: `spp=1,,,...` (a megabyte of commas) was read as `spp=1`.
+        let commas = format!("spp=1{}", ",".repeat(1 << 20));
+        let e = parse_knob_arg(&commas).unwrap_err().to_string();
+        assert!(
+            e.starts_with("knob 'spp': value 2 of "),
+            "{}",
+            &e[..e.len().min(200)]
+        );
+        assert!(e.contains("is empty"), "{}", &e[..e.len().min(200)]);
+        // The message names the place, not the whole text.
+        assert!(e.len() < 200, "{} bytes", e.len());
+        for bad in ["spp=1,,4", "spp=,4", "spp=4,", "spp= , 4"] {
+            let e = parse_knob_arg(bad).unwrap_err().to_string();
+            assert!(
+                e.starts_with("knob 'spp': value ") && e.contains("is empty"),
+                "{bad}: {e}"
+            );
+        }
+        assert!(parse_knob_arg("spp=1, 4").is_ok());
+    }
 }
