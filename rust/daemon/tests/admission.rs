@@ -148,7 +148,11 @@ fn a_render_finishes_while_another_clients_long_compare_runs() {
             Reply::Progress {
                 stage, done, total, ..
             } if stage == COMPARE_STAGE => {
-                assert!(done < total);
+                assert!(
+                    done < total,
+                    "the comparison finished ({total} passes) before the other client's \
+                     render (which waited {waited:?})"
+                );
                 last_done = done;
             }
             Reply::Progress { .. } => {}

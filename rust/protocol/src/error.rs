@@ -137,6 +137,22 @@ pub enum ProtocolError {
         estimate: RenderMemory,
         limit: u64,
     },
+    /// A request asking for more method passes than `max_request_passes`; refused before any
+    /// work, so that no request runs for ever.
+    #[error(
+        "{what}: {passes} passes ({per_frame} per frame, x {frames} {}) exceed the limit of \
+         {limit} passes per request (max_request_passes); ask for fewer methods, values, \
+         repeats or frames",
+        if *frames == 1 { "frame" } else { "frames" }
+    )]
+    RequestPasses {
+        what: String,
+        /// What one frame's passes are made of, e.g. `5 methods x (1 counted + 3 timed)`.
+        per_frame: String,
+        frames: u64,
+        passes: u64,
+        limit: u64,
+    },
     /// A core validation error found in one frame's data.
     #[error("frame {frame}: {error}")]
     InFrame {
@@ -163,7 +179,8 @@ impl ProtocolError {
             ProtocolError::LimitExceeded { .. }
             | ProtocolError::RenderMemory { .. }
             | ProtocolError::CompareMemory { .. }
-            | ProtocolError::TradeMemory { .. } => ErrorCode::LimitExceeded,
+            | ProtocolError::TradeMemory { .. }
+            | ProtocolError::RequestPasses { .. } => ErrorCode::LimitExceeded,
             ProtocolError::InFrame {
                 error: antumbra_core::Error::Cancelled,
                 ..

@@ -415,16 +415,18 @@ pub fn parse_knob_arg(text: &str) -> Result<(&'static Knob, Option<Vec<String>>)
     match text.split_once('=') {
         None => Ok((knob(text.trim())?, None)),
         Some((name, values)) => {
-            let values: Vec<String> = values
-                .split(',')
-                .map(|v| v.trim().to_string())
-                .filter(|v| !v.is_empty())
-                .collect();
             let k = knob(name.trim())?;
-            if values.is_empty() {
-                return Err(k.invalid("no values after '='".into()));
+            let values: Vec<&str> = values.split(',').map(str::trim).collect();
+            // An empty value is a typo (`1,,4`), refused rather than skipped; the message names
+            // its place, not the text, which may be long.
+            if let Some(i) = values.iter().position(|v| v.is_empty()) {
+                return Err(k.invalid(format!(
+                    "value {} of {} is empty (values are V1,V2,...)",
+                    i + 1,
+                    values.len()
+                )));
             }
-            Ok((k, Some(values)))
+            Ok((k, Some(values.into_iter().map(String::from).collect())))
         }
     }
 }
