@@ -18,6 +18,11 @@ use crate::trace::TraversalStats;
 /// scratch, nodes, the leaf triangle list and the meshes' own arrays (calibrated against peak
 /// RSS, measured 282 bytes per world triangle with the set; see `docs/daemon.md`).
 const BUILD_BYTES_PER_REF: u64 = 224;
+/// Of those, what the finished tree keeps until the next frame's replaces it (nodes, the leaf
+/// triangle list); the rest is the build's scratch. Calibrated on comparisons of 200 methods
+/// over three frames, each method holding two frames' trees: about 90 bytes per reference
+/// measured beside the triangle set (see `docs/daemon.md`).
+const TREE_BYTES_PER_REF: u64 = 128;
 /// A collapsed wide tree, its triangle rows and per-light sorting tables, per reference.
 const WIDE_BYTES_PER_REF: u64 = 128;
 /// The process itself: code, thread stacks, allocator caches.
@@ -47,8 +52,11 @@ pub struct RenderMemory {
     /// Per-pixel buffers of the passes and of the visibility prepass (at its own size), alive
     /// one pass at a time.
     pub pass_bytes: u64,
-    /// Triangle sets and trees.
+    /// Triangle sets and trees, as a renderer keeps them across frames.
     pub geometry_bytes: u64,
+    /// What building them needs beside (scratch, a set's second copy while it is joined, the
+    /// visibility prepass's own tree), freed once they are built.
+    pub build_bytes: u64,
     /// One light's preparation (its representative rays, SRDH tree or sorting), freed per light.
     pub light_bytes: u64,
 }
@@ -58,6 +66,7 @@ impl RenderMemory {
         self.image_bytes
             .saturating_add(self.pass_bytes)
             .saturating_add(self.geometry_bytes)
+            .saturating_add(self.build_bytes)
             .saturating_add(self.light_bytes)
     }
 }
@@ -78,8 +87,8 @@ impl fmt::Display for RenderMemory {
         write!(
             f,
             "about {} ({}x{} pixels with {} shadow light(s) and {} output plane(s): {}, and {} \
-             for the passes' buffers; {} world triangles: {} of geometry and trees; {} for one \
-             light's preparation)",
+             for the passes' buffers; {} world triangles: {} of geometry and trees, and {} while \
+             building them; {} for one light's preparation)",
             format_bytes(self.total()),
             self.width,
             self.height,
@@ -89,6 +98,7 @@ impl fmt::Display for RenderMemory {
             format_bytes(self.pass_bytes),
             self.world_triangles,
             format_bytes(self.geometry_bytes),
+            format_bytes(self.build_bytes),
             format_bytes(self.light_bytes),
         )
     }
@@ -186,8 +196,8 @@ pub fn estimate_render_bytes(
     };
     let world_triangles = camera + shadow;
     // Per triangle of a set: its render-space vertices and reference, gathered per object and
-    // then joined (twice at the peak).
-    let set_bytes = 2 * (size_of::<[glam::Vec3; 3]>() + size_of::<TriangleRef>()) as u64;
+    // then joined (twice at the peak, once kept).
+    let set_bytes = (size_of::<[glam::Vec3; 3]>() + size_of::<TriangleRef>()) as u64;
     // Spatial splits add up to `max_growth` references; visibility-driven builds trace their
     // visible set with one more tree.
     let splits = matches!(
@@ -209,7 +219,7 @@ pub fn estimate_render_bytes(
     let wide = settings.width != BvhWidth::Two
         || (settings.shadow_order.binary().is_none()
             && !matches!(settings.shadow_order, ShadowOrder::Srdh(_)));
-    let per_ref = BUILD_BYTES_PER_REF + if wide { WIDE_BYTES_PER_REF } else { 0 };
+    let kept_per_ref = TREE_BYTES_PER_REF + if wide { WIDE_BYTES_PER_REF } else { 0 };
     let extra_tree = if visibility_tree {
         camera.saturating_mul(BUILD_BYTES_PER_REF)
     } else {
@@ -217,7 +227,10 @@ pub fn estimate_render_bytes(
     };
     let geometry_bytes = world_triangles
         .saturating_mul(set_bytes)
-        .saturating_add(refs(world_triangles).saturating_mul(per_ref))
+        .saturating_add(refs(world_triangles).saturating_mul(kept_per_ref));
+    let build_bytes = world_triangles
+        .saturating_mul(set_bytes)
+        .saturating_add(refs(world_triangles).saturating_mul(BUILD_BYTES_PER_REF - TREE_BYTES_PER_REF))
         .saturating_add(extra_tree);
 
     let rays = prep_rays(settings, pixels);
@@ -245,6 +258,7 @@ pub fn estimate_render_bytes(
         image_bytes,
         pass_bytes,
         geometry_bytes,
+        build_bytes,
         light_bytes,
     }
 }
@@ -274,8 +288,8 @@ fn prepass_bytes(settings: &RenderSettings, pixels: u64) -> u64 {
 /// `compare::Comparison`), each method copying `output_planes` planes out of its result (a
 /// `Compare`'s heat plane per method). Every method keeps its own trees across frames, and a
 /// frame starts from a copy of each method's state, which holds the previous frame's trees
-/// while the new ones are built, so the trees count twice per method, plus those of the one
-/// timed pass that runs at a time. Every method's counted result lives until the frame ends;
+/// while the new ones are built, so the kept trees count twice per method, plus those of the
+/// one timed pass that runs at a time and its build. Every method's counted result lives until the frame ends;
 /// one pass's buffers (or prepass), one timed pass's result and one light's preparation are
 /// alive at a time. Linear in the methods: each term is a sum or a largest one.
 pub fn estimate_comparison_bytes(
@@ -296,14 +310,14 @@ pub fn estimate_comparison_bytes(
     // The process once.
     let image_bytes = sum(|m| m.image_bytes).saturating_sub((n - 1).saturating_mul(PROCESS_BYTES));
     let timed_result = max(|m| m.image_bytes.saturating_sub(PROCESS_BYTES));
-    let geometry_bytes = sum(|m| m.geometry_bytes)
-        .saturating_mul(2)
-        .saturating_add(max(|m| m.geometry_bytes));
+    let geometry_bytes = sum(|m| m.geometry_bytes).saturating_mul(2);
+    let build_bytes = max(|m| m.geometry_bytes.saturating_add(m.build_bytes));
     RenderMemory {
         output_planes: output_planes.saturating_mul(n),
         image_bytes,
         pass_bytes: max(|m| m.pass_bytes).saturating_add(timed_result),
         geometry_bytes,
+        build_bytes,
         light_bytes: max(|m| m.light_bytes),
         ..first
     }
@@ -369,6 +383,7 @@ mod tests {
         let many = estimate_render_bytes(&scene(1000, 64, 64), &s, 1);
         assert_eq!(many.world_triangles, 1000);
         assert!(many.geometry_bytes >= 1000 * small.geometry_bytes);
+        assert!(many.build_bytes >= 1000 * small.build_bytes);
         let sbvh = RenderSettings {
             build: BuildMethod::Sbvh,
             ..s.clone()
@@ -422,15 +437,17 @@ mod tests {
         };
         let one = estimate_render_bytes(&sc, &sbvh, 0);
         let alone = estimate_comparison_bytes(&sc, &[&sbvh], 0);
-        // One method: its trees and the previous frame's, plus a timed pass's.
-        assert_eq!(alone.geometry_bytes, 3 * one.geometry_bytes);
+        // One method: its trees and the previous frame's, plus a timed pass's and its build.
+        assert_eq!(alone.geometry_bytes, 2 * one.geometry_bytes);
+        assert_eq!(alone.build_bytes, one.geometry_bytes + one.build_bytes);
         assert_eq!(alone.image_bytes, one.image_bytes);
         let both = estimate_comparison_bytes(&sc, &[&sah, &sbvh], 0);
         let two = estimate_render_bytes(&sc, &sah, 0);
         assert_eq!(
             both.geometry_bytes,
-            2 * (one.geometry_bytes + two.geometry_bytes) + one.geometry_bytes
+            2 * (one.geometry_bytes + two.geometry_bytes)
         );
+        assert_eq!(both.build_bytes, one.geometry_bytes + one.build_bytes);
         assert_eq!(
             both.image_bytes,
             one.image_bytes + two.image_bytes - PROCESS_BYTES
