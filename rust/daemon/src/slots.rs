@@ -235,7 +235,10 @@ enum Queued {
     /// A slot, counted as running; the place at which the wait began.
     Took(usize),
     GaveUp,
-    TimedOut { position: usize, waited: Duration },
+    TimedOut {
+        position: usize,
+        waited: Duration,
+    },
 }
 
 #[cfg(test)]
@@ -339,7 +342,10 @@ mod tests {
             _ => panic!("expected a free slot"),
         };
         // Nobody waits: the slot is kept.
-        assert_eq!(held.share(never, |_| panic!("no wait expected")), Sharing::Kept);
+        assert_eq!(
+            held.share(never, |_| panic!("no wait expected")),
+            Sharing::Kept
+        );
         let order = Arc::new(Mutex::new(Vec::new()));
         let waiter = {
             let (s, order) = (slots.clone(), order.clone());

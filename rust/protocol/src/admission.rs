@@ -177,7 +177,11 @@ mod tests {
                 .total()
         };
         let (small, big) = (estimate(100, true), estimate(1000, true));
-        assert!(big < 1 << 30, "{}", antumbra_core::render::format_bytes(big));
+        assert!(
+            big < 1 << 30,
+            "{}",
+            antumbra_core::render::format_bytes(big)
+        );
         // Ten times the methods: at most ten times the memory (linear, the process once).
         assert!(big <= 10 * small, "{big} vs {small}");
         assert!(estimate(1000, true) > estimate(1000, false));
@@ -192,8 +196,8 @@ mod tests {
             scene: &sc,
             frames,
         };
-        let e = admit_compare(request(i32::MAX as u64), &comparison(5, 1), false, &limits)
-            .unwrap_err();
+        let e =
+            admit_compare(request(i32::MAX as u64), &comparison(5, 1), false, &limits).unwrap_err();
         let text = e.to_string();
         assert!(
             text.starts_with("compare of frames 1-2147483647: 21474836470 passes (5 methods x (1 counted + 1 timed) per frame, x 2147483647 frames)")
@@ -209,7 +213,12 @@ mod tests {
         let e = admit_compare(request(1), &comparison(1, usize::MAX), false, &limits)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("repeat: 18446744073709551615 exceeds the limit of 100 (max_compare_repeat)"), "{e}");
+        assert!(
+            e.contains(
+                "repeat: 18446744073709551615 exceeds the limit of 100 (max_compare_repeat)"
+            ),
+            "{e}"
+        );
         let trade = Trade::new(
             &knob_choices(&["spp=1,2,3"]).unwrap(),
             &NamedSettings::new(),
@@ -220,7 +229,9 @@ mod tests {
             max_request_passes: 10,
             ..Limits::default()
         };
-        let e = admit_trade(request(1), &trade, &tiny).unwrap_err().to_string();
+        let e = admit_trade(request(1), &trade, &tiny)
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("17 passes (4 knob values x (1 counted + 3 timed) + 1 reference per frame, x 1 frame)"),
             "{e}"
@@ -228,6 +239,9 @@ mod tests {
         let e = admit_render(request(11), &RenderSettings::default(), 0, &tiny)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("11 passes (1 render per frame, x 11 frames)"), "{e}");
+        assert!(
+            e.contains("11 passes (1 render per frame, x 11 frames)"),
+            "{e}"
+        );
     }
 }

@@ -110,7 +110,10 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
                 &t.settings,
                 limits,
             )?;
-            check_repeat(|| format!("Trade frame {}: repeat", t.frame), t.repeat as u64)
+            check_repeat(
+                || format!("Trade frame {}: repeat", t.frame),
+                t.repeat as u64,
+            )
         }
         Request::Hello { .. }
         | Request::CameraPath { .. }

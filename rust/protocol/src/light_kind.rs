@@ -139,7 +139,10 @@ impl<'de> Deserialize<'de> for LightKindState {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let wire = Wire::deserialize(d)?;
         let kind = wire.kind().map_err(de::Error::custom)?;
-        let fields = KINDS.iter().find(|(n, _)| *n == kind).map_or(&[][..], |k| k.1);
+        let fields = KINDS
+            .iter()
+            .find(|(n, _)| *n == kind)
+            .map_or(&[][..], |k| k.1);
         let get = |name: &str| -> Result<&Field, D::Error> {
             wire.field(name).ok_or_else(|| {
                 de::Error::custom(format!(
@@ -150,7 +153,7 @@ impl<'de> Deserialize<'de> for LightKindState {
         };
         let number = |name: &str| -> Result<f64, D::Error> {
             match get(name)? {
-            Field::Number(x) => Ok(*x),
+                Field::Number(x) => Ok(*x),
                 other => Err(de::Error::custom(format!(
                     "{kind}.{name}: expected a number (f64), got {other}"
                 ))),
@@ -181,8 +184,8 @@ impl<'de> Deserialize<'de> for LightKindState {
                             names(&SHAPES)
                         ))
                     })?,
-                size_x: number("size_x")?,
-                size_y: number("size_y")?,
+                    size_x: number("size_x")?,
+                    size_y: number("size_y")?,
                 }
             }
         })

@@ -514,8 +514,14 @@ impl Connection {
             let frame = scene::frame_number(frame, "frame")?;
             let within = duration(timeout, "timeout")?;
             check_progress(progress.as_ref())?;
-            let (mut request, baseline) =
-                compare_request(frame, methods, baseline, scene::repeat_count(repeat)?, settings, images)?;
+            let (mut request, baseline) = compare_request(
+                frame,
+                methods,
+                baseline,
+                scene::repeat_count(repeat)?,
+                settings,
+                images,
+            )?;
             request.warm_up = warm_up;
             let asked = request.clone();
             antumbra_protocol::check_limits(&Request::Compare(request.clone()), &self.limits)

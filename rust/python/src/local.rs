@@ -439,8 +439,14 @@ impl LocalSession {
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
             check_progress(progress.as_ref())?;
-            let (mut request, baseline) =
-                compare_request(frame, methods, baseline, scene::repeat_count(repeat)?, settings, images)?;
+            let (mut request, baseline) = compare_request(
+                frame,
+                methods,
+                baseline,
+                scene::repeat_count(repeat)?,
+                settings,
+                images,
+            )?;
             request.warm_up = warm_up;
             let asked = request.clone();
             check_limits(&Request::Compare(request.clone()), &self.limits)

@@ -230,7 +230,9 @@ pub fn estimate_render_bytes(
         .saturating_add(refs(world_triangles).saturating_mul(kept_per_ref));
     let build_bytes = world_triangles
         .saturating_mul(set_bytes)
-        .saturating_add(refs(world_triangles).saturating_mul(BUILD_BYTES_PER_REF - TREE_BYTES_PER_REF))
+        .saturating_add(
+            refs(world_triangles).saturating_mul(BUILD_BYTES_PER_REF - TREE_BYTES_PER_REF),
+        )
         .saturating_add(extra_tree);
 
     let rays = prep_rays(settings, pixels);

@@ -9,8 +9,8 @@ use std::sync::mpsc::TrySendError;
 use std::sync::Arc;
 
 use antumbra_protocol::{
-    admit_compare, admit_trade, scene_from_frame, Asked, CompareRequest, ErrorCode,
-    ProtocolError, Reply, TradeRequest,
+    admit_compare, admit_trade, scene_from_frame, Asked, CompareRequest, ErrorCode, ProtocolError,
+    Reply, TradeRequest,
 };
 
 use super::out::{error_reply, protocol_error};
