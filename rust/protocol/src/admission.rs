@@ -38,7 +38,7 @@ pub fn admit_render(
     if estimate.total() > limits.max_render_bytes {
         return Err(ProtocolError::RenderMemory {
             frame: asked.scene.frame,
-            estimate,
+            estimate: Box::new(estimate),
             limit: limits.max_render_bytes,
         });
     }
@@ -64,7 +64,7 @@ pub fn admit_compare(
         return Err(ProtocolError::CompareMemory {
             frame: asked.scene.frame,
             methods: methods.len(),
-            estimate,
+            estimate: Box::new(estimate),
             limit: limits.max_render_bytes,
         });
     }
@@ -92,7 +92,7 @@ pub fn admit_trade(
         return Err(ProtocolError::TradeMemory {
             frame: asked.scene.frame,
             values: values.len(),
-            estimate,
+            estimate: Box::new(estimate),
             limit: limits.max_render_bytes,
         });
     }

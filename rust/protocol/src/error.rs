@@ -106,7 +106,7 @@ pub enum ProtocolError {
     )]
     RenderMemory {
         frame: i32,
-        estimate: RenderMemory,
+        estimate: Box<RenderMemory>,
         limit: u64,
     },
     /// A comparison whose methods together (each keeps its own trees) are estimated to need
@@ -120,7 +120,7 @@ pub enum ProtocolError {
     CompareMemory {
         frame: i32,
         methods: usize,
-        estimate: RenderMemory,
+        estimate: Box<RenderMemory>,
         limit: u64,
     },
     /// A trade whose knob values together (each keeps its own trees) are estimated to need
@@ -134,7 +134,7 @@ pub enum ProtocolError {
     TradeMemory {
         frame: i32,
         values: usize,
-        estimate: RenderMemory,
+        estimate: Box<RenderMemory>,
         limit: u64,
     },
     /// A request asking for more method passes than `max_request_passes`; refused before any
