@@ -83,7 +83,7 @@ pub fn admit_trade(
     check_repeat(|| format!("{}: repeat", asked.what), repeat)?;
     let per_frame = || {
         let knob_values: usize = trade.sweeps().iter().map(|s| s.values().len()).sum();
-        let reference = values.len() - knob_values;
+        let reference = values.len().saturating_sub(knob_values);
         format!("{knob_values} knob values x (1 counted + {repeat} timed) + {reference} reference")
     };
     check_passes(asked, trade.steps() as u64, per_frame, limits)?;
