@@ -191,3 +191,21 @@ def test_knobs_are_the_core_s_table():
         assert all(isinstance(v, str) for v in k["values"]), k
     spp = antumbra.KNOBS[0]
     assert spp["default"] == "4" and spp["sets"] == "spp"
+
+
+@pytest.mark.parametrize("repeat", [-1, 0, 101, 2**70])
+@pytest.mark.parametrize("kind", ["compare", "trade"])
+def test_a_repeat_out_of_range_is_refused_naming_repeat(recording, repeat, kind):
+    # Issue 33: ``compare_frame(repeat=-1)`` raised a bare OverflowError.
+    with antumbra.LocalSession() as s:
+        frame = send(s, recording, 0)
+        with pytest.raises(antumbra.InvalidInput) as e:
+            if kind == "compare":
+                s.compare_frame(frame, ["base=width=2"], repeat=repeat)
+            else:
+                s.trade_frame(frame, ["spp=1"], repeat=repeat)
+        assert isinstance(e.value, ValueError)
+        message = str(e.value)
+        assert message.startswith(f"repeat: {repeat} is out of range"), message
+        assert "1 to 100" in message, message
+        assert s.stats()["renders_done"] == 0

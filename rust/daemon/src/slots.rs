@@ -1,9 +1,11 @@
 //! A counting semaphore for renders, first come first served, whose waiters hear their place in
 //! the queue, can give up (a cancelled render leaves the queue) and have a deadline; each slot
-//! renders on its own thread pool.
+//! renders on its own thread pool. A long holder (a `Compare` or `Trade`, pass after pass)
+//! shares its slot: between passes it lets those waiting go first ([`Slot::share`]).
 
 use std::collections::VecDeque;
-use std::sync::{Arc, Condvar, Mutex};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Condvar, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use rayon::ThreadPool;
@@ -32,18 +34,35 @@ pub struct RenderSlots {
 /// Holds one render slot; dropping it frees the slot.
 pub struct Slot<'a> {
     slots: &'a RenderSlots,
-    pool: Option<Arc<ThreadPool>>,
+    pool: OnceLock<Option<Arc<ThreadPool>>>,
+    /// False while [`Slot::share`] has given the slot up (and after it gave up waiting).
+    held: AtomicBool,
+}
+
+/// What [`Slot::share`] did.
+#[derive(Debug, PartialEq, Eq)]
+pub enum Sharing {
+    /// Nobody was waiting: the slot was kept.
+    Kept,
+    /// The slot went to those waiting and came back after them.
+    Yielded,
+    /// `give_up` turned true while waiting to have it back: the slot is not held.
+    GaveUp,
 }
 
 impl Slot<'_> {
     fn new(slots: &RenderSlots) -> Slot<'_> {
-        Slot { slots, pool: None }
+        Slot {
+            slots,
+            pool: OnceLock::new(),
+            held: AtomicBool::new(true),
+        }
     }
 
     /// Runs `f` on this slot's thread pool (the process-wide pool if a new one cannot be made).
-    pub fn install<R: Send>(&mut self, f: impl FnOnce() -> R + Send) -> R {
-        if self.pool.is_none() {
-            self.pool = lock(&self.slots.pools).pop().or_else(|| {
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        let pool = self.pool.get_or_init(|| {
+            lock(&self.slots.pools).pop().or_else(|| {
                 let n = rayon::current_num_threads();
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(n)
@@ -52,19 +71,46 @@ impl Slot<'_> {
                     .inspect_err(|e| tracing::warn!(error = %e, "no thread pool for a render slot"))
                     .ok()
                     .map(Arc::new)
-            });
-        }
-        match &self.pool {
+            })
+        });
+        match pool {
             Some(pool) => pool.install(f),
             None => f(),
+        }
+    }
+
+    /// Between two passes of a long request: if renders wait for a slot, gives this one up and
+    /// queues for it again behind them (hearing its place through `on_place`, as
+    /// [`RenderSlots::acquire`]), so that no request waits behind another's whole sweep. No
+    /// deadline: the request was admitted, and those ahead are bounded by their own passes.
+    /// This slot's thread pool stays with it (its thread is the one waiting).
+    pub fn share(&self, give_up: impl Fn() -> bool, on_place: impl FnMut(usize)) -> Sharing {
+        let mut s = lock(&self.slots.state);
+        if s.waiting.is_empty() {
+            return Sharing::Kept;
+        }
+        // Given up and queued for again under one lock: those waiting are ahead.
+        s.running -= 1;
+        self.held.store(false, Ordering::Relaxed);
+        self.slots.cv.notify_all();
+        match self.slots.queue(s, give_up, None, on_place) {
+            Queued::Took(_) => {
+                self.held.store(true, Ordering::Relaxed);
+                Sharing::Yielded
+            }
+            // Without a deadline only `give_up` ends the wait.
+            Queued::GaveUp | Queued::TimedOut { .. } => Sharing::GaveUp,
         }
     }
 }
 
 impl Drop for Slot<'_> {
     fn drop(&mut self) {
-        if let Some(pool) = self.pool.take() {
+        if let Some(Some(pool)) = self.pool.take() {
             lock(&self.slots.pools).push(pool);
+        }
+        if !self.held.load(Ordering::Relaxed) {
+            return;
         }
         let mut s = lock(&self.slots.state);
         s.running -= 1;
@@ -111,13 +157,29 @@ impl RenderSlots {
         &self,
         give_up: impl Fn() -> bool,
         max_wait: Option<Duration>,
-        mut on_place: impl FnMut(usize),
+        on_place: impl FnMut(usize),
     ) -> Acquired<'_> {
         let mut s = lock(&self.state);
         if s.running < self.max && s.waiting.is_empty() {
             s.running += 1;
             return Acquired::Slot(Slot::new(self), 0);
         }
+        match self.queue(s, give_up, max_wait, on_place) {
+            Queued::Took(first_position) => Acquired::Slot(Slot::new(self), first_position),
+            Queued::GaveUp => Acquired::GaveUp,
+            Queued::TimedOut { position, waited } => Acquired::TimedOut { position, waited },
+        }
+    }
+
+    /// Joins the back of the queue (`s`: the state, locked) and waits until a slot is free at
+    /// its head, then counts it as running; as [`acquire`](Self::acquire) for the rest.
+    fn queue<'a>(
+        &'a self,
+        mut s: std::sync::MutexGuard<'a, State>,
+        give_up: impl Fn() -> bool,
+        max_wait: Option<Duration>,
+        mut on_place: impl FnMut(usize),
+    ) -> Queued {
         let joined = Instant::now();
         let ticket = s.next_ticket;
         s.next_ticket += 1;
@@ -138,7 +200,7 @@ impl RenderSlots {
             };
             if give_up() {
                 leave(s);
-                return Acquired::GaveUp;
+                return Queued::GaveUp;
             }
             if s.running < self.max && position == 1 {
                 s.waiting.pop_front();
@@ -146,12 +208,12 @@ impl RenderSlots {
                 drop(s);
                 // The next in line may fit too, and everyone behind moved up.
                 self.cv.notify_all();
-                return Acquired::Slot(Slot::new(self), first_position);
+                return Queued::Took(first_position);
             }
             let waited = joined.elapsed();
             if max_wait.is_some_and(|m| waited >= m) {
                 leave(s);
-                return Acquired::TimedOut { position, waited };
+                return Queued::TimedOut { position, waited };
             }
             if told.is_none_or(|(p, at)| p != position || at.elapsed() >= QUEUE_HEARTBEAT) {
                 drop(s);
@@ -166,6 +228,17 @@ impl RenderSlots {
             };
         }
     }
+}
+
+/// How a wait in the queue ended.
+enum Queued {
+    /// A slot, counted as running; the place at which the wait began.
+    Took(usize),
+    GaveUp,
+    TimedOut {
+        position: usize,
+        waited: Duration,
+    },
 }
 
 #[cfg(test)]
@@ -259,5 +332,61 @@ mod tests {
         assert_eq!(position, 1);
         assert!(waited >= Duration::from_secs(2));
         assert_eq!(slots.load(), (1, 0));
+    }
+
+    #[test]
+    fn a_holder_shares_its_slot_with_those_waiting() {
+        let slots = Arc::new(RenderSlots::new(1));
+        let held = match slots.acquire(never, None, |_| {}) {
+            Acquired::Slot(s, 0) => s,
+            _ => panic!("expected a free slot"),
+        };
+        // Nobody waits: the slot is kept.
+        assert_eq!(
+            held.share(never, |_| panic!("no wait expected")),
+            Sharing::Kept
+        );
+        let order = Arc::new(Mutex::new(Vec::new()));
+        let waiter = {
+            let (s, order) = (slots.clone(), order.clone());
+            std::thread::spawn(move || match s.acquire(never, None, |_| {}) {
+                Acquired::Slot(slot, _) => {
+                    order.lock().unwrap().push("waiter");
+                    std::thread::sleep(Duration::from_millis(50));
+                    drop(slot);
+                }
+                _ => panic!("expected a slot"),
+            })
+        };
+        while slots.load().1 < 1 {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        let mut places = Vec::new();
+        assert_eq!(held.share(never, |p| places.push(p)), Sharing::Yielded);
+        order.lock().unwrap().push("holder");
+        waiter.join().unwrap();
+        assert_eq!(*order.lock().unwrap(), ["waiter", "holder"]);
+        assert_eq!(places.first(), Some(&2));
+        assert_eq!(slots.load(), (1, 0));
+        // A holder that gives up while waiting to have its slot back holds none.
+        let other = {
+            let s = slots.clone();
+            std::thread::spawn(move || match s.acquire(never, None, |_| {}) {
+                Acquired::Slot(_slot, _) => std::thread::sleep(Duration::from_millis(300)),
+                _ => panic!("expected a slot"),
+            })
+        };
+        while slots.load().1 < 1 {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        let gone = std::sync::atomic::AtomicBool::new(false);
+        let shared = held.share(
+            || gone.load(Ordering::Relaxed),
+            |_| gone.store(true, Ordering::Relaxed),
+        );
+        assert_eq!(shared, Sharing::GaveUp);
+        drop(held);
+        other.join().unwrap();
+        assert_eq!(slots.load(), (0, 0));
     }
 }

@@ -1,14 +1,10 @@
-//! The request checks against the daemon's [`Limits`]: counts and sizes, and a frame's estimated
-//! render memory, before any work.
+//! The request checks against the daemon's [`Limits`]: counts and sizes of a message, before
+//! it is converted (whether a request may start, its work and memory, is [`crate::admission`]).
 
 use std::collections::HashSet;
 
-use antumbra_core::compare::Comparison;
-use antumbra_core::render::{
-    estimate_comparison_bytes, estimate_render_bytes, RenderMemory, RenderSettings, StatsMode,
-};
+use antumbra_core::render::{RenderSettings, StatsMode};
 use antumbra_core::scene::Scene;
-use antumbra_core::trade::Trade;
 
 use crate::error::ProtocolError;
 use crate::limits::Limits;
@@ -103,11 +99,9 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
                     limits,
                 )?;
             }
-            check(
+            check_repeat(
                 || format!("Compare frame {}: repeat", c.frame),
                 c.repeat as u64,
-                MAX_COMPARE_REPEAT,
-                "max_compare_repeat",
             )
         }
         Request::Trade(t) => {
@@ -116,11 +110,9 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
                 &t.settings,
                 limits,
             )?;
-            check(
+            check_repeat(
                 || format!("Trade frame {}: repeat", t.frame),
                 t.repeat as u64,
-                MAX_COMPARE_REPEAT,
-                "max_compare_repeat",
             )
         }
         Request::Hello { .. }
@@ -134,6 +126,12 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
 
 /// Timed passes a `Compare` (or `Trade`) may ask for per method (a fixed bound, not a configurable limit).
 pub const MAX_COMPARE_REPEAT: u64 = 100;
+
+/// Checks a repeat count (timed passes per method and frame) against [`MAX_COMPARE_REPEAT`];
+/// `what` names the request and the field.
+pub fn check_repeat(what: impl FnOnce() -> String, repeat: u64) -> Result<(), ProtocolError> {
+    check(what, repeat, MAX_COMPARE_REPEAT, "max_compare_repeat")
+}
 
 fn check_spp(
     what: impl FnOnce() -> String,
@@ -166,65 +164,4 @@ pub fn reply_planes(passes: &Passes, scene: &Scene, settings: &RenderSettings) -
     .filter(|(on, _)| *on)
     .map(|(_, n)| n)
     .sum()
-}
-
-/// Checks a frame's estimated peak memory (rendering, then copying `output_planes` planes out)
-/// against `limits.max_render_bytes` before any work; the error names the frame, the sizes the
-/// estimate follows from and the budget.
-pub fn check_render_memory(
-    scene: &Scene,
-    settings: &RenderSettings,
-    output_planes: u64,
-    limits: &Limits,
-) -> Result<RenderMemory, ProtocolError> {
-    let estimate = estimate_render_bytes(scene, settings, output_planes);
-    if estimate.total() > limits.max_render_bytes {
-        return Err(ProtocolError::RenderMemory {
-            frame: scene.frame,
-            estimate,
-            limit: limits.max_render_bytes,
-        });
-    }
-    Ok(estimate)
-}
-
-/// Checks a comparison's estimated peak memory, every method's kept trees together
-/// ([`estimate_comparison_bytes`]), against `limits.max_render_bytes` before any work.
-pub fn check_compare_memory(
-    scene: &Scene,
-    comparison: &Comparison,
-    output_planes: u64,
-    limits: &Limits,
-) -> Result<RenderMemory, ProtocolError> {
-    let methods = comparison.settings();
-    let estimate = estimate_comparison_bytes(scene, &methods, output_planes);
-    if estimate.total() > limits.max_render_bytes {
-        return Err(ProtocolError::CompareMemory {
-            frame: scene.frame,
-            methods: methods.len(),
-            estimate,
-            limit: limits.max_render_bytes,
-        });
-    }
-    Ok(estimate)
-}
-
-/// Checks a trade's estimated peak memory, every knob value's kept trees and the reference's
-/// together, against `limits.max_render_bytes` before any work.
-pub fn check_trade_memory(
-    scene: &Scene,
-    trade: &Trade,
-    limits: &Limits,
-) -> Result<RenderMemory, ProtocolError> {
-    let values = trade.settings();
-    let estimate = estimate_comparison_bytes(scene, &values, 0);
-    if estimate.total() > limits.max_render_bytes {
-        return Err(ProtocolError::TradeMemory {
-            frame: scene.frame,
-            values: values.len(),
-            estimate,
-            limit: limits.max_render_bytes,
-        });
-    }
-    Ok(estimate)
 }

@@ -22,8 +22,11 @@ pub struct CompareMethod {
     pub settings: NamedSettings,
 }
 
+/// Timed passes per method and frame when a request names none (`Compare` and `Trade`).
+pub const DEFAULT_REPEAT: u32 = 3;
+
 fn default_repeat() -> u32 {
-    3
+    DEFAULT_REPEAT
 }
 
 /// Render a frame sent with `FrameUpdate` with every method. The session keeps one comparison

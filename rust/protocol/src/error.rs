@@ -107,7 +107,7 @@ pub enum ProtocolError {
     )]
     RenderMemory {
         frame: i32,
-        estimate: RenderMemory,
+        estimate: Box<RenderMemory>,
         limit: u64,
     },
     /// A comparison whose methods together (each keeps its own trees) are estimated to need
@@ -121,7 +121,7 @@ pub enum ProtocolError {
     CompareMemory {
         frame: i32,
         methods: usize,
-        estimate: RenderMemory,
+        estimate: Box<RenderMemory>,
         limit: u64,
     },
     /// A trade whose knob values together (each keeps its own trees) are estimated to need
@@ -135,7 +135,23 @@ pub enum ProtocolError {
     TradeMemory {
         frame: i32,
         values: usize,
-        estimate: RenderMemory,
+        estimate: Box<RenderMemory>,
+        limit: u64,
+    },
+    /// A request asking for more method passes than `max_request_passes`; refused before any
+    /// work, so that no request runs for ever.
+    #[error(
+        "{what}: {passes} passes ({per_frame} per frame, x {frames} {}) exceed the limit of \
+         {limit} passes per request (max_request_passes); ask for fewer methods, values, \
+         repeats or frames",
+        if *frames == 1 { "frame" } else { "frames" }
+    )]
+    RequestPasses {
+        what: String,
+        /// What one frame's passes are made of, e.g. `5 methods x (1 counted + 3 timed)`.
+        per_frame: String,
+        frames: u64,
+        passes: u64,
         limit: u64,
     },
     /// A core validation error found in one frame's data.
@@ -164,7 +180,8 @@ impl ProtocolError {
             ProtocolError::LimitExceeded { .. }
             | ProtocolError::RenderMemory { .. }
             | ProtocolError::CompareMemory { .. }
-            | ProtocolError::TradeMemory { .. } => ErrorCode::LimitExceeded,
+            | ProtocolError::TradeMemory { .. }
+            | ProtocolError::RequestPasses { .. } => ErrorCode::LimitExceeded,
             ProtocolError::InFrame {
                 error: antumbra_core::Error::Cancelled,
                 ..

@@ -1,11 +1,13 @@
 //! The wire protocol between the Blender add-on (through the Python client) and the antumbra
 //! daemon: versioned messages ([`Request`], [`Reply`]), length-prefixed MessagePack framing
-//! ([`frame`]), limits ([`Limits`], [`check_limits`]), conversions to and from antumbra-core's
+//! ([`frame`]), limits ([`Limits`], [`check_limits`]), admission ([`admission`]: work and
+//! memory, the daemon's and the command line's alike), conversions to and from antumbra-core's
 //! scene and results ([`convert`]), session recordings ([`recording`]), and the one client of
 //! the daemon ([`client`]), which the Python binding wraps.
 //!
 //! The normative description, with byte layouts and an example session, is `docs/protocol.md`.
 
+pub mod admission;
 pub mod bytes;
 pub mod check;
 #[cfg(unix)]
@@ -16,17 +18,17 @@ pub mod error;
 pub mod frame;
 #[doc(hidden)]
 pub mod fuzzing;
+mod light_kind;
 pub mod limits;
 pub mod messages;
 pub mod recording;
 pub mod trade;
 
-pub use check::{
-    check_compare_memory, check_limits, check_render_memory, check_trade_memory, reply_planes,
-};
+pub use admission::{admit_compare, admit_render, admit_trade, Asked};
+pub use check::{check_limits, check_repeat, reply_planes, MAX_COMPARE_REPEAT};
 pub use compare::{
     compare_result_reply, heat_from_reply, CompareMethod, CompareRequest, CompareResultReply,
-    CompareRowState, CompareState, MismatchState, COMPARE_STAGE,
+    CompareRowState, CompareState, MismatchState, COMPARE_STAGE, DEFAULT_REPEAT,
 };
 pub use convert::{
     frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,
@@ -38,7 +40,7 @@ pub use frame::{
     decode_body, encode_body, encode_message, encode_message_within, read_frame, read_message,
     write_message, FrameDecoder,
 };
-pub use limits::{Limits, DEFAULT_MAX_RENDER_BYTES};
+pub use limits::{Limits, DEFAULT_MAX_RENDER_BYTES, DEFAULT_MAX_REQUEST_PASSES};
 pub use messages::*;
 pub use recording::{
     replay_scenes, RecordedAnimation, RecordingError, RecordingReader, RecordingWriter, Replay,

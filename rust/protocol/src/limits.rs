@@ -9,6 +9,10 @@ const GIB: u64 = 1 << 30;
 /// The default render memory budget ([`Limits::max_render_bytes`]).
 pub const DEFAULT_MAX_RENDER_BYTES: u64 = 8 * GIB;
 
+/// The default bound on the method passes of one request ([`Limits::max_request_passes`]):
+/// the default comparison (5 methods, 1 counted and 3 timed passes each) over 5,000 frames.
+pub const DEFAULT_MAX_REQUEST_PASSES: u64 = 100_000;
+
 /// The largest body a 4-byte length prefix can announce; larger limits are clamped to it.
 pub const MAX_FRAME_BYTES_CEILING: u64 = u32::MAX as u64;
 
@@ -28,6 +32,11 @@ pub struct Limits {
     /// Most bytes one render is estimated to need at its peak
     /// ([`antumbra_core::render::estimate_render_bytes`]); default 8 GiB.
     pub max_render_bytes: u64,
+    /// Most method passes one request may ask for, so that no request runs for ever: a
+    /// `Compare`'s methods x (1 counted + `repeat` timed), a `Trade`'s knob values likewise
+    /// and its reference, a `Render`'s one, times the frames of a command-line run or spool
+    /// job ([`crate::admission`]); default [`DEFAULT_MAX_REQUEST_PASSES`].
+    pub max_request_passes: u64,
 }
 
 impl Default for Limits {
@@ -45,6 +54,7 @@ impl Default for Limits {
             // Fixed rather than a share of the machine's memory, so a frame refused on one daemon
             // is refused on every one; it holds a 4096x4096 frame with every pass and counters.
             max_render_bytes: DEFAULT_MAX_RENDER_BYTES,
+            max_request_passes: DEFAULT_MAX_REQUEST_PASSES,
         }
     }
 }

@@ -183,8 +183,9 @@ pub struct LightState {
 }
 
 /// Mirrors [`antumbra_core::scene::LightKind`]; tagged by a `"type"` field
-/// (`{"type": "Sun", "angle": 0.01}`): small, so the buffering of internal tags costs nothing.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// (`{"type": "Sun", "angle": 0.01}`). Read by `light_kind.rs`, whose errors name the kind and
+/// the field.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(tag = "type")]
 pub enum LightKindState {
     Point {

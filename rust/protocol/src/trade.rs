@@ -14,7 +14,7 @@ use crate::messages::NamedSettings;
 pub use antumbra_core::trade::{TradeMismatch as TradeMismatchState, TradeRow as TradeRowState};
 
 fn default_repeat() -> u32 {
-    3
+    crate::compare::DEFAULT_REPEAT
 }
 
 /// Sweep a frame sent with `FrameUpdate` over every knob named. The session keeps one trade

@@ -235,6 +235,44 @@ fn decode_errors_name_the_problem() {
     assert!(err.to_string().contains("Undefined"), "{err}");
 }
 
+/// A `FrameUpdate` of the tiny scene with `edit` applied to its lights[0].kind, decoded.
+fn light_kind_error(edit: impl FnOnce(&mut serde_json::Map<String, serde_json::Value>)) -> String {
+    let update = frame_update_from_scene(&common::tiny_scene(1)).unwrap();
+    let mut value = serde_json::to_value(Request::FrameUpdate(update)).unwrap();
+    let kind = value["FrameUpdate"]["lights"][0]["kind"]
+        .as_object_mut()
+        .unwrap();
+    edit(kind);
+    let body = rmp_serde::to_vec_named(&value).unwrap();
+    decode_body::<Request>(&body).unwrap_err().to_string()
+}
+
+#[test]
+fn light_kind_errors_name_the_field_and_the_kinds() {
+    // Issue 33: `lights[0].kind: invalid type: string "wide", expected f64` named no field.
+    let e = light_kind_error(|k| {
+        k.insert("angle".into(), "wide".into());
+    });
+    assert!(e.contains("FrameUpdate.lights[0].kind"), "{e}");
+    assert!(e.contains("angle") && e.contains("Sun"), "{e}");
+    let e = light_kind_error(|k| {
+        k.insert("type".into(), "Laser".into());
+    });
+    assert!(e.contains("Laser"), "{e}");
+    assert!(e.contains("Point, Sun, Spot, Area"), "{e}");
+    let e = light_kind_error(|k| {
+        k.remove("angle");
+    });
+    assert!(e.contains("Sun") && e.contains("angle"), "{e}");
+    // The valid kinds still decode, each with its own fields.
+    let update = frame_update_from_scene(&common::tiny_scene(2)).unwrap();
+    let body = encode_body(&Request::FrameUpdate(update.clone())).unwrap();
+    assert_eq!(
+        decode_body::<Request>(&body).unwrap(),
+        Request::FrameUpdate(update)
+    );
+}
+
 #[test]
 fn hello_checks() {
     assert!(check_hello(&hello()).is_ok());

@@ -140,9 +140,10 @@ fn limits() -> impl Strategy<Value = Limits> {
     (
         (any::<u64>(), any::<u64>(), any::<u64>(), any::<u64>()),
         (any::<u64>(), any::<u32>(), any::<u32>(), any::<u64>()),
+        any::<u64>(),
     )
         .prop_map(
-            |((fb, tri, meshes, objects), (px, spp, lights, render))| Limits {
+            |((fb, tri, meshes, objects), (px, spp, lights, render), passes)| Limits {
                 max_frame_bytes: fb,
                 max_triangles_per_mesh: tri,
                 max_meshes: meshes,
@@ -151,6 +152,7 @@ fn limits() -> impl Strategy<Value = Limits> {
                 max_spp: spp,
                 max_lights: lights,
                 max_render_bytes: render,
+                max_request_passes: passes,
             },
         )
 }

@@ -494,7 +494,7 @@ impl Connection {
     /// for `methods`); returns `compare::compare_reply_to_py`'s dict, with each method's heat
     /// plane when `images`. `timeout`: seconds to wait between two replies (None: no limit).
     /// `progress` and Ctrl-C act as in `render`.
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false, progress = None, warm_up = false))]
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = None, settings = None, timeout = None, images = false, progress = None, warm_up = false))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
@@ -502,7 +502,7 @@ impl Connection {
         frame: &Bound<'py, PyAny>,
         methods: Option<&Bound<'py, PyAny>>,
         baseline: Option<String>,
-        repeat: u32,
+        repeat: Option<&Bound<'py, PyAny>>,
         settings: Option<&Bound<'py, PyDict>>,
         timeout: Option<f64>,
         images: bool,
@@ -514,8 +514,14 @@ impl Connection {
             let frame = scene::frame_number(frame, "frame")?;
             let within = duration(timeout, "timeout")?;
             check_progress(progress.as_ref())?;
-            let (mut request, baseline) =
-                compare_request(frame, methods, baseline, repeat, settings, images)?;
+            let (mut request, baseline) = compare_request(
+                frame,
+                methods,
+                baseline,
+                scene::repeat_count(repeat)?,
+                settings,
+                images,
+            )?;
             request.warm_up = warm_up;
             let asked = request.clone();
             antumbra_protocol::check_limits(&Request::Compare(request.clone()), &self.limits)
@@ -543,14 +549,14 @@ impl Connection {
     /// Sweeps a frame sent with frame_update over every knob (see `trade::trade_request` for
     /// `knobs`); returns `trade::trade_reply_to_py`'s dict. `timeout`, `progress` and Ctrl-C
     /// act as in `compare`.
-    #[pyo3(signature = (frame, knobs = None, repeat = 3, settings = None, timeout = None, progress = None))]
+    #[pyo3(signature = (frame, knobs = None, repeat = None, settings = None, timeout = None, progress = None))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn trade<'py>(
         &self,
         py: Python<'py>,
         frame: &Bound<'py, PyAny>,
         knobs: Option<&Bound<'py, PyAny>>,
-        repeat: u32,
+        repeat: Option<&Bound<'py, PyAny>>,
         settings: Option<&Bound<'py, PyDict>>,
         timeout: Option<f64>,
         progress: Option<Bound<'py, PyAny>>,
@@ -560,7 +566,7 @@ impl Connection {
             let frame = scene::frame_number(frame, "frame")?;
             let within = duration(timeout, "timeout")?;
             check_progress(progress.as_ref())?;
-            let mut request = trade_request(frame, knobs, repeat, settings)?;
+            let mut request = trade_request(frame, knobs, scene::repeat_count(repeat)?, settings)?;
             let asked = request.clone();
             antumbra_protocol::check_limits(&Request::Trade(request.clone()), &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;

@@ -420,7 +420,7 @@ impl LocalSession {
     /// `images`). `progress(stage, done, total)` is called as the daemon reports; returning
     /// False or raising cancels between method passes, as does Ctrl-C. `timeout` is accepted
     /// and unused, as in `render`.
-    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = 3, settings = None, timeout = None, images = false, progress = None, warm_up = false))]
+    #[pyo3(signature = (frame, methods = None, baseline = None, repeat = None, settings = None, timeout = None, images = false, progress = None, warm_up = false))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn compare<'py>(
         &self,
@@ -428,7 +428,7 @@ impl LocalSession {
         frame: &Bound<'py, PyAny>,
         methods: Option<&Bound<'py, PyAny>>,
         baseline: Option<String>,
-        repeat: u32,
+        repeat: Option<&Bound<'py, PyAny>>,
         settings: Option<&Bound<'py, PyDict>>,
         timeout: Option<f64>,
         images: bool,
@@ -439,8 +439,14 @@ impl LocalSession {
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
             check_progress(progress.as_ref())?;
-            let (mut request, baseline) =
-                compare_request(frame, methods, baseline, repeat, settings, images)?;
+            let (mut request, baseline) = compare_request(
+                frame,
+                methods,
+                baseline,
+                scene::repeat_count(repeat)?,
+                settings,
+                images,
+            )?;
             request.warm_up = warm_up;
             let asked = request.clone();
             check_limits(&Request::Compare(request.clone()), &self.limits)
@@ -468,14 +474,14 @@ impl LocalSession {
     /// Sweeps a frame sent with frame_update over every knob (see `trade::trade_request` for
     /// `knobs`) through the daemon's `TradeState`; returns what `Connection.trade` does.
     /// `progress` and `timeout` act as in `compare`.
-    #[pyo3(signature = (frame, knobs = None, repeat = 3, settings = None, timeout = None, progress = None))]
+    #[pyo3(signature = (frame, knobs = None, repeat = None, settings = None, timeout = None, progress = None))]
     #[allow(clippy::too_many_arguments)] // the Python method's keyword arguments
     fn trade<'py>(
         &self,
         py: Python<'py>,
         frame: &Bound<'py, PyAny>,
         knobs: Option<&Bound<'py, PyAny>>,
-        repeat: u32,
+        repeat: Option<&Bound<'py, PyAny>>,
         settings: Option<&Bound<'py, PyDict>>,
         timeout: Option<f64>,
         progress: Option<Bound<'py, PyAny>>,
@@ -484,7 +490,7 @@ impl LocalSession {
         (|| {
             let frame = scene::frame_number(frame, "frame")?;
             check_progress(progress.as_ref())?;
-            let mut request = trade_request(frame, knobs, repeat, settings)?;
+            let mut request = trade_request(frame, knobs, scene::repeat_count(repeat)?, settings)?;
             check_limits(&Request::Trade(request.clone()), &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
             let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);

@@ -106,6 +106,7 @@ pub fn limits<'py>(py: Python<'py>, l: &Limits) -> PyResult<Bound<'py, PyDict>> 
             max_spp,
             max_lights,
             max_render_bytes,
+            max_request_passes,
         ]
     ))
 }

@@ -5,7 +5,8 @@
 use antumbra_core::scene::{Camera, Light, Resolution};
 use antumbra_protocol::{
     check_limits, AreaShapeState, CameraState, FrameUpdate, LightKindState, LightState, Limits,
-    ObjectState, Passes, Request, ResolutionState, SensorFitState,
+    ObjectState, Passes, Request, ResolutionState, SensorFitState, DEFAULT_REPEAT,
+    MAX_COMPARE_REPEAT,
 };
 use numpy::{PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyOverflowError;
@@ -148,6 +149,23 @@ where
             not_int()
         }
     })
+}
+
+/// `repeat` of `compare` and `trade` (timed passes per method and frame; None: the protocol's
+/// default): an integer from 1 to `MAX_COMPARE_REPEAT`, else `InvalidInput` (a ValueError)
+/// naming `repeat` and its range, whatever the integer's size.
+pub fn repeat_count(v: Option<&Bound<'_, PyAny>>) -> ClientResult<u32> {
+    let Some(v) = v.filter(|v| !v.is_none()) else {
+        return Ok(DEFAULT_REPEAT);
+    };
+    let range = format!("timed passes per method and frame, 1 to {MAX_COMPARE_REPEAT}");
+    let n = integer::<i64>(v, "repeat", &range)?;
+    match u32::try_from(n) {
+        Ok(n) if n >= 1 && u64::from(n) <= MAX_COMPARE_REPEAT => Ok(n),
+        _ => Err(ClientError::invalid(format!(
+            "repeat: {n} is out of range ({range})"
+        ))),
+    }
 }
 
 pub fn frame_number(v: &Bound<'_, PyAny>, field: &str) -> ClientResult<i32> {

@@ -8,7 +8,7 @@ use clap::Args;
 use super::render::render_frames;
 use crate::method_args::MethodArgs;
 use crate::scene_source::open_scene;
-use antumbra_protocol::DEFAULT_MAX_RENDER_BYTES;
+use antumbra_protocol::Limits;
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
@@ -39,7 +39,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         None,
         &settings,
         &args.out,
-        DEFAULT_MAX_RENDER_BYTES,
+        &Limits::default(),
     )?;
     println!(
         "\n{:>5}  {:8} {:14} {:>9} {:>9} {:>9} {:>7} {:>7} {:>7}",

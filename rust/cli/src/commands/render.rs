@@ -5,11 +5,12 @@ use std::path::{Path, PathBuf};
 use antumbra_core::render::{all_output_planes, RenderSettings, Renderer};
 use antumbra_core::scene::{Animation, ImageSize};
 use antumbra_core::stats::{write_csv, write_json, StatsRow};
-use antumbra_protocol::{check_render_memory, Limits, DEFAULT_MAX_RENDER_BYTES};
+use antumbra_protocol::{admit_render, Asked, Limits};
 use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::admission_args::{frame_count, frames_text, refused, AdmissionArgs};
 use crate::method_args::MethodArgs;
 use crate::scene_args::{frame_at_size, SceneArgs};
 use crate::write::write_frame;
@@ -23,10 +24,8 @@ pub struct RenderArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
-    /// Memory one frame may need at its peak, in MiB, estimated before it is rendered; a bigger
-    /// frame stops the run with an error (as the daemon refuses it).
-    #[arg(long, default_value_t = DEFAULT_MAX_RENDER_BYTES >> 20)]
-    pub render_memory_mb: u64,
+    #[command(flatten)]
+    pub admission: AdmissionArgs,
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
@@ -38,7 +37,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         size,
         &args.method.settings()?,
         &args.out,
-        args.render_memory_mb.saturating_mul(1 << 20),
+        &args.admission.limits(),
     )?;
     println!(
         "wrote {} frames, {} statistics rows to {}",
@@ -53,21 +52,30 @@ pub fn run(args: RenderArgs) -> Result<()> {
 }
 
 /// Renders `frames`, writing images per frame and the statistics of all frames into `out`. A
-/// frame estimated to need more than `memory_budget` bytes stops the run before it is rendered.
+/// run or a frame the daemon would refuse under `limits` (too many frames, a frame estimated
+/// to need more memory than the budget) stops before that frame is rendered.
 pub fn render_frames(
     scene: &dyn Animation,
     frames: std::ops::RangeInclusive<i32>,
     size: Option<ImageSize>,
     settings: &RenderSettings,
     out: &Path,
-    memory_budget: u64,
+    limits: &Limits,
 ) -> Result<Vec<StatsRow>> {
-    let limits = Limits {
-        max_render_bytes: memory_budget,
-        ..Limits::default()
+    let what = format!("render of {}", frames_text(&frames));
+    let count = frame_count(&frames);
+    let admit = |s: &antumbra_core::scene::Scene| {
+        let asked = Asked {
+            what: &what,
+            scene: s,
+            frames: count,
+        };
+        admit_render(asked, settings, all_output_planes(s, settings), limits).map_err(refused)
     };
+    // The run as a whole first: nothing is written for a run that is refused.
+    admit(&frame_at_size(scene, *frames.start(), size))?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let bar = ProgressBar::new(frames.clone().count() as u64);
+    let bar = ProgressBar::new(count);
     bar.set_style(
         ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {msg}")
             .expect("static template")
@@ -78,8 +86,7 @@ pub fn render_frames(
     let mut rows = Vec::new();
     for frame in frames {
         let s = frame_at_size(scene, frame, size);
-        check_render_memory(&s, settings, all_output_planes(&s, settings), &limits)
-            .map_err(|e| anyhow::anyhow!("{e}; --render-memory-mb sets the budget"))?;
+        admit(&s)?;
         let result = renderer
             .render(scene.name(), &s, settings)
             .with_context(|| format!("frame {frame}"))?;

@@ -6,9 +6,10 @@ use std::time::Duration;
 
 use antumbra_daemon::listen::{parse_tcp_addr, read_token_file};
 use antumbra_daemon::{default_socket_path, init_logging, Daemon, DaemonConfig, LogFormat};
-use antumbra_protocol::DEFAULT_MAX_RENDER_BYTES;
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
+
+use crate::admission_args::AdmissionArgs;
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum LogFormatArg {
@@ -46,10 +47,8 @@ pub struct ServeArgs {
     /// Memory budget of the shared mesh cache in MiB (meshes no session uses are evicted).
     #[arg(long, default_value_t = 4096)]
     pub memory_budget_mb: u64,
-    /// Memory one render may need at its peak, in MiB, estimated before it starts (images,
-    /// triangles, trees); a bigger render is refused with LimitExceeded.
-    #[arg(long, default_value_t = DEFAULT_MAX_RENDER_BYTES >> 20)]
-    pub render_memory_mb: u64,
+    #[command(flatten)]
+    pub admission: AdmissionArgs,
     /// Log format on stderr (level from RUST_LOG, default info).
     #[arg(long, value_enum, default_value = "text")]
     pub log_format: LogFormatArg,
@@ -122,7 +121,7 @@ pub fn run(args: ServeArgs, release_memory: fn()) -> Result<()> {
     config.max_renders = args.max_renders;
     config.queue_wait = Duration::from_secs_f64(args.queue_wait_s);
     config.memory_budget = args.memory_budget_mb.saturating_mul(1 << 20);
-    config.limits.max_render_bytes = args.render_memory_mb.saturating_mul(1 << 20);
+    config.limits = args.admission.limits();
     config.release_memory = release_memory;
     config.shutdown_grace = Duration::from_secs_f64(args.shutdown_grace_s);
     config.spool_rescan = Duration::from_secs_f64(args.spool_rescan_s);

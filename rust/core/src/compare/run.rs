@@ -225,9 +225,12 @@ impl Comparison {
     }
 
     /// The method passes [`frame_cancellable`](Self::frame_cancellable) renders: one counted
-    /// and `repeat` timed per method.
+    /// and `repeat` timed per method (saturating: admission sizes a request with it before
+    /// its repeat count is known to be sane).
     pub fn steps(&self) -> usize {
-        self.methods.len() * (1 + self.repeat)
+        self.methods
+            .len()
+            .saturating_mul(self.repeat.saturating_add(1))
     }
 
     /// As [`frame`](Self::frame), reading `cancel` per tile of every pass and calling

@@ -1,6 +1,7 @@
 //! A frame's peak memory, estimated from its sizes alone before any work: image planes and
-//! per-pixel buffers, triangle sets and trees, one light's preparation. Callers check it against
-//! a budget so that a request too big for the machine is refused instead of aborting the process.
+//! per-pixel buffers (the visibility prepass's too), triangle sets and trees, one light's
+//! preparation. Callers check it against a budget so that a request too big for the machine is
+//! refused instead of aborting the process.
 
 use std::fmt;
 use std::mem::size_of;
@@ -17,6 +18,11 @@ use crate::trace::TraversalStats;
 /// scratch, nodes, the leaf triangle list and the meshes' own arrays (calibrated against peak
 /// RSS, measured 282 bytes per world triangle with the set; see `docs/daemon.md`).
 const BUILD_BYTES_PER_REF: u64 = 224;
+/// Of those, what the finished tree keeps until the next frame's replaces it (nodes, the leaf
+/// triangle list); the rest is the build's scratch. Calibrated on comparisons of 200 methods
+/// over three frames, each method holding two frames' trees: about 90 bytes per reference
+/// measured beside the triangle set (see `docs/daemon.md`).
+const TREE_BYTES_PER_REF: u64 = 128;
 /// A collapsed wide tree, its triangle rows and per-light sorting tables, per reference.
 const WIDE_BYTES_PER_REF: u64 = 128;
 /// The process itself: code, thread stacks, allocator caches.
@@ -40,10 +46,17 @@ pub struct RenderMemory {
     pub world_triangles: u64,
     /// Planes the caller copies out after the render (a reply, image files).
     pub output_planes: u64,
-    /// Per-pixel buffers of the passes, the planes of the result and the process itself.
+    /// The planes of the result, the planes copied out and the process itself: what a render
+    /// holds until its caller is done with it.
     pub image_bytes: u64,
-    /// Triangle sets and trees.
+    /// Per-pixel buffers of the passes and of the visibility prepass (at its own size), alive
+    /// one pass at a time.
+    pub pass_bytes: u64,
+    /// Triangle sets and trees, as a renderer keeps them across frames.
     pub geometry_bytes: u64,
+    /// What building them needs beside (scratch, a set's second copy while it is joined, the
+    /// visibility prepass's own tree), freed once they are built.
+    pub build_bytes: u64,
     /// One light's preparation (its representative rays, SRDH tree or sorting), freed per light.
     pub light_bytes: u64,
 }
@@ -51,7 +64,9 @@ pub struct RenderMemory {
 impl RenderMemory {
     pub fn total(&self) -> u64 {
         self.image_bytes
+            .saturating_add(self.pass_bytes)
             .saturating_add(self.geometry_bytes)
+            .saturating_add(self.build_bytes)
             .saturating_add(self.light_bytes)
     }
 }
@@ -71,16 +86,19 @@ impl fmt::Display for RenderMemory {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "about {} ({}x{} pixels with {} shadow light(s) and {} output plane(s): {}; {} world \
-             triangles: {} of geometry and trees; {} for one light's preparation)",
+            "about {} ({}x{} pixels with {} shadow light(s) and {} output plane(s): {}, and {} \
+             for the passes' buffers; {} world triangles: {} of geometry and trees, and {} while \
+             building them; {} for one light's preparation)",
             format_bytes(self.total()),
             self.width,
             self.height,
             self.lights,
             self.output_planes,
             format_bytes(self.image_bytes),
+            format_bytes(self.pass_bytes),
             self.world_triangles,
             format_bytes(self.geometry_bytes),
+            format_bytes(self.build_bytes),
             format_bytes(self.light_bytes),
         )
     }
@@ -145,14 +163,13 @@ pub fn estimate_render_bytes(
     let (passes, result) = pass_bytes_per_pixel(settings, lights);
     // Planes are copied out after the passes end, but the allocator does not hand the passes'
     // freed buffers to those copies (measured), so the two add up.
-    let per_pixel = passes
-        .saturating_add(result)
-        .saturating_add(output_planes.saturating_mul(2 * PLANE));
-    // An eighth more for what the per-pixel sizes leave out (parallel collection, allocator
-    // rounding), and the process itself.
-    let image_bytes = pixels
-        .saturating_mul(per_pixel.saturating_add(per_pixel / 8))
-        .saturating_add(PROCESS_BYTES);
+    let kept = result.saturating_add(output_planes.saturating_mul(2 * PLANE));
+    let image_bytes = with_slack(pixels.saturating_mul(kept)).saturating_add(PROCESS_BYTES);
+    let pass_bytes = with_slack(
+        pixels
+            .saturating_mul(passes)
+            .saturating_add(prepass_bytes(settings, pixels)),
+    );
 
     let triangles = |pick: fn(&crate::scene::Object) -> bool| -> u64 {
         scene
@@ -179,8 +196,8 @@ pub fn estimate_render_bytes(
     };
     let world_triangles = camera + shadow;
     // Per triangle of a set: its render-space vertices and reference, gathered per object and
-    // then joined (twice at the peak).
-    let set_bytes = 2 * (size_of::<[glam::Vec3; 3]>() + size_of::<TriangleRef>()) as u64;
+    // then joined (twice at the peak, once kept).
+    let set_bytes = (size_of::<[glam::Vec3; 3]>() + size_of::<TriangleRef>()) as u64;
     // Spatial splits add up to `max_growth` references; visibility-driven builds trace their
     // visible set with one more tree.
     let splits = matches!(
@@ -202,7 +219,7 @@ pub fn estimate_render_bytes(
     let wide = settings.width != BvhWidth::Two
         || (settings.shadow_order.binary().is_none()
             && !matches!(settings.shadow_order, ShadowOrder::Srdh(_)));
-    let per_ref = BUILD_BYTES_PER_REF + if wide { WIDE_BYTES_PER_REF } else { 0 };
+    let kept_per_ref = TREE_BYTES_PER_REF + if wide { WIDE_BYTES_PER_REF } else { 0 };
     let extra_tree = if visibility_tree {
         camera.saturating_mul(BUILD_BYTES_PER_REF)
     } else {
@@ -210,7 +227,12 @@ pub fn estimate_render_bytes(
     };
     let geometry_bytes = world_triangles
         .saturating_mul(set_bytes)
-        .saturating_add(refs(world_triangles).saturating_mul(per_ref))
+        .saturating_add(refs(world_triangles).saturating_mul(kept_per_ref));
+    let build_bytes = world_triangles
+        .saturating_mul(set_bytes)
+        .saturating_add(
+            refs(world_triangles).saturating_mul(BUILD_BYTES_PER_REF - TREE_BYTES_PER_REF),
+        )
         .saturating_add(extra_tree);
 
     let rays = prep_rays(settings, pixels);
@@ -236,17 +258,42 @@ pub fn estimate_render_bytes(
         world_triangles,
         output_planes,
         image_bytes,
+        pass_bytes,
         geometry_bytes,
+        build_bytes,
         light_bytes,
     }
 }
 
+/// `bytes` and an eighth more for what the per-pixel sizes leave out (parallel collection,
+/// allocator rounding).
+fn with_slack(bytes: u64) -> u64 {
+    bytes.saturating_add(bytes / 8)
+}
+
+/// The visibility prepass of a visibility-driven build (`exact` at the frame's size, or
+/// `prepass:WxH` at its own): a closest hit and a triangle id per pixel of its size. Measured
+/// 828 MB at 4096x4096 on a 64x48 frame, which the frame's own sizes said nothing of.
+fn prepass_bytes(settings: &RenderSettings, pixels: u64) -> u64 {
+    if !settings.build.uses_visibility() {
+        return 0;
+    }
+    let prepass_pixels = match settings.visibility {
+        VisibilitySource::Previous => return 0,
+        VisibilitySource::Exact => pixels,
+        VisibilitySource::Prepass { width, height } => width as u64 * height as u64,
+    };
+    prepass_pixels.saturating_mul((size_of::<Option<SurfacePoint>>() + size_of::<u32>()) as u64)
+}
+
 /// Estimates the peak memory of a comparison rendering `scene` with each of `methods` (see
-/// `compare::Comparison`): every method keeps its own trees across frames, and a frame starts
-/// from a copy of each method's state, which holds the previous frame's trees while the new
-/// ones are built, so the trees count twice per method, plus those of the one timed pass that
-/// runs at a time. Every method's counted result lives until the frame ends; one pass's
-/// buffers and one light's preparation are alive at a time.
+/// `compare::Comparison`), each method copying `output_planes` planes out of its result (a
+/// `Compare`'s heat plane per method). Every method keeps its own trees across frames, and a
+/// frame starts from a copy of each method's state, which holds the previous frame's trees
+/// while the new ones are built, so the kept trees count twice per method, plus those of the
+/// one timed pass that runs at a time and its build. Every method's counted result lives until the frame ends;
+/// one pass's buffers (or prepass), one timed pass's result and one light's preparation are
+/// alive at a time. Linear in the methods: each term is a sum or a largest one.
 pub fn estimate_comparison_bytes(
     scene: &Scene,
     methods: &[&RenderSettings],
@@ -259,18 +306,20 @@ pub fn estimate_comparison_bytes(
     let Some(first) = each.first().copied() else {
         return estimate_render_bytes(scene, &RenderSettings::default(), output_planes);
     };
+    let n = each.len() as u64;
     let sum = |f: fn(&RenderMemory) -> u64| each.iter().map(f).fold(0u64, u64::saturating_add);
     let max = |f: fn(&RenderMemory) -> u64| each.iter().map(f).max().unwrap_or(0);
-    // The process once; each method's result and the largest pass's buffers are within its
-    // image bytes, so the sum bounds both.
-    let image_bytes = sum(|m| m.image_bytes)
-        .saturating_sub((each.len() as u64 - 1).saturating_mul(PROCESS_BYTES));
-    let geometry_bytes = sum(|m| m.geometry_bytes)
-        .saturating_mul(2)
-        .saturating_add(max(|m| m.geometry_bytes));
+    // The process once.
+    let image_bytes = sum(|m| m.image_bytes).saturating_sub((n - 1).saturating_mul(PROCESS_BYTES));
+    let timed_result = max(|m| m.image_bytes.saturating_sub(PROCESS_BYTES));
+    let geometry_bytes = sum(|m| m.geometry_bytes).saturating_mul(2);
+    let build_bytes = max(|m| m.geometry_bytes.saturating_add(m.build_bytes));
     RenderMemory {
+        output_planes: output_planes.saturating_mul(n),
         image_bytes,
+        pass_bytes: max(|m| m.pass_bytes).saturating_add(timed_result),
         geometry_bytes,
+        build_bytes,
         light_bytes: max(|m| m.light_bytes),
         ..first
     }
@@ -336,6 +385,7 @@ mod tests {
         let many = estimate_render_bytes(&scene(1000, 64, 64), &s, 1);
         assert_eq!(many.world_triangles, 1000);
         assert!(many.geometry_bytes >= 1000 * small.geometry_bytes);
+        assert!(many.build_bytes >= 1000 * small.build_bytes);
         let sbvh = RenderSettings {
             build: BuildMethod::Sbvh,
             ..s.clone()
@@ -352,6 +402,34 @@ mod tests {
     }
 
     #[test]
+    fn the_visibility_prepass_counts_at_its_own_size() {
+        // Issue 33: a 64x48 frame with an OSAH build whose first visible set comes from a
+        // 4096x4096 prepass peaked at 828 MB and was estimated at 41 MiB.
+        let sc = scene(1000, 64, 48);
+        let osah = |visibility: VisibilitySource| RenderSettings {
+            build: BuildMethod::Osah,
+            visibility,
+            ..RenderSettings::default()
+        };
+        let prepass = osah(VisibilitySource::Prepass {
+            width: 4096,
+            height: 4096,
+        });
+        let big = estimate_render_bytes(&sc, &prepass, 1).total();
+        assert!(big > 828_000_000, "{}", format_bytes(big));
+        assert!(big < 2 * 828_000_000, "{}", format_bytes(big));
+        let previous = estimate_render_bytes(&sc, &osah(VisibilitySource::Previous), 1).total();
+        assert!(previous < 64 << 20, "{}", format_bytes(previous));
+        // A comparison holds one prepass at a time: eight such methods need about one.
+        let many = estimate_comparison_bytes(&sc, &[&prepass; 8], 0).total();
+        assert!(
+            many > 883_000_000 && many < 2 * 883_000_000,
+            "{}",
+            format_bytes(many)
+        );
+    }
+
+    #[test]
     fn a_comparison_bounds_every_method_together() {
         let sc = scene(1000, 64, 64);
         let sah = RenderSettings::default();
@@ -361,15 +439,17 @@ mod tests {
         };
         let one = estimate_render_bytes(&sc, &sbvh, 0);
         let alone = estimate_comparison_bytes(&sc, &[&sbvh], 0);
-        // One method: its trees and the previous frame's, plus a timed pass's.
-        assert_eq!(alone.geometry_bytes, 3 * one.geometry_bytes);
+        // One method: its trees and the previous frame's, plus a timed pass's and its build.
+        assert_eq!(alone.geometry_bytes, 2 * one.geometry_bytes);
+        assert_eq!(alone.build_bytes, one.geometry_bytes + one.build_bytes);
         assert_eq!(alone.image_bytes, one.image_bytes);
         let both = estimate_comparison_bytes(&sc, &[&sah, &sbvh], 0);
         let two = estimate_render_bytes(&sc, &sah, 0);
         assert_eq!(
             both.geometry_bytes,
-            2 * (one.geometry_bytes + two.geometry_bytes) + one.geometry_bytes
+            2 * (one.geometry_bytes + two.geometry_bytes)
         );
+        assert_eq!(both.build_bytes, one.geometry_bytes + one.build_bytes);
         assert_eq!(
             both.image_bytes,
             one.image_bytes + two.image_bytes - PROCESS_BYTES

@@ -415,16 +415,18 @@ pub fn parse_knob_arg(text: &str) -> Result<(&'static Knob, Option<Vec<String>>)
     match text.split_once('=') {
         None => Ok((knob(text.trim())?, None)),
         Some((name, values)) => {
-            let values: Vec<String> = values
-                .split(',')
-                .map(|v| v.trim().to_string())
-                .filter(|v| !v.is_empty())
-                .collect();
             let k = knob(name.trim())?;
-            if values.is_empty() {
-                return Err(k.invalid("no values after '='".into()));
+            let values: Vec<&str> = values.split(',').map(str::trim).collect();
+            // An empty value is a typo (`1,,4`), refused rather than skipped; the message names
+            // its place, not the text, which may be long.
+            if let Some(i) = values.iter().position(|v| v.is_empty()) {
+                return Err(k.invalid(format!(
+                    "value {} of {} is empty (values are V1,V2,...)",
+                    i + 1,
+                    values.len()
+                )));
             }
-            Ok((k, Some(values)))
+            Ok((k, Some(values.into_iter().map(String::from).collect())))
         }
     }
 }
@@ -527,5 +529,28 @@ mod tests {
         assert!(e.starts_with("knob 'osah_w': value '2': osah_w:"), "{e}");
         let (k, v) = parse_knob_arg("resolution=0").unwrap();
         assert!(k.sweep(v.as_deref(), &NamedSettings::new()).is_err());
+    }
+
+    #[test]
+    fn empty_values_are_refused_naming_the_knob_and_the_place() {
+        // Issue 33: `spp=1,,,...` (a megabyte of commas) was read as `spp=1`.
+        let commas = format!("spp=1{}", ",".repeat(1 << 20));
+        let e = parse_knob_arg(&commas).unwrap_err().to_string();
+        assert!(
+            e.starts_with("knob 'spp': value 2 of "),
+            "{}",
+            &e[..e.len().min(200)]
+        );
+        assert!(e.contains("is empty"), "{}", &e[..e.len().min(200)]);
+        // The message names the place, not the whole text.
+        assert!(e.len() < 200, "{} bytes", e.len());
+        for bad in ["spp=1,,4", "spp=,4", "spp=4,", "spp= , 4"] {
+            let e = parse_knob_arg(bad).unwrap_err().to_string();
+            assert!(
+                e.starts_with("knob 'spp': value ") && e.contains("is empty"),
+                "{bad}: {e}"
+            );
+        }
+        assert!(parse_knob_arg("spp=1, 4").is_ok());
     }
 }

@@ -324,7 +324,8 @@ impl Trade {
 
     /// Passes per frame: the reference's (if any image knob), then every knob's method passes.
     pub fn steps(&self) -> usize {
-        usize::from(self.reference.is_some()) + self.sweeps.iter().map(|s| s.steps()).sum::<usize>()
+        let sweeps = self.sweeps.iter().map(|s| s.steps());
+        sweeps.fold(usize::from(self.reference.is_some()), usize::saturating_add)
     }
 
     /// Sweeps every knob over `scene`, calling `progress` after each pass. A frame that fails

@@ -9,14 +9,13 @@ use std::sync::{Arc, OnceLock};
 use antumbra_core::cancel::CancelToken;
 use antumbra_core::scene::Mesh;
 use antumbra_protocol::{
-    check_limits, check_render_memory, mesh_from_upload, render_settings, reply_planes,
-    scene_from_frame, ErrorCode, FrameUpdate, Reply, Request, UploadMesh,
+    admit_render, check_limits, mesh_from_upload, render_settings, reply_planes, scene_from_frame,
+    Asked, ErrorCode, FrameUpdate, Reply, Request, UploadMesh,
 };
 
 use super::out::{error_reply, protocol_error};
 use super::worker::{Job, JobKind, RenderCtl, RENDER_QUEUE};
 use super::{End, Flow, Session, FRAMES_KEPT};
-use crate::lock;
 use crate::shared::bump;
 
 impl Session<'_> {
@@ -69,9 +68,9 @@ impl Session<'_> {
             Request::Compare(c) => self.compare(c),
             Request::Trade(t) => self.trade(t),
             Request::Cancel { request_id } => {
-                if let Some(ctl) = lock(&self.controls).get(&request_id) {
-                    ctl.cancel.cancel();
-                    tracing::info!(request_id, "cancel requested");
+                let requests = self.controls.cancel(request_id);
+                if requests > 0 {
+                    tracing::info!(request_id, requests, "cancel requested");
                 }
                 self.out.send(&Reply::Ack);
             }
@@ -219,7 +218,13 @@ impl Session<'_> {
             }
         };
         let planes = reply_planes(&r.passes, &scene, &settings);
-        if let Err(e) = check_render_memory(&scene, &settings, planes, &self.limits) {
+        let what = format!("Render frame {} (request {request_id})", r.frame);
+        let asked = Asked {
+            what: &what,
+            scene: &scene,
+            frames: 1,
+        };
+        if let Err(e) = admit_render(asked, &settings, planes, &self.limits) {
             tracing::warn!(request_id, error = %e, "render refused");
             return fail(self, protocol_error(&e, Some(request_id)));
         }
@@ -237,11 +242,11 @@ impl Session<'_> {
             kind: JobKind::Render,
         };
         let tx = self.worker().tx.clone();
-        lock(&self.controls).insert(request_id, ctl);
+        self.controls.add(request_id, ctl);
         match tx.try_send(job) {
             Ok(()) => {}
             Err(TrySendError::Full(job)) => {
-                lock(&self.controls).remove(&job.request_id);
+                self.controls.remove(job.request_id, &job.ctl);
                 fail(
                     self,
                     error_reply(
@@ -257,7 +262,7 @@ impl Session<'_> {
                 );
             }
             Err(TrySendError::Disconnected(job)) => {
-                lock(&self.controls).remove(&job.request_id);
+                self.controls.remove(job.request_id, &job.ctl);
                 fail(
                     self,
                     error_reply(

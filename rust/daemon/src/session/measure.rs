@@ -9,30 +9,28 @@ use std::sync::mpsc::TrySendError;
 use std::sync::Arc;
 
 use antumbra_protocol::{
-    check_compare_memory, check_trade_memory, scene_from_frame, CompareRequest, ErrorCode,
-    ProtocolError, Reply, TradeRequest,
+    admit_compare, admit_trade, scene_from_frame, Asked, CompareRequest, ErrorCode, ProtocolError,
+    Reply, TradeRequest,
 };
 
 use super::out::{error_reply, protocol_error};
 use super::worker::{Job, JobKind, RenderCtl, RENDER_QUEUE};
 use super::{Session, FRAMES_KEPT};
-use crate::lock;
 use crate::shared::bump;
 
 impl Session<'_> {
     pub(super) fn compare(&mut self, c: CompareRequest) {
         let (request_id, frame) = (c.request_id, c.frame);
+        let what = format!("Compare frame {frame} (request {request_id})");
         let check = |scene: &Scene, limits: &_| {
             // Built here only to check the methods and size the work; the worker keeps its own.
             let comparison = c.comparison()?;
-            // Every method keeps its own trees across frames: the methods together are
-            // bounded, with one heat plane per method when the images travel back.
-            let planes = if c.images {
-                comparison.labels().len() as u64
-            } else {
-                0
+            let asked = Asked {
+                what: &what,
+                scene,
+                frames: 1,
             };
-            check_compare_memory(scene, &comparison, planes, limits)?;
+            admit_compare(asked, &comparison, c.images, limits)?;
             Ok(comparison.settings()[0].clone())
         };
         self.measure(
@@ -46,9 +44,15 @@ impl Session<'_> {
 
     pub(super) fn trade(&mut self, t: TradeRequest) {
         let (request_id, frame) = (t.request_id, t.frame);
+        let what = format!("Trade frame {frame} (request {request_id})");
         let check = |scene: &Scene, limits: &_| {
             let trade = t.trade()?;
-            check_trade_memory(scene, &trade, limits)?;
+            let asked = Asked {
+                what: &what,
+                scene,
+                frames: 1,
+            };
+            admit_trade(asked, &trade, limits)?;
             Ok(trade.settings()[0].clone())
         };
         self.measure(request_id, frame, "Trade", check, JobKind::Trade(t.clone()));
@@ -105,7 +109,7 @@ impl Session<'_> {
             kind,
         };
         let tx = self.worker().tx.clone();
-        lock(&self.controls).insert(request_id, ctl);
+        self.controls.add(request_id, ctl.clone());
         let refused = match tx.try_send(job) {
             Ok(()) => return,
             Err(TrySendError::Full(_)) => error_reply(
@@ -124,7 +128,7 @@ impl Session<'_> {
                 Some(request_id),
             ),
         };
-        lock(&self.controls).remove(&request_id);
+        self.controls.remove(request_id, &ctl);
         fail(self, refused);
     }
 }

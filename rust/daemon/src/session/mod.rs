@@ -6,6 +6,7 @@
 // reply through `out`, a whole frame at a time.
 mod connection;
 mod dispatch;
+mod in_flight;
 mod measure;
 mod out;
 mod recording;
@@ -15,7 +16,7 @@ use std::collections::{HashMap, VecDeque};
 use std::fs::File;
 use std::io::{BufReader, BufWriter};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -113,7 +114,7 @@ pub(crate) fn run(shared: &Arc<Shared>, conn: Conn, id: u64, admission: Admissio
         pins: HashMap::new(),
         frames: VecDeque::new(),
         camera_path: Vec::new(),
-        controls: Arc::new(Mutex::new(HashMap::new())),
+        controls: Arc::default(),
         worker: None,
         recorder: None,
         requests: 0,
@@ -168,17 +169,11 @@ impl Session<'_> {
         match end {
             // The client is gone or the stream is unusable: nobody reads the results.
             End::Gone | End::BadFrame | End::Refused | End::Internal => {
-                for ctl in lock(&self.controls).values() {
-                    ctl.cancel.cancel();
-                }
+                self.controls.cancel_all(false);
             }
             // The daemon stops: the render under way finishes, the queued ones are cancelled.
             End::Stopped => {
-                for ctl in lock(&self.controls).values() {
-                    if !ctl.started.load(Ordering::Relaxed) {
-                        ctl.cancel.cancel();
-                    }
-                }
+                self.controls.cancel_all(true);
             }
             End::Closed => {}
         }

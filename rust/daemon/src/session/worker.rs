@@ -1,11 +1,10 @@
 //! A session's render worker: a second thread that owns the session's [`Renderer`] (BVH reuse
 //! across frames), so that `Cancel`, `Stats` and frame updates are answered while a render runs.
 
-use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Instant;
 
@@ -18,9 +17,8 @@ use antumbra_protocol::{
 };
 
 use super::out::{error_reply, protocol_error, Out};
-use crate::lock;
 use crate::shared::{bump, Shared};
-use crate::slots::{Acquired, Slot};
+use crate::slots::{Acquired, Sharing, Slot};
 
 /// Renders one session may have waiting; more get `Busy`.
 pub(super) const RENDER_QUEUE: usize = 32;
@@ -70,7 +68,7 @@ enum Done {
     WarmUp(WarmUp),
 }
 
-pub(super) type Controls = Arc<Mutex<HashMap<u64, Arc<RenderCtl>>>>;
+pub(super) type Controls = Arc<super::in_flight::InFlight>;
 
 pub(super) struct Worker {
     pub(super) tx: SyncSender<Job>,
@@ -135,13 +133,7 @@ impl WorkerCtx {
                     reply.map(Reply::TradeResult)
                 }),
             }
-            let mut controls = lock(&self.controls);
-            if controls
-                .get(&job.request_id)
-                .is_some_and(|c| Arc::ptr_eq(c, &job.ctl))
-            {
-                controls.remove(&job.request_id);
-            }
+            self.controls.remove(job.request_id, &job.ctl);
         }
     }
 
@@ -246,7 +238,7 @@ impl WorkerCtx {
         let id = job.request_id;
         let frame = job.scene.frame;
         let cancel = &job.ctl.cancel;
-        let Some(mut slot) = self.take_slot(job) else {
+        let Some(slot) = self.take_slot(job) else {
             return;
         };
         self.progress(id, "render", 0, STAGES);
@@ -347,8 +339,9 @@ impl WorkerCtx {
     }
 
     /// A `Compare` or `Trade`: `run` (the session's [`CompareState`] or [`TradeState`]) renders
-    /// the frame in one render slot, sending progress under `stage` per pass; ends as a render
-    /// does when cancelled.
+    /// the frame in one render slot, sending progress under `stage` per pass; between passes
+    /// the slot goes to renders waiting for one ([`Slot::share`]: the request hears `queued`
+    /// until it has it back). Ends as a render does when cancelled.
     fn measure(
         &self,
         job: &Job,
@@ -360,7 +353,7 @@ impl WorkerCtx {
         let frame = job.scene.frame;
         let what = job.kind.what();
         let cancel = &job.ctl.cancel;
-        let Some(mut slot) = self.take_slot(job) else {
+        let Some(slot) = self.take_slot(job) else {
             return;
         };
         let fail = |reply: Reply| {
@@ -369,12 +362,23 @@ impl WorkerCtx {
         };
         let t0 = Instant::now();
         // Runs on the slot's own thread pool, as renders do; a panic leaves no comparison.
+        let between_passes = |done: u32, total: u32| {
+            self.progress(id, stage, done, total);
+            if done == 0 || done >= total {
+                return;
+            }
+            let queued = |position: usize| {
+                let total = position.try_into().unwrap_or(u32::MAX);
+                self.progress(id, "queued", 0, total);
+            };
+            // A cancel while queued ends the request at its next pass (which reads the
+            // token before any work), without a slot.
+            if slot.share(|| cancel.is_cancelled(), queued) == Sharing::Yielded {
+                tracing::debug!(request_id = id, done, total, "{what} had its slot back");
+            }
+        };
         let result = catch_unwind(AssertUnwindSafe(|| {
-            slot.install(|| {
-                run(cancel, &mut |done, total| {
-                    self.progress(id, stage, done, total)
-                })
-            })
+            slot.install(|| run(cancel, &mut |done, total| between_passes(done, total)))
         }));
         drop(slot);
         let result = match result {

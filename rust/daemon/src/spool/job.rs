@@ -10,7 +10,7 @@ use antumbra_core::render::{all_output_planes, Renderer};
 use antumbra_core::scene::Animation;
 use antumbra_protocol::RecordedAnimation;
 use antumbra_protocol::{
-    check_limits, check_render_memory, frame_update_from_scene, render_settings, Request,
+    admit_render, check_limits, frame_update_from_scene, render_settings, Asked, Request,
 };
 
 use super::attempts::Attempts;
@@ -115,6 +115,7 @@ impl Job<'_> {
         tracing::info!(job = %id, frames = frames.len(), todo = todo.len(), "job started");
         let t0 = Instant::now();
         let mut renderer = Renderer::new();
+        let what = format!("job '{id}'");
         for frame in todo {
             if shared.stopping() {
                 return Err(JobError::Stopped);
@@ -134,8 +135,12 @@ impl Job<'_> {
                 .map_err(|e| failed(format!("frame {frame}: {e}")))?;
             check_limits(&Request::FrameUpdate(update), &shared.config.limits).map_err(failed)?;
             let planes = all_output_planes(&scene, &settings);
-            check_render_memory(&scene, &settings, planes, &shared.config.limits)
-                .map_err(failed)?;
+            let asked = Asked {
+                what: &what,
+                scene: &scene,
+                frames: frames.len() as u64,
+            };
+            admit_render(asked, &settings, planes, &shared.config.limits).map_err(failed)?;
             // On disk before the render: a frame that kills the daemon is counted.
             self.write(Some(frame), || attempts.record_start(results, frame))?;
             self.status.rendering(id, frame);
@@ -171,7 +176,7 @@ impl Job<'_> {
         outputs: &antumbra_core::output::Outputs,
     ) -> Result<(), JobError> {
         let shared = self.shared;
-        let mut slot = match shared.slots.acquire(|| shared.stopping(), None, |_| {}) {
+        let slot = match shared.slots.acquire(|| shared.stopping(), None, |_| {}) {
             Acquired::Slot(s, _) => s,
             _ => return Err(JobError::Stopped),
         };

@@ -164,7 +164,7 @@ class _SessionMethods:
     @property
     def limits(self) -> dict[str, int]:
         """max_frame_bytes, max_triangles_per_mesh, max_meshes, max_objects,
-        max_image_pixels, max_spp, max_lights, max_render_bytes."""
+        max_image_pixels, max_spp, max_lights, max_render_bytes, max_request_passes."""
     @property
     def closed(self) -> bool: ...
     @property
@@ -202,7 +202,7 @@ class _SessionMethods:
         frame: int,
         methods: Mapping[str, Mapping[str, Any]] | Iterable[str] | None = None,
         baseline: str | None = None,
-        repeat: int = 3,
+        repeat: int | None = None,
         settings: Mapping[str, Any] | None = None,
         timeout: float | None = None,
         images: bool = False,
@@ -212,7 +212,7 @@ class _SessionMethods:
         self,
         frame: int,
         knobs: Iterable[str] | None = None,
-        repeat: int = 3,
+        repeat: int | None = None,
         settings: Mapping[str, Any] | None = None,
         timeout: float | None = None,
         progress: Callable[[str, int, int], object] | None = None,

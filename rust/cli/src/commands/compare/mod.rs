@@ -5,11 +5,14 @@
 use std::path::PathBuf;
 
 use antumbra_core::compare::{default_methods, Comparison, MethodSpec};
+use antumbra_core::scene::Scene;
+use antumbra_protocol::{admit_compare, Asked};
 use antumbra_report::{ComparedFrame, ReportFolder, ReportSetup};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::admission_args::{frame_count, frames_text, refused, AdmissionArgs};
 use crate::method_args::MethodArgs;
 use crate::scene_args::{frame_at_size, SceneArgs};
 
@@ -34,6 +37,8 @@ pub struct CompareArgs {
     /// Settings every method shares (a method's own settings win), e.g. `--spp 16`.
     #[command(flatten)]
     pub common: MethodArgs,
+    #[command(flatten)]
+    pub admission: AdmissionArgs,
 }
 
 fn parse_method(text: &str) -> Result<MethodSpec, String> {
@@ -55,11 +60,28 @@ pub fn run(args: CompareArgs) -> Result<()> {
     )?;
     let open = args.scene.open()?;
     let animation = open.animation.as_ref();
+    let (what, limits) = (
+        format!("compare of {}", frames_text(&open.frames)),
+        args.admission.limits(),
+    );
+    // As the daemon admits a Compare, the whole run counted: its frames' passes, and each
+    // frame's memory (the difference image of each method copied out).
+    let admit = |scene: &Scene, comparison: &Comparison| {
+        let asked = Asked {
+            what: &what,
+            scene,
+            frames: frame_count(&open.frames),
+        };
+        admit_compare(asked, comparison, true, &limits).map_err(refused)
+    };
+    admit(
+        &frame_at_size(animation, *open.frames.start(), open.size),
+        &comparison,
+    )?;
     // Every frame is compared anew, so frames recorded there by an earlier run are dropped.
     let mut folder =
         ReportFolder::create(&args.out, ReportSetup::of(animation.name(), &comparison))?;
-    let frames = open.frames.clone().count();
-    let bar = ProgressBar::new(frames as u64);
+    let bar = ProgressBar::new(frame_count(&open.frames));
     bar.set_style(
         ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {msg}")
             .expect("static template")
@@ -68,6 +90,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
     bar.set_prefix(format!("compare {}", animation.name()));
     for frame in open.frames.clone() {
         let scene = frame_at_size(animation, frame, open.size);
+        admit(&scene, &comparison)?;
         let result = comparison
             .frame(animation.name(), &scene)
             .with_context(|| format!("frame {frame}"))?;

@@ -1,20 +1,19 @@
 //! `antumbra trade`: sweeps each knob over its values, everything else fixed, on the same frames
 //! and rays, and writes trade.csv, a Pareto plot per knob and trade.md (see `docs/trade.md`).
-//! The sweeps are antumbra-core's ([`KnobSweep`]), the folder antumbra-report's ([`TradeFolder`]).
+//! The sweeps are antumbra-core's ([`Trade`], as the daemon's `Trade`), the folder
+//! antumbra-report's ([`TradeFolder`]).
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use antumbra_core::cancel::CancelToken;
-use antumbra_core::image::ImagePlane;
-use antumbra_core::trade::{
-    knob_choices, KnobChoice, KnobKind, KnobSweep, Reference, TradeMismatch, TradeRow,
-};
+use antumbra_core::trade::{knob_choices, KnobChoice, Trade};
+use antumbra_protocol::{admit_trade, Asked};
 use antumbra_report::trade::{knob_texts, recommendations, TradeFolder, TradeRecord, TradeSetup};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::admission_args::{frame_count, frames_text, refused, AdmissionArgs};
 use crate::method_args::MethodArgs;
 use crate::scene_args::{frame_at_size, SceneArgs};
 
@@ -35,6 +34,8 @@ pub struct TradeArgs {
     /// Settings every value shares (a knob's base method and value win), e.g. `--seed 3`.
     #[command(flatten)]
     pub common: MethodArgs,
+    #[command(flatten)]
+    pub admission: AdmissionArgs,
 }
 
 /// `--knob`'s text, checked when the arguments are read.
@@ -47,67 +48,60 @@ pub fn run(args: TradeArgs) -> Result<()> {
     let choices: Vec<KnobChoice> = knob_choices(&args.knobs)?;
     let common = &args.common.named;
     // Every value checked before the first frame is rendered.
-    let sweeps = choices
-        .iter()
-        .map(|(k, values)| KnobSweep::new(k, values.as_deref(), common, args.repeat))
-        .collect::<Result<Vec<_>, _>>()?;
+    let mut trade = Trade::new(&choices, common, args.repeat)?;
     let open = args.scene.open()?;
     let animation = open.animation.as_ref();
     let name = animation.name();
-    let frames: Vec<_> = open
-        .frames
-        .clone()
-        .map(|f| frame_at_size(animation, f, open.size))
-        .collect();
-    let bar = ProgressBar::new((frames.len() * sweeps.len()) as u64);
+    let (what, limits) = (
+        format!("trade of {}", frames_text(&open.frames)),
+        args.admission.limits(),
+    );
+    // As the daemon admits a Trade, the whole run counted: its frames' passes, and each
+    // frame's memory (every knob value's state and the reference's together).
+    let admit = |scene: &antumbra_core::scene::Scene, trade: &Trade| {
+        let asked = Asked {
+            what: &what,
+            scene,
+            frames: frame_count(&open.frames),
+        };
+        admit_trade(asked, trade, &limits).map_err(refused)
+    };
+    admit(
+        &frame_at_size(animation, *open.frames.start(), open.size),
+        &trade,
+    )?;
+    let bar = ProgressBar::new(frame_count(&open.frames));
     bar.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} knob frames {msg}")
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {msg}")
             .expect("static template")
             .progress_chars("=> "),
     );
     bar.set_prefix(format!("trade {name}"));
     let cancel = CancelToken::new();
-    // Knob after knob, so that one knob's values hold their state at a time; the image knobs'
-    // reference is rendered once per frame for them all.
-    let mut references: Option<Vec<Vec<ImagePlane>>> = None;
-    let mut records: BTreeMap<i32, (Vec<TradeRow>, Vec<TradeMismatch>)> = BTreeMap::new();
-    for mut sweep in sweeps {
-        let knob = sweep.knob();
-        if knob.kind == KnobKind::Image && references.is_none() {
-            let mut reference = Reference::of(sweep.default_value(), common)?;
-            let masks = frames
-                .iter()
-                .map(|scene| {
-                    reference
-                        .masks(name, scene, &cancel)
-                        .with_context(|| format!("reference, frame {}", scene.frame))
-                })
-                .collect::<Result<Vec<_>>>()?;
-            references = Some(masks);
-        }
-        for (i, scene) in frames.iter().enumerate() {
-            let reference = references.as_ref().map(|r| &r[i][..]);
-            let done = sweep
-                .frame(name, scene, reference, &cancel, &mut |_| {})
-                .with_context(|| format!("knob '{}', frame {}", knob.name, scene.frame))?;
-            let record = records.entry(scene.frame).or_default();
-            record.0.extend(done.rows);
-            record.1.extend(done.mismatches);
-            bar.set_message(format!("{} frame {}", knob.name, scene.frame));
-            bar.inc(1);
-        }
+    // Frame by frame, every knob on each (as a daemon session runs a Trade), so that one
+    // frame's scene and reference are held at a time.
+    let mut records = Vec::new();
+    for frame in open.frames.clone() {
+        let scene = frame_at_size(animation, frame, open.size);
+        admit(&scene, &trade)?;
+        let done = trade
+            .frame(name, &scene, &cancel, &mut |_| {})
+            .with_context(|| format!("frame {frame}"))?;
+        records.push(done);
+        bar.set_message(format!("frame {frame}"));
+        bar.inc(1);
     }
     bar.finish_and_clear();
     let knobs = knob_texts(&args.knobs)?;
     let mut folder = TradeFolder::create(&args.out, TradeSetup::new(name, &knobs, args.repeat)?)?;
-    for (frame, (rows, mismatches)) in records {
+    for done in records {
         folder.add(TradeRecord {
-            frame,
+            frame: done.frame,
             knobs: knobs.clone(),
             repeat: args.repeat,
             settings: common.clone(),
-            rows,
-            mismatches,
+            rows: done.rows,
+            mismatches: done.mismatches,
         })?;
     }
     folder.write()?;
