@@ -209,3 +209,40 @@ def test_a_repeat_out_of_range_is_refused_naming_repeat(recording, repeat, kind)
         assert message.startswith(f"repeat: {repeat} is out of range"), message
         assert "1 to 100" in message, message
         assert s.stats()["renders_done"] == 0
+
+
+@pytest.mark.parametrize("repeat", [-1, 0, 10**30])
+@pytest.mark.parametrize("kind", ["compare", "trade"])
+def test_a_report_folders_repeat_out_of_range_is_refused_naming_repeat(tmp_path, repeat, kind):
+    # The report folders took ``repeat`` unsigned: -1 was a bare OverflowError.
+    with pytest.raises(antumbra.InvalidInput) as e:
+        if kind == "compare":
+            antumbra.CompareReport(
+                tmp_path / "cmp", scene="s", methods=["base=width=2"], repeat=repeat
+            )
+        else:
+            antumbra.TradeReport(tmp_path / "trade", scene="s", knobs=["spp=1"], repeat=repeat)
+    message = str(e.value)
+    assert message.startswith(f"repeat: {repeat} is out of range"), message
+    assert not (tmp_path / "cmp").exists() and not (tmp_path / "trade").exists()
+
+
+@pytest.mark.parametrize("kind", ["compare", "trade"])
+def test_the_in_process_session_admits_as_the_daemon_does(recording, kind):
+    # LocalSession measured without the daemon's admission: 8192 x 8192 with five methods
+    # would have grown to gigabytes before failing.
+    frame = dict(recording["frames"][0], resolution={"x": 8192, "y": 8192, "percentage": 100})
+    with antumbra.LocalSession() as s:
+        for h in s.frame_update(**frame):
+            m = recording["meshes"][h]
+            s.upload_mesh(m["name"], m["positions"], m["triangles"])
+        with pytest.raises(antumbra.AntumbraError) as e:
+            if kind == "compare":
+                s.compare_frame(frame["frame"])
+            else:
+                s.trade_frame(frame["frame"], ["spp=1"])
+        message = str(e.value)
+        verb = "comparing" if kind == "compare" else "trading"
+        assert f"frame {frame['frame']}: {verb} " in message, message
+        assert "max_render_bytes" in message, message
+        assert s.stats()["renders_done"] == 0

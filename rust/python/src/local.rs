@@ -12,9 +12,10 @@ use antumbra_core::cancel::CancelToken;
 use antumbra_core::render::Renderer;
 use antumbra_core::scene::Mesh;
 use antumbra_protocol::{
-    check_limits, frame_result_reply, mesh_from_upload, missing_meshes, render_settings,
-    scene_from_frame, upload_from_mesh, warm_up_reply, CameraState, CompareState, DaemonStats,
-    ErrorCode, FrameUpdate, Limits, ProtocolError, Request, TradeState, COMPARE_STAGE, TRADE_STAGE,
+    admit_compare, admit_trade, check_limits, frame_result_reply, mesh_from_upload, missing_meshes,
+    render_settings, scene_from_frame, upload_from_mesh, warm_up_reply, Asked, CameraState,
+    CompareState, DaemonStats, ErrorCode, FrameUpdate, Limits, ProtocolError, Request, TradeState,
+    COMPARE_STAGE, TRADE_STAGE,
 };
 
 /// The progress stages, as the daemon reports them: ("render", 0, 2), then ("encode", 1, 2).
@@ -460,6 +461,14 @@ impl LocalSession {
                 ("Compare", COMPARE_STAGE),
                 progress,
                 |state, scene, cancel, progress| {
+                    // The daemon's admission, on the scene as this session holds it.
+                    let what = format!("Compare frame {frame} (request {request_id})");
+                    let asked = Asked {
+                        what: &what,
+                        scene,
+                        frames: 1,
+                    };
+                    admit_compare(asked, &request.comparison()?, request.images, &self.limits)?;
                     let label = self.label.as_str();
                     state
                         .comparison
@@ -502,6 +511,13 @@ impl LocalSession {
                 ("Trade", TRADE_STAGE),
                 progress,
                 |state, scene, cancel, progress| {
+                    let what = format!("Trade frame {frame} (request {request_id})");
+                    let asked = Asked {
+                        what: &what,
+                        scene,
+                        frames: 1,
+                    };
+                    admit_trade(asked, &request.trade()?, &self.limits)?;
                     let label = self.label.as_str();
                     state.trade.frame(&request, label, scene, cancel, progress)
                 },

@@ -25,16 +25,17 @@ impl CompareReport {
     /// Opens `out_dir` for this comparison, resuming the frames recorded there; a folder
     /// recorded for another scene, other methods, baseline or repeat raises InvalidInput.
     #[new]
-    #[pyo3(signature = (out_dir, scene, methods, baseline = None, repeat = 3))]
+    #[pyo3(signature = (out_dir, scene, methods, baseline = None, repeat = None))]
     fn new(
         py: Python<'_>,
         out_dir: &str,
         scene: &str,
         methods: Vec<String>,
         baseline: Option<String>,
-        repeat: usize,
+        repeat: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let open = || -> ClientResult<Self> {
+            let repeat = crate::scene::repeat_count(repeat)? as usize;
             let specs = methods
                 .iter()
                 .map(|m| m.parse::<MethodSpec>())

@@ -165,15 +165,16 @@ impl TradeReport {
     /// Opens `out_dir` for this trade, resuming the frames recorded there; a folder recorded
     /// for another scene, other knobs or repeat raises InvalidInput.
     #[new]
-    #[pyo3(signature = (out_dir, scene, knobs = Vec::new(), repeat = 3))]
+    #[pyo3(signature = (out_dir, scene, knobs = Vec::new(), repeat = None))]
     fn new(
         py: Python<'_>,
         out_dir: &str,
         scene: &str,
         knobs: Vec<String>,
-        repeat: usize,
+        repeat: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let open = || -> ClientResult<Self> {
+            let repeat = crate::scene::repeat_count(repeat)? as usize;
             let setup =
                 TradeSetup::new(scene, &knobs, repeat).map_err(|e| invalid(format!("{e:#}")))?;
             let folder = py.detach(|| {
