@@ -38,6 +38,8 @@ import bpy
 
 #: Blender's output of a frame in the output folder (``#`` is the frame number).
 OUTPUT = "frame_####"
+#: Where the add-on was set out, per ``--addon``, for this Blender's later ``-P`` scripts.
+PLACED = "antumbra_render_chunk_addon"
 
 
 def chunk_frames(first: int, last: int, start: int, size: int) -> tuple[int, int]:
@@ -92,11 +94,16 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 
 def add_on_path(addon: str) -> None:
-    """Puts the add-on (the ``antumbra`` package) and its batch driver on the module path."""
-    root = add_on_root(Path(addon))
-    batch_dir = root if (root / "batch.py").is_file() else root / "antumbra"
-    sys.path.insert(0, str(root.resolve()))
-    sys.path.insert(0, str(batch_dir.resolve()))
+    """Puts the add-on (the ``antumbra`` package) and its batch driver on the module path,
+    once per Blender: a chunk's second ``-P`` finds them where its first set them out."""
+    placed = bpy.app.driver_namespace.setdefault(PLACED, {})
+    if addon not in placed:
+        root = add_on_root(Path(addon)).resolve()
+        batch_dir = root if (root / "batch.py").is_file() else root / "antumbra"
+        placed[addon] = [str(batch_dir), str(root)]
+    for folder in reversed(placed[addon]):
+        if folder not in sys.path:
+            sys.path.insert(0, folder)
 
 
 def add_on_root(addon: Path) -> Path:

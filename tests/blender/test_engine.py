@@ -401,17 +401,23 @@ def test_dash_a_after_the_animation_start_warms_up_first(
 
 #: Two lights whose names (61 bytes each, Blender's limit is 63) differ only at their end: their
 #: passes (``shadow.`` + the name) are longer than Blender keeps.
-LONG_NAMES_SCENE = """
+#: A new empty scene with a ground plane of SIZE, a cube on it and a camera looking down at them.
+GROUND_AND_CUBE = """
 import bpy, sys
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
-bpy.ops.mesh.primitive_plane_add(size=10)
+bpy.ops.mesh.primitive_plane_add(size=SIZE)
 bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
 camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
 camera.location = (0.0, -8.0, 6.0)
 camera.rotation_euler = (0.9, 0, 0)
 scene.collection.objects.link(camera)
 scene.camera = camera
+"""
+
+LONG_NAMES_SCENE = (
+    GROUND_AND_CUBE.replace("SIZE", "10")
+    + """
 for suffix, x in (("a", -3.0), ("b", 3.0)):
     name = "Lamp" + "x" * 56 + "ä" + suffix
     lamp = bpy.data.objects.new(name, bpy.data.lights.new(name, "POINT"))
@@ -420,6 +426,7 @@ for suffix, x in (("a", -3.0), ("b", 3.0)):
 scene.render.resolution_x, scene.render.resolution_y = 48, 32
 bpy.ops.wm.save_as_mainfile(filepath=sys.argv[-1])
 """
+)
 
 
 def test_pass_names_longer_than_blender_keeps_are_shortened_uniquely(
@@ -449,17 +456,9 @@ def test_pass_names_longer_than_blender_keeps_are_shortened_uniquely(
 
 #: A new scene as Blender makes it (its default view transform: Filmic in 3.4), a sun lighting a
 #: ground plane and a cube, output left a folder (as Blender's default ``/tmp/``) of PNGs.
-VALUES_SCENE = """
-import bpy, sys
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-bpy.ops.mesh.primitive_plane_add(size=40)
-bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.location = (0.0, -8.0, 6.0)
-camera.rotation_euler = (0.9, 0, 0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+VALUES_SCENE = (
+    GROUND_AND_CUBE.replace("SIZE", "40")
+    + """
 sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
 sun.rotation_euler = (0.5, 0.2, 0)
 scene.collection.objects.link(sun)
@@ -472,6 +471,7 @@ assert scene.view_settings.view_transform != "Standard", scene.view_settings.vie
 for path in sys.argv[-1].split(","):
     bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
 """
+)
 #: Prints the scene's view transform and what antumbra keeps of the user's.
 VIEW_PROBE = (
     "import bpy; s = bpy.context.scene; "

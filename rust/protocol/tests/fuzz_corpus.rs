@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use antumbra_core::settings::{NamedSettings, SCHEMA};
-use antumbra_protocol::fuzzing::{self, mutate, Rng};
+use antumbra_protocol::fuzzing;
 use antumbra_protocol::recording::{replay_scenes_from, RECORDING_MAGIC};
 use antumbra_protocol::{decode_body, FrameDecoder, Limits, Request};
 
@@ -15,36 +15,13 @@ fn fuzz_dir() -> std::path::PathBuf {
 }
 
 fn corpus(target: &str) -> Vec<(String, Vec<u8>)> {
-    let dir = fuzz_dir().join("corpus").join(target);
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().path())
-        .collect();
-    files.sort();
-    assert!(files.len() >= 2, "the {target} seed corpus is missing");
-    files
-        .iter()
-        .map(|p| {
-            let name = p.file_name().unwrap().to_string_lossy().into_owned();
-            (name, std::fs::read(p).unwrap())
-        })
-        .collect()
+    fuzzing::read_corpus(&fuzz_dir(), target)
 }
 
 /// The seeds, then `MUTATIONS` mutations of them and some pure noise, through `body`.
 fn fuzz(target: &str, words: &[&str], seed: u64, body: fn(&[u8])) {
     let seeds: Vec<Vec<u8>> = corpus(target).into_iter().map(|(_, b)| b).collect();
-    for s in &seeds {
-        body(s);
-    }
-    let mut rng = Rng(seed);
-    for _ in 0..MUTATIONS {
-        body(&mutate(&mut rng, &seeds, words));
-    }
-    for n in 0..512 {
-        let noise: Vec<u8> = (0..n).map(|_| rng.next_u64() as u8).collect();
-        body(&noise);
-    }
+    fuzzing::replay(&seeds, words, seed, MUTATIONS, body);
 }
 
 #[test]

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use antumbra_protocol::fuzzing::{mutate, Rng};
+use antumbra_protocol::fuzzing as protocol_fuzzing;
 use antumbra_scenes::{fuzzing, load_gltf, load_obj, ImportLimits};
 
 const MUTATIONS: usize = 20_000;
@@ -14,20 +14,7 @@ fn fuzz_dir() -> PathBuf {
 }
 
 fn corpus(target: &str) -> Vec<(String, Vec<u8>)> {
-    let dir = fuzz_dir().join("corpus").join(target);
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().path())
-        .collect();
-    files.sort();
-    assert!(files.len() >= 2, "the {target} seed corpus is missing");
-    files
-        .iter()
-        .map(|p| {
-            let name = p.file_name().unwrap().to_string_lossy().into_owned();
-            (name, std::fs::read(p).unwrap())
-        })
-        .collect()
+    protocol_fuzzing::read_corpus(&fuzz_dir(), target)
 }
 
 /// A target's dictionary words (`<target>.dict`, one quoted word a line, `\xNN` escapes).
@@ -61,17 +48,7 @@ fn fuzz(target: &str, seed: u64, body: fn(&[u8])) {
     let seeds: Vec<Vec<u8>> = corpus(target).into_iter().map(|(_, b)| b).collect();
     let words = words(target);
     let words: Vec<&str> = words.iter().map(String::as_str).collect();
-    for s in &seeds {
-        body(s);
-    }
-    let mut rng = Rng(seed);
-    for _ in 0..MUTATIONS {
-        body(&mutate(&mut rng, &seeds, &words));
-    }
-    for n in 0..512 {
-        let noise: Vec<u8> = (0..n).map(|_| rng.next_u64() as u8).collect();
-        body(&noise);
-    }
+    protocol_fuzzing::replay(&seeds, &words, seed, MUTATIONS, body);
 }
 
 #[test]

@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use super::hindsight::Hindsight;
 use super::run::{CompareRow, Mismatch};
+use super::summary::{Figures, FrameFigures};
 
 /// One method over the frames every candidate rendered: means per frame.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -55,46 +56,43 @@ fn percent(a: f64, b: f64) -> f64 {
 
 /// The methods' times and work over the frames all of them rendered, fastest first.
 fn method_times(rows: &[CompareRow], labels: &[&str]) -> (Vec<MethodTime>, usize) {
-    let mut frames_of: BTreeMap<&str, BTreeSet<i32>> = BTreeMap::new();
-    for r in rows {
-        frames_of.entry(&r.label).or_default().insert(r.stats.frame);
-    }
+    let figures = Figures::new(rows);
+    // Each frame's spread of the timed passes (every row of a frame carries the frame's timing).
+    let spread: BTreeMap<(&str, i32), f64> = rows
+        .iter()
+        .map(|r| {
+            (
+                (r.label.as_str(), r.stats.frame),
+                r.frame_ms.max - r.frame_ms.min,
+            )
+        })
+        .collect();
     let common: BTreeSet<i32> = labels
         .iter()
-        .filter_map(|l| frames_of.get(l))
-        .fold(None::<BTreeSet<i32>>, |acc, f| {
-            Some(acc.map_or_else(|| f.clone(), |a| &a & f))
-        })
+        .map(|l| figures.of(l).map(|(f, _)| f).collect::<BTreeSet<i32>>())
+        .reduce(|a, b| &a & &b)
         .unwrap_or_default();
     let mut out: Vec<MethodTime> = labels
         .iter()
-        .map(|label| {
-            // Per frame: the frame's timing (every row of a frame carries it) and its lights.
-            let mut frame: BTreeMap<i32, (f64, f64, f64, f64)> = BTreeMap::new();
-            let (mut nodes, mut rays) = (0.0, 0.0);
-            for r in rows.iter().filter(|r| r.label == *label) {
-                if !common.contains(&r.stats.frame) {
-                    continue;
-                }
-                let f = frame.entry(r.stats.frame).or_default();
-                f.0 = r.frame_ms.median;
-                f.1 = r.frame_ms.max - r.frame_ms.min;
-                f.2 += r.sort_ms.median;
-                f.3 += r.trace_ms.median;
-                let n = r.stats.rays as f64;
-                nodes += n * (r.stats.nb_per_ray + r.stats.nl_per_ray);
-                rays += n;
-            }
-            let column = |k: fn(&(f64, f64, f64, f64)) -> f64| {
-                mean(&frame.values().map(k).collect::<Vec<_>>())
+        .map(|&label| {
+            let frames: Vec<(i32, &FrameFigures)> = figures
+                .of(label)
+                .filter(|(f, _)| common.contains(f))
+                .collect();
+            let column = |k: &dyn Fn(i32, &FrameFigures) -> f64| {
+                mean(&frames.iter().map(|&(f, x)| k(f, x)).collect::<Vec<_>>())
             };
+            let (nodes, rays) = frames
+                .iter()
+                .flat_map(|(_, x)| x.work.values())
+                .fold((0.0, 0u64), |(n, r), w| (n + w.nb + w.nl, r + w.rays));
             MethodTime {
                 label: label.to_string(),
-                frame_ms: column(|f| f.0),
-                spread_ms: column(|f| f.1),
-                prep_ms: column(|f| f.2),
-                trace_ms: column(|f| f.3),
-                nodes_per_ray: if rays > 0.0 { nodes / rays } else { 0.0 },
+                frame_ms: column(&|_, x| x.frame_ms),
+                spread_ms: column(&|f, _| spread.get(&(label, f)).copied().unwrap_or(0.0)),
+                prep_ms: column(&|_, x| x.prep_ms),
+                trace_ms: column(&|_, x| x.trace_ms),
+                nodes_per_ray: if rays > 0 { nodes / rays as f64 } else { 0.0 },
             }
         })
         .collect();
