@@ -6,6 +6,7 @@
 
 use std::path::Path;
 
+use antumbra_scenes::fuzzing;
 use base64::Engine;
 
 type Res = Result<(), Box<dyn std::error::Error>>;
@@ -27,7 +28,7 @@ fn main() -> Res {
     std::fs::write(gltf.join("quads.gltf"), quads_json(Some(&uri), bin.len()))?;
     std::fs::write(
         gltf.join("quads.glb"),
-        glb(&quads_json(None, bin.len()), &bin),
+        fuzzing::glb(&quads_json(None, bin.len()), &bin),
     )?;
     std::fs::write(gltf.join("modes.gltf"), modes_json(&uri, bin.len()))?;
     std::fs::write(gltf.join("fixed_bin.bin"), fixed_bin())?;
@@ -115,25 +116,6 @@ fn fixed_bin() -> Vec<u8> {
         bin.extend_from_slice(&c.to_le_bytes());
     }
     bin
-}
-
-/// `json` and `bin` as a GLB file (JSON padded with spaces, the binary with zeros).
-fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
-    let mut json = json.as_bytes().to_vec();
-    json.resize(json.len().next_multiple_of(4), b' ');
-    let mut bin = bin.to_vec();
-    bin.resize(bin.len().next_multiple_of(4), 0);
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut out = b"glTF".to_vec();
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
-    out
 }
 
 const OBJ_WORDS: &[&str] = &[

@@ -215,22 +215,7 @@ fn gltf_with_external_buffer_and_glb() {
     );
     check_two_quads(&path);
 
-    let mut json = gltf_json(None, buffer.len()).into_bytes();
-    // GLB chunks are 4-byte aligned: JSON padded with spaces, binary with zeros.
-    json.resize(json.len().div_ceil(4) * 4, b' ');
-    let mut bin = buffer.clone();
-    bin.resize(bin.len().div_ceil(4) * 4, 0);
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut glb = Vec::new();
-    glb.extend_from_slice(b"glTF");
-    glb.extend_from_slice(&2u32.to_le_bytes());
-    glb.extend_from_slice(&(total as u32).to_le_bytes());
-    glb.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    glb.extend_from_slice(b"JSON");
-    glb.extend_from_slice(&json);
-    glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    glb.extend_from_slice(b"BIN\0");
-    glb.extend_from_slice(&bin);
+    let glb = antumbra_scenes::fuzzing::glb(&gltf_json(None, buffer.len()), &buffer);
     let path = write(&dir, "quads.glb", &glb);
     check_two_quads(&path);
 }

@@ -32,12 +32,27 @@ const FIXED_JSON: &str = r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],
 {"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"},
 {"bufferView":2,"componentType":5126,"count":4,"type":"VEC3"}]}"#;
 
-/// [`FIXED_JSON`] and `bin` as a GLB file.
+/// [`FIXED_JSON`] and `bin` as a GLB file (`bin` as it is: a chunk of any length is input too).
 fn fixed_glb(bin: &[u8]) -> Vec<u8> {
     let mut json = FIXED_JSON
         .replace("{length}", &bin.len().to_string())
         .into_bytes();
     json.resize(json.len().next_multiple_of(4), b' ');
+    glb_of_chunks(&json, bin)
+}
+
+/// `json` and `bin` as a GLB file, the JSON chunk padded with spaces and the binary one with
+/// zeros to 4 bytes, as the format asks (seeds and tests write GLB files with it).
+pub fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let mut json = json.as_bytes().to_vec();
+    json.resize(json.len().next_multiple_of(4), b' ');
+    let mut bin = bin.to_vec();
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    glb_of_chunks(&json, &bin)
+}
+
+/// The GLB header, the JSON chunk and the BIN chunk, each as given.
+fn glb_of_chunks(json: &[u8], bin: &[u8]) -> Vec<u8> {
     let total = 12 + 8 + json.len() + 8 + bin.len();
     let mut glb = Vec::with_capacity(total);
     glb.extend_from_slice(b"glTF");
@@ -45,7 +60,7 @@ fn fixed_glb(bin: &[u8]) -> Vec<u8> {
     glb.extend_from_slice(&(total as u32).to_le_bytes());
     glb.extend_from_slice(&(json.len() as u32).to_le_bytes());
     glb.extend_from_slice(b"JSON");
-    glb.extend_from_slice(&json);
+    glb.extend_from_slice(json);
     glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
     glb.extend_from_slice(b"BIN\0");
     glb.extend_from_slice(bin);

@@ -10,7 +10,7 @@ use antumbra_core::Error;
 
 use crate::import::ImportLimits;
 
-pub use self::gltf::gltf;
+pub use self::gltf::{glb, gltf};
 pub use self::obj::obj;
 
 /// Limits low enough that no input can make one run slow or big, high enough for every seed.
