@@ -7,35 +7,11 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use antumbra_core::compare::MethodSpec;
 use antumbra_protocol::client::Blocking;
 use antumbra_protocol::{
-    CompareMethod, CompareRequest, ErrorCode, Limits, NamedSettings, Passes, RenderRequest, Reply,
-    Request, COMPARE_STAGE,
+    ErrorCode, Limits, NamedSettings, Passes, RenderRequest, Reply, Request, COMPARE_STAGE,
 };
 use common::*;
-
-fn compare_of(methods: &[String], frame: i32, request_id: u64, spp: i64) -> CompareRequest {
-    CompareRequest {
-        frame,
-        request_id,
-        settings: NamedSettings::new().with("spp", spp),
-        methods: methods
-            .iter()
-            .map(|m| {
-                let spec: MethodSpec = m.parse().unwrap();
-                CompareMethod {
-                    label: spec.label,
-                    settings: spec.settings,
-                }
-            })
-            .collect(),
-        baseline: None,
-        repeat: 1,
-        images: false,
-        warm_up: false,
-    }
-}
 
 #[test]
 fn compare_images_cost_memory_linear_in_the_methods() {
@@ -51,7 +27,7 @@ fn compare_images_cost_memory_linear_in_the_methods() {
     c.set_timeout(Some(Duration::from_secs(300))).unwrap();
     c.send_scene(&tiny_scene(1, 64, 48)).unwrap();
     let methods: Vec<String> = (0..300).map(|i| format!("m{i}=width=2")).collect();
-    let mut request = compare_of(&methods, 1, 1, 1);
+    let mut request = compare_request(&methods, 1, 1, 1, 1);
     request.images = true;
     let reply = c.compare(&mut Blocking, request, None).unwrap();
     assert_eq!(reply.heat.len(), 300);
@@ -119,7 +95,7 @@ fn a_render_finishes_while_another_clients_long_compare_runs() {
         .iter()
         .map(|m| m.to_string())
         .collect();
-    let mut request = compare_of(&methods, city.frame, 1, 16);
+    let mut request = compare_request(&methods, city.frame, 1, 16, 1);
     request.repeat = 10;
     long.send(&Request::Compare(request)).unwrap();
     let total = loop {

@@ -13,8 +13,8 @@ use antumbra_core::render::{all_output_planes, estimate_comparison_bytes, estima
 use antumbra_core::stats::Cell;
 use antumbra_protocol::client::{Blocking, Client};
 use antumbra_protocol::{
-    CompareMethod, CompareRequest, CompareRowState, ErrorCode, Limits, NamedSettings, Passes,
-    RenderRequest, Reply, Request, COMPARE_STAGE,
+    CompareRequest, CompareRowState, ErrorCode, Limits, NamedSettings, Passes, RenderRequest,
+    Reply, Request, COMPARE_STAGE,
 };
 use common::*;
 
@@ -25,29 +25,7 @@ const METHODS: [&str; 3] = [
 ];
 
 fn request(frame: i32, request_id: u64) -> CompareRequest {
-    request_of(&METHODS, frame, request_id, 2)
-}
-
-fn request_of(methods: &[&str], frame: i32, request_id: u64, spp: i64) -> CompareRequest {
-    CompareRequest {
-        frame,
-        request_id,
-        settings: NamedSettings::new().with("spp", spp),
-        methods: methods
-            .iter()
-            .map(|m| {
-                let spec: MethodSpec = m.parse().unwrap();
-                CompareMethod {
-                    label: spec.label,
-                    settings: spec.settings,
-                }
-            })
-            .collect(),
-        baseline: None,
-        repeat: 2,
-        images: false,
-        warm_up: false,
-    }
+    compare_request(&METHODS, frame, request_id, 2, 2)
 }
 
 /// A row's cells but the times, which differ from run to run.
@@ -192,7 +170,7 @@ fn a_cancelled_comparison_answers_cancelled_and_the_next_frame_goes_on() {
     let mut c = d.client("cancel");
     c.set_timeout(Some(Duration::from_secs(120))).unwrap();
     let ask = |frame, id| {
-        let mut r = request_of(&CANCEL_METHODS, frame, id, 16);
+        let mut r = compare_request(&CANCEL_METHODS, frame, id, 16, 2);
         r.baseline = Some("base".into());
         r
     };

@@ -318,3 +318,32 @@ impl Bystander {
         ));
     }
 }
+
+/// A `Compare` of `methods` (`LABEL=NAME=VALUE,...`) at `spp`, `repeat` timed passes each.
+pub fn compare_request(
+    methods: &[impl AsRef<str>],
+    frame: i32,
+    request_id: u64,
+    spp: i64,
+    repeat: u32,
+) -> antumbra_protocol::CompareRequest {
+    antumbra_protocol::CompareRequest {
+        frame,
+        request_id,
+        settings: NamedSettings::new().with("spp", spp),
+        methods: methods
+            .iter()
+            .map(|m| {
+                let spec: antumbra_core::compare::MethodSpec = m.as_ref().parse().unwrap();
+                antumbra_protocol::CompareMethod {
+                    label: spec.label,
+                    settings: spec.settings,
+                }
+            })
+            .collect(),
+        baseline: None,
+        repeat,
+        images: false,
+        warm_up: false,
+    }
+}
