@@ -190,7 +190,9 @@ def test_passes_and_settings(scene):
     r = session.render(1, passes=["combined"])
     assert [n for n, _ in r.planes] == ["combined"]
     assert r.visible is None and r.masks == {}
-    r = session.render(1, passes=("masks", "visible"), timing="only", order="stored")
+    r = session.render(
+        1, passes=("masks", "visible"), timing="only", build="sah", width=2, order="stored"
+    )
     assert [n for n, _ in r.planes] == ["shadow.Sun", "shadow.Lamp"]
     assert r.stats[0]["method"] == "sah/bin2/stored"
     assert r.stats[0]["timed_without_counters"]
@@ -200,10 +202,9 @@ def test_passes_and_settings(scene):
 
 def test_smallest_leaf_changes_work_not_masks(scene):
     session, _ = scene
-    base = session.render(1, passes=["masks", "heat_maps"], build="osah", visibility="exact")
-    r = session.render(
-        1, passes=["masks", "heat_maps"], build="osah", visibility="exact", min_leaf_size=8
-    )
+    osah = {"build": "osah", "visibility": "exact", "width": 2, "order": "fbto"}
+    base = session.render(1, passes=["masks", "heat_maps"], **osah)
+    r = session.render(1, passes=["masks", "heat_maps"], min_leaf_size=8, **osah)
     planes = dict(r.planes)
     for name, mask in base.planes:
         if name.startswith("shadow.") and not name.startswith("shadow.N_"):
@@ -222,7 +223,7 @@ def test_width_and_order_change_work_not_masks(scene):
         (2, "rtsah"),
         (2, "srdh:rays=all:min_occluded=0"),
     ]:
-        r = session.render(1, passes=["masks"], width=width, order=order)
+        r = session.render(1, passes=["masks"], build="sah", width=width, order=order)
         assert all(
             np.array_equal(x, y) for (_, x), (_, y) in zip(base.planes, r.planes, strict=True)
         )
@@ -240,7 +241,7 @@ def test_width_and_order_change_work_not_masks(scene):
 
 def test_build_srdh_is_the_srdh_order(scene):
     session, _ = scene
-    r = session.render(1, passes=["masks"], build="srdh")
+    r = session.render(1, passes=["masks"], build="srdh", width=2)
     assert all(s["method"].startswith("sah/bin2/srdh:rays=16x16") for s in r.stats)
     with pytest.raises(antumbra.InvalidInput, match="cannot also be 'sato'"):
         session.render(1, build="srdh", order="sato")

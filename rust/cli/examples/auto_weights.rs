@@ -47,7 +47,7 @@ const METHODS: &[&str] = &[
     "c=build=sah,width=8,order=sato",
     "d=build=sah,width=8,order=sorted",
     "e=build=osah,width=8,order=fbto",
-    "f=build=srdh",
+    "f=build=srdh,width=2",
 ];
 
 /// Median milliseconds of `f` over 3 runs.

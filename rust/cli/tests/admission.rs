@@ -8,6 +8,7 @@ mod common;
 use std::process::{Child, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use antumbra_core::compare::DEFAULT_METHODS;
 use common::antumbra;
 use tempfile::TempDir;
 
@@ -74,7 +75,8 @@ fn compare_and_trade_check_the_render_memory_budget() {
         &["--size", "2048x2048", "--render-memory-mb", "64"],
     );
     assert!(
-        e.contains("comparing 5 methods") && e.contains("render memory budget of 64.0 MiB"),
+        e.contains(&format!("comparing {} methods", DEFAULT_METHODS.len()))
+            && e.contains("render memory budget of 64.0 MiB"),
         "{e}"
     );
     assert!(e.contains("--render-memory-mb"), "{e}");

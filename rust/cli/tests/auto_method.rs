@@ -18,7 +18,7 @@ const METHODS: &[&str] = &[
     "sato8=build=sah,width=8,order=sato",
     "sorted8=build=sah,width=8,order=sorted",
     "osah8=build=osah,width=8,order=sorted",
-    "srdh=build=srdh",
+    "srdh=build=srdh,width=2",
     "auto8=build=auto,width=8,order=auto",
     "auto2=build=auto,width=2,order=auto",
     "auto_order=build=sah,width=4,order=auto",
@@ -234,6 +234,40 @@ fn bad_auto_values_are_refused_naming_the_setting() {
 }
 
 #[test]
+fn a_render_told_no_method_renders_with_auto_at_width_8() {
+    let tmp = TempDir::new().unwrap();
+    let render = |out: &str, method: &[&str]| {
+        ok(antumbra()
+            .args(["render", "--scene", "indoors", "--triangles", "3000"])
+            .args(["--frames", "1-3", "--size", "48x32", "--spp", "2"])
+            .args(method)
+            .arg("--out")
+            .arg(tmp.path().join(out))
+            .output()
+            .unwrap());
+        read_csv(&tmp.path().join(out).join("stats.csv"))
+    };
+    let told_nothing = render("default", &[]);
+    assert!(!told_nothing.is_empty());
+    for row in &told_nothing {
+        assert_eq!(row["method"], "auto/bin8/auto", "{row:?}");
+        assert!(!row["auto_choice"].is_empty(), "{row:?}");
+    }
+    // The papers' baseline is one flag set away, and answers the same.
+    let baseline = render("baseline", &["--build", "sah", "--width", "2", "--order", "fbto"]);
+    assert!(baseline.iter().all(|r| r["method"] == "sah/bin2/fbto"));
+    let columns = |rows: &common::Rows| -> Vec<(String, String, String, String)> {
+        rows.iter()
+            .map(|r| {
+                let key = |k: &str| r[k].clone();
+                (key("frame"), key("pass"), key("light"), key("rays"))
+            })
+            .collect()
+    };
+    assert_eq!(columns(&told_nothing), columns(&baseline));
+}
+
+#[test]
 fn compare_takes_auto_among_the_methods() {
     let tmp = TempDir::new().unwrap();
     let out = tmp.path().join("cmp");
@@ -249,7 +283,7 @@ fn compare_takes_auto_among_the_methods() {
         ])
         .args(["--size", "48x32", "--spp", "2", "--repeat", "1"])
         .args(["--method", "base=build=sah,width=2,order=fbto"])
-        .args(["--method", "sorted8=width=8,order=sorted"])
+        .args(["--method", "sorted8=build=sah,width=8,order=sorted"])
         .args(["--method", "auto8=build=auto,width=8,order=auto"])
         .arg("--out")
         .arg(&out)

@@ -31,7 +31,7 @@ fn settings(build: &str, width: &str, order: &str) -> RenderSettings {
         width: width.parse().unwrap(),
         shadow_order: order.parse().unwrap(),
         spp: 16,
-        ..RenderSettings::default()
+        ..RenderSettings::baseline()
     }
 }
 
@@ -102,7 +102,7 @@ fn a_cancelled_token_stops_before_any_work() {
     let mut r = Renderer::new();
     let s = soft_scene(1);
     let err = r
-        .render_cancellable("t", &s, &RenderSettings::default(), &token)
+        .render_cancellable("t", &s, &RenderSettings::baseline(), &token)
         .unwrap_err();
     assert_eq!(err, Error::Cancelled);
     assert_eq!(r.builds, 0);

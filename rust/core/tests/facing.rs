@@ -57,7 +57,7 @@ fn scene(normals: bool, mirror: bool) -> Scene {
 fn masks(scene: &Scene, facing: Facing) -> Vec<Vec<f32>> {
     let settings = RenderSettings {
         facing,
-        ..RenderSettings::default()
+        ..RenderSettings::baseline()
     };
     let result = Renderer::new().render("facing", scene, &settings).unwrap();
     assert!(result.primary_ids.iter().all(|&id| id != u32::MAX));
@@ -89,12 +89,12 @@ fn shading_normals_decide_which_samples_are_behind_the_surface() {
 
 #[test]
 fn the_default_is_geometric_and_ignores_normals() {
-    assert_eq!(RenderSettings::default().facing, Facing::Geometric);
+    assert_eq!(RenderSettings::baseline().facing, Facing::Geometric);
     let plain = Renderer::new()
-        .render("facing", &scene(false, false), &RenderSettings::default())
+        .render("facing", &scene(false, false), &RenderSettings::baseline())
         .unwrap();
     let with_normals = Renderer::new()
-        .render("facing", &scene(true, false), &RenderSettings::default())
+        .render("facing", &scene(true, false), &RenderSettings::baseline())
         .unwrap();
     for (a, b) in plain.masks.iter().zip(&with_normals.masks) {
         assert_eq!(a.data, b.data, "{}", a.name);

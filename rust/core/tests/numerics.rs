@@ -12,7 +12,7 @@ use glam::{DMat4, DVec3, Vec3};
 
 fn masks(scene: &Scene) -> Vec<Vec<f32>> {
     let result = Renderer::new()
-        .render("test", scene, &RenderSettings::default())
+        .render("test", scene, &RenderSettings::baseline())
         .unwrap();
     result.masks.into_iter().map(|m| m.data).collect()
 }
@@ -174,7 +174,7 @@ fn non_finite_input_is_rejected_naming_the_culprit() {
     m.positions[5].y = f32::NAN;
     scene.meshes[1] = Arc::new(m);
     let err = Renderer::new()
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap_err();
     assert!(matches!(err, Error::NonFinite { index: 5, .. }), "{err}");
     assert!(err.to_string().contains("mesh 'cube'"), "{err}");
@@ -182,21 +182,21 @@ fn non_finite_input_is_rejected_naming_the_culprit() {
     let mut scene = common::boxes_scene(40);
     scene.objects[2].world_from_object.w_axis.x = f64::INFINITY;
     let err = Renderer::new()
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap_err();
     assert!(err.to_string().contains("object 'Box1'"), "{err}");
 
     let mut scene = common::boxes_scene(40);
     scene.lights[0].kind = LightKind::Sun { angle: f64::NAN };
     let err = Renderer::new()
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap_err();
     assert!(err.to_string().contains("light 'Sun'.angle"), "{err}");
 
     let mut scene = common::boxes_scene(40);
     scene.meshes[0] = Arc::new(Mesh::new("bad", vec![Vec3::ZERO], vec![[0, 0, 7]]));
     let err = Renderer::new()
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap_err();
     assert!(
         err.to_string()

@@ -20,7 +20,7 @@ fn soft_scene() -> antumbra_core::scene::Scene {
 fn masks_do_not_depend_on_order_leaf_size_or_counting() {
     let scene = soft_scene();
     let base = Renderer::new()
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap();
     for (order, leaf, stats) in [
         (AnyHitOrder::Stored, 1, StatsMode::Counts),
@@ -34,7 +34,7 @@ fn masks_do_not_depend_on_order_leaf_size_or_counting() {
                 ..BuildSettings::default()
             },
             stats,
-            ..RenderSettings::default()
+            ..RenderSettings::baseline()
         };
         let r = Renderer::new().render("t", &scene, &settings).unwrap();
         assert_eq!(r.masks, base.masks);
@@ -47,7 +47,7 @@ fn masks_do_not_depend_on_order_leaf_size_or_counting() {
 fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
     let scene = soft_scene();
     let base = Renderer::new()
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap();
     for width in ["2", "4", "8"] {
         for order in [
@@ -63,7 +63,7 @@ fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
                     width: width.parse().unwrap(),
                     shadow_order: order.parse().unwrap(),
                     stats,
-                    ..RenderSettings::default()
+                    ..RenderSettings::baseline()
                 };
                 let r = Renderer::new().render("t", &scene, &settings).unwrap();
                 assert_eq!(r.masks, base.masks, "{width} {order}");
@@ -90,12 +90,12 @@ fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
 fn a_per_tree_order_is_made_once_per_tree_and_shared_by_lights_and_frames() {
     let scene = soft_scene();
     let base = Renderer::new()
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap();
     let settings = |order: &str| RenderSettings {
         width: "8".parse().unwrap(),
         shadow_order: order.parse().unwrap(),
-        ..RenderSettings::default()
+        ..RenderSettings::baseline()
     };
     let shadow_sort_ms = |r: &antumbra_core::render::FrameResult| -> Vec<f64> {
         r.stats
@@ -134,7 +134,7 @@ fn a_static_scene_keeps_its_wide_tree_across_frames() {
     let settings = RenderSettings {
         width: "8".parse().unwrap(),
         shadow_order: "sorted".parse().unwrap(),
-        ..RenderSettings::default()
+        ..RenderSettings::baseline()
     };
     let mut renderer = Renderer::new();
     let first = renderer.render("t", &scene, &settings).unwrap();
@@ -148,7 +148,7 @@ fn a_static_scene_keeps_its_wide_tree_across_frames() {
 #[test]
 fn statistics_are_the_sums_of_the_heat_maps() {
     let r = Renderer::new()
-        .render("t", &soft_scene(), &RenderSettings::default())
+        .render("t", &soft_scene(), &RenderSettings::baseline())
         .unwrap();
     let heat = r.heat.as_ref().unwrap();
     let sum = |p: &antumbra_core::image::ImagePlane| p.data.iter().map(|v| *v as f64).sum::<f64>();
@@ -189,12 +189,12 @@ fn soft_shadows_have_penumbrae_and_hard_ones_do_not() {
             &soft_scene(),
             &RenderSettings {
                 spp: 16,
-                ..RenderSettings::default()
+                ..RenderSettings::baseline()
             },
         )
         .unwrap();
     let hard = Renderer::new()
-        .render("t", &common::boxes_scene(96), &RenderSettings::default())
+        .render("t", &common::boxes_scene(96), &RenderSettings::baseline())
         .unwrap();
     let fractional = |m: &[f32]| m.iter().filter(|v| **v > 0.0 && **v < 1.0).count();
     assert_eq!(fractional(&hard.masks[0].data), 0);
@@ -206,7 +206,7 @@ fn soft_shadows_have_penumbrae_and_hard_ones_do_not() {
 fn unchanged_geometry_is_not_rebuilt() {
     let scene = common::boxes_scene(32);
     let mut renderer = Renderer::new();
-    let settings = RenderSettings::default();
+    let settings = RenderSettings::baseline();
     let mut f = scene.clone();
     for frame in 1..=3 {
         f.frame = frame;
@@ -230,7 +230,7 @@ fn visible_set_is_what_the_camera_saw() {
     let scene = common::boxes_scene(64);
     let mut renderer = Renderer::new();
     let r = renderer
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap();
     let (geometry, _, _) = renderer.current().unwrap();
     let mut expected: Vec<_> = r
@@ -250,14 +250,14 @@ fn visible_set_is_what_the_camera_saw() {
 fn objects_without_shadows_are_seen_but_cast_none() {
     let scene = common::boxes_scene(96);
     let with = Renderer::new()
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap();
     let mut no_shadow = scene.clone();
     for o in no_shadow.objects.iter_mut().skip(1) {
         o.casts_shadow = false;
     }
     let without = Renderer::new()
-        .render("t", &no_shadow, &RenderSettings::default())
+        .render("t", &no_shadow, &RenderSettings::baseline())
         .unwrap();
     assert_eq!(with.primary_ids, without.primary_ids);
     let dark = |r: &antumbra_core::render::FrameResult| {
@@ -268,7 +268,7 @@ fn objects_without_shadows_are_seen_but_cast_none() {
     let mut off = scene;
     off.lights[1].casts_shadow = false;
     let r = Renderer::new()
-        .render("t", &off, &RenderSettings::default())
+        .render("t", &off, &RenderSettings::baseline())
         .unwrap();
     assert_eq!(r.masks.len(), 1);
 }
@@ -287,7 +287,7 @@ fn object_ids_equal_brute_force_per_object() {
     scene.objects[2].visible_to_camera = false;
     let mut renderer = Renderer::new();
     let r = renderer
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap();
     let (geometry, _, _) = renderer.current().unwrap();
     let space = geometry.space;
@@ -362,7 +362,7 @@ fn object_ids_equal_brute_force_per_object() {
 fn srdh_masks_equal_the_default_and_rows_report_the_light_tree() {
     let scene = soft_scene();
     let base = Renderer::new()
-        .render("t", &scene, &RenderSettings::default())
+        .render("t", &scene, &RenderSettings::baseline())
         .unwrap();
     for width in ["2", "8"] {
         for order in [
@@ -375,7 +375,7 @@ fn srdh_masks_equal_the_default_and_rows_report_the_light_tree() {
                 width: width.parse().unwrap(),
                 shadow_order: order.parse().unwrap(),
                 stats: StatsMode::CountsAndTiming,
-                ..RenderSettings::default()
+                ..RenderSettings::baseline()
             };
             let r = Renderer::new().render("t", &scene, &settings).unwrap();
             assert_eq!(r.masks, base.masks, "{width} {order}");
@@ -410,7 +410,7 @@ fn light_names_never_fail_a_write_nor_hide_a_plane() {
         })
         .collect();
     let result = Renderer::new()
-        .render("names", &scene, &RenderSettings::default())
+        .render("names", &scene, &RenderSettings::baseline())
         .unwrap();
     let named = antumbra_core::output::mask_names(&result);
     let planes: Vec<&str> = named.iter().map(|n| n.plane.as_str()).collect();
@@ -458,7 +458,7 @@ fn lights_differing_in_non_ascii_letters_keep_their_names_and_files() {
         })
         .collect();
     let result = Renderer::new()
-        .render("names", &scene, &RenderSettings::default())
+        .render("names", &scene, &RenderSettings::baseline())
         .unwrap();
     let named = antumbra_core::output::mask_names(&result);
     let planes: Vec<&str> = named.iter().map(|n| n.plane.as_str()).collect();

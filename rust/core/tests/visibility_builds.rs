@@ -413,6 +413,6 @@ fn smallest_leaf_stops_splits_and_changes_no_answer() {
 fn with_build(build_settings: BuildSettings) -> antumbra_core::render::RenderSettings {
     antumbra_core::render::RenderSettings {
         build_settings,
-        ..Default::default()
+        ..antumbra_core::render::RenderSettings::baseline()
     }
 }

@@ -32,7 +32,7 @@ fn settings(build: BuildMethod, visibility: VisibilitySource) -> RenderSettings 
     RenderSettings {
         build,
         visibility,
-        ..RenderSettings::default()
+        ..RenderSettings::baseline()
     }
 }
 
@@ -47,7 +47,7 @@ fn render_all(settings: &RenderSettings, frames: i32) -> (Vec<FrameResult>, Rend
 #[test]
 fn every_method_and_source_renders_what_sah_renders() {
     let frames = 4;
-    let (base, _) = render_all(&RenderSettings::default(), frames);
+    let (base, _) = render_all(&RenderSettings::baseline(), frames);
     let sources = [
         VisibilitySource::Previous,
         VisibilitySource::Exact,

@@ -42,7 +42,7 @@ fn settings(build: &str, visibility: &str, width: &str, order: &str) -> RenderSe
         width: width.parse().unwrap(),
         shadow_order: order.parse().unwrap(),
         stats: StatsMode::CountsAndTiming,
-        ..RenderSettings::default()
+        ..RenderSettings::baseline()
     }
 }
 
@@ -156,7 +156,7 @@ fn a_warm_up_traces_no_shadow_ray_and_a_render_counts_its_own() {
 #[test]
 fn a_comparison_warms_up_every_method() {
     use antumbra_core::compare::{Comparison, MethodSpec};
-    let specs: Vec<MethodSpec> = ["sah=build=sah", "osah=build=osah,width=8,order=sorted"]
+    let specs: Vec<MethodSpec> = ["sah=build=sah,width=2,order=fbto", "osah=build=osah,width=8,order=sorted"]
         .iter()
         .map(|s| s.parse().unwrap())
         .collect();

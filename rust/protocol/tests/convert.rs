@@ -211,7 +211,7 @@ fn settings_round_trip_and_validate() {
         spp: 16,
         seed: 3,
         stats: StatsMode::CountsAndTiming,
-        ..RenderSettings::default()
+        ..RenderSettings::baseline()
     };
     let state = core.to_named();
     assert_eq!(render_settings(&state).unwrap(), core);
@@ -234,7 +234,7 @@ fn settings_round_trip_and_validate() {
     // An empty map is the core defaults.
     assert_eq!(
         render_settings(&NamedSettings::default()).unwrap(),
-        RenderSettings::default()
+        RenderSettings::baseline()
     );
 
     let bad = state.clone().with("spp", 0i64);
@@ -250,7 +250,7 @@ fn a_real_render_survives_the_wire_bit_exact() {
     let scene = common::tiny_scene(0);
     let settings = RenderSettings {
         spp: 4,
-        ..RenderSettings::default()
+        ..RenderSettings::baseline()
     };
     let result = Renderer::new().render("tiny", &scene, &settings).unwrap();
     assert_eq!(result.masks.len(), 2);

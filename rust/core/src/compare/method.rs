@@ -16,13 +16,16 @@ pub struct MethodSpec {
 }
 
 /// The comparison when none is given: the binary SAH tree front to back first (the baseline),
-/// then the wide, per-light and visibility-driven methods antumbra is about.
+/// then the wide, per-light and visibility-driven methods antumbra is about, and `auto` (what a
+/// render uses when told nothing). Each names its build, width and order, so none moves with
+/// the defaults.
 pub const DEFAULT_METHODS: &[&str] = &[
     "base=build=sah,width=2,order=fbto",
     "sato8=build=sah,width=8,order=sato",
     "sorted8=build=sah,width=8,order=sorted",
     "osah8=build=osah,visibility=previous,width=8,order=sorted",
-    "srdh=build=sah,order=srdh",
+    "srdh=build=sah,width=2,order=srdh",
+    "auto8=build=auto,width=8,order=auto",
 ];
 
 pub fn default_methods() -> Vec<MethodSpec> {

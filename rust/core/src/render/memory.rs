@@ -374,7 +374,7 @@ mod tests {
 
     #[test]
     fn the_estimate_follows_pixels_instances_and_splits() {
-        let s = RenderSettings::default();
+        let s = RenderSettings::baseline();
         let small = estimate_render_bytes(&scene(1, 64, 64), &s, 1);
         let big = estimate_render_bytes(&scene(1, 8192, 8192), &s, 1);
         assert_eq!((big.width, big.height, big.lights), (8192, 8192, 1));
@@ -409,7 +409,7 @@ mod tests {
         let osah = |visibility: VisibilitySource| RenderSettings {
             build: BuildMethod::Osah,
             visibility,
-            ..RenderSettings::default()
+            ..RenderSettings::baseline()
         };
         let prepass = osah(VisibilitySource::Prepass {
             width: 4096,
@@ -432,7 +432,7 @@ mod tests {
     #[test]
     fn a_comparison_bounds_every_method_together() {
         let sc = scene(1000, 64, 64);
-        let sah = RenderSettings::default();
+        let sah = RenderSettings::baseline();
         let sbvh = RenderSettings {
             build: BuildMethod::Sbvh,
             ..sah.clone()

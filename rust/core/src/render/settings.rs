@@ -45,7 +45,27 @@ pub struct RenderSettings {
 }
 
 impl Default for RenderSettings {
+    /// What a user gets without choosing: `auto` (it picks each frame's build and each light's
+    /// order from the work it measured, docs/auto.md) on the 8-wide tree, the fastest sensible
+    /// method on every built-in scene (BENCHMARKS.md). [`RenderSettings::baseline`] is the
+    /// papers' reference.
     fn default() -> Self {
+        RenderSettings {
+            build: BuildMethod::Auto,
+            shadow_order: ShadowOrder::Auto,
+            width: BvhWidth::Eight,
+            ..Self::baseline()
+        }
+    }
+}
+
+/// Upper bound on shadow samples per pixel; more gives no visible gain and risks runaway work.
+pub const MAX_SPP: u32 = 4096;
+
+impl RenderSettings {
+    /// The binary SAH tree traced front to back: the form the papers publish their figures
+    /// against, compare's baseline, and what tests that pin one method start from.
+    pub fn baseline() -> Self {
         RenderSettings {
             spp: 4,
             seed: 0,
@@ -59,12 +79,7 @@ impl Default for RenderSettings {
             facing: Facing::Geometric,
         }
     }
-}
 
-/// Upper bound on shadow samples per pixel; more gives no visible gain and risks runaway work.
-pub const MAX_SPP: u32 = 4096;
-
-impl RenderSettings {
     /// Whether `auto` chooses the build or the shadow order as the frames go (else the method
     /// is fixed).
     pub fn chooses(&self) -> bool {
@@ -105,7 +120,7 @@ mod tests {
     fn method_names_say_a_non_default_collapse() {
         let mut s = RenderSettings {
             width: BvhWidth::Eight,
-            ..RenderSettings::default()
+            ..RenderSettings::baseline()
         };
         assert!(
             s.method_name().starts_with("sah/bin8/"),

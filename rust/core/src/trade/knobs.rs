@@ -57,8 +57,8 @@ pub struct Knob {
 /// The full resolution, in percent: the image knobs' reference and the resolution's default.
 pub const FULL_RESOLUTION: u32 = 100;
 
-const SORTED8: &str = "width=8,order=sorted";
-const SRDH: &str = "order=srdh";
+const SORTED8: &str = "build=sah,width=8,order=sorted";
+const SRDH: &str = "build=sah,width=2,order=srdh";
 const OSAH8: &str = "build=osah,width=8,order=sorted";
 const SBVH8: &str = "build=sbvh,width=8,order=sorted";
 
@@ -191,7 +191,7 @@ pub static KNOBS: &[Knob] = &[
         name: "width",
         kind: KnobKind::Work,
         trades: "children per node: fewer, wider node visits against more box tests per visit",
-        base: "order=sorted",
+        base: "build=sah,order=sorted",
         target: Target::Setting("width"),
         values: &["2", "4", "8"],
     },
