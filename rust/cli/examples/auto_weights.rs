@@ -154,11 +154,11 @@ fn main() {
                 .unwrap();
             assert_eq!(settings.stats, StatsMode::CountsAndTiming);
             let wide = settings.width != BvhWidth::Two;
-            let order = match settings.shadow_order {
-                ShadowOrder::Fbto => OrderChoice::Fbto,
-                ShadowOrder::Sato => OrderChoice::Sato,
-                ShadowOrder::Sorted(_) => OrderChoice::Sorted,
-                ShadowOrder::Srdh(_) => OrderChoice::Srdh,
+            let order = match settings.shadow_order.fixed() {
+                Some(ShadowOrder::Fbto) => OrderChoice::Fbto,
+                Some(ShadowOrder::Sato) => OrderChoice::Sato,
+                Some(ShadowOrder::Sorted(_)) => OrderChoice::Sorted,
+                Some(ShadowOrder::Srdh(_)) => OrderChoice::Srdh,
                 o => panic!("no kernel for {o:?}"),
             };
             let mut r = Renderer::new();

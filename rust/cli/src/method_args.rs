@@ -146,7 +146,10 @@ mod tests {
             "--timing",
         ])
         .unwrap();
-        assert_eq!(s.build, antumbra_core::build::BuildMethod::Osah);
+        assert_eq!(
+            s.build,
+            antumbra_core::render::Pick::Fixed(antumbra_core::build::BuildMethod::Osah)
+        );
         assert_eq!(s.build_settings.osah_weight, 0.5);
         assert_eq!(s.build_settings.max_leaf_size, 4);
         assert!(!s.build_settings.spatial.enabled);

@@ -254,7 +254,10 @@ fn a_render_told_no_method_renders_with_auto_at_width_8() {
         assert!(!row["auto_choice"].is_empty(), "{row:?}");
     }
     // The papers' baseline is one flag set away, and answers the same.
-    let baseline = render("baseline", &["--build", "sah", "--width", "2", "--order", "fbto"]);
+    let baseline = render(
+        "baseline",
+        &["--build", "sah", "--width", "2", "--order", "fbto"],
+    );
     assert!(baseline.iter().all(|r| r["method"] == "sah/bin2/fbto"));
     let columns = |rows: &common::Rows| -> Vec<(String, String, String, String)> {
         rows.iter()

@@ -91,14 +91,18 @@ fn bench_json(scene: &Path, extra: &[&str]) -> Vec<Value> {
         .unwrap()))
 }
 
-/// `render`'s statistics rows of `scene` with `extra` settings.
+/// `render`'s statistics rows of `scene` with `extra` settings, and bench's own method defaults
+/// where `extra` names none (SAH, front to back: bench times one fixed method).
 fn render_stats(scene: &Path, out: &Path, extra: &[&str]) -> Vec<Value> {
+    let order = (!extra.contains(&"--order")).then_some(["--order", "fbto"]);
     ok(antumbra()
         .arg("render")
         .arg("--scene")
         .arg(scene)
         .args(SIZE)
         .args(SETTINGS)
+        .args(["--build", "sah"])
+        .args(order.into_iter().flatten())
         .args(extra)
         .arg("--out")
         .arg(out)

@@ -213,7 +213,7 @@ fn render_in_process(label: &str, scenes: &[Scene]) -> Vec<FrameResult> {
     let mut r = Renderer::new();
     scenes
         .iter()
-        .map(|s| r.render(label, s, &RenderSettings::baseline()).unwrap())
+        .map(|s| r.render(label, s, &RenderSettings::default()).unwrap())
         .collect()
 }
 
@@ -611,7 +611,7 @@ fn assert_frames_equal_in_process(
     let mut renderer = Renderer::new();
     for (f, s) in manifest.frames.iter().zip(scenes) {
         let want = renderer
-            .render(label, s, &RenderSettings::baseline())
+            .render(label, s, &RenderSettings::default())
             .unwrap();
         let folder = results.join(&f.dir);
         let got = read_exr(&folder.join(format!("{}.exr", f.dir))).unwrap();

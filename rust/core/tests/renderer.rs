@@ -5,7 +5,7 @@ mod common;
 
 use antumbra_core::build::BuildSettings;
 use antumbra_core::order::AnyHitOrder;
-use antumbra_core::render::{RenderSettings, Renderer, StatsMode};
+use antumbra_core::render::{Pick, RenderSettings, Renderer, StatsMode};
 use antumbra_core::scene::LightKind;
 use glam::{DMat4, DVec3};
 
@@ -28,7 +28,7 @@ fn masks_do_not_depend_on_order_leaf_size_or_counting() {
         (AnyHitOrder::Stored, 4, StatsMode::CountsAndTiming),
     ] {
         let settings = RenderSettings {
-            shadow_order: order.into(),
+            shadow_order: Pick::Fixed(order.into()),
             build_settings: BuildSettings {
                 max_leaf_size: leaf,
                 ..BuildSettings::default()
@@ -70,7 +70,10 @@ fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
                 assert_eq!(r.primary_ids, base.primary_ids, "{width} {order}");
                 let shadow: Vec<_> = r.stats.iter().filter(|s| s.pass == "shadow").collect();
                 assert!(shadow.len() > 1);
-                let per_tree = settings.shadow_order.is_per_tree();
+                let per_tree = settings
+                    .shadow_order
+                    .fixed()
+                    .is_some_and(|o| o.is_per_tree());
                 for (i, row) in shadow.iter().enumerate() {
                     assert_eq!(
                         row.method,

@@ -30,7 +30,7 @@ fn frame(f: i32) -> Scene {
 
 fn settings(build: BuildMethod, visibility: VisibilitySource) -> RenderSettings {
     RenderSettings {
-        build,
+        build: build.into(),
         visibility,
         ..RenderSettings::baseline()
     }

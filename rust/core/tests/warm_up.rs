@@ -156,10 +156,13 @@ fn a_warm_up_traces_no_shadow_ray_and_a_render_counts_its_own() {
 #[test]
 fn a_comparison_warms_up_every_method() {
     use antumbra_core::compare::{Comparison, MethodSpec};
-    let specs: Vec<MethodSpec> = ["sah=build=sah,width=2,order=fbto", "osah=build=osah,width=8,order=sorted"]
-        .iter()
-        .map(|s| s.parse().unwrap())
-        .collect();
+    let specs: Vec<MethodSpec> = [
+        "sah=build=sah,width=2,order=fbto",
+        "osah=build=osah,width=8,order=sorted",
+    ]
+    .iter()
+    .map(|s| s.parse().unwrap())
+    .collect();
     let new = || Comparison::new(&specs, &Default::default(), None, 1).unwrap();
     let rows = |c: &mut Comparison, f: i32| {
         let done = c.frame("t", &frame(f)).unwrap();

@@ -82,7 +82,7 @@ fn small_render_is_prompt(d: &TestDaemon, name: &str) {
     let s = tiny_scene(1, 32, 24);
     c.send_scene(&s).unwrap();
     let reply = render_reply(&mut c, 1, 77);
-    let want = render_in_process(name, std::slice::from_ref(&s), &RenderSettings::baseline());
+    let want = render_in_process(name, std::slice::from_ref(&s), &RenderSettings::default());
     assert_same_result(&reply, &want[0]);
 }
 
@@ -136,7 +136,7 @@ fn a_cancelled_render_leaves_the_renderer_as_a_fresh_one() {
     let reply = c.finish_render(2).unwrap().result;
     let settings = RenderSettings {
         spp: 1,
-        ..RenderSettings::baseline()
+        ..RenderSettings::default()
     };
     let want = render_in_process("again", std::slice::from_ref(&scene), &settings);
     assert_same_result(&reply, &want[0]);

@@ -72,7 +72,7 @@ fn a_render_over_the_memory_budget_is_refused_and_the_session_goes_on() {
     let small = tiny_scene(3, 64, 48);
     c.send_scene(&small).unwrap();
     let reply = render_reply(&mut c, 3, 3);
-    let want = render_in_process("big", &[small], &RenderSettings::baseline());
+    let want = render_in_process("big", &[small], &RenderSettings::default());
     assert_same_result(&reply, &want[0]);
     let stats = d.wait_for_stats("two refused renders", |s| s.renders_failed >= 2);
     assert_eq!(stats.renders_failed, 2);

@@ -21,7 +21,7 @@ use glam::{DMat4, Vec3};
 fn three_city_frames_match_in_process_render_bit_for_bit() {
     let d = TestDaemon::start("bitexact");
     let scenes = city_frames(10_000, 3, 64, 40);
-    let expected = render_in_process("bitexact", &scenes, &RenderSettings::baseline());
+    let expected = render_in_process("bitexact", &scenes, &RenderSettings::default());
     let mut c = d.client("bitexact");
     for (i, (s, want)) in scenes.iter().zip(&expected).enumerate() {
         let sent = c.send_scene(s).unwrap();
@@ -699,7 +699,7 @@ fn recordings_replay_whatever_the_order_and_what_the_daemon_held() {
         // Each file alone replays to the daemon's own images, bit for bit.
         let replayed = replay_scenes(file).unwrap();
         assert_eq!(replayed.len(), scenes.len());
-        let expected = render_in_process(name, &replayed, &RenderSettings::baseline());
+        let expected = render_in_process(name, &replayed, &RenderSettings::default());
         for (reply, want) in results.iter().zip(&expected) {
             assert_same_result(reply, want);
         }

@@ -31,7 +31,7 @@ fn job_is_rendered_into_complete_frame_folders() {
         m.frames.iter().map(|f| f.frame).collect::<Vec<_>>(),
         vec![1, 2, 3, 4]
     );
-    let expected = render_in_process("shot", &scenes, &RenderSettings::baseline());
+    let expected = render_in_process("shot", &scenes, &RenderSettings::default());
     for (f, want) in m.frames.iter().zip(&expected) {
         let dir = results.join(&f.dir);
         assert!(f.files.contains(&"stats.json".to_string()));

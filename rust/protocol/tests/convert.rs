@@ -234,7 +234,7 @@ fn settings_round_trip_and_validate() {
     // An empty map is the core defaults.
     assert_eq!(
         render_settings(&NamedSettings::default()).unwrap(),
-        RenderSettings::baseline()
+        RenderSettings::default()
     );
 
     let bad = state.clone().with("spp", 0i64);

@@ -43,19 +43,15 @@ pub enum BuildMethod {
     Osah,
     /// SAH over the visible triangles only: a bound for comparisons, not a complete tree.
     Vsah,
-    /// Chosen per frame by the renderer (`render/auto`): SAH, OSAH from the previous frame's
-    /// visible set, or last frame's tree kept. As a builder alone it is SAH.
-    Auto,
 }
 
 impl BuildMethod {
-    pub const ALL: [BuildMethod; 6] = [
+    pub const ALL: [BuildMethod; 5] = [
         BuildMethod::Sah,
         BuildMethod::Sbvh,
         BuildMethod::Abvh,
         BuildMethod::Osah,
         BuildMethod::Vsah,
-        BuildMethod::Auto,
     ];
 
     pub fn name(&self) -> &'static str {
@@ -65,7 +61,6 @@ impl BuildMethod {
             BuildMethod::Abvh => "abvh",
             BuildMethod::Osah => "osah",
             BuildMethod::Vsah => "vsah",
-            BuildMethod::Auto => "auto",
         }
     }
 
@@ -73,13 +68,19 @@ impl BuildMethod {
     pub fn uses_visibility(&self) -> bool {
         matches!(
             self,
-            BuildMethod::Abvh | BuildMethod::Osah | BuildMethod::Vsah | BuildMethod::Auto
+            BuildMethod::Abvh | BuildMethod::Osah | BuildMethod::Vsah
         )
     }
 
     /// Whether the tree answers every ray (all but VSAH).
     pub fn is_complete(&self) -> bool {
         *self != BuildMethod::Vsah
+    }
+}
+
+impl std::fmt::Display for BuildMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -92,9 +93,7 @@ impl std::str::FromStr for BuildMethod {
             .ok_or_else(|| {
                 crate::Error::invalid(
                     "build",
-                    format!(
-                        "unknown build method '{s}' (known: sah, sbvh, abvh, osah, vsah, auto)"
-                    ),
+                    format!("unknown build method '{s}' (known: sah, sbvh, abvh, osah, vsah)"),
                 )
             })
     }
@@ -115,7 +114,7 @@ pub fn build_with_visibility(
     settings: &BuildSettings,
 ) -> Bvh {
     match method {
-        BuildMethod::Sah | BuildMethod::Auto => build_binned_sah(triangles, settings),
+        BuildMethod::Sah => build_binned_sah(triangles, settings),
         BuildMethod::Sbvh => build_split_bvh(triangles, None, SplitPolicy::Sbvh, settings),
         BuildMethod::Abvh => build_split_bvh(triangles, visible, SplitPolicy::Abvh, settings),
         BuildMethod::Osah => build_split_bvh(triangles, visible, SplitPolicy::Osah, settings),

@@ -32,8 +32,7 @@ impl PreparedOrder {
             ShadowOrder::Stored => PreparedOrder::Stored,
             ShadowOrder::Fbto => PreparedOrder::FrontToBack,
             // SRDH trees are binary (see `crate::srdh`); on a wide tree the order is front to back.
-            // The renderer resolves auto per light first; alone it is front to back.
-            ShadowOrder::Srdh(_) | ShadowOrder::Auto => PreparedOrder::FrontToBack,
+            ShadowOrder::Srdh(_) => PreparedOrder::FrontToBack,
             ShadowOrder::Sato => PreparedOrder::Static(static_orders::sato(bvh)),
             ShadowOrder::Rtsah => PreparedOrder::Static(static_orders::rtsah(bvh)),
             ShadowOrder::Random { seed } => {

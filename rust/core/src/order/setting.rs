@@ -43,9 +43,6 @@ pub enum ShadowOrder {
     /// Per light, a binary SRDH tree with traversal kernels built from representative rays
     /// (lights with few occluded rays trace the binary tree front to back).
     Srdh(SrdhSettings),
-    /// Per light and frame, the order the renderer's cost model picks (`render/auto`); the
-    /// renderer resolves it to one of the others before any traversal reads it.
-    Auto,
 }
 
 impl ShadowOrder {
@@ -105,8 +102,12 @@ impl FromStr for ShadowOrder {
             "stored" => no_options(ShadowOrder::Stored),
             "fbto" | "near" => no_options(ShadowOrder::Fbto),
             "sato" => no_options(ShadowOrder::Sato),
+            // `auto` is a policy (`render::Pick`), which reads the bare word before this parser.
+            "auto" => Err(match options.first() {
+                Some((k, _)) => invalid(format!("'auto' takes no option '{k}'")),
+                None => invalid("'auto' chooses an order per light; it is not one".into()),
+            }),
             "rtsah" => no_options(ShadowOrder::Rtsah),
-            "auto" => no_options(ShadowOrder::Auto),
             "random" => {
                 let mut seed = 0;
                 for (k, v) in options {
@@ -191,7 +192,6 @@ impl fmt::Display for ShadowOrder {
                 write!(f, ":budget={}", s.budget)
             }
             ShadowOrder::Srdh(s) => write!(f, "{s}"),
-            ShadowOrder::Auto => write!(f, "auto"),
         }
     }
 }
@@ -230,7 +230,6 @@ mod tests {
             "srdh:rays=16x16:bins=32:leaf=1:kernels=all:min_occluded=0.2",
             "srdh:rays=all:bins=8:leaf=4:kernels=constant:min_occluded=0",
             "srdh:rays=0.05:bins=32:leaf=1:kernels=directional:min_occluded=0.5",
-            "auto",
         ] {
             let o: ShadowOrder = text.parse().unwrap();
             assert_eq!(o.to_string(), text);

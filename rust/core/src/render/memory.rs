@@ -6,7 +6,7 @@
 use std::fmt;
 use std::mem::size_of;
 
-use super::{RenderSettings, ShadowRayOutcome, StatsMode, SurfacePoint, VisibilitySource};
+use super::{Pick, RenderSettings, ShadowRayOutcome, StatsMode, SurfacePoint, VisibilitySource};
 use crate::build::BuildMethod;
 use crate::bvh::BvhWidth;
 use crate::geometry::Ray;
@@ -134,10 +134,10 @@ fn prep_rays(settings: &RenderSettings, pixels: u64) -> u64 {
             .saturating_mul(spp),
     };
     match &settings.shadow_order {
-        ShadowOrder::Sorted(s) => share(s.budget).saturating_mul(spp),
-        ShadowOrder::Srdh(s) => srdh(s),
+        Pick::Fixed(ShadowOrder::Sorted(s)) => share(s.budget).saturating_mul(spp),
+        Pick::Fixed(ShadowOrder::Srdh(s)) => srdh(s),
         // Auto prepares a light with the sorted or the SRDH order at their defaults.
-        ShadowOrder::Auto => share(crate::order::SortSettings::default().budget)
+        Pick::Auto => share(crate::order::SortSettings::default().budget)
             .saturating_mul(spp)
             .max(srdh(&Default::default())),
         _ => 0,
@@ -202,7 +202,7 @@ pub fn estimate_render_bytes(
     // visible set with one more tree.
     let splits = matches!(
         settings.build,
-        BuildMethod::Sbvh | BuildMethod::Abvh | BuildMethod::Osah | BuildMethod::Auto
+        Pick::Fixed(BuildMethod::Sbvh | BuildMethod::Abvh | BuildMethod::Osah) | Pick::Auto
     ) && settings.build_settings.spatial.enabled;
     let growth = if splits {
         1.0 + settings.build_settings.spatial.max_growth.clamp(0.0, 64.0) as f64
@@ -217,8 +217,10 @@ pub fn estimate_render_bytes(
             VisibilitySource::Exact | VisibilitySource::Prepass { .. }
         );
     let wide = settings.width != BvhWidth::Two
-        || (settings.shadow_order.binary().is_none()
-            && !matches!(settings.shadow_order, ShadowOrder::Srdh(_)));
+        || settings
+            .shadow_order
+            .fixed()
+            .is_some_and(|o| o.binary().is_none() && !matches!(o, ShadowOrder::Srdh(_)));
     let kept_per_ref = TREE_BYTES_PER_REF + if wide { WIDE_BYTES_PER_REF } else { 0 };
     let extra_tree = if visibility_tree {
         camera.saturating_mul(BUILD_BYTES_PER_REF)
@@ -241,10 +243,7 @@ pub fn estimate_render_bytes(
     } else {
         let per_ray = size_of::<Ray>() as u64 + PREP_BYTES_PER_RAY;
         // A light's own SRDH tree is built over the shadow set.
-        let own_tree = if matches!(
-            settings.shadow_order,
-            ShadowOrder::Srdh(_) | ShadowOrder::Auto
-        ) {
+        let own_tree = if settings.shadow_order.may_trace_srdh() {
             (if separate_shadow_set { shadow } else { camera }).saturating_mul(BUILD_BYTES_PER_REF)
         } else {
             0
@@ -387,7 +386,7 @@ mod tests {
         assert!(many.geometry_bytes >= 1000 * small.geometry_bytes);
         assert!(many.build_bytes >= 1000 * small.build_bytes);
         let sbvh = RenderSettings {
-            build: BuildMethod::Sbvh,
+            build: Pick::Fixed(BuildMethod::Sbvh),
             ..s.clone()
         };
         assert!(
@@ -407,7 +406,7 @@ mod tests {
         // 4096x4096 prepass peaked at 828 MB and was estimated at 41 MiB.
         let sc = scene(1000, 64, 48);
         let osah = |visibility: VisibilitySource| RenderSettings {
-            build: BuildMethod::Osah,
+            build: Pick::Fixed(BuildMethod::Osah),
             visibility,
             ..RenderSettings::baseline()
         };
@@ -434,7 +433,7 @@ mod tests {
         let sc = scene(1000, 64, 64);
         let sah = RenderSettings::baseline();
         let sbvh = RenderSettings {
-            build: BuildMethod::Sbvh,
+            build: Pick::Fixed(BuildMethod::Sbvh),
             ..sah.clone()
         };
         let one = estimate_render_bytes(&sc, &sbvh, 0);

@@ -5,10 +5,13 @@
 pub mod auto;
 mod camera_rays;
 mod facing;
+mod frame_trees;
 mod light_tracer;
 mod lights;
 mod memory;
 mod passes;
+mod pick;
+mod policy;
 mod primary;
 mod renderer;
 mod settings;
@@ -19,6 +22,7 @@ mod wide_tree;
 
 pub use camera_rays::PrimaryRays;
 pub use facing::Facing;
+pub use frame_trees::{CameraTree, FrameTrees};
 pub use light_tracer::{
     binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
 };
@@ -26,6 +30,7 @@ pub use lights::{LightSample, LightSampler};
 pub use memory::{
     all_output_planes, estimate_comparison_bytes, estimate_render_bytes, format_bytes, RenderMemory,
 };
+pub use pick::{Pick, AUTO};
 pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, WarmUp, OBJECT_PLANE};
 pub use settings::{RenderSettings, StatsMode, MAX_SPP};

@@ -1,21 +1,22 @@
 //! One frame's passes over the renderer's trees: the primary pass, each light's shadow pass
 //! with its tree and order, their statistics rows, and the frame's combined result.
 
-use super::auto::{self, Choice, OrderChoice};
+use super::auto;
 use super::facing::face_shading_normals;
-use super::light_tracer::{light_tracing, LightRays, ShadowTrees};
+use super::frame_trees::{BvhInfo, CameraTree, FrameTrees, Prepared};
+use super::light_tracer::LightRays;
+use super::policy::{LightMeasurement, LightPlan};
 use super::primary::heat_planes;
-use super::renderer::{BvhInfo, Cached, FrameResult, HeatMaps, Prepared};
+use super::renderer::{FrameResult, HeatMaps};
 use super::shadow::{samples_for, SamplePlan};
 use super::visibility::visible_set;
 use super::wide_tree::WideTree;
 use super::{
     Facing, LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode,
 };
-use crate::bvh::{Bvh, BvhWidth};
+use crate::bvh::Bvh;
 use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
-use crate::order::ShadowOrder;
 use crate::scene::Scene;
 use crate::stats::StatsRow;
 use crate::trace::{ClosestHitQuery, TraversalStats};
@@ -63,22 +64,20 @@ impl Rows<'_> {
 /// The primary pass (on the wide tree for widths 4 and 8) and its statistics row; traced a
 /// second time without counters when the row wants both counts and timing.
 pub(super) fn primary_pass(
-    cached: &Cached,
+    trees: &FrameTrees,
     scene: &Scene,
     settings: &RenderSettings,
     rows: &Rows,
     cancel: &CancelToken,
 ) -> Result<(PrimaryPass, StatsRow)> {
     let (counted, timed) = counted_timed(settings);
-    let trace = |counted: bool| trace_camera(cached, scene, counted, cancel);
+    let trace = |counted: bool| trace_camera(trees, scene, counted, cancel);
     let mut primary = trace(counted)?;
-    let mut row = rows.row(
-        "primary",
-        "",
-        &cached.camera_bvh,
-        cached.camera_info,
-        wide_camera(cached),
-    );
+    let wide = match trees.camera() {
+        CameraTree::Wide(t) => Some(t),
+        CameraTree::Binary(_) => None,
+    };
+    let mut row = rows.row("primary", "", trees.camera_bvh(), trees.camera_info, wide);
     row.rays = primary.ray_count();
     row.occluded_fraction =
         primary.surfaces.iter().filter(|s| s.is_some()).count() as f64 / row.rays.max(1) as f64;
@@ -92,37 +91,25 @@ pub(super) fn primary_pass(
     }
     // After the timed pass's check: that pass's surfaces keep their geometric facing.
     if settings.facing == Facing::Shading {
-        let geometry = &cached.geometry;
+        let geometry = trees.geometry();
         let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
         face_shading_normals(&mut primary, &rays, scene, &geometry.camera);
     }
     Ok((primary, row))
 }
 
-/// The wide camera tree the primary pass traces (widths 4 and 8), else none (the binary one).
-fn wide_camera(cached: &Cached) -> Option<&WideTree> {
-    let wide = cached.wide.as_ref().filter(|w| w.width != BvhWidth::Two);
-    wide.map(|w| &*w.camera)
-}
-
 /// The camera rays of a frame on the tree its primary pass reads, counted or timed.
 pub(super) fn trace_camera(
-    cached: &Cached,
+    trees: &FrameTrees,
     scene: &Scene,
     counted: bool,
     cancel: &CancelToken,
 ) -> Result<PrimaryPass> {
-    let geometry = &cached.geometry;
+    let geometry = trees.geometry();
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
-    match wide_camera(cached) {
-        Some(t) => trace_primary(counted, &rays, t, &geometry.camera, cancel),
-        None => trace_primary(
-            counted,
-            &rays,
-            &*cached.camera_bvh,
-            &geometry.camera,
-            cancel,
-        ),
+    match trees.camera() {
+        CameraTree::Wide(t) => trace_primary(counted, &rays, t, &geometry.camera, cancel),
+        CameraTree::Binary(b) => trace_primary(counted, &rays, b, &geometry.camera, cancel),
     }
 }
 
@@ -140,52 +127,26 @@ pub(super) struct ShadowPasses {
     pub(super) masks: Vec<ImagePlane>,
     pub(super) rows: Vec<StatsRow>,
     pub(super) work: Vec<TraversalStats>,
-    /// Per light: the work of its rays, whether it traced a tree of its own (SRDH), and the
-    /// work and rays of `auto`'s sample, if it took one.
-    pub(super) measured: Vec<(TraversalStats, bool, Option<Sampled>)>,
+    /// Per light, what the policy learns from.
+    pub(super) measured: Vec<LightMeasurement>,
     /// Shadow rays traced, over every pass (counted and timed).
     pub(super) rays: u64,
 }
 
-/// The work and the rays of `auto`'s sample of a light.
-pub(super) type Sampled = (TraversalStats, u64);
-
-/// One shadow-casting light's order this frame, and `auto`'s choice behind it.
-pub(super) struct LightOrder {
-    pub(super) order: ShadowOrder,
-    pub(super) auto: Option<Choice<OrderChoice>>,
-    /// An order `auto` measures on a sample of the light's rays.
-    pub(super) sample: Option<OrderChoice>,
-}
-
-/// Each shadow-casting light in turn: its tree and order ([`light_tracing`]), its shadow pass
-/// and its row.
+/// Each shadow-casting light in turn: its tree and order ([`FrameTrees::for_light`]), its
+/// shadow pass and its row.
 pub(super) fn shadow_passes(
-    cached: &Cached,
+    trees: &FrameTrees,
     primary: &PrimaryPass,
     scene: &Scene,
     settings: &RenderSettings,
-    orders: &[LightOrder],
+    plans: &[LightPlan],
     rows: &Rows,
     cancel: &CancelToken,
 ) -> Result<ShadowPasses> {
-    let geometry = &cached.geometry;
-    let wide = cached.wide.as_ref();
-    let shadow_bvh = cached.shadow_bvh.as_ref().unwrap_or(&cached.camera_bvh);
-    let shadow_info = cached.shadow_info.unwrap_or(cached.camera_info);
-    let trees = ShadowTrees {
-        bvh: shadow_bvh,
-        triangles: &geometry
-            .shadow
-            .as_ref()
-            .unwrap_or(&geometry.camera)
-            .vertices,
-        wide: wide.map(|w| w.shadow.as_deref().unwrap_or(&w.camera)),
-        sort_tables: wide.and_then(|w| w.sort_tables.as_ref()),
-        per_tree: wide
-            .and_then(|w| w.per_tree_order.as_ref())
-            .map(|p| (&p.order, &p.prepared, p.ms)),
-    };
+    let geometry = trees.geometry();
+    let shadow_bvh = trees.shadow_bvh();
+    let shadow_info = trees.shadow_info();
     let (counted, timed) = counted_timed(settings);
     let mut out = ShadowPasses {
         masks: Vec::new(),
@@ -201,7 +162,7 @@ pub(super) fn shadow_passes(
         .filter(|(_, l)| l.casts_shadow);
     // A per-tree order's preparation is reported on the row of the first light that uses it.
     let mut per_tree_unreported = true;
-    for ((index, light), order) in shadow_lights.zip(orders) {
+    for ((index, light), order) in shadow_lights.zip(plans) {
         cancel.check()?;
         let sampler = LightSampler::new(light, &geometry.space);
         let plan = SamplePlan {
@@ -217,7 +178,7 @@ pub(super) fn shadow_passes(
             first: per_tree_unreported && order.order.is_per_tree(),
         };
         per_tree_unreported &= !order.order.is_per_tree();
-        let tracing = light_tracing(&trees, &order.order, settings.width, &light_rays);
+        let tracing = trees.for_light(&order.order, settings.width, &light_rays);
         cancel.check()?;
         let tracer = tracing.tracer();
         let pass_of = |counted: bool| {
@@ -266,11 +227,16 @@ pub(super) fn shadow_passes(
         }
         // `auto`'s sample: the same in counted and timed frames, so timing includes it.
         let sampled = order.sample.map(|o| {
-            let s = light_tracing(&trees, &o.order(), settings.width, &light_rays);
+            let s = trees.for_light(&o.order(), settings.width, &light_rays);
             auto::sample_work(primary, &sampler, plan, &s.tracer())
         });
-        out.measured
-            .push((pass.totals, tracing.own_tree().is_some(), sampled));
+        out.measured.push(LightMeasurement {
+            light: light.name.clone(),
+            rays: r.rays,
+            work: pass.totals,
+            own_tree: tracing.own_tree().is_some(),
+            sampled,
+        });
         out.rows.push(r);
         out.masks.push(pass.mask);
     }
@@ -281,7 +247,7 @@ pub(super) fn shadow_passes(
 /// and the visible set.
 pub(super) fn combine(
     scene: &Scene,
-    cached: &Cached,
+    trees: &FrameTrees,
     primary: PrimaryPass,
     primary_row: StatsRow,
     shadows: ShadowPasses,
@@ -310,7 +276,7 @@ pub(super) fn combine(
         .iter()
         .map(|s| s.map_or(u32::MAX, |s| s.triangle))
         .collect();
-    let camera = &cached.geometry.camera;
+    let camera = &trees.geometry().camera;
     let mut stats = vec![primary_row];
     stats.extend(shadows.rows);
     FrameResult {

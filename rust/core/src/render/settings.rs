@@ -1,6 +1,6 @@
 use serde::{Deserialize, Serialize};
 
-use super::{Facing, VisibilitySource};
+use super::{Facing, Pick, VisibilitySource};
 use crate::build::{BuildMethod, BuildSettings, CollapseMethod, CollapseSettings};
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
@@ -25,10 +25,12 @@ pub struct RenderSettings {
     pub spp: u32,
     /// Seed of the light-sample patterns.
     pub seed: u32,
-    pub build: BuildMethod,
+    /// The camera tree's builder, or `auto` (per frame SAH, OSAH or last frame's tree).
+    pub build: Pick<BuildMethod>,
     pub build_settings: BuildSettings,
-    /// Child order of the occlusion traversal (per light for the sorted order).
-    pub shadow_order: ShadowOrder,
+    /// Child order of the occlusion traversal (per light for the sorted order), or `auto` (per
+    /// light and frame).
+    pub shadow_order: Pick<ShadowOrder>,
     /// Children per BVH node: the binary tree (2) or its 4- or 8-wide collapse.
     #[serde(default)]
     pub width: BvhWidth,
@@ -51,8 +53,8 @@ impl Default for RenderSettings {
     /// papers' reference.
     fn default() -> Self {
         RenderSettings {
-            build: BuildMethod::Auto,
-            shadow_order: ShadowOrder::Auto,
+            build: Pick::Auto,
+            shadow_order: Pick::Auto,
             width: BvhWidth::Eight,
             ..Self::baseline()
         }
@@ -69,9 +71,9 @@ impl RenderSettings {
         RenderSettings {
             spp: 4,
             seed: 0,
-            build: BuildMethod::Sah,
+            build: Pick::Fixed(BuildMethod::Sah),
             build_settings: BuildSettings::default(),
-            shadow_order: ShadowOrder::Fbto,
+            shadow_order: Pick::Fixed(ShadowOrder::Fbto),
             width: BvhWidth::Two,
             collapse: CollapseSettings::default(),
             stats: StatsMode::Counts,
@@ -83,7 +85,7 @@ impl RenderSettings {
     /// Whether `auto` chooses the build or the shadow order as the frames go (else the method
     /// is fixed).
     pub fn chooses(&self) -> bool {
-        self.build == BuildMethod::Auto || self.shadow_order == ShadowOrder::Auto
+        self.build.is_auto() || self.shadow_order.is_auto()
     }
 
     /// The method's name as it appears in statistics: builder, BVH width and shadow-ray child
@@ -91,12 +93,11 @@ impl RenderSettings {
     /// is named with the builder (`osah-previous:leaf8/bin2/fbto`).
     pub fn method_name(&self) -> String {
         // `auto` reads the previous frame's visible set unless told otherwise.
-        let auto_previous =
-            self.build == BuildMethod::Auto && self.visibility == VisibilitySource::Previous;
+        let auto_previous = self.build.is_auto() && self.visibility == VisibilitySource::Previous;
         let mut build = if self.build.uses_visibility() && !auto_previous {
-            format!("{}-{}", self.build.name(), self.visibility.name())
+            format!("{}-{}", self.build, self.visibility.name())
         } else {
-            self.build.name().to_string()
+            self.build.to_string()
         };
         if self.build_settings.min_leaf_size > 1 {
             build += &format!(":leaf{}", self.build_settings.min_leaf_size);

@@ -4,7 +4,7 @@ use super::{Group, Kind, NamedSettings, Setting, SettingValue as V};
 use crate::build::{BuildMethod, CollapseMethod, SpatialAxes};
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
-use crate::render::{Facing, RenderSettings, StatsMode, VisibilitySource};
+use crate::render::{Facing, Pick, RenderSettings, StatsMode, VisibilitySource};
 use crate::{Error, Result};
 
 const U32_MAX: i64 = u32::MAX as i64;
@@ -94,11 +94,11 @@ pub static SCHEMA: &[Setting] = &[
                triangles are); osah (occlusion heuristic); vsah (SAH over visible triangles, a \
                reference); srdh (SAH for camera rays, an SRDH tree per light: order srdh); auto \
                (per frame SAH, OSAH or last frame's tree, from measured work: docs/auto.md).",
-        get: |s| s.build.name().into(),
+        get: |s| s.build.to_string().into(),
         set: |s, v| {
             // `srdh` is SAH plus the srdh order, settled with the order in `resolve_build_srdh`.
             s.build = match v.as_text() {
-                "srdh" => BuildMethod::Sah,
+                "srdh" => Pick::Fixed(BuildMethod::Sah),
                 _ => parsed("build", v)?,
             };
             Ok(())
@@ -383,7 +383,7 @@ pub static SCHEMA: &[Setting] = &[
                frame from measured work (docs/auto.md).",
         get: |s| s.shadow_order.to_string().into(),
         set: |s, v| {
-            s.shadow_order = parsed::<ShadowOrder>("order", v)?;
+            s.shadow_order = parsed::<Pick<ShadowOrder>>("order", v)?;
             Ok(())
         },
     },
@@ -396,8 +396,8 @@ pub(super) fn resolve_build_srdh(s: &mut RenderSettings, named: &NamedSettings) 
         return Ok(());
     }
     match (named.get("order"), s.shadow_order) {
-        (None, _) => s.shadow_order = ShadowOrder::Srdh(Default::default()),
-        (Some(_), ShadowOrder::Srdh(_)) => {}
+        (None, _) => s.shadow_order = Pick::Fixed(ShadowOrder::Srdh(Default::default())),
+        (Some(_), Pick::Fixed(ShadowOrder::Srdh(_))) => {}
         (Some(_), other) => {
             return Err(Error::invalid(
                 "build",
@@ -423,6 +423,8 @@ pub(super) fn check_relations(s: &RenderSettings) -> Result<()> {
             ),
         ));
     }
-    s.shadow_order.validate()?;
+    if let Some(o) = s.shadow_order.fixed() {
+        o.validate()?;
+    }
     s.visibility.validate()
 }

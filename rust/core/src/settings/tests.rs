@@ -1,6 +1,7 @@
 use super::*;
 use crate::build::{BuildMethod, CollapseMethod, SpatialAxes};
 use crate::order::ShadowOrder;
+use crate::render::Pick;
 
 fn named(pairs: &[(&str, SettingValue)]) -> NamedSettings {
     NamedSettings(
@@ -88,7 +89,7 @@ fn each_setting_reaches_its_field_and_reads_back() {
             .unwrap_or_else(|e| panic!("{} = {v}: {e}", s.name));
         // `build=srdh` reads back as the SAH build with the srdh order.
         if s.name == "build" && v.as_text() == "srdh" {
-            assert!(matches!(r.shadow_order, ShadowOrder::Srdh(_)));
+            assert!(matches!(r.shadow_order, Pick::Fixed(ShadowOrder::Srdh(_))));
             continue;
         }
         assert_ne!(r, d, "{} = {v} changed nothing", s.name);
@@ -111,9 +112,10 @@ fn choice_words_are_the_types_own_names() {
     }
     assert_eq!(
         builds.len(),
-        BuildMethod::ALL.len() + 1,
-        "the builders and srdh"
+        BuildMethod::ALL.len() + 2,
+        "the builders, srdh and auto"
     );
+    assert!(builds.contains(&crate::render::AUTO));
     let collapses = words("collapse");
     assert_eq!(collapses.len(), CollapseMethod::ALL.len());
     for m in CollapseMethod::ALL {
@@ -180,8 +182,11 @@ fn command_line_words_parse_to_the_same_values() {
 #[test]
 fn build_srdh_is_sah_with_the_srdh_order() {
     let r = named(&[("build", "srdh".into())]).resolve().unwrap();
-    assert_eq!(r.build, BuildMethod::Sah);
-    assert_eq!(r.shadow_order, ShadowOrder::Srdh(Default::default()));
+    assert_eq!(r.build, Pick::Fixed(BuildMethod::Sah));
+    assert_eq!(
+        r.shadow_order,
+        Pick::Fixed(ShadowOrder::Srdh(Default::default()))
+    );
     let r = named(&[
         ("build", "srdh".into()),
         ("order", "srdh:rays=32x32".into()),
@@ -197,7 +202,7 @@ fn build_srdh_is_sah_with_the_srdh_order() {
     let r = named(&[("build", "sbvh".into()), ("order", "srdh".into())])
         .resolve()
         .unwrap();
-    assert_eq!(r.build, BuildMethod::Sbvh);
+    assert_eq!(r.build, Pick::Fixed(BuildMethod::Sbvh));
 }
 
 #[test]
@@ -205,7 +210,7 @@ fn the_wire_form_is_a_plain_map() {
     let json = r#"{"spp": 16, "build": "osah", "osah_w": 0.5, "spatial_splits": false}"#;
     let n: NamedSettings = serde_json::from_str(json).unwrap();
     let r = n.resolve().unwrap();
-    assert_eq!((r.spp, r.build), (16, BuildMethod::Osah));
+    assert_eq!((r.spp, r.build), (16, Pick::Fixed(BuildMethod::Osah)));
     assert_eq!(r.build_settings.osah_weight, 0.5);
     assert!(!r.build_settings.spatial.enabled);
 }

@@ -309,7 +309,7 @@ impl Bystander {
         let want = render_in_process(
             "bystander",
             std::slice::from_ref(&s),
-            &RenderSettings::baseline(),
+            &RenderSettings::default(),
         );
         assert_same_result(&reply, &want[0]);
         assert!(matches!(

@@ -41,7 +41,7 @@ pub(super) fn animation_curve(
     let mut series = Vec::new();
     for (name, build, visibility) in configs {
         let s = RenderSettings {
-            build,
+            build: build.into(),
             visibility,
             stats: StatsMode::CountsAndTiming,
             ..settings.clone()

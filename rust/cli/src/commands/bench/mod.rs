@@ -11,8 +11,10 @@ mod reference;
 use std::time::Instant;
 
 use antumbra_core::build::BuildMethod;
-use antumbra_core::render::RenderSettings;
+use antumbra_core::order::ShadowOrder;
+use antumbra_core::render::{Pick, RenderSettings};
 use antumbra_core::scene::ImageSize;
+use antumbra_core::settings::SettingValue;
 use anyhow::{bail, Result};
 use clap::Args;
 
@@ -97,17 +99,36 @@ pub fn run(args: BenchArgs) -> Result<()> {
     rays::run(&args, &scenes, &settings)
 }
 
-/// The command line's method settings, with bench's own default of one sample per pixel.
+/// The command line's method settings, with bench's own defaults: one sample per pixel, and one
+/// fixed method (SAH, front to back) where the flags name none, since `auto` chooses over frames.
 fn bench_settings(method: &MethodArgs) -> Result<RenderSettings> {
     let mut named = method.named.clone();
-    if named.get("spp").is_none() {
-        named.insert("spp", 1);
+    for (name, value) in [("spp", SettingValue::Int(1)), ("build", "sah".into())] {
+        if named.get(name).is_none() {
+            named.insert(name, value);
+        }
+    }
+    if named.get("order").is_none() && named.get("build").map(SettingValue::as_text) != Some("srdh")
+    {
+        named.insert("order", "fbto");
     }
     let settings = named.resolve()?;
-    if settings.build != BuildMethod::Sah {
+    if settings.build != Pick::Fixed(BuildMethod::Sah) {
         bail!("--build: bench times SAH trees (compare builders with --methods)");
     }
+    if settings.shadow_order.is_auto() {
+        bail!(
+            "--order: bench times one fixed order; auto chooses per frame (use render or compare)"
+        );
+    }
     Ok(settings)
+}
+
+/// The order bench traces: always a fixed one (`bench_settings` refuses `auto`).
+fn bench_order(s: &RenderSettings) -> &ShadowOrder {
+    s.shadow_order
+        .fixed()
+        .expect("bench_settings refuses order=auto")
 }
 
 fn check_compare(compare: Option<&str>) -> Result<()> {

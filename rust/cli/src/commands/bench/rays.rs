@@ -23,7 +23,7 @@ use serde::Serialize;
 
 use super::frames::BenchScene;
 use super::reference::Reference;
-use super::{best_of, best_of_in_turn, mrays, print_json, BenchArgs};
+use super::{bench_order, best_of, best_of_in_turn, mrays, print_json, BenchArgs};
 use crate::shadow_lights::{shadow_lights, ShadowLight};
 
 /// Runs `$body` with `$o` bound to the concrete occlusion query of one light of a frame (its
@@ -219,7 +219,7 @@ impl Frame {
             scene: anim.name().to_string(),
             frame: number,
             primary: camera_rays(&primary_gen, args.size.width, args.size.height),
-            binary: binary_order(s.width, &s.shadow_order),
+            binary: binary_order(s.width, bench_order(s)),
             wide_camera,
             geometry,
             bvh,
@@ -231,7 +231,7 @@ impl Frame {
             primary_work,
             shadow_work: TraversalStats::default(),
         };
-        let srdh = matches!(s.shadow_order, ShadowOrder::Srdh(_));
+        let srdh = matches!(bench_order(s), ShadowOrder::Srdh(_));
         frame.wide_shadow = (frame.binary.is_none() && !srdh)
             .then(|| WideTree::collapse(frame.shadow_bvh(), s.width, &s.collapse));
         frame.lights = shadow_lights(&scene, &frame.geometry.space, s.spp, s.seed)
@@ -259,7 +259,7 @@ impl Frame {
     /// A light's rays (the same the shadow pass traces) and its order made from them.
     fn light_rays(&self, pass: &PrimaryPass, light: &ShadowLight, s: &RenderSettings) -> LightRays {
         let (sampler, plan) = (&light.sampler, light.plan);
-        let order = &s.shadow_order;
+        let order = bench_order(s);
         let tables = matches!(order, ShadowOrder::Sorted(_))
             .then(|| self.wide_shadow.as_ref().map(|t| t.sort_tables()))
             .flatten();

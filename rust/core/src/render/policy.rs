@@ -1,0 +1,232 @@
+//! The [`Policy`]: what a frame renders with, chosen before its passes run (the camera tree's
+//! build, then each shadow-casting light's order, hence its tree and kernel), and what it learns
+//! from the passes' measurements afterwards. A fixed setting passes through; `auto`
+//! (`render/auto`, docs/auto.md) chooses from the work measured on earlier frames. The passes
+//! read the plans, never the policy.
+
+use super::auto::{self, BuildChoice, Choice, History, OrderChoice};
+use super::frame_trees::{FrameTrees, GeometryKey};
+use super::shadow::samples_for;
+use super::{LightSampler, Pick, PrimaryPass, RenderSettings, VisibilitySource};
+use crate::build::BuildMethod;
+use crate::bvh::BvhWidth;
+use crate::order::ShadowOrder;
+use crate::scene::Scene;
+use crate::stats::StatsRow;
+use crate::trace::TraversalStats;
+
+/// The frame's camera tree: its builder, and whether last frame's trees are kept as they are.
+#[derive(Clone, Copy)]
+pub(super) struct BuildPlan {
+    pub(super) method: BuildMethod,
+    pub(super) keep: bool,
+    /// `auto`'s choice behind it.
+    pub(super) auto: Option<Choice<BuildChoice>>,
+}
+
+/// One shadow-casting light's order this frame, and `auto`'s choice behind it.
+pub(super) struct LightPlan {
+    pub(super) order: ShadowOrder,
+    pub(super) auto: Option<Choice<OrderChoice>>,
+    /// An order `auto` measures on a sample of the light's rays.
+    pub(super) sample: Option<OrderChoice>,
+}
+
+impl LightPlan {
+    /// Every order the light's pass traces (its own and its sample's).
+    fn orders(&self) -> impl Iterator<Item = ShadowOrder> + '_ {
+        std::iter::once(self.order).chain(self.sample.map(|s| s.order()))
+    }
+}
+
+/// What one light's shadow pass measured for the policy.
+pub(super) struct LightMeasurement {
+    /// The statistics row's light and rays.
+    pub(super) light: String,
+    pub(super) rays: u64,
+    /// The work of its rays.
+    pub(super) work: TraversalStats,
+    /// Whether it traced a tree of its own (SRDH).
+    pub(super) own_tree: bool,
+    /// The work and the rays of `auto`'s sample, if it took one.
+    pub(super) sampled: Option<(TraversalStats, u64)>,
+}
+
+/// The renderer's policy: what `auto` remembers across frames (nothing is learned while the
+/// settings fix both choices).
+#[derive(Clone, Default)]
+pub(super) struct Policy {
+    history: History,
+}
+
+impl Policy {
+    /// The frame's build: the settings' own, or `auto`'s choice from what earlier frames
+    /// measured (`frames_rendered` of them, on `trees`).
+    pub(super) fn plan_build(
+        &self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        trees: Option<&FrameTrees>,
+        frames_rendered: u64,
+    ) -> BuildPlan {
+        let method = match settings.build {
+            Pick::Fixed(method) => {
+                return BuildPlan {
+                    method,
+                    keep: false,
+                    auto: None,
+                }
+            }
+            Pick::Auto => self.choose_build(scene, settings, trees, frames_rendered),
+        };
+        BuildPlan {
+            method: match method.choice {
+                BuildChoice::Sah => BuildMethod::Sah,
+                BuildChoice::Osah => BuildMethod::Osah,
+                BuildChoice::Keep => trees.map_or(BuildMethod::Sah, |t| t.build.0),
+            },
+            keep: method.choice == BuildChoice::Keep,
+            auto: Some(method),
+        }
+    }
+
+    fn choose_build(
+        &self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        trees: Option<&FrameTrees>,
+        frames_rendered: u64,
+    ) -> Choice<BuildChoice> {
+        let (w, h) = scene.resolution.pixels();
+        let context = auto::BuildContext {
+            rays: w as u64 * h as u64,
+            triangles: auto::scene_triangles(scene),
+            unchanged: trees.is_some_and(|t| t.key == GeometryKey::of(scene)),
+            current: trees.and_then(|t| match t.build.0 {
+                BuildMethod::Sah => Some(BuildChoice::Sah),
+                BuildMethod::Osah => Some(BuildChoice::Osah),
+                _ => None,
+            }),
+            visible: frames_rendered > 0 || settings.visibility != VisibilitySource::Previous,
+            wide: settings.width != BvhWidth::Two,
+        };
+        auto::choose_build(&self.history, &context, moment(settings, frames_rendered))
+    }
+
+    /// Each shadow-casting light's order this frame: the settings' own, or `auto`'s choice
+    /// from the primary pass's surfaces and the frame's trees.
+    pub(super) fn plan_lights(
+        &self,
+        scene: &Scene,
+        primary: &PrimaryPass,
+        settings: &RenderSettings,
+        trees: &FrameTrees,
+        frames_rendered: u64,
+    ) -> Vec<LightPlan> {
+        let lights = scene
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.casts_shadow);
+        let Pick::Auto = settings.shadow_order else {
+            let order = *settings.shadow_order.fixed().expect("not auto");
+            return lights
+                .map(|_| LightPlan {
+                    order,
+                    auto: None,
+                    sample: None,
+                })
+                .collect();
+        };
+        let at = moment(settings, frames_rendered);
+        let geometry = trees.geometry();
+        let wide = trees
+            .wide
+            .as_ref()
+            .filter(|_| settings.width != BvhWidth::Two);
+        let surfaces = primary.surfaces.iter().flatten().count() as u64;
+        lights
+            .map(|(index, light)| {
+                let sampler = LightSampler::new(light, &geometry.space);
+                let rays = auto::light_rays(primary, &sampler, settings.spp);
+                let samples = samples_for(&sampler, settings.spp) as u64;
+                let (log_rays, srdh_rays) = auto::prep_rays(rays, surfaces, samples);
+                let context = auto::LightContext {
+                    name: &light.name,
+                    index: index as u32,
+                    rays,
+                    wide: wide.is_some(),
+                    wide_nodes: wide.map_or(0, |w| {
+                        w.shadow.as_ref().unwrap_or(&w.camera).node_count() as u64
+                    }),
+                    triangles: geometry.shadow_set().len() as u64,
+                    srdh_rays,
+                    log_rays,
+                    sato_ready: wide
+                        .and_then(|w| w.per_tree_order.as_ref())
+                        .is_some_and(|p| p.order == ShadowOrder::Sato),
+                    tables_ready: wide.is_some_and(|w| w.sort_tables.is_some()),
+                };
+                let plan = auto::choose_order(&self.history, &context, at);
+                LightPlan {
+                    order: plan.choice.choice.order(),
+                    auto: Some(plan.choice),
+                    sample: plan.sample,
+                }
+            })
+            .collect()
+    }
+
+    /// Records what a counted frame measured for `auto`'s next choices.
+    pub(super) fn learn(
+        &mut self,
+        build: &BuildPlan,
+        primary: &PrimaryPass,
+        lights: &[LightPlan],
+        measured: &[LightMeasurement],
+        settings: &RenderSettings,
+        frame: u64,
+    ) {
+        let wide = settings.width != BvhWidth::Two;
+        if let Some(b) = build.auto {
+            let kernel = auto::Kernel::camera(wide);
+            let rays = primary.ray_count();
+            if let Some(m) = auto::measured(kernel, &primary.totals, rays, frame, true) {
+                self.history.record_build(b.choice, m);
+            }
+        }
+        for (plan, m) in lights.iter().zip(measured) {
+            let Some(choice) = plan.auto else { continue };
+            let kernel = choice.choice.kernel(wide);
+            if let Some(got) = auto::measured(kernel, &m.work, m.rays, frame, m.own_tree) {
+                self.history.record_order(&m.light, choice.choice, got);
+            }
+            if let Some((order, (work, rays))) = plan.sample.zip(m.sampled) {
+                let kernel = order.kernel(wide);
+                if let Some(got) = auto::measured(kernel, &work, rays, frame, false) {
+                    self.history.record_order(&m.light, order, got);
+                }
+            }
+        }
+    }
+}
+
+/// Every order the lights' plans trace, for the trees to prepare once.
+pub(super) fn planned_orders(lights: &[LightPlan]) -> Vec<ShadowOrder> {
+    lights.iter().flat_map(LightPlan::orders).collect()
+}
+
+/// Marks a statistics row with `auto`'s choice behind it.
+pub(super) fn mark_build_row(row: &mut StatsRow, build: &BuildPlan) {
+    if let Some(c) = &build.auto {
+        auto::mark_row(row, c, |b| b.name());
+    }
+}
+
+/// Where in the run `auto` stands: the seed of its exploration and the frame's index.
+fn moment(settings: &RenderSettings, frames_rendered: u64) -> auto::Moment {
+    auto::Moment {
+        seed: settings.seed,
+        frame: frames_rendered,
+    }
+}
