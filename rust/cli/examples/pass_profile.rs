@@ -38,8 +38,7 @@ fn main() -> anyhow::Result<()> {
     })?;
     let settings = cli.method.settings()?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let result =
-        pool.install(|| Renderer::new().render(&frame.name, &frame.scene, &settings))?;
+    let result = pool.install(|| Renderer::new().render(&frame.name, &frame.scene, &settings))?;
     for row in &result.stats {
         println!(
             "{:8} {:12} rays {:>8}  N_B {:>12}  N_T {:>12}",
