@@ -44,6 +44,17 @@ fn rays(n: u32) -> Vec<Ray> {
         .collect()
 }
 
+/// Fails naming the first ray whose entries differ (not printing every ray's).
+fn same<T: PartialEq + std::fmt::Debug>(got: &[T], want: &[T], name: &str, what: &str) {
+    assert_eq!(got.len(), want.len(), "{name}: {what}");
+    if let Some(i) = (0..got.len()).find(|&i| got[i] != want[i]) {
+        panic!(
+            "{name}: {what}: ray {i}: {:?} against {:?}",
+            got[i], want[i]
+        );
+    }
+}
+
 /// `q` against brute force ray by ray, and its batch forms against its single-ray forms
 /// (answers and counters), counted and uncounted; returns the occluded rays.
 fn check(name: &str, q: &impl RayQuery, tris: &[[Vec3; 3]], rays: &[Ray]) -> usize {
@@ -70,27 +81,31 @@ fn check(name: &str, q: &impl RayQuery, tris: &[[Vec3; 3]], rays: &[Ray]) -> usi
     let mut occluded = vec![false; n];
     let mut counted = vec![TraversalStats::default(); n];
     q.occluded_batch(rays, &mut occluded, &mut counted);
-    assert_eq!(occluded, single_occluded, "{name}: occluded_batch");
+    same(&occluded, &single_occluded, name, "occluded_batch");
     let single_any: Vec<_> = single_work.iter().map(|w| w.0).collect();
-    assert_eq!(counted, single_any, "{name}: occluded_batch counters");
+    same(&counted, &single_any, name, "occluded_batch counters");
     let mut uncounted = vec![true; n];
     q.occluded_batch(rays, &mut uncounted, &mut vec![NoStats; n]);
-    assert_eq!(
-        uncounted, single_occluded,
-        "{name}: occluded_batch, no counters"
+    same(
+        &uncounted,
+        &single_occluded,
+        name,
+        "occluded_batch, no counters",
     );
 
     let mut hits: Vec<Option<Hit>> = vec![None; n];
     let mut counted = vec![TraversalStats::default(); n];
     q.closest_hit_batch(rays, &mut hits, &mut counted);
-    assert_eq!(hits, single_hits, "{name}: closest_hit_batch");
+    same(&hits, &single_hits, name, "closest_hit_batch");
     let single_closest: Vec<_> = single_work.iter().map(|w| w.1).collect();
-    assert_eq!(
-        counted, single_closest,
-        "{name}: closest_hit_batch counters"
+    same(
+        &counted,
+        &single_closest,
+        name,
+        "closest_hit_batch counters",
     );
     q.closest_hit_batch(rays, &mut hits, &mut vec![NoStats; n]);
-    assert_eq!(hits, single_hits, "{name}: closest_hit_batch, no counters");
+    same(&hits, &single_hits, name, "closest_hit_batch, no counters");
     single_occluded.iter().filter(|o| **o).count()
 }
 
