@@ -68,6 +68,15 @@ impl WideTree {
     ) -> PreparedOrder {
         with_tree!(self, t => PreparedOrder::new(t, order, tables, representative, BoxKernel::Auto))
     }
+
+    /// This tree with a prepared any-hit order, the box kernel chosen at run time.
+    pub fn ordered<'a>(&'a self, order: OrderView<'a>) -> OrderedWideTree<'a> {
+        OrderedWideTree {
+            tree: self,
+            order,
+            kernel: BoxKernel::Auto,
+        }
+    }
 }
 
 /// A wide tree alone: any hit front to back, the box kernel chosen at run time.
@@ -94,17 +103,6 @@ impl RayQuery for WideTree {
     ) {
         self.ordered(OrderView::FrontToBack)
             .closest_hit_batch(rays, out, counters)
-    }
-}
-
-impl WideTree {
-    /// This tree with a prepared any-hit order, the box kernel chosen at run time.
-    pub fn ordered<'a>(&'a self, order: OrderView<'a>) -> OrderedWideTree<'a> {
-        OrderedWideTree {
-            tree: self,
-            order,
-            kernel: BoxKernel::Auto,
-        }
     }
 }
 
