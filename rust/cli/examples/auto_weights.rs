@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use antumbra_core::build::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
 use antumbra_core::bvh::BvhWidth;
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::compare::MethodSpec;
 use antumbra_core::order::{ShadowOrder, SrdhSettings};
 use antumbra_core::render::auto::{Kernel, OrderChoice};
@@ -23,6 +24,7 @@ use antumbra_core::render::{
 use antumbra_core::scene::{FrameGeometry, ImageSize, Resolution};
 use antumbra_core::settings::NamedSettings;
 use antumbra_core::srdh::{build_srdh, RaySet};
+use antumbra_core::trace::NoStats;
 use antumbra_scenes::{builtin, SceneParams};
 
 /// Unknowns of the trace fit: ns per box test, triangle test, shadow ray, camera ray, and per
@@ -221,7 +223,8 @@ fn main() {
         per_unit.push(("per_tree_node (sato)", ms(sato) / nodes));
         // Per light: sorting and SRDH.
         let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
-        let primary = PrimaryPass::timed(&rays, &bvh, set);
+        let primary = PrimaryPass::trace::<NoStats>(&rays, &bvh, set, &CancelToken::new())
+            .expect("a new token is never cancelled");
         let tables = wide.sort_tables();
         for (i, light) in scene.lights.iter().enumerate() {
             let sampler = LightSampler::new(light, &g.space);

@@ -6,6 +6,7 @@
 
 use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
 use antumbra_core::build::{build_binned_sah, BuildSettings};
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::{intersect_triangle, WatertightRay};
 use antumbra_core::order::AnyHitOrder;
 use antumbra_core::render::{
@@ -37,7 +38,8 @@ fn main() -> anyhow::Result<()> {
     let bvh = build_binned_sah(tris, &BuildSettings::default());
     let embree = EmbreeScene::new(tris, EmbreeQuality::Medium, None).map_err(anyhow::Error::msg)?;
     let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
-    let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+    let pass = PrimaryPass::trace::<NoStats>(&camera, &bvh, &g.camera, &CancelToken::new())
+        .expect("a new token is never cancelled");
     let (mut total, mut differ) = (0, 0);
     for (i, light) in scene.lights.iter().enumerate() {
         let sampler = LightSampler::new(light, &g.space);

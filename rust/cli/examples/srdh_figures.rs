@@ -23,6 +23,7 @@ use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
 use antumbra_cli::shadow_lights::{shadow_lights, ShadowLight};
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::{Bvh, WideBvh};
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::{
     rtsah_kernels, ChildOrder as KernelSource, Kernel, KernelSet, RandomKernel, RaySetSource,
@@ -187,7 +188,8 @@ fn main() -> anyhow::Result<()> {
         .as_ref()
         .map_or(&g.camera.vertices, |s| &s.vertices);
     let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
-    let pass = PrimaryPass::timed(&camera, &camera_bvh, &g.camera);
+    let pass = PrimaryPass::trace::<NoStats>(&camera, &camera_bvh, &g.camera, &CancelToken::new())
+        .expect("a new token is never cancelled");
     let lights: Vec<Light> = shadow_lights(&scene, &g.space, spp, 0)
         .into_iter()
         .map(|ShadowLight { sampler, plan }| {

@@ -3,8 +3,10 @@
 
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::Bvh;
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::render::{PrimaryPass, PrimaryRays};
 use antumbra_core::scene::{FrameGeometry, ImageSize, Resolution, Scene};
+use antumbra_core::trace::NoStats;
 use anyhow::Result;
 use clap::Args;
 
@@ -75,7 +77,8 @@ impl ExampleFrame {
             .map_or(&g.camera.vertices, |s| &s.vertices);
         let shadow_bvh = build_binned_sah(shadow_tris, &BuildSettings::default());
         let camera = PrimaryRays::new(&self.scene.camera, &self.scene.resolution, &g.space);
-        let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+        let pass = PrimaryPass::trace::<NoStats>(&camera, &bvh, &g.camera, &CancelToken::new())
+            .expect("a new token is never cancelled");
         SahFrame {
             bvh,
             shadow_bvh,

@@ -4,6 +4,7 @@
 
 use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseMethod, CollapseSettings};
 use antumbra_core::bvh::WideBvh;
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::PreparedOrder;
 use antumbra_core::order::{AnyHitOrder, ShadowOrder};
@@ -61,7 +62,8 @@ fn every_builtin_scene_matches_brute_force() {
                 .flat_map(|y| (0..48).map(move |x| (x, y)))
                 .map(|(x, y)| camera.ray(x, y))
                 .collect();
-            let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+            let pass = PrimaryPass::trace::<NoStats>(&camera, &bvh, &g.camera, &CancelToken::new())
+                .expect("a new token is never cancelled");
             for (i, l) in scene.lights.iter().enumerate() {
                 let s = LightSampler::new(l, &g.space);
                 let plan = SamplePlan {
@@ -138,7 +140,8 @@ fn every_width_order_and_kernel_matches_brute_force_on_every_builtin_scene() {
                 .flat_map(|y| (0..40).map(move |x| (x, y)))
                 .map(|(x, y)| camera.ray(x, y))
                 .collect();
-            let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+            let pass = PrimaryPass::trace::<NoStats>(&camera, &bvh, &g.camera, &CancelToken::new())
+                .expect("a new token is never cancelled");
             let mut shadow = Vec::new();
             for (i, l) in scene.lights.iter().enumerate() {
                 let s = LightSampler::new(l, &g.space);
@@ -254,7 +257,8 @@ fn srdh_trees_match_brute_force_on_every_builtin_scene() {
             let settings = BuildSettings::default();
             let bvh = build_binned_sah(tris, &settings);
             let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
-            let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+            let pass = PrimaryPass::trace::<NoStats>(&camera, &bvh, &g.camera, &CancelToken::new())
+                .expect("a new token is never cancelled");
             let b = g.camera.bounds();
             let random = random_rays(b.min, b.max, 300);
             let rtsah = rtsah_kernels(&bvh);

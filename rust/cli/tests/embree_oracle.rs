@@ -7,6 +7,7 @@
 
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::WideBvh;
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::PreparedOrder;
 use antumbra_core::order::{AnyHitOrder, ShadowOrder};
@@ -37,7 +38,8 @@ fn occlusion_agrees_with_embree_on_every_builtin_scene() {
         let embree = EmbreeScene::new(tris, EmbreeQuality::High, None).unwrap();
 
         let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &g.space);
-        let pass = PrimaryPass::timed(&camera, &bvh, &g.camera);
+        let pass = PrimaryPass::trace::<NoStats>(&camera, &bvh, &g.camera, &CancelToken::new())
+            .expect("a new token is never cancelled");
         let mut shadow: Vec<Ray> = Vec::new();
         for (i, l) in scene.lights.iter().enumerate() {
             let s = LightSampler::new(l, &g.space);

@@ -1,8 +1,10 @@
 //! Build-time probe (not part of the bench): builds one viewpoint's tree with a method, for
 //! profilers. `osah_probe SCENE TRIANGLES CAMERA METHOD REPEAT [SPATIAL_AXES [SPLIT_ALPHA [CLIP_MIN_REFS [NODE_OVERLAP [MIN_REFS [MIN_LEAF_SIZE]]]]]]`
 use antumbra_core::build::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::render::{visibility_flags, PrimaryPass, PrimaryRays};
 use antumbra_core::scene::{FrameGeometry, Resolution};
+use antumbra_core::trace::NoStats;
 use std::time::Instant;
 
 // The allocator of the `antumbra` binary, so that builds here cost what they cost there.
@@ -48,7 +50,8 @@ fn main() {
     }
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
     let sah = build_binned_sah(&set.vertices, &settings);
-    let pass = PrimaryPass::timed(&rays, &sah, set);
+    let pass = PrimaryPass::trace::<NoStats>(&rays, &sah, set, &CancelToken::new())
+        .expect("a new token is never cancelled");
     let mut visible: Vec<_> = pass
         .surfaces
         .iter()

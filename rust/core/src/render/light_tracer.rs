@@ -9,37 +9,55 @@ use glam::Vec3;
 
 use super::shadow::{representative_rays, SamplePlan};
 use super::srdh_light::srdh_for_light;
-use super::wide_tree::WideTree;
+use super::wide_tree::{OrderedWideTree, WideTree};
 use super::{LightSampler, PrimaryPass};
 use crate::build::BuildSettings;
 use crate::bvh::{Bvh, BvhWidth};
 use crate::geometry::Ray;
-use crate::order::{AnyHitOrder, OrderView, PreparedOrder, ShadowOrder, SortTables};
+use crate::order::{AnyHitOrder, PreparedOrder, ShadowOrder, SortTables};
 use crate::srdh::SrdhBvh;
-use crate::trace::wide::BoxKernel;
-use crate::trace::{occluded_with, BinaryOcclusion, Counters, OcclusionQuery};
+use crate::trace::{Counters, Hit, OrderedBinary, RayQuery};
 
-/// The occlusion query of one light's shadow pass.
+/// The tree and order one light's shadow pass traces; a batch reads which once.
 pub enum ShadowTracer<'a> {
-    Binary(BinaryOcclusion<'a>),
-    Wide {
-        tree: &'a WideTree,
-        order: OrderView<'a>,
-    },
+    Binary(OrderedBinary<'a>),
+    Wide(OrderedWideTree<'a>),
     /// A light's SRDH tree with its kernels.
     Srdh(&'a SrdhBvh),
 }
 
-impl OcclusionQuery for ShadowTracer<'_> {
+/// Calls `$f` with the query `$tracer` holds.
+macro_rules! with_query {
+    ($tracer:expr, $q:ident => $f:expr) => {
+        match $tracer {
+            ShadowTracer::Binary($q) => $f,
+            ShadowTracer::Wide($q) => $f,
+            ShadowTracer::Srdh($q) => $f,
+        }
+    };
+}
+
+impl RayQuery for ShadowTracer<'_> {
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
-        match self {
-            ShadowTracer::Binary(b) => b.occluded(ray, stats),
-            ShadowTracer::Wide { tree, order } => {
-                tree.occluded(ray, *order, BoxKernel::Auto, stats)
-            }
-            ShadowTracer::Srdh(t) => occluded_with(&t.bvh, &t.kernels, ray, stats),
-        }
+        with_query!(self, q => q.occluded(ray, stats))
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        with_query!(self, q => q.closest_hit(ray, stats))
+    }
+    #[inline]
+    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
+        with_query!(self, q => q.occluded_batch(rays, out, counters))
+    }
+    #[inline]
+    fn closest_hit_batch<C: Counters>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    ) {
+        with_query!(self, q => q.closest_hit_batch(rays, out, counters))
     }
 }
 
@@ -71,7 +89,7 @@ pub struct LightTracing<'a> {
 }
 
 enum Route<'a> {
-    Binary(BinaryOcclusion<'a>),
+    Binary(OrderedBinary<'a>),
     Wide {
         tree: &'a WideTree,
         order: Cow<'a, PreparedOrder>,
@@ -83,10 +101,7 @@ impl<'a> LightTracing<'a> {
     pub fn tracer(&self) -> ShadowTracer<'_> {
         match &self.route {
             Route::Binary(b) => ShadowTracer::Binary(*b),
-            Route::Wide { tree, order } => ShadowTracer::Wide {
-                tree,
-                order: order.view(),
-            },
+            Route::Wide { tree, order } => ShadowTracer::Wide(tree.ordered(order.view())),
             Route::Srdh(t) => ShadowTracer::Srdh(t),
         }
     }
@@ -130,7 +145,7 @@ pub fn light_tracing<'a>(
     light: &LightRays,
 ) -> LightTracing<'a> {
     let binary = |order| {
-        Route::Binary(BinaryOcclusion {
+        Route::Binary(OrderedBinary {
             bvh: trees.bvh,
             order,
         })

@@ -39,4 +39,4 @@ pub use shadow::{
 };
 pub use srdh_light::{srdh_for_light, srdh_rays, LightSrdh};
 pub use visibility::{visibility_flags, VisibilitySource};
-pub use wide_tree::WideTree;
+pub use wide_tree::{OrderedWideTree, WideTree};

@@ -19,7 +19,7 @@ use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
 use crate::scene::Scene;
 use crate::stats::StatsRow;
-use crate::trace::{ClosestHitQuery, TraversalStats};
+use crate::trace::{NoStats, RayQuery, TraversalStats};
 use crate::Result;
 
 /// What every statistics row of a frame shares.
@@ -182,11 +182,10 @@ pub(super) fn shadow_passes(
         cancel.check()?;
         let tracer = tracing.tracer();
         let pass_of = |counted: bool| {
-            let (i, spp, seed) = (plan.light_index, plan.samples, plan.seed);
             if counted {
-                ShadowPass::counted_cancellable(primary, &tracer, &sampler, i, spp, seed, cancel)
+                ShadowPass::trace::<TraversalStats>(primary, &tracer, &sampler, plan, cancel)
             } else {
-                ShadowPass::timed_cancellable(primary, &tracer, &sampler, i, spp, seed, cancel)
+                ShadowPass::trace::<NoStats>(primary, &tracer, &sampler, plan, cancel)
             }
         };
         let pass = pass_of(counted)?;
@@ -297,13 +296,13 @@ pub(super) fn combine(
 fn trace_primary(
     counted: bool,
     rays: &PrimaryRays,
-    tree: &impl ClosestHitQuery,
+    tree: &impl RayQuery,
     triangles: &crate::scene::TriangleSet,
     cancel: &CancelToken,
 ) -> Result<PrimaryPass> {
     if counted {
-        PrimaryPass::counted_cancellable(rays, tree, triangles, cancel)
+        PrimaryPass::trace::<TraversalStats>(rays, tree, triangles, cancel)
     } else {
-        PrimaryPass::timed_cancellable(rays, tree, triangles, cancel)
+        PrimaryPass::trace::<NoStats>(rays, tree, triangles, cancel)
     }
 }

@@ -7,10 +7,12 @@ use rayon::prelude::*;
 
 use super::PrimaryRays;
 use crate::cancel::CancelToken;
-use crate::geometry::triangle_normal;
+use crate::geometry::{triangle_normal, Ray};
 use crate::image::ImagePlane;
 use crate::scene::TriangleSet;
-use crate::trace::{ClosestHitQuery, Counters, NoStats, TraversalStats};
+#[cfg(doc)]
+use crate::trace::NoStats;
+use crate::trace::{Counters, Hit, RayQuery, TraversalStats};
 use crate::Result;
 
 /// What a primary ray found: the hit point and the unit geometric normal turned to face the
@@ -39,40 +41,35 @@ pub struct PrimaryPass {
 }
 
 impl PrimaryPass {
-    /// Traces with exact counters.
-    pub fn counted(
+    /// Traces `tree` tile by tile, one batch of camera rays per tile, counting each pixel's work
+    /// in `C` ([`TraversalStats`], or [`NoStats`] timed: `work` is then empty); stops with
+    /// [`crate::Error::Cancelled`] once `cancel` is set (read once per tile of [`TILE`] pixels).
+    pub fn trace<C: Counters>(
         rays: &PrimaryRays,
-        bvh: &impl ClosestHitQuery,
-        triangles: &TriangleSet,
-    ) -> Self {
-        Self::counted_cancellable(rays, bvh, triangles, &CancelToken::new())
-            .expect("a new token is never cancelled")
-    }
-
-    /// As [`counted`](Self::counted), stopping with [`crate::Error::Cancelled`] once `cancel`
-    /// is set (read once per tile of [`TILE`] pixels).
-    pub fn counted_cancellable(
-        rays: &PrimaryRays,
-        bvh: &impl ClosestHitQuery,
+        tree: &impl RayQuery,
         triangles: &TriangleSet,
         cancel: &CancelToken,
     ) -> Result<Self> {
         let start = Instant::now();
-        let (surfaces, work): (Vec<_>, Vec<_>) = pixels(rays)
-            .map_init(
-                || false,
-                |stopped, (i, x, y)| {
-                    let mut stats = TraversalStats::default();
-                    if tile_stopped(i, stopped, cancel) {
-                        return (None, stats);
-                    }
-                    let s = trace_pixel(rays, bvh, triangles, x, y, &mut stats);
-                    (s, stats)
-                },
-            )
-            .unzip();
+        let pixels = (rays.width * rays.height) as usize;
+        let mut surfaces = vec![None; pixels];
+        let mut work = vec![C::default(); pixels];
+        surfaces
+            .par_chunks_mut(TILE)
+            .zip(work.par_chunks_mut(TILE))
+            .enumerate()
+            .for_each_init(TileHits::default, |buffers, (tile, (surfaces, work))| {
+                if !cancel.is_cancelled() {
+                    buffers.trace(rays, tile * TILE, tree, triangles, surfaces, work);
+                }
+            });
         cancel.check()?;
         let trace_ms = start.elapsed().as_secs_f64() * 1e3;
+        let work: Vec<TraversalStats> = if C::COUNTING {
+            work.into_iter().map(Into::into).collect()
+        } else {
+            Vec::new()
+        };
         let mut totals = TraversalStats::default();
         for w in &work {
             totals += *w;
@@ -84,42 +81,6 @@ impl PrimaryPass {
             work,
             totals,
             trace_ms,
-        })
-    }
-
-    /// Traces with counters compiled out: the timed path.
-    pub fn timed(rays: &PrimaryRays, bvh: &impl ClosestHitQuery, triangles: &TriangleSet) -> Self {
-        Self::timed_cancellable(rays, bvh, triangles, &CancelToken::new())
-            .expect("a new token is never cancelled")
-    }
-
-    /// As [`timed`](Self::timed), stopping with [`crate::Error::Cancelled`] once `cancel` is set.
-    pub fn timed_cancellable(
-        rays: &PrimaryRays,
-        bvh: &impl ClosestHitQuery,
-        triangles: &TriangleSet,
-        cancel: &CancelToken,
-    ) -> Result<Self> {
-        let start = Instant::now();
-        let surfaces: Vec<_> = pixels(rays)
-            .map_init(
-                || false,
-                |stopped, (i, x, y)| {
-                    if tile_stopped(i, stopped, cancel) {
-                        return None;
-                    }
-                    trace_pixel(rays, bvh, triangles, x, y, &mut NoStats)
-                },
-            )
-            .collect();
-        cancel.check()?;
-        Ok(PrimaryPass {
-            width: rays.width,
-            height: rays.height,
-            surfaces,
-            work: Vec::new(),
-            totals: TraversalStats::default(),
-            trace_ms: start.elapsed().as_secs_f64() * 1e3,
         })
     }
 
@@ -155,39 +116,51 @@ pub(crate) fn heat_planes(
     ]
 }
 
-/// Pixels a pass traces between two reads of its cancel flag (and the least a thread takes).
+/// Pixels a pass traces between two reads of its cancel flag, in one batch of rays.
 pub(crate) const TILE: usize = 64;
 
-/// Whether the pass was cancelled, as seen at the first pixel of pixel `i`'s tile: one atomic
-/// load per tile, so a cancelled pass skips its remaining pixels within a tile of work.
-#[inline]
-pub(crate) fn tile_stopped(i: usize, stopped: &mut bool, cancel: &CancelToken) -> bool {
-    if i.is_multiple_of(TILE) && !*stopped {
-        *stopped = cancel.is_cancelled();
+/// One thread's buffers for a tile's camera rays, reused from tile to tile.
+#[derive(Default)]
+struct TileHits<C> {
+    rays: Vec<Ray>,
+    hits: Vec<Option<Hit>>,
+    counters: Vec<C>,
+}
+
+impl<C: Counters> TileHits<C> {
+    /// The camera rays of the tile's pixels (row-major from `first_pixel`) in one batch; their
+    /// surface points and work written.
+    #[inline]
+    fn trace(
+        &mut self,
+        rays: &PrimaryRays,
+        first_pixel: usize,
+        tree: &impl RayQuery,
+        triangles: &TriangleSet,
+        surfaces: &mut [Option<SurfacePoint>],
+        work: &mut [C],
+    ) {
+        let w = rays.width as usize;
+        self.rays.clear();
+        self.rays.extend(
+            (first_pixel..first_pixel + surfaces.len())
+                .map(|i| rays.ray((i % w) as u32, (i / w) as u32)),
+        );
+        let n = self.rays.len();
+        self.hits.resize(n, None);
+        self.counters.clear();
+        self.counters.resize(n, C::default());
+        tree.closest_hit_batch(&self.rays, &mut self.hits, &mut self.counters);
+        for (i, (ray, hit)) in self.rays.iter().zip(&self.hits).enumerate() {
+            surfaces[i] = hit.map(|h| surface_point(ray, &h, triangles));
+        }
+        work.copy_from_slice(&self.counters);
     }
-    *stopped
 }
 
-/// Each pixel as (index, x, y), row-major.
-fn pixels(rays: &PrimaryRays) -> impl IndexedParallelIterator<Item = (usize, u32, u32)> {
-    let w = rays.width;
-    (0..rays.width * rays.height)
-        .into_par_iter()
-        .with_min_len(TILE)
-        .map(move |i| (i as usize, i % w, i / w))
-}
-
+/// The surface point of a camera ray's hit.
 #[inline]
-fn trace_pixel<C: Counters>(
-    rays: &PrimaryRays,
-    bvh: &impl ClosestHitQuery,
-    triangles: &TriangleSet,
-    x: u32,
-    y: u32,
-    stats: &mut C,
-) -> Option<SurfacePoint> {
-    let ray = rays.ray(x, y);
-    let hit = bvh.closest_hit(&ray, stats)?;
+fn surface_point(ray: &Ray, hit: &Hit, triangles: &TriangleSet) -> SurfacePoint {
     let v = &triangles.vertices[hit.triangle as usize];
     // The barycentric point is what Wächter & Binder's offset assumes: its error is bounded by
     // the vertices' magnitude, not by the ray's length.
@@ -196,10 +169,10 @@ fn trace_pixel<C: Counters>(
     if normal.dot(ray.direction) > 0.0 {
         normal = -normal;
     }
-    Some(SurfacePoint {
+    SurfacePoint {
         position,
         normal,
         facing: normal,
         triangle: hit.triangle,
-    })
+    }
 }

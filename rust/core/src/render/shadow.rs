@@ -4,14 +4,16 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::primary::{tile_stopped, TILE};
+use super::primary::TILE;
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
 use crate::cancel::CancelToken;
 use crate::geometry::{offset_ray_origin, Ray};
 use crate::image::ImagePlane;
 use crate::sampling::hash_u32;
 use crate::sampling::{hash_combine, stratified_2d};
-use crate::trace::{Counters, NoStats, OcclusionQuery, TraversalStats};
+#[cfg(doc)]
+use crate::trace::NoStats;
+use crate::trace::{Counters, RayQuery, TraversalStats};
 use crate::Result;
 
 /// What happened to the shadow samples of one light, counted over a frame.
@@ -57,71 +59,50 @@ pub fn samples_for(light: &LightSampler, spp: u32) -> u32 {
 }
 
 impl ShadowPass {
-    /// `tracer` is the tree with this light's child order.
-    pub fn counted(
+    /// Traces `tracer` (the tree with this light's child order) tile by tile, one batch of rays
+    /// per tile, counting each pixel's work in `C` ([`TraversalStats`], or [`NoStats`] timed:
+    /// `work` is then empty); stops with [`crate::Error::Cancelled`] once `cancel` is set (read
+    /// once per tile).
+    pub fn trace<C: Counters>(
         primary: &PrimaryPass,
-        tracer: &impl OcclusionQuery,
+        tracer: &impl RayQuery,
         light: &LightSampler,
-        light_index: u32,
-        spp: u32,
-        seed: u32,
-    ) -> Self {
-        let never = CancelToken::new();
-        Self::counted_cancellable(primary, tracer, light, light_index, spp, seed, &never)
-            .expect("a new token is never cancelled")
-    }
-
-    /// As [`counted`](Self::counted), stopping with [`crate::Error::Cancelled`] once `cancel`
-    /// is set (read once per tile of pixels).
-    pub fn counted_cancellable(
-        primary: &PrimaryPass,
-        tracer: &impl OcclusionQuery,
-        light: &LightSampler,
-        light_index: u32,
-        spp: u32,
-        seed: u32,
+        plan: SamplePlan,
         cancel: &CancelToken,
     ) -> Result<Self> {
         let start = Instant::now();
-        let n = samples_for(light, spp);
-        let results: Vec<(f32, ShadowRayOutcome, TraversalStats)> = primary
+        let mut mask = ImagePlane::new(light.name.clone(), primary.width, primary.height);
+        let mut work = vec![C::default(); primary.surfaces.len()];
+        let outcome = primary
             .surfaces
-            .par_iter()
+            .par_chunks(TILE)
+            .zip(mask.data.par_chunks_mut(TILE))
+            .zip(work.par_chunks_mut(TILE))
             .enumerate()
-            .with_min_len(TILE)
             .map_init(
-                || (Vec::new(), false),
-                |(scratch, stopped), (pixel, s)| {
-                    let mut stats = TraversalStats::default();
-                    if tile_stopped(pixel, stopped, cancel) {
-                        return (1.0, ShadowRayOutcome::default(), stats);
+                TileRays::default,
+                |buffers, (tile, ((surfaces, mask), work))| {
+                    if cancel.is_cancelled() {
+                        return ShadowRayOutcome::default();
                     }
-                    let (v, o) = shade_pixel(
-                        s,
-                        pixel,
-                        tracer,
-                        light,
-                        light_index,
-                        n,
-                        seed,
-                        scratch,
-                        &mut stats,
-                    );
-                    (v, o, stats)
+                    let first_pixel = tile * TILE;
+                    buffers.trace(surfaces, first_pixel, tracer, light, plan, mask, work)
                 },
             )
-            .collect();
+            .reduce(ShadowRayOutcome::default, |mut a, b| {
+                a += b;
+                a
+            });
         cancel.check()?;
         let trace_ms = start.elapsed().as_secs_f64() * 1e3;
-        let mut mask = ImagePlane::new(light.name.clone(), primary.width, primary.height);
-        let mut work = Vec::with_capacity(results.len());
+        let work: Vec<TraversalStats> = if C::COUNTING {
+            work.into_iter().map(Into::into).collect()
+        } else {
+            Vec::new()
+        };
         let mut totals = TraversalStats::default();
-        let mut outcome = ShadowRayOutcome::default();
-        for (d, (v, o, w)) in mask.data.iter_mut().zip(results) {
-            *d = v;
-            outcome += o;
-            totals += w;
-            work.push(w);
+        for w in &work {
+            totals += *w;
         }
         Ok(ShadowPass {
             mask,
@@ -131,73 +112,81 @@ impl ShadowPass {
             trace_ms,
         })
     }
+}
 
-    /// `tracer` is the tree with this light's child order.
-    pub fn timed(
-        primary: &PrimaryPass,
-        tracer: &impl OcclusionQuery,
-        light: &LightSampler,
-        light_index: u32,
-        spp: u32,
-        seed: u32,
-    ) -> Self {
-        let never = CancelToken::new();
-        Self::timed_cancellable(primary, tracer, light, light_index, spp, seed, &never)
-            .expect("a new token is never cancelled")
-    }
+/// One thread's buffers for a tile's shadow rays, reused from tile to tile.
+#[derive(Default)]
+struct TileRays<C> {
+    rays: Vec<Ray>,
+    occluded: Vec<bool>,
+    counters: Vec<C>,
+    /// Per pixel of the tile: its rays' end in `rays`, its back-facing samples, and whether the
+    /// light reaches it.
+    pixels: Vec<(u32, u32, bool)>,
+    samples: Vec<[f32; 2]>,
+}
 
-    /// As [`timed`](Self::timed), stopping with [`crate::Error::Cancelled`] once `cancel` is set.
-    pub fn timed_cancellable(
-        primary: &PrimaryPass,
-        tracer: &impl OcclusionQuery,
+impl<C: Counters> TileRays<C> {
+    /// A tile's rays traced in one batch; its mask values and per-pixel work written, its
+    /// outcome returned.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn trace(
+        &mut self,
+        surfaces: &[Option<SurfacePoint>],
+        first_pixel: usize,
+        tracer: &impl RayQuery,
         light: &LightSampler,
-        light_index: u32,
-        spp: u32,
-        seed: u32,
-        cancel: &CancelToken,
-    ) -> Result<Self> {
-        let start = Instant::now();
-        let n = samples_for(light, spp);
-        let results: Vec<(f32, ShadowRayOutcome)> = primary
-            .surfaces
-            .par_iter()
-            .enumerate()
-            .with_min_len(TILE)
-            .map_init(
-                || (Vec::new(), false),
-                |(scratch, stopped), (pixel, s)| {
-                    if tile_stopped(pixel, stopped, cancel) {
-                        return (1.0, ShadowRayOutcome::default());
-                    }
-                    shade_pixel(
-                        s,
-                        pixel,
-                        tracer,
-                        light,
-                        light_index,
-                        n,
-                        seed,
-                        scratch,
-                        &mut NoStats,
-                    )
-                },
-            )
-            .collect();
-        cancel.check()?;
-        let trace_ms = start.elapsed().as_secs_f64() * 1e3;
-        let mut mask = ImagePlane::new(light.name.clone(), primary.width, primary.height);
-        let mut outcome = ShadowRayOutcome::default();
-        for (d, (v, o)) in mask.data.iter_mut().zip(results) {
-            *d = v;
-            outcome += o;
+        plan: SamplePlan,
+        mask: &mut [f32],
+        work: &mut [C],
+    ) -> ShadowRayOutcome {
+        self.rays.clear();
+        self.pixels.clear();
+        for (i, s) in surfaces.iter().enumerate() {
+            let mut back_facing = 0;
+            let reached = s.as_ref().is_none_or(|s| {
+                let rays = &mut self.rays;
+                plan.for_each_ray(s, first_pixel + i, light, &mut self.samples, |r| match r {
+                    Some(r) => rays.push(r),
+                    None => back_facing += 1,
+                })
+            });
+            self.pixels
+                .push((self.rays.len() as u32, back_facing, reached));
         }
-        Ok(ShadowPass {
-            mask,
-            work: Vec::new(),
-            totals: TraversalStats::default(),
-            outcome,
-            trace_ms,
-        })
+        let n = self.rays.len();
+        self.occluded.resize(n, false);
+        self.counters.clear();
+        self.counters.resize(n, C::default());
+        tracer.occluded_batch(&self.rays, &mut self.occluded, &mut self.counters);
+        let mut outcome = ShadowRayOutcome::default();
+        let mut begin = 0;
+        for (i, &(end, back_facing, reached)) in self.pixels.iter().enumerate() {
+            let range = begin as usize..end as usize;
+            begin = end;
+            if surfaces[i].is_none() {
+                mask[i] = 1.0;
+                continue;
+            }
+            let occluded = self.occluded[range.clone()].iter().filter(|o| **o).count() as u32;
+            let rays = end - range.start as u32;
+            if C::COUNTING {
+                let mut w = C::default();
+                for c in &self.counters[range] {
+                    w += *c;
+                }
+                work[i] = w;
+            }
+            outcome.rays += rays as u64;
+            outcome.occluded += occluded as u64;
+            outcome.back_facing += back_facing as u64;
+            if !reached {
+                outcome.unreached += plan.samples as u64;
+            }
+            mask[i] = (rays - occluded) as f32 / plan.samples as f32;
+        }
+        outcome
     }
 }
 
@@ -294,44 +283,4 @@ pub fn representative_rays(
         }
     }
     rays
-}
-
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn shade_pixel<C: Counters>(
-    surface: &Option<SurfacePoint>,
-    pixel: usize,
-    tracer: &impl OcclusionQuery,
-    light: &LightSampler,
-    light_index: u32,
-    n: u32,
-    seed: u32,
-    scratch: &mut Vec<[f32; 2]>,
-    stats: &mut C,
-) -> (f32, ShadowRayOutcome) {
-    let mut outcome = ShadowRayOutcome::default();
-    let Some(s) = surface else {
-        return (1.0, outcome);
-    };
-    let plan = SamplePlan {
-        light_index,
-        samples: n,
-        seed,
-    };
-    let mut lit = 0u32;
-    let reached = plan.for_each_ray(s, pixel, light, scratch, |ray| match ray {
-        None => outcome.back_facing += 1,
-        Some(ray) => {
-            outcome.rays += 1;
-            if tracer.occluded(&ray, stats) {
-                outcome.occluded += 1;
-            } else {
-                lit += 1;
-            }
-        }
-    });
-    if !reached {
-        outcome.unreached = n as u64;
-    }
-    (lit as f32 / n as f32, outcome)
 }

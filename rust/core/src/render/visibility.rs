@@ -7,7 +7,9 @@ use serde::{Deserialize, Serialize};
 
 use super::{PrimaryPass, PrimaryRays};
 use crate::bvh::Bvh;
+use crate::cancel::CancelToken;
 use crate::scene::{FrameGeometry, ImageSize, Resolution, Scene, TriangleRef, TriangleSet};
+use crate::trace::NoStats;
 use crate::{Error, Result};
 
 /// Where a visibility-driven build takes its visible set from.
@@ -99,7 +101,8 @@ pub(super) fn trace_visible_set(
     bvh: &Bvh,
 ) -> Vec<TriangleRef> {
     let rays = PrimaryRays::new(&scene.camera, resolution, &geometry.space);
-    let pass = PrimaryPass::timed(&rays, bvh, &geometry.camera);
+    let pass = PrimaryPass::trace::<NoStats>(&rays, bvh, &geometry.camera, &CancelToken::new())
+        .expect("a new token is never cancelled");
     let ids: Vec<u32> = pass
         .surfaces
         .iter()

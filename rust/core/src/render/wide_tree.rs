@@ -1,11 +1,11 @@
-//! A wide BVH of the width chosen at run time.
+//! A wide BVH of the width chosen at run time, and its queries with an any-hit order.
 
 use crate::build::CollapseSettings;
 use crate::bvh::{Bvh, BvhWidth, WideBvh};
 use crate::geometry::Ray;
 use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
-use crate::trace::wide::{BoxKernel, WideQueries};
-use crate::trace::{ClosestHitQuery, Counters, Hit};
+use crate::trace::wide::BoxKernel;
+use crate::trace::{Counters, Hit, OrderedWide, RayQuery};
 
 /// A collapsed BVH of one of the supported widths.
 #[derive(Clone, Debug)]
@@ -69,21 +69,83 @@ impl WideTree {
         with_tree!(self, t => PreparedOrder::new(t, order, tables, representative, BoxKernel::Auto))
     }
 
-    #[inline]
-    pub fn occluded<C: Counters>(
-        &self,
-        ray: &Ray,
-        order: OrderView,
-        kernel: BoxKernel,
-        stats: &mut C,
-    ) -> bool {
-        with_tree!(self, t => t.occluded(ray, order, kernel, stats))
+    /// This tree with a prepared any-hit order, the box kernel chosen at run time.
+    pub fn ordered<'a>(&'a self, order: OrderView<'a>) -> OrderedWideTree<'a> {
+        OrderedWideTree {
+            tree: self,
+            order,
+            kernel: BoxKernel::Auto,
+        }
     }
 }
 
-impl ClosestHitQuery for WideTree {
+/// A wide tree alone: any hit front to back, the box kernel chosen at run time.
+impl RayQuery for WideTree {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        self.ordered(OrderView::FrontToBack).occluded(ray, stats)
+    }
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
-        with_tree!(self, t => WideQueries::closest_hit(t, ray, BoxKernel::Auto, stats))
+        self.ordered(OrderView::FrontToBack).closest_hit(ray, stats)
+    }
+    #[inline]
+    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
+        self.ordered(OrderView::FrontToBack)
+            .occluded_batch(rays, out, counters)
+    }
+    #[inline]
+    fn closest_hit_batch<C: Counters>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    ) {
+        self.ordered(OrderView::FrontToBack)
+            .closest_hit_batch(rays, out, counters)
+    }
+}
+
+/// A wide tree of a run-time width with a prepared any-hit order and a box kernel; a batch reads
+/// the width once.
+#[derive(Clone, Copy)]
+pub struct OrderedWideTree<'a> {
+    pub tree: &'a WideTree,
+    pub order: OrderView<'a>,
+    pub kernel: BoxKernel,
+}
+
+/// Calls `$f` with the [`OrderedWide`] of whatever width `$q`'s tree holds.
+macro_rules! with_ordered {
+    ($q:expr, $o:ident => $f:expr) => {{
+        let (order, kernel) = ($q.order, $q.kernel);
+        with_tree!($q.tree, bvh => {
+            let $o = OrderedWide { bvh, order, kernel };
+            $f
+        })
+    }};
+}
+
+impl RayQuery for OrderedWideTree<'_> {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        with_ordered!(self, q => q.occluded(ray, stats))
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        with_ordered!(self, q => q.closest_hit(ray, stats))
+    }
+    #[inline]
+    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
+        with_ordered!(self, q => q.occluded_batch(rays, out, counters))
+    }
+    #[inline]
+    fn closest_hit_batch<C: Counters>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    ) {
+        with_ordered!(self, q => q.closest_hit_batch(rays, out, counters))
     }
 }

@@ -13,9 +13,10 @@ use super::cost::{pierces, ray_term};
 use super::ray_set::RaySet;
 use crate::build::{build_sah_nodes, Box4, BuildSettings, PrimRef, MEDIAN_DEPTH};
 use crate::bvh::{Bvh, BvhNode, NodeArray};
-use crate::geometry::{Aabb, RayBoxPrecomp};
+use crate::geometry::{Aabb, Ray, RayBoxPrecomp};
 use crate::order::SrdhSettings;
 use crate::order::{Kernel, PackedKernels};
+use crate::trace::{occluded_with, Counters, Hit, RayQuery};
 
 /// A binary BVH for one light's shadow rays with a traversal kernel per node.
 #[derive(Clone, Debug, Default)]
@@ -27,6 +28,19 @@ pub struct SrdhBvh {
     /// Representative rays the build read, and how many of them were occluded.
     pub rays: usize,
     pub occluded_rays: usize,
+}
+
+/// The light's tree with its kernels: any hit follows them; a closest hit (no kernel is made for
+/// it) goes near first on the same binary tree.
+impl RayQuery for SrdhBvh {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        occluded_with(&self.bvh, &self.kernels, ray, stats)
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        self.bvh.closest_hit(ray, stats)
+    }
 }
 
 impl SrdhBvh {

@@ -2,8 +2,9 @@ use serde::{Deserialize, Serialize};
 use std::ops::AddAssign;
 
 /// Traversal work counters. Implemented by [`TraversalStats`] (counts) and [`NoStats`] (nothing;
-/// every call compiles away).
-pub trait Counters {
+/// every call compiles away). A pass keeps one per ray of a batch, sums a pixel's and reads the
+/// sums as [`TraversalStats`] (all zero for [`NoStats`]).
+pub trait Counters: Copy + Default + Send + AddAssign + Into<TraversalStats> {
     /// False for [`NoStats`]: lets a traversal skip work that only feeds the counters.
     const COUNTING: bool = true;
     /// Entering an interior node (N_B).
@@ -19,6 +20,18 @@ pub trait Counters {
 /// No counting.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NoStats;
+
+impl AddAssign for NoStats {
+    #[inline(always)]
+    fn add_assign(&mut self, _: Self) {}
+}
+
+impl From<NoStats> for TraversalStats {
+    #[inline(always)]
+    fn from(_: NoStats) -> Self {
+        TraversalStats::default()
+    }
+}
 
 impl Counters for NoStats {
     const COUNTING: bool = false;

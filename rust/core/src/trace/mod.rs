@@ -1,6 +1,6 @@
 //! Ray queries: closest hit and any hit on the binary BVH (any hit generic over the child
-//! order, see [`crate::order`]), the wide trees' queries, and the brute-force reference they are
-//! tested against. Work counters are a generic parameter: with [`NoStats`] every counting call
+//! order, see [`crate::order`]), the wide trees' queries, [`RayQuery`] (the one face over all of
+//! them, for one ray and a batch), and the brute-force reference they are tested against. Work counters are a generic parameter: with [`NoStats`] every counting call
 //! is an empty inline function, so the timed path pays nothing for them.
 
 mod any_hit;
@@ -14,7 +14,7 @@ pub use any_hit::{occluded, occluded_with, occluding_leaf};
 pub use brute::{brute_closest_hit, brute_occluded};
 pub use closest::closest_hit;
 pub use counters::{Counters, NoStats, TraversalStats};
-pub use query::{BinaryOcclusion, ClosestHitQuery, OcclusionQuery, WideOcclusion};
+pub use query::{OrderedBinary, OrderedWide, RayQuery};
 
 /// A closest hit: the ray parameter, the triangle id (in the `TriangleSet` the BVH was built
 /// from) and the barycentric weights of its vertices.

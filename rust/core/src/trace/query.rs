@@ -1,5 +1,6 @@
-//! The two queries a pass needs, as traits, so the passes run on any tree: the binary BVH, a
-//! wide BVH of any width, with any child order.
+//! [`RayQuery`]: the one face every tree layout answers rays through (binary, wide of any width,
+//! a light's SRDH tree, and what a pass traces), for one ray and for a batch. A new kernel
+//! (packets) or a new tree (a top level over instances) is one more implementation of it.
 
 use super::wide::{BoxKernel, WideQueries};
 use super::{closest_hit, occluded, Counters, Hit};
@@ -7,61 +8,107 @@ use crate::bvh::{Bvh, WideBvh};
 use crate::geometry::Ray;
 use crate::order::{AnyHitOrder, OrderView};
 
-/// Closest hit, ties broken by the smaller triangle id.
-pub trait ClosestHitQuery: Sync {
-    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit>;
-}
-
-/// Occlusion with an order fixed by the implementor.
-pub trait OcclusionQuery: Sync {
+/// Any hit and closest hit, for one ray or a batch. The any-hit order is the implementor's
+/// (a tree alone goes front to back); a closest hit ignores it and breaks ties by the smaller
+/// triangle id, so every implementation gives the same answers.
+///
+/// The batch forms take one counter per ray (`counters.len() == rays.len()`): a slice rather
+/// than a callback, so a packet kernel may count its lanes in any order and the passes read each
+/// pixel's rays back from contiguous slots; a slice of [`super::NoStats`] is zero-sized.
+pub trait RayQuery: Sync {
+    /// True if any triangle intersects the ray in (t_min, t_max].
     fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool;
+
+    /// The closest hit in (t_min, t_max], ties broken by the smaller triangle id.
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit>;
+
+    /// `out[i] = occluded(&rays[i])`, counted into `counters[i]`.
+    #[inline]
+    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
+        debug_assert!(out.len() == rays.len() && counters.len() == rays.len());
+        for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+            *o = self.occluded(ray, c);
+        }
+    }
+
+    /// `out[i] = closest_hit(&rays[i])`, counted into `counters[i]`.
+    #[inline]
+    fn closest_hit_batch<C: Counters>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    ) {
+        debug_assert!(out.len() == rays.len() && counters.len() == rays.len());
+        for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+            *o = self.closest_hit(ray, c);
+        }
+    }
 }
 
-impl ClosestHitQuery for Bvh {
+/// The binary tree alone: any hit front to back.
+impl RayQuery for Bvh {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        occluded(self, ray, AnyHitOrder::NearFirst, stats)
+    }
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
         closest_hit(self, ray, stats)
     }
 }
 
-impl<const N: usize> ClosestHitQuery for WideBvh<N>
+/// A wide tree alone: any hit front to back, the box kernel chosen at run time.
+impl<const N: usize> RayQuery for WideBvh<N>
 where
     WideBvh<N>: WideQueries,
 {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        WideQueries::occluded(self, ray, OrderView::FrontToBack, BoxKernel::Auto, stats)
+    }
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
         WideQueries::closest_hit(self, ray, BoxKernel::Auto, stats)
     }
 }
 
-/// The binary BVH with one of its two orders.
+/// The binary tree with one of its two any-hit orders.
 #[derive(Clone, Copy)]
-pub struct BinaryOcclusion<'a> {
+pub struct OrderedBinary<'a> {
     pub bvh: &'a Bvh,
     pub order: AnyHitOrder,
 }
 
-impl OcclusionQuery for BinaryOcclusion<'_> {
+impl RayQuery for OrderedBinary<'_> {
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
         occluded(self.bvh, ray, self.order, stats)
     }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        closest_hit(self.bvh, ray, stats)
+    }
 }
 
-/// A wide BVH with a prepared child order and a box kernel.
+/// A wide tree with a prepared any-hit order and a box kernel.
 #[derive(Clone, Copy)]
-pub struct WideOcclusion<'a, const N: usize> {
+pub struct OrderedWide<'a, const N: usize> {
     pub bvh: &'a WideBvh<N>,
     pub order: OrderView<'a>,
     pub kernel: BoxKernel,
 }
 
-impl<const N: usize> OcclusionQuery for WideOcclusion<'_, N>
+impl<const N: usize> RayQuery for OrderedWide<'_, N>
 where
     WideBvh<N>: WideQueries,
 {
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
         WideQueries::occluded(self.bvh, ray, self.order, self.kernel, stats)
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        WideQueries::closest_hit(self.bvh, ray, self.kernel, stats)
     }
 }

@@ -5,6 +5,7 @@
 
 use antumbra_core::build::{build_binned_sah, build_with_visibility, BuildMethod, BuildSettings};
 use antumbra_core::bvh::Bvh;
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::AnyHitOrder;
 use antumbra_core::render::{
@@ -214,7 +215,8 @@ impl View {
         let shadow_set = geometry.shadow.as_ref().unwrap_or(set);
         let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
         let sah = build_binned_sah(&set.vertices, build);
-        let reference = PrimaryPass::timed(&rays, &sah, set);
+        let reference = PrimaryPass::trace::<NoStats>(&rays, &sah, set, &CancelToken::new())
+            .expect("a new token is never cancelled");
         let visible = visible_refs(&reference, set);
         let shadow: Vec<Ray> = shadow_lights(scene, &geometry.space, s.spp, s.seed)
             .iter()
@@ -290,12 +292,17 @@ impl View {
     /// Primary N_IT, N_TS and Mrays/s of `bvh`; what differs if a hit differs from SAH's.
     fn primary_work(&self, bvh: &Bvh, repeat: u32, row: &mut MethodRow) -> Result<(), &str> {
         let set = self.camera_set();
-        let counted = PrimaryPass::counted(&self.rays, bvh, set);
+        let counted =
+            PrimaryPass::trace::<TraversalStats>(&self.rays, bvh, set, &CancelToken::new())
+                .expect("a new token is never cancelled");
         if counted.surfaces != self.reference.surfaces {
             return Err("primary hits");
         }
         let ms = best_of(repeat, || {
-            std::hint::black_box(PrimaryPass::timed(&self.rays, bvh, set));
+            std::hint::black_box(
+                PrimaryPass::trace::<NoStats>(&self.rays, bvh, set, &CancelToken::new())
+                    .expect("a new token is never cancelled"),
+            );
         });
         let n = counted.surfaces.len().max(1) as f64;
         let t = counted.totals;

@@ -4,19 +4,18 @@
 
 use antumbra_core::build::{build_binned_sah, CollapseSettings};
 use antumbra_core::bvh::{Bvh, BvhWidth};
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::PreparedOrder;
 use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::render::{
     binary_order, representative_rays, shadow_rays, srdh_for_light, LightSrdh, PrimaryPass,
-    PrimaryRays, RenderSettings, ShadowTracer, WideTree,
+    PrimaryRays, RenderSettings, WideTree,
 };
 use antumbra_core::scene::{Animation, FrameGeometry, Resolution};
 use antumbra_core::stats::StatsRow;
 use antumbra_core::trace::wide::BoxKernel;
-use antumbra_core::trace::{
-    BinaryOcclusion, ClosestHitQuery, NoStats, OcclusionQuery, TraversalStats, WideOcclusion,
-};
+use antumbra_core::trace::{NoStats, OrderedBinary, OrderedWide, RayQuery, TraversalStats};
 use anyhow::Result;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -39,12 +38,12 @@ macro_rules! with_occluder {
         ) {
             (Some(srdh), _, _, _) => match srdh.tree.as_ref() {
                 Some(t) => {
-                    let $o = &ShadowTracer::Srdh(t);
+                    let $o = t;
                     $body
                 }
                 // Too few occluded rays: the SAH tree front to back, as the renderer does.
                 None => {
-                    let $o = &BinaryOcclusion {
+                    let $o = &OrderedBinary {
                         bvh: $frame.shadow_bvh(),
                         order: AnyHitOrder::NearFirst,
                     };
@@ -52,7 +51,7 @@ macro_rules! with_occluder {
                 }
             },
             (None, Some(order), _, _) => {
-                let $o = &BinaryOcclusion {
+                let $o = &OrderedBinary {
                     bvh: $frame.shadow_bvh(),
                     order,
                 };
@@ -62,15 +61,15 @@ macro_rules! with_occluder {
                 let (order, kernel) = (p.view(), BoxKernel::Auto);
                 match tree {
                     WideTree::Two(bvh) => {
-                        let $o = &WideOcclusion { bvh, order, kernel };
+                        let $o = &OrderedWide { bvh, order, kernel };
                         $body
                     }
                     WideTree::Four(bvh) => {
-                        let $o = &WideOcclusion { bvh, order, kernel };
+                        let $o = &OrderedWide { bvh, order, kernel };
                         $body
                     }
                     WideTree::Eight(bvh) => {
-                        let $o = &WideOcclusion { bvh, order, kernel };
+                        let $o = &OrderedWide { bvh, order, kernel };
                         $body
                     }
                 }
@@ -202,7 +201,13 @@ impl Frame {
         let geometry = FrameGeometry::from_scene(&scene)?;
         let bvh = build_binned_sah(&geometry.camera.vertices, &s.build_settings);
         let primary_gen = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
-        let pass = PrimaryPass::timed(&primary_gen, &bvh, &geometry.camera);
+        let pass = PrimaryPass::trace::<NoStats>(
+            &primary_gen,
+            &bvh,
+            &geometry.camera,
+            &CancelToken::new(),
+        )
+        .expect("a new token is never cancelled");
         let shadow_bvh = geometry
             .shadow
             .as_ref()
@@ -211,8 +216,20 @@ impl Frame {
             (s.width != BvhWidth::Two).then(|| WideTree::collapse(&bvh, s.width, &s.collapse));
         // Counted on the tree the timed loop traces (the timed loop has no counters).
         let primary_work = match &wide_camera {
-            Some(t) => PrimaryPass::counted(&primary_gen, t, &geometry.camera),
-            None => PrimaryPass::counted(&primary_gen, &bvh, &geometry.camera),
+            Some(t) => PrimaryPass::trace::<TraversalStats>(
+                &primary_gen,
+                t,
+                &geometry.camera,
+                &CancelToken::new(),
+            )
+            .expect("a new token is never cancelled"),
+            None => PrimaryPass::trace::<TraversalStats>(
+                &primary_gen,
+                &bvh,
+                &geometry.camera,
+                &CancelToken::new(),
+            )
+            .expect("a new token is never cancelled"),
         }
         .totals;
         let mut frame = Frame {

@@ -18,7 +18,7 @@ use super::{LightSampler, PrimaryPass};
 use crate::order::{RaySetSource, SortSettings, SrdhSettings};
 use crate::sampling::hash_combine;
 use crate::stats::StatsRow;
-use crate::trace::{OcclusionQuery, TraversalStats};
+use crate::trace::{RayQuery, TraversalStats};
 
 /// A light's shadow rays this frame, before tracing: its samples at every surface it reaches
 /// (back-facing samples, which trace no ray, are not told apart).
@@ -85,7 +85,7 @@ pub fn sample_work(
     primary: &PrimaryPass,
     light: &LightSampler,
     plan: SamplePlan,
-    tracer: &impl OcclusionQuery,
+    tracer: &impl RayQuery,
 ) -> (TraversalStats, u64) {
     let threshold = (SAMPLE_SHARE as f64 * u32::MAX as f64) as u32;
     let salt = hash_combine(plan.seed ^ 0x5a5a_5a5a, plan.light_index);

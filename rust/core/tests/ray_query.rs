@@ -1,0 +1,155 @@
+//! The one query face, `RayQuery`: every layout (binary with either order, wide 2/4/8 alone and
+//! with a prepared order, the run-time-width tree, a light's SRDH tree, and the shadow pass's
+//! tracer over each) answers as brute force for one ray, and its batch forms give the single-ray
+//! answers and the single-ray counts, ray for ray.
+
+use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseSettings};
+use antumbra_core::bvh::{Bvh, BvhWidth};
+use antumbra_core::geometry::Ray;
+use antumbra_core::order::{AnyHitOrder, OrderView, ShadowOrder, SrdhSettings};
+use antumbra_core::render::{ShadowTracer, WideTree};
+use antumbra_core::sampling::{hash_u32, unit_float};
+use antumbra_core::srdh::{build_srdh, RaySet};
+use antumbra_core::trace::{
+    brute_closest_hit, brute_occluded, Hit, NoStats, OrderedBinary, OrderedWide, RayQuery,
+    TraversalStats,
+};
+use glam::Vec3;
+
+fn r(seed: u32) -> f32 {
+    unit_float(hash_u32(seed))
+}
+
+fn v(seed: u32) -> Vec3 {
+    Vec3::new(r(3 * seed), r(3 * seed + 1), r(3 * seed + 2)) * 2.0 - 1.0
+}
+
+fn triangles(n: u32) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|i| {
+            let c = v(i * 3);
+            [c, c + 0.25 * v(i * 3 + 1), c + 0.25 * v(i * 3 + 2)]
+        })
+        .collect()
+}
+
+/// Segments (t in (0, 1]) and unbounded rays through the cloud, from outside and inside it.
+fn rays(n: u32) -> Vec<Ray> {
+    (0..n)
+        .map(|k| {
+            let o = 1.4 * v(50_000 + k);
+            let d = v(60_000 + k) - o;
+            Ray::new(o, d, 0.0, if k % 4 == 0 { f32::INFINITY } else { 1.0 })
+        })
+        .collect()
+}
+
+/// Fails naming the first ray whose entries differ (not printing every ray's).
+fn same<T: PartialEq + std::fmt::Debug>(got: &[T], want: &[T], name: &str, what: &str) {
+    assert_eq!(got.len(), want.len(), "{name}: {what}");
+    if let Some(i) = (0..got.len()).find(|&i| got[i] != want[i]) {
+        panic!(
+            "{name}: {what}: ray {i}: {:?} against {:?}",
+            got[i], want[i]
+        );
+    }
+}
+
+/// `q` against brute force ray by ray, and its batch forms against its single-ray forms
+/// (answers and counters), counted and uncounted; returns the occluded rays.
+fn check(name: &str, q: &impl RayQuery, tris: &[[Vec3; 3]], rays: &[Ray]) -> usize {
+    let mut single_work = Vec::new();
+    let mut single_hits = Vec::new();
+    let mut single_occluded = Vec::new();
+    for (i, ray) in rays.iter().enumerate() {
+        let mut w = TraversalStats::default();
+        let occ = q.occluded(ray, &mut w);
+        let mut c = TraversalStats::default();
+        let hit = q.closest_hit(ray, &mut c);
+        assert_eq!(occ, brute_occluded(tris, ray), "{name}: ray {i} any hit");
+        assert_eq!(
+            hit.map(|h| (h.triangle, h.t)),
+            brute_closest_hit(tris, ray).map(|h| (h.triangle, h.t)),
+            "{name}: ray {i} closest hit"
+        );
+        assert_eq!(occ, q.occluded(ray, &mut NoStats), "{name}: ray {i}");
+        single_occluded.push(occ);
+        single_hits.push(hit);
+        single_work.push((w, c));
+    }
+    let n = rays.len();
+    let mut occluded = vec![false; n];
+    let mut counted = vec![TraversalStats::default(); n];
+    q.occluded_batch(rays, &mut occluded, &mut counted);
+    same(&occluded, &single_occluded, name, "occluded_batch");
+    let single_any: Vec<_> = single_work.iter().map(|w| w.0).collect();
+    same(&counted, &single_any, name, "occluded_batch counters");
+    let mut uncounted = vec![true; n];
+    q.occluded_batch(rays, &mut uncounted, &mut vec![NoStats; n]);
+    same(
+        &uncounted,
+        &single_occluded,
+        name,
+        "occluded_batch, no counters",
+    );
+
+    let mut hits: Vec<Option<Hit>> = vec![None; n];
+    let mut counted = vec![TraversalStats::default(); n];
+    q.closest_hit_batch(rays, &mut hits, &mut counted);
+    same(&hits, &single_hits, name, "closest_hit_batch");
+    let single_closest: Vec<_> = single_work.iter().map(|w| w.1).collect();
+    same(
+        &counted,
+        &single_closest,
+        name,
+        "closest_hit_batch counters",
+    );
+    q.closest_hit_batch(rays, &mut hits, &mut vec![NoStats; n]);
+    same(&hits, &single_hits, name, "closest_hit_batch, no counters");
+    single_occluded.iter().filter(|o| **o).count()
+}
+
+#[test]
+fn every_layout_answers_through_one_face_for_a_ray_and_a_batch() {
+    let tris = triangles(600);
+    let rays = rays(700);
+    let settings = BuildSettings {
+        max_leaf_size: 3,
+        ..BuildSettings::default()
+    };
+    let bvh: Bvh = build_binned_sah(&tris, &settings);
+    let occluded = check("binary alone", &bvh, &tris, &rays);
+    assert!(occluded > 100 && occluded < rays.len() - 100, "{occluded}");
+    for order in [AnyHitOrder::Stored, AnyHitOrder::NearFirst] {
+        let q = OrderedBinary { bvh: &bvh, order };
+        check(&format!("binary {order:?}"), &q, &tris, &rays);
+        check("tracer binary", &ShadowTracer::Binary(q), &tris, &rays);
+    }
+    let collapse = CollapseSettings::default();
+    for width in [BvhWidth::Two, BvhWidth::Four, BvhWidth::Eight] {
+        let tree = WideTree::collapse(&bvh, width, &collapse);
+        check(&format!("{width:?} alone"), &tree, &tris, &rays);
+        let prepared = tree.prepare(&ShadowOrder::Sato, None, &[]);
+        let ordered = tree.ordered(prepared.view());
+        check(&format!("{width:?} sato"), &ordered, &tris, &rays);
+        check("tracer wide", &ShadowTracer::Wide(ordered), &tris, &rays);
+        if let WideTree::Eight(bvh) = &tree {
+            check("8-wide alone", bvh, &tris, &rays);
+            let q = OrderedWide {
+                bvh,
+                order: prepared.view(),
+                kernel: antumbra_core::trace::wide::BoxKernel::Scalar,
+            };
+            check("8-wide sato, scalar kernel", &q, &tris, &rays);
+            let stored = OrderedWide {
+                order: OrderView::Stored,
+                ..q
+            };
+            check("8-wide stored, scalar kernel", &stored, &tris, &rays);
+        }
+    }
+    let set = RaySet::trace(&bvh, rays[..200].to_vec());
+    let srdh = build_srdh(&tris, &set, &SrdhSettings::default(), &settings);
+    check("srdh", &srdh, &tris, &rays);
+    check("tracer srdh", &ShadowTracer::Srdh(&srdh), &tris, &rays);
+}
