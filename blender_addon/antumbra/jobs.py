@@ -23,7 +23,7 @@ from pathlib import Path
 import bpy
 
 from . import results
-from .export import Exporter, ExportError, FrameExport, camera_path, mesh_arrays
+from .export import Exporter, ExportError, FrameExport, mesh_arrays
 from .options import RenderOptions
 
 #: How often one frame is sent again after the daemon went away.
@@ -105,7 +105,6 @@ class RenderJob:
     link: object
     out_dir: Path | None = None
     load_images: bool = True
-    send_camera_path: bool = True
     on_frame: object = None
     #: ``on_stage(job, frame, stage, done, total)`` on the main thread as ``run`` sees the
     #: daemon's progress move (a comparison: each method pass).
@@ -128,7 +127,6 @@ class RenderJob:
     finished: bool = False
     #: (stage, done, total) of the render in flight, for progress displays.
     stage: tuple[str, int, int] = ("", 0, 0)
-    camera_path_seconds: float = 0.0
 
     def __post_init__(self):
         self.pending = deque(self.frames)
@@ -136,8 +134,6 @@ class RenderJob:
         self._exporter: Exporter | None = None
         self._retries = 0
         self._reconnect = False
-        self._camera_path: dict | None = None
-        self._camera_path_sent_to = None
         self._start_frame = self.scene.frame_current
         self._last_rendered: int | None = None
 
@@ -226,8 +222,6 @@ class RenderJob:
         client = self.link.module
         if self._exporter is None:
             self._exporter = Exporter(client, normals=self.options.wants_normals())
-            if self.send_camera_path and len(self.frames) > 1:
-                self._camera_path, self.camera_path_seconds = camera_path(self.scene, self.frames)
         if self.scene.frame_current != frame:
             self.scene.frame_set(frame)
         depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -243,12 +237,8 @@ class RenderJob:
         """On the worker thread: everything that waits for the daemon."""
         try:
             session = self._session()
-            e = work.export
-            if self._camera_path is not None and self._camera_path_sent_to is not session:
-                session.camera_path(self._camera_path)
-                self._camera_path_sent_to = session
-            send_frame(session, e)
-            work.result = self._request(session, e.frame)
+            send_frame(session, work.export)
+            work.result = self._request(session, work.frame)
         except BaseException as error:  # noqa: BLE001 - handed to the main thread
             work.error = error
 
