@@ -22,9 +22,9 @@ from pathlib import Path
 
 import bpy
 
+from ..export.exporter import Exporter, ExportError, FrameExport, mesh_arrays
+from ..properties.options import RenderOptions
 from . import results
-from .export import Exporter, ExportError, FrameExport, mesh_arrays
-from .options import RenderOptions
 
 #: How often one frame is sent again after the daemon went away.
 RETRIES_PER_FRAME = 2

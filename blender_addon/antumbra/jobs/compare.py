@@ -15,7 +15,7 @@ from pathlib import Path
 import bpy
 
 from . import compare_results
-from .jobs import FrameDone, RenderJob
+from .frame_job import FrameDone, RenderJob
 
 #: The report folder's name under the output folder (panel and batch).
 COMPARE_DIR = "compare"

@@ -22,9 +22,10 @@ from pathlib import Path
 
 import bpy
 
-from . import daemon, passes, preferences, results, view_settings
-from .export import Exporter, ExportError
-from .jobs import (
+from .. import daemon
+from ..export.exporter import Exporter, ExportError
+from ..jobs import results
+from ..jobs.frame_job import (
     RETRIES_PER_FRAME,
     WARM_UP_FRAMES,
     FrameDone,
@@ -33,7 +34,9 @@ from .jobs import (
     is_lost,
     send_frame,
 )
-from .options import RenderOptions
+from ..properties import preferences
+from ..properties.options import RenderOptions
+from . import passes, view_settings
 
 ENGINE_ID = "ANTUMBRA"
 #: How often the render thread looks at Blender's cancel flag while the daemon works.
