@@ -86,6 +86,7 @@ __all__ = [
     "default_socket_path",
     "errors",
     "mesh_hash",
+    "rays",
     "read_exr",
     "read_recording",
     "render_settings",

@@ -78,7 +78,9 @@ def _per_ray(name: str, value: Any, n: int, default: float) -> np.ndarray:
 
 def _closed(interval: str) -> bool:
     if interval not in ("closed", "open"):
-        raise InvalidInput(f"interval: 'closed' ([tnear, tfar]) or 'open' ((tnear, tfar]), got {interval!r}")
+        raise InvalidInput(
+            f"interval: 'closed' ([tnear, tfar]) or 'open' ((tnear, tfar]), got {interval!r}"
+        )
     return interval == "closed"
 
 
@@ -122,9 +124,7 @@ class Scene:
         """Triangles left out of the tree for their zero area."""
         return self._native.degenerate_count
 
-    def _rays(
-        self, vec_origins: Any, vec_directions: Any
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def _rays(self, vec_origins: Any, vec_directions: Any) -> tuple[np.ndarray, np.ndarray]:
         """Origins and directions as (n, 3) float64; one direction (1, 3) serves every ray."""
         origins = _points("vec_origins", vec_origins)
         directions = _points("vec_directions", vec_directions)
@@ -267,12 +267,13 @@ class RayMeshIntersector:
     ``scale`` and a content ``__hash__``); the tree is rebuilt when that hash changes. Keyword
     options go to :class:`Scene` (``method``, ``width``, ``threads``, ...).
 
-    Conventions, as trimesh's embree intersector: directions are unitized; a ray starting on a
-    triangle hits it (t in ``[0, inf)``). With ``multiple_hits`` each ray is traced again from
-    just past its last hit (``max(1e-8, 1e-6 * mesh.scale)`` further, trimesh's step), so a ray
-    through an edge or vertex shared by several triangles reports one of them, as the watertight
-    test hits at least one: parity counts (``contains_points``) stay right. Locations are the
-    intersection of the ray with the hit triangle's plane, in float64.
+    Conventions: directions are unitized, as trimesh does; t runs over ``(0, inf)``, so a ray
+    starting on a triangle does not hit it (what trimesh's tests expect of a ray leaving a
+    surface). With ``multiple_hits`` each ray is traced again from just past its last hit
+    (``max(1e-8, 1e-6 * mesh.scale)`` further, the step of trimesh's embree intersector), so a
+    ray through an edge or vertex shared by several triangles reports one of them (the
+    watertight test hits at least one): parity counts (``contains_points``) stay right. Locations
+    are the intersection of the ray with the hit triangle's plane, in float64.
     """
 
     def __init__(self, geometry: Any, **options: Any) -> None:
@@ -292,20 +293,18 @@ class RayMeshIntersector:
         directions = _points("ray_directions", ray_directions, rows=len(origins))
         length = np.linalg.norm(directions, axis=1)
         if not np.all(length > 0):
-            raise InvalidInput(
-                f"ray_directions: row {int(np.argmin(length > 0))} has zero length"
-            )
+            raise InvalidInput(f"ray_directions: row {int(np.argmin(length > 0))} has zero length")
         return origins, directions / length[:, None]
 
     def intersects_first(self, ray_origins: Any, ray_directions: Any, **_: Any) -> np.ndarray:
         """The index of the first triangle each ray hits, -1 for none (int64)."""
         o, d = self._rays(ray_origins, ray_directions)
-        return self._scene.intersect(o, d)["triangle"]
+        return self._scene.intersect(o, d, interval="open")["triangle"]
 
     def intersects_any(self, ray_origins: Any, ray_directions: Any, **_: Any) -> np.ndarray:
         """Whether each ray hits the mesh at all (an any-hit query)."""
         o, d = self._rays(ray_origins, ray_directions)
-        return self._scene.occluded(o, d)["occluded"]
+        return self._scene.occluded(o, d, interval="open")["occluded"]
 
     def intersects_id(
         self,
@@ -324,13 +323,10 @@ class RayMeshIntersector:
         live = np.arange(len(o))
         tnear = np.zeros(len(o), dtype=np.float32)
         tris, rays, locations = [], [], []
-        for depth in range(max_hits if multiple_hits else 1):
+        for _ in range(max_hits if multiple_hits else 1):
             if len(live) == 0:
                 break
-            # The first round includes t = 0; later ones start past the last hit.
-            r = self._scene.intersect(
-                o[live], d[live], tnear[live], interval="closed" if depth == 0 else "open"
-            )
+            r = self._scene.intersect(o[live], d[live], tnear[live], interval="open")
             hit = r["triangle"] >= 0
             live, tri, t = live[hit], r["triangle"][hit], r["t"][hit]
             tris.append(tri)
