@@ -121,6 +121,7 @@ fn work_array<'py>(py: Python<'py>, work: &[TraversalStats]) -> Bound<'py, PyArr
 #[pymethods]
 impl RayScene {
     #[new]
+    #[allow(clippy::too_many_arguments)]
     #[pyo3(signature = (vertices, triangles, method = "sah", width = 8, collapse = "sah", threads = 0, visible = None))]
     fn new(
         py: Python<'_>,
