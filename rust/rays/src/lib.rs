@@ -48,7 +48,7 @@ pub use antumbra_core::order::ShadowOrder;
 pub use antumbra_core::trace::wide::BoxKernel;
 pub use antumbra_core::trace::TraversalStats;
 pub use antumbra_core::{Error, Result};
-pub use options::{BuildOptions, TraceOptions};
+pub use options::{BuildOptions, TraceOptions, MAX_THREADS};
 pub use ray::{Hit, Interval, Ray};
 pub use scene::Scene;
 pub use space::Point;

@@ -72,6 +72,7 @@ impl BuildOptions {
                 return Err(Error::invalid(field, format!("must be > 0, got {cost}")));
             }
         }
+        check_threads(self.threads)?;
         if let Some(v) = &self.visible {
             if v.len() != triangles {
                 return Err(Error::invalid(
@@ -82,6 +83,14 @@ impl BuildOptions {
         }
         Ok(())
     }
+}
+
+/// The most threads a pool may be asked for: far above any machine's cores, far below what
+/// would exhaust the process (each thread has its own stack).
+pub const MAX_THREADS: usize = 1024;
+
+fn check_threads(threads: usize) -> Result<()> {
+    in_range("threads", threads, 0, MAX_THREADS)
 }
 
 fn in_range(field: &str, value: usize, lo: usize, hi: usize) -> Result<()> {
@@ -114,6 +123,7 @@ pub struct TraceOptions {
 
 impl TraceOptions {
     pub(crate) fn check(&self) -> Result<()> {
+        check_threads(self.threads)?;
         self.order.validate()?;
         match self.order {
             ShadowOrder::Srdh(_) | ShadowOrder::Auto => Err(Error::invalid(

@@ -36,6 +36,11 @@ fn bad_meshes_and_build_options_are_named() {
         ..BuildOptions::default()
     };
     assert!(build_error(&V, &[[0, 1, 2]], &visible).contains("2 entries for 1 triangles"));
+    let threads = BuildOptions {
+        threads: usize::MAX,
+        ..BuildOptions::default()
+    };
+    assert!(build_error(&V, &[[0, 1, 2]], &threads).starts_with("threads:"));
 }
 
 #[test]
@@ -119,6 +124,12 @@ fn bad_rays_and_trace_options_are_named() {
         let e = scene.occluded(&[good], &trace).unwrap_err().to_string();
         assert!(e.starts_with("order:"), "{e}");
     }
+    let threads = TraceOptions {
+        threads: 1 << 40,
+        ..TraceOptions::default()
+    };
+    let e = scene.occluded(&[good], &threads).unwrap_err().to_string();
+    assert!(e.starts_with("threads: must be in 0..=1024"), "{e}");
     // t_near beyond t_far is an empty segment, not an error.
     let empty = Ray::segment(good.origin, good.direction, 2.0, 1.0);
     assert_eq!(scene.occluded(&[empty], &trace).unwrap(), [false]);
