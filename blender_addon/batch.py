@@ -69,11 +69,13 @@ sys.path.insert(
         )
     ),
 )
-from antumbra import client_loader, compare_results, daemon, results, settings_ui, spool
-from antumbra.compare_job import CompareJob, baseline_of, report_dir, scene_name
-from antumbra.jobs import WARM_UP_FRAMES, RenderJob
-from antumbra.options import RenderOptions
-from antumbra.trade_job import TradeJob, trade_dir
+from antumbra import client_loader, daemon
+from antumbra.jobs import compare_results, results, spool
+from antumbra.jobs.compare import CompareJob, baseline_of, report_dir, scene_name
+from antumbra.jobs.frame_job import WARM_UP_FRAMES, RenderJob
+from antumbra.jobs.trade import TradeJob, trade_dir
+from antumbra.properties import method_settings
+from antumbra.properties.options import RenderOptions
 
 
 def parse_frames(text: str, scene) -> list[int]:
@@ -138,7 +140,7 @@ def parse_args(argv: list[str], knobs: list[dict]) -> argparse.Namespace:
         default=3,
         help="--compare, --trade: timed passes per method (or knob value) and frame",
     )
-    settings_ui.add_arguments(parser)
+    method_settings.add_arguments(parser)
     args = parser.parse_args(argv)
     if not 0.0 < args.scale <= 1.0:
         parser.error("--scale must be in (0, 1]")
@@ -159,7 +161,7 @@ def parse_args(argv: list[str], knobs: list[dict]) -> argparse.Namespace:
         parser.error(f"--binary: {args.binary} does not exist")
     if args.binary and not os.access(args.binary, os.X_OK):
         parser.error(f"--binary: {args.binary} is not executable")
-    problem = settings_ui.check(settings_ui.from_arguments(args))
+    problem = method_settings.check(method_settings.from_arguments(args))
     if problem:
         parser.error(problem)
     return args
@@ -171,7 +173,7 @@ def run(argv: list[str]) -> int:
     scene = bpy.context.scene
     frames = parse_frames(args.frames, scene)
     options = RenderOptions(
-        settings=settings_ui.from_arguments(args),
+        settings=method_settings.from_arguments(args),
         resolution_scale=args.scale,
         heat_maps=not args.no_heat_maps,
         save_png=not args.no_png,
@@ -226,7 +228,7 @@ def run(argv: list[str]) -> int:
                 flush=True,
             )
     name = Path(bpy.data.filepath).name or "(unsaved scene)"
-    what = options.describe(settings_ui.defaults())
+    what = options.describe(method_settings.defaults())
     print(f"antumbra: {name}: {len(job.pending)} frame(s) to render, {what}")
     start = time.perf_counter()
     try:
@@ -383,7 +385,7 @@ def run_sweep(job: CompareJob, args, link, done: str, plan: str) -> float:
             _say(f"resuming: {len(job.skipped)} frame(s) already {done}")
     _say(
         f"{Path(bpy.data.filepath).name or '(unsaved scene)'}: {len(job.pending)} frame(s) to "
-        f"{plan}, " + job.options.describe(settings_ui.defaults())
+        f"{plan}, " + job.options.describe(method_settings.defaults())
     )
     start = time.perf_counter()
     try:

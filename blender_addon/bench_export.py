@@ -26,7 +26,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from antumbra import client_loader
-from antumbra.export import Exporter
+from antumbra.export.exporter import Exporter
 
 N = 708  # N x N vertices: 2 (N-1)^2 = 999,698 triangles
 

@@ -175,7 +175,9 @@ def set_up_engine(args: argparse.Namespace) -> None:
     addon_utils.enable("antumbra", default_set=True, handle_error=None)
     import batch
 
-    from antumbra import client_loader, output_format, settings_ui
+    from antumbra import client_loader
+    from antumbra.engine import output_format
+    from antumbra.properties import method_settings
 
     knobs = list(client_loader.load().KNOBS)
     flags = batch.parse_args(["--out", args.out, *shlex.split(args.batch_args)], knobs)
@@ -195,7 +197,7 @@ def set_up_engine(args: argparse.Namespace) -> None:
     r.use_overwrite, r.use_placeholder = False, False
     r.resolution_percentage = max(1, round(r.resolution_percentage * flags.scale))
     settings = scene.antumbra
-    settings_ui.assign(settings.method, settings_ui.from_arguments(flags))
+    method_settings.assign(settings.method, method_settings.from_arguments(flags))
     settings.heat_maps = not flags.no_heat_maps
     settings.use_animation_start, settings.animation_start = True, args.first
 

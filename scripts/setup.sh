@@ -3,7 +3,8 @@
 # reference) and Blender 3.4 from Debian, the X/GL client libraries the bpy module needs even
 # headless, Xvfb (a test drives Blender's UI), Chromium and its driver (a test opens the
 # comparison report), the Rust toolchain's components, and a Python
-# venv (.venv) with the tools that build and test the Python client and the bpy 5.0.1 module,
+# venv (.venv) with the tools that build and test the Python client and the bpy 5.0.1 module
+# (and embreex and trimesh, the oracle and the host of antumbra.rays' tests),
 # and the version matrix's venvs (docs/blender.md): .venv-bpy42 and .venv-bpy45 (pyenv's Python
 # 3.11, the LTS bpy 4.2 and 4.5), .venv-bpy53 (pyenv's Python 3.13, bpy 5.3)
 # and .venv-py310 (pyenv's Python 3.10, the client alone), and .venv-openjd (openjd-cli, which
@@ -35,7 +36,7 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/pip install -q --disable-pip-version-check \
   "maturin==1.16.0" "numpy==1.26.4" "pytest==9.2.0" "ruff==0.17.5" "bpy==5.0.1" "selenium==4.38.0" \
-  "pillow==11.3.0"
+  "pillow==11.3.0" "embreex==4.4.0.post1" "trimesh==4.12.2"
 
 # The version matrix: each venv needs its Python from pyenv (or PATH); a machine without it gets
 # no venv and scripts/test.sh says the leg was not run.

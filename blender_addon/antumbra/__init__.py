@@ -8,7 +8,7 @@ Installs as a legacy add-on (``bl_info``, Blender 3.4 to 4.1) or as an extension
 ``_vendor/`` for the legacy add-on; see ``client_loader``.
 """
 
-from . import daemon, engine, exit_hook, operators, preferences, properties, ui
+from . import daemon, engine, exit_hook, operators, properties, ui
 
 bl_info = {
     "name": "antumbra",
@@ -20,7 +20,8 @@ bl_info = {
     "category": "Render",
 }
 
-_MODULES = (preferences, properties, operators, ui, engine)
+# Properties first: the operators, the panel and the engine read them.
+_MODULES = (properties, operators, ui, engine)
 
 
 def register():

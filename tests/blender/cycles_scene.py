@@ -31,7 +31,7 @@ import bpy
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
-EXPORT_PY = REPO / "blender_addon" / "antumbra" / "export.py"
+EXPORT_PY = REPO / "blender_addon" / "antumbra" / "export" / "exporter.py"
 
 WIDTH, HEIGHT = 240, 135
 

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import blender_env, cli_render, run_blender
-from test_batch import NAN_SCENE
+from test_batch import NAN_SCENE, batch
 
 import antumbra
 
@@ -397,6 +397,48 @@ def test_dash_a_after_the_animation_start_warms_up_first(
 
     assert rows(chunk, (4, 5, 6)) == rows(one, (4, 5, 6))
     assert rows(cold, (4,)) != rows(one, (4,))
+
+
+def test_the_engine_and_the_batch_drive_frames_alike(
+    addon_zips, scene_blend, antumbra_bin, short_tmp
+):
+    """One frame driver: ``-E ANTUMBRA -s 3 -e 5 -a`` after an animation start at 1 and
+    ``batch.py --frames 3-5 --first-frame 1`` both warm up on frames 1 and 2 and render frames
+    3-5 alike: every pass (masks, Combined, the heat maps) and every statistics row, times
+    aside."""
+    env = {**engine_env(short_tmp, addon_zips), "ANTUMBRA_BIN": str(antumbra_bin)}
+    engine_out, batch_out = short_tmp / "engine", short_tmp / "batch"
+    expr = output_expr(engine_out, build="osah")
+    expr += "; s.antumbra.use_animation_start = True; s.antumbra.animation_start = 1"
+    engine = blender_engine(scene_blend, short_tmp, env, expr, "-s", "3", "-e", "5", "-a")
+    assert engine.returncode == 0, engine.stdout[-3000:] + engine.stderr[-3000:]
+    batched = batch(
+        scene_blend,
+        batch_out,
+        short_tmp / "home",
+        *("--frames", "3-5", "--first-frame", "1", "--build", "osah", "--spp", str(SPP)),
+        *("--socket", str(short_tmp / "batch.sock")),
+        env=env,
+    )
+    assert batched.returncode == 0, batched.stdout[-3000:] + batched.stderr[-3000:]
+    for done in (engine, batched):
+        assert "warmed up on (state only): 1, 2" in done.stdout, done.stdout[-3000:]
+    for f in (3, 4, 5):
+        assert_planes_equal(engine_out / f"frame_{f:04d}.exr", batch_out / f"frame_{f:04d}.exr")
+
+    def rows(out: Path) -> list[dict]:
+        # Times differ between runs; ``scene`` is the session's client name (engine or batch).
+        skip = ("scene", "mrays_per_s")
+        with open(out / "stats.csv") as f:
+            return [
+                {k: v for k, v in r.items() if not k.endswith("_ms") and k not in skip}
+                for r in csv.DictReader(f)
+            ]
+
+    assert [r["frame"] for r in rows(engine_out)] == [
+        str(f) for f in (3, 4, 5) for _ in range(1 + len(LIGHTS))
+    ]
+    assert rows(engine_out) == rows(batch_out)
 
 
 #: Two lights whose names (61 bytes each, Blender's limit is 63) differ only at their end: their

@@ -40,15 +40,10 @@ def _load_addon():
 
 
 addon = _load_addon()
-from antumbra_addon import (  # noqa: E402
-    client_loader,
-    daemon,
-    export,
-    jobs,
-    options,
-    preferences,
-    settings_ui,
-)
+from antumbra_addon import client_loader, daemon  # noqa: E402
+from antumbra_addon.export import exporter as export  # noqa: E402
+from antumbra_addon.jobs import frame_job  # noqa: E402
+from antumbra_addon.properties import method_settings, options, preferences  # noqa: E402
 
 client = addon.client_loader.load()
 
@@ -272,7 +267,7 @@ def test_cancelled_job_keeps_complete_frames_only(link, short_tmp):
     def cancel_after_first(job, done):
         job.cancel()
 
-    job = jobs.RenderJob(
+    job = frame_job.RenderJob(
         scene=scene,
         frames=[1, 2, 3, 4],
         options=options.RenderOptions(settings={"spp": 1}),
@@ -306,7 +301,7 @@ def test_frames_csv_says_which_triangles_it_counts(link, short_tmp):
     add_mesh(scene, "Sliver", sliver, [(0, 1, 2), (0, 1, 3)])  # the first is degenerate
     add_light(scene, "Sun", "SUN", angle=0.0)
     out = short_tmp / "out"
-    job = jobs.RenderJob(
+    job = frame_job.RenderJob(
         scene=scene,
         frames=[1],
         options=options.RenderOptions(settings={"spp": 1}, heat_maps=False),
@@ -337,7 +332,7 @@ def test_shading_facing_reads_custom_normals_through_the_daemon(link, short_tmp)
     add_light(scene, "Sun", "SUN", angle=0.0).rotation_euler = (0.0, -1.4, 0.0)
 
     def sun_mask(settings):
-        job = jobs.RenderJob(
+        job = frame_job.RenderJob(
             scene=scene,
             frames=[scene.frame_current],
             options=options.RenderOptions(settings={"spp": 1, **settings}, heat_maps=False),
@@ -362,7 +357,7 @@ def test_job_reconnects_after_the_daemon_dies(link, short_tmp):
             link.client.process.kill()
             link.client.process.wait()
 
-    job = jobs.RenderJob(
+    job = frame_job.RenderJob(
         scene=scene,
         frames=[1, 2, 3],
         options=options.RenderOptions(settings={"spp": 1}, heat_maps=False),
@@ -413,7 +408,7 @@ def test_operator_without_daemon_says_how_to_start_one(registered, short_tmp):
     stats = json.loads(scene.antumbra.last_stats)
     assert stats[0]["pass"] == "primary"
     assert bpy.ops.antumbra.daemon_stop() == {"FINISHED"}
-    assert not addon.operators.current_link().connected()
+    assert not addon.operators.render.current_link().connected()
     assert Path(registered["socket"]).exists() is False
 
 
@@ -461,13 +456,13 @@ def test_panel_properties_follow_the_settings_schema(registered):
             assert [i.identifier for i in prop.enum_items] == [str(c) for c in s["choices"]]
             assert prop.default == str(s["default"]), s["name"]
         elif s["type"] in ("int", "float"):
-            default = min(s["default"], settings_ui.INT_MAX)  # Blender's ints are 32-bit
+            default = min(s["default"], method_settings.INT_MAX)  # Blender's ints are 32-bit
             assert prop.default == pytest.approx(default), s["name"]
             assert prop.hard_min == pytest.approx(max(s["min"], -(2**31))), s["name"]
         else:
             assert prop.default == s["default"], s["name"]
     # The panel's untouched values are the defaults; a change reaches the render's settings.
-    assert client.render_settings(**settings_ui.values(method)) == client.render_settings()
+    assert client.render_settings(**method_settings.values(method)) == client.render_settings()
     method.leaf_size = 4
     method.osah_w = 0.5
     got = bpy.context.scene.antumbra.options().settings_kwargs()
@@ -483,11 +478,11 @@ def test_panel_renders_the_scenes_size_by_default_and_says_so(registered):
     assert settings.resolution_scale == options.RenderOptions().resolution_scale == 1.0
     scene.render.resolution_x, scene.render.resolution_y = 96, 54
     scene.render.resolution_percentage = 100
-    assert addon.ui.size_text(scene) == "Renders 96 x 54 px"
+    assert addon.ui.panel.size_text(scene) == "Renders 96 x 54 px"
     settings.resolution_scale = 0.5
-    assert addon.ui.size_text(scene) == "Renders 48 x 27 px"
+    assert addon.ui.panel.size_text(scene) == "Renders 48 x 27 px"
     scene.render.resolution_percentage = 50
-    assert addon.ui.size_text(scene) == "Renders 24 x 13 px"
+    assert addon.ui.panel.size_text(scene) == "Renders 24 x 13 px"
 
 
 def test_panel_in_a_real_window_draws_every_setting(addon_zips, short_tmp):

@@ -9,6 +9,7 @@
 //! shadow passes, combine) → [`render::FrameResult`] (images + [`stats::StatsRow`] per pass)
 //! → [`output::write_frame_files`]. [`settings::SCHEMA`] describes every [`render::RenderSettings`] field.
 
+#[cfg(feature = "files")]
 pub mod atomic_file;
 pub mod build;
 pub mod bvh;
@@ -18,6 +19,7 @@ pub mod error;
 pub mod geometry;
 pub mod image;
 pub mod order;
+#[cfg(feature = "files")]
 pub mod output;
 pub mod render;
 pub mod sampling;

@@ -33,12 +33,15 @@
 //!
 //! The paper's N_IT (ray/triangle intersection tests) is `nt_per_ray`.
 
+#[cfg(feature = "files")]
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+#[cfg(feature = "files")]
 use crate::atomic_file::write_bytes_atomic;
 use crate::trace::TraversalStats;
+#[cfg(feature = "files")]
 use crate::{Error, Result};
 
 /// One pass of one frame (the primary pass, or the shadow pass of one light). This struct is
@@ -156,6 +159,7 @@ impl StatsRow {
     }
 }
 
+#[cfg(feature = "files")]
 /// The rows as CSV text with a header line: the one writer of `stats.csv` (the CLI, the spool and
 /// the Python client's `write_stats_csv` all call it). Columns in field order; text is quoted
 /// only where it must be; reals print as the shortest text that reads back to the same value.
@@ -172,16 +176,18 @@ pub fn to_csv(rows: &[StatsRow]) -> String {
     String::from_utf8(bytes).expect("CSV of UTF-8 fields")
 }
 
+#[cfg(feature = "files")]
 pub fn write_csv(path: &Path, rows: &[StatsRow]) -> Result<()> {
     write_bytes_atomic(path, to_csv(rows).as_bytes())
 }
 
+#[cfg(feature = "files")]
 pub fn write_json(path: &Path, rows: &[StatsRow]) -> Result<()> {
     let text = serde_json::to_string_pretty(rows).map_err(|e| Error::io(path, e))?;
     write_bytes_atomic(path, text.as_bytes())
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "files"))]
 mod tests {
     use super::*;
 

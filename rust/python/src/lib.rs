@@ -16,6 +16,7 @@ mod connection;
 mod error;
 mod files;
 mod local;
+mod rays;
 mod recording;
 mod replay;
 mod report;
@@ -164,6 +165,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<trade::TradeReport>()?;
     m.add_class::<connection::Connection>()?;
     m.add_class::<local::LocalSession>()?;
+    m.add_class::<rays::RayScene>()?;
     m.add("PROTOCOL_VERSION", antumbra_protocol::PROTOCOL_VERSION)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

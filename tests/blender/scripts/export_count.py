@@ -34,7 +34,8 @@ def load_addon(folder: Path):
     module = importlib.util.module_from_spec(spec)
     sys.modules["antumbra_addon"] = module
     spec.loader.exec_module(module)
-    from antumbra_addon import client_loader, export
+    from antumbra_addon import client_loader
+    from antumbra_addon.export import exporter as export
 
     return client_loader.load(), export
 

@@ -39,7 +39,7 @@ def main():
     # The resolution scale is left at its default: the images must be the scene's size.
     settings.output_dir = os.path.join(a.out, "files")
     addon = sys.modules[module_name]
-    link = addon.operators.current_link()
+    link = addon.operators.render.current_link()
     if a.record:
         link.session().start_recording(a.record)
     try:

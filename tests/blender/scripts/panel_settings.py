@@ -39,15 +39,15 @@ def setup():
 
 
 def report():
-    settings_ui = sys.modules["antumbra.settings_ui"]
+    method_settings = sys.modules["antumbra.properties.method_settings"]
     window = bpy.context.window_manager.windows[0]
     with bpy.context.temp_override(window=window, screen=window.screen):
         bpy.ops.screen.screenshot(filepath=os.path.abspath(ARGS.out) + ".png")
     with open(ARGS.out, "w") as f:
         json.dump(
             {
-                "drawn": list(settings_ui.LAST_DRAWN),
-                "schema": [s["name"] for s in settings_ui.schema()],
+                "drawn": list(method_settings.LAST_DRAWN),
+                "schema": [s["name"] for s in method_settings.schema()],
             },
             f,
         )

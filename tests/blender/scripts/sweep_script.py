@@ -54,6 +54,6 @@ def run(operator, table_property: str, **kw) -> dict:
 
 def finish(a, report: dict, module_name: str) -> None:
     """Stops the daemon and writes OUT/report.json."""
-    sys.modules[module_name].operators.current_link().stop()
+    sys.modules[module_name].operators.render.current_link().stop()
     with open(os.path.join(a.out, "report.json"), "w") as f:
         json.dump(report, f, indent=1)

@@ -16,4 +16,6 @@ pub use run::{CompareRow, Comparison, FrameComparison, MethodFrame, Mismatch, St
 pub use summary::{
     pass_summaries, time_summaries, Figures, FrameFigures, PassSummary, TimeSummary, Work,
 };
-pub use tables::{cells, columns, to_csv, JsonRow};
+#[cfg(feature = "files")]
+pub use tables::to_csv;
+pub use tables::{cells, columns, JsonRow};

@@ -30,6 +30,7 @@ pub fn columns() -> Vec<&'static str> {
         .collect()
 }
 
+#[cfg(feature = "files")]
 fn cell_text(c: Cell) -> String {
     match c {
         Cell::Text(t) => t.to_string(),
@@ -62,6 +63,7 @@ pub fn cells<'a>(r: &'a CompareRow, settings: &'a str) -> Vec<(&'static str, Cel
     out
 }
 
+#[cfg(feature = "files")]
 /// `rows` as CSV text; `settings` gives each label's method spec as typed.
 pub fn to_csv(rows: &[CompareRow], settings: &dyn Fn(&str) -> String) -> String {
     let mut w = csv::Writer::from_writer(Vec::new());
@@ -102,7 +104,7 @@ impl<'a> From<&'a CompareRow> for JsonRow<'a> {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "files"))]
 mod tests {
     use super::*;
     use crate::compare::Timing;

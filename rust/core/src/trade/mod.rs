@@ -19,4 +19,6 @@ pub use sweep::{
     knob_choices, KnobChoice, KnobFrame, KnobSweep, Reference, Trade, TradeFrame, TradeMismatch,
     TradeStep,
 };
-pub use table::{cells, columns, to_csv, TradeRow};
+#[cfg(feature = "files")]
+pub use table::to_csv;
+pub use table::{cells, columns, TradeRow};

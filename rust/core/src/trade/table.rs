@@ -102,6 +102,7 @@ pub fn columns() -> Vec<&'static str> {
     cells(&row).into_iter().map(|(name, _)| name).collect()
 }
 
+#[cfg(feature = "files")]
 fn text(c: Option<Cell>) -> String {
     match c {
         None => String::new(),
@@ -113,6 +114,7 @@ fn text(c: Option<Cell>) -> String {
     }
 }
 
+#[cfg(feature = "files")]
 /// `rows` as CSV text (missing values are empty cells, which pandas reads as NaN).
 pub fn to_csv(rows: &[TradeRow]) -> String {
     let mut w = csv::Writer::from_writer(Vec::new());
@@ -124,7 +126,7 @@ pub fn to_csv(rows: &[TradeRow]) -> String {
     String::from_utf8(w.into_inner().expect("writing to memory")).expect("CSV of UTF-8 cells")
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "files"))]
 mod tests {
     use super::*;
     use crate::compare::Timing;

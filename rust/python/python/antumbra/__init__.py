@@ -12,9 +12,12 @@ camera, lights, resolution, with Blender's field names), then ``render`` it into
 :class:`CompareFrame`, recorded by a :class:`CompareReport`), or ``trade`` speed against
 accuracy over the :data:`KNOBS` (``trade_frame`` into a :class:`TradeFrame`, recorded by a
 :class:`TradeReport`). See ``docs/python.md`` and ``docs/trade.md``.
+
+:mod:`antumbra.rays` traces your own rays on your own triangles: an embreex-like ``Scene`` and
+trimesh's ``RayMeshIntersector`` (``docs/ray-queries.md``).
 """
 
-from . import errors
+from . import errors, rays
 from ._native import __version__
 from .client import Client, default_socket_path
 from .errors import (
@@ -83,6 +86,7 @@ __all__ = [
     "default_socket_path",
     "errors",
     "mesh_hash",
+    "rays",
     "read_exr",
     "read_recording",
     "render_settings",

@@ -251,3 +251,47 @@ class LocalSession(_SessionMethods):
     """Renders in this process with the daemon's code path."""
 
     def __init__(self, client_name: str = "antumbra-python") -> None: ...
+
+@final
+class RayScene:
+    """A BVH over float64 (n, 3) vertices and uint32 (m, 3) triangles (``antumbra.rays``)."""
+
+    def __init__(
+        self,
+        vertices: npt.NDArray[np.float64],
+        triangles: npt.NDArray[np.uint32],
+        method: str = "sah",
+        width: int = 8,
+        collapse: str = "sah",
+        threads: int = 0,
+        visible: npt.NDArray[np.bool_] | None = None,
+    ) -> None: ...
+    def intersect(
+        self,
+        origins: npt.NDArray[np.float64],
+        directions: npt.NDArray[np.float64],
+        t_near: npt.NDArray[np.float32],
+        t_far: npt.NDArray[np.float32],
+        closed: bool = False,
+        kernel: str = "auto",
+        threads: int = 0,
+        counters: bool = False,
+    ) -> dict[str, npt.NDArray[Any]]: ...
+    def occluded(
+        self,
+        origins: npt.NDArray[np.float64],
+        directions: npt.NDArray[np.float64],
+        t_near: npt.NDArray[np.float32],
+        t_far: npt.NDArray[np.float32],
+        closed: bool = False,
+        order: str = "fbto",
+        kernel: str = "auto",
+        threads: int = 0,
+        counters: bool = False,
+    ) -> dict[str, npt.NDArray[Any]]: ...
+    @property
+    def triangle_count(self) -> int: ...
+    @property
+    def degenerate_count(self) -> int: ...
+    @property
+    def width(self) -> int: ...

@@ -28,6 +28,9 @@ __all__ = [
 
 #: The line ``antumbra serve`` prints on stdout once it accepts connections.
 READY_PREFIX = "antumbra: listening on "
+#: How long stopping waits for the reader threads to drain the exited daemon's pipes (a child it
+#: spawned could hold them open; the threads are daemon threads either way).
+READER_JOIN_S = 2.0
 
 
 def default_socket_path() -> str:
@@ -70,8 +73,12 @@ class _DaemonProcess:
                 f"cannot start the antumbra daemon `{' '.join(command)}`: {e} (install "
                 f"antumbra, or pass binary='/path/to/antumbra')"
             ) from e
-        threading.Thread(target=self._read_stdout, daemon=True).start()
-        threading.Thread(target=self._read_stderr, daemon=True).start()
+        self._readers = [
+            threading.Thread(target=self._read_stdout, daemon=True),
+            threading.Thread(target=self._read_stderr, daemon=True),
+        ]
+        for reader in self._readers:
+            reader.start()
 
     def _read_stdout(self) -> None:
         assert self.process.stdout is not None
@@ -109,7 +116,6 @@ class _DaemonProcess:
                 code = self.process.wait(timeout=2)
             except subprocess.TimeoutExpired:
                 code = None
-            time.sleep(0.05)  # let the stderr thread catch up
             self.stop(grace=0)
             raise DaemonUnavailable(
                 f"`{' '.join(self.command)}` exited (status {code}) before it listened; "
@@ -118,8 +124,12 @@ class _DaemonProcess:
         return self.listening
 
     def stop(self, grace: float = 5.0) -> None:
-        """Waits up to ``grace`` seconds for the process to exit, then terminates it."""
+        """Waits up to ``grace`` seconds for the process to exit, then terminates it, and waits
+        for its output to be read to the end (a reader thread left running past an embedding
+        Python's exit is reported by Blender 4.2 as a thread left at exit)."""
         _stop_process(self.process, grace)
+        for reader in self._readers:
+            reader.join(timeout=READER_JOIN_S)
         self._remove_tmpdir()
 
     def _remove_tmpdir(self) -> None:

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import bpy
 
-from .export import Exporter, mesh_arrays
-from .options import RenderOptions
+from ..export.exporter import Exporter, mesh_arrays
+from ..properties.options import RenderOptions
 
 
 class SpoolError(RuntimeError):

@@ -14,7 +14,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from . import client_loader
+from .. import client_loader
 
 #: The heat maps' planes and how their images are called.
 HEAT_PLANES = {

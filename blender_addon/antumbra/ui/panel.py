@@ -7,7 +7,11 @@ import json
 
 import bpy
 
-from . import client_loader, compare_ui, operators, results, settings_ui, trade_ui
+from .. import client_loader
+from ..jobs import results
+from ..operators.render import current_link
+from ..properties import method_settings
+from . import compare, trade
 
 
 def _daemon_box(layout):
@@ -18,7 +22,7 @@ def _daemon_box(layout):
         box.label(text="Client missing", icon="ERROR")
         box.label(text=str(e)[:80])
         return
-    link = operators.current_link()
+    link = current_link()
     row = box.row()
     if link.connected():
         row.label(text=f"Daemon: {link.status()}", icon="LINKED")
@@ -73,7 +77,7 @@ def draw_panel(layout, context):
     settings = context.scene.antumbra
     _daemon_box(layout)
     if getattr(settings, "method", None) is not None:
-        settings_ui.draw(layout, settings.method)
+        method_settings.draw(layout, settings.method)
     col = layout.column(align=True)
     col.prop(settings, "resolution_scale")
     col.label(text=size_text(context.scene))
@@ -105,8 +109,8 @@ def draw_panel(layout, context):
         col.label(text=settings.status)
     _stats_box(layout, settings)
     if getattr(settings, "method", None) is not None:
-        compare_ui.draw(layout, settings)
-        trade_ui.draw(layout, settings)
+        compare.draw(layout, settings)
+        trade.draw(layout, settings)
 
 
 class ANTUMBRA_PT_render(bpy.types.Panel):
@@ -131,8 +135,4 @@ class ANTUMBRA_PT_sidebar(bpy.types.Panel):
         draw_panel(self.layout, context)
 
 
-CLASSES = (*compare_ui.CLASSES, *trade_ui.CLASSES, ANTUMBRA_PT_render, ANTUMBRA_PT_sidebar)
-
-
-# Registered in order, unregistered in reverse.
-register, unregister = bpy.utils.register_classes_factory(CLASSES)
+CLASSES = (ANTUMBRA_PT_render, ANTUMBRA_PT_sidebar)

@@ -6,7 +6,9 @@ from dataclasses import dataclass
 
 import bpy
 
-ADDON_ID = __package__
+#: The add-on's package (``antumbra``, or ``bl_ext.REPO.antumbra`` as an extension), which
+#: Blender names its preferences by; this module lives one level below it.
+ADDON_ID = __package__.rpartition(".")[0]
 
 
 class AntumbraPreferences(bpy.types.AddonPreferences):

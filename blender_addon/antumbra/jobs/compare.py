@@ -15,7 +15,7 @@ from pathlib import Path
 import bpy
 
 from . import compare_results
-from .jobs import FrameDone, RenderJob
+from .frame_job import FrameDone, RenderJob
 
 #: The report folder's name under the output folder (panel and batch).
 COMPARE_DIR = "compare"
@@ -82,7 +82,7 @@ class CompareJob(RenderJob):
             baseline=self.baseline,
             repeat=self.repeat,
             progress=self._progress,
-            warm_up=self._is_warm_up(frame),
+            warm_up=self.is_warm_up(frame),
             **self.options.settings_kwargs(),
         )
 
@@ -102,13 +102,6 @@ class CompareJob(RenderJob):
         return super()._finish()
 
     # -- the result -------------------------------------------------------------------------
-
-    def _collect(self, work):
-        self._last_rendered = work.frame
-        if self._is_warm_up(work.frame):
-            self.warmed.append(work.frame)  # the methods' warm-up: not a result
-            return
-        self._record(work)
 
     def _record(self, work):
         """Records a compared frame (not a warm-up) and reports it done."""

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import bpy
 
-from . import client_loader, settings_ui
+from .. import client_loader
+from . import method_settings
 from .options import RenderOptions
 
 
@@ -124,7 +125,7 @@ class AntumbraSettings(bpy.types.PropertyGroup):
     def options(self) -> RenderOptions:
         method = getattr(self, "method", None)
         return RenderOptions(
-            settings=settings_ui.values(method) if method is not None else {},
+            settings=method_settings.values(method) if method is not None else {},
             resolution_scale=self.resolution_scale,
             heat_maps=self.heat_maps,
             save_exr=self.save_files,
@@ -196,7 +197,7 @@ def register():
         # The panel says what is missing; the method settings need the client's schema.
         _method_class = None
     else:
-        _method_class = settings_ui.property_group()
+        _method_class = method_settings.property_group()
         bpy.utils.register_class(_method_class)
         AntumbraSettings.__annotations__["method"] = bpy.props.PointerProperty(type=_method_class)
     bpy.utils.register_class(AntumbraCompareMethod)

@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .compare_job import CompareJob
+from .compare import CompareJob
 
 #: The trade folder's name under the output folder (panel and batch).
 TRADE_DIR = "trade"

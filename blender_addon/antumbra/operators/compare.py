@@ -8,8 +8,11 @@ from pathlib import Path
 
 import bpy
 
-from . import client_loader, compare_results, properties, results, sweep_ops
-from .compare_job import CompareJob, report_dir, scene_name
+from .. import client_loader
+from ..jobs import compare_results, results
+from ..jobs.compare import CompareJob, report_dir, scene_name
+from ..properties import scene as properties
+from . import sweep
 
 
 def make_job(scene, frames: list[int], link, out_dir: Path) -> CompareJob:
@@ -28,7 +31,7 @@ def make_job(scene, frames: list[int], link, out_dir: Path) -> CompareJob:
     )
     settings.compare_table = ""
     return CompareJob(
-        **sweep_ops.job_args(
+        **sweep.job_args(
             scene, frames, link, folder, report, settings.compare_repeat, _on_frame(scene)
         ),
         methods=specs,
@@ -51,13 +54,13 @@ def _show_difference(done) -> None:
 
 
 def _on_frame(scene):
-    return sweep_ops.on_frame(scene, "compare_table", _table, show=_show_difference)
+    return sweep.on_frame(scene, "compare_table", _table, show=_show_difference)
 
 
 def report_mismatches(operator, job: CompareJob) -> None:
     """After the job ended as a render ends: the report's place, and every mismatch (frame,
     method, light, pixels) reported as an error."""
-    sweep_ops.report_mismatches(operator, job, "report" if job.report is not None else None)
+    sweep.report_mismatches(operator, job, "report" if job.report is not None else None)
 
 
 class ANTUMBRA_OT_compare_method_add(bpy.types.Operator):

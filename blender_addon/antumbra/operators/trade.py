@@ -8,9 +8,11 @@ from pathlib import Path
 
 import bpy
 
-from . import client_loader, properties, sweep_ops
-from .compare_job import scene_name
-from .trade_job import TradeJob, trade_dir
+from .. import client_loader
+from ..jobs.compare import scene_name
+from ..jobs.trade import TradeJob, trade_dir
+from ..properties import scene as properties
+from . import sweep
 
 
 def make_job(scene, frames: list[int], link, out_dir: Path) -> TradeJob:
@@ -24,7 +26,7 @@ def make_job(scene, frames: list[int], link, out_dir: Path) -> TradeJob:
     )
     settings.trade_table = ""
     return TradeJob(
-        **sweep_ops.job_args(
+        **sweep.job_args(
             scene, frames, link, folder, report, settings.trade_repeat, _on_frame(scene)
         ),
         load_images=False,
@@ -41,13 +43,13 @@ def _table(job: TradeJob) -> dict:
 
 
 def _on_frame(scene):
-    return sweep_ops.on_frame(scene, "trade_table", _table)
+    return sweep.on_frame(scene, "trade_table", _table)
 
 
 def report_mismatches(operator, job: TradeJob) -> None:
     """After the job ended as a render ends: the folder's place, and every mismatch (knob,
     frame, value, light, pixels) reported as an error."""
-    sweep_ops.report_mismatches(operator, job, "trade.md")
+    sweep.report_mismatches(operator, job, "trade.md")
 
 
 class ANTUMBRA_OT_trade_knobs_reset(bpy.types.Operator):

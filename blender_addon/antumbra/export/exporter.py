@@ -1,5 +1,5 @@
 """The evaluated scene of one frame as the daemon's input: meshes (numpy arrays, by content hash),
-objects, the camera and lights in Blender's own terms, and the camera path of a frame range.
+objects, the camera and lights in Blender's own terms.
 
 Everything is read from the evaluated depsgraph, so modifiers, shape keys, armatures and
 geometry-node instances (``depsgraph.object_instances``) are what gets rendered. Bulk data goes
@@ -14,7 +14,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-import bpy
 import numpy as np
 
 #: The depsgraph's "no index" in an instance's persistent id.
@@ -385,21 +384,3 @@ class Exporter:
         else:
             self.topology[key] = topology
         return positions, triangles
-
-
-def camera_path(scene, frames) -> tuple[dict[int, dict], float]:
-    """The camera of every frame in ``frames`` (the scene's frame is restored). Evaluates each
-    frame, so it costs what stepping through the frames costs; returns the seconds it took."""
-    start = time.perf_counter()
-    current = scene.frame_current
-    path = {}
-    try:
-        for f in frames:
-            scene.frame_set(f)
-            depsgraph = bpy.context.evaluated_depsgraph_get()
-            if scene.camera is None:
-                raise ExportError(f"frame {f}: scene '{scene.name}' has no camera")
-            path[f] = camera_dict(scene.camera.evaluated_get(depsgraph), f)
-    finally:
-        scene.frame_set(current)
-    return path, time.perf_counter() - start

@@ -1,8 +1,15 @@
-"""A render of one frame or a frame range, as steps that never block Blender: each frame is
-exported on the main thread (Blender's data is not thread-safe), sent and rendered on a worker
-thread (the client releases the GIL while it waits), and collected on the main thread (images,
-files, statistics). The modal operators call :meth:`RenderJob.step` from a timer; batches and
-``execute`` call :meth:`RenderJob.run`.
+"""The one frame driver: frames exported, sent, rendered and collected, as steps that never block
+Blender. Each frame is exported on the main thread (Blender's data is not thread-safe), sent and
+rendered on a worker thread (the client releases the GIL while it waits), and collected on the
+main thread. The modal operators call :meth:`RenderJob.step` from a timer; batches, ``execute``
+and the render engine (on Blender's render thread, one job per frame Blender asks for, on the
+render job's session) call :meth:`RenderJob.run`.
+
+What differs between the drivers is a parameter: where a frame is evaluated (``frames``: the
+scene's frame, or the render's own depsgraph), what a finished frame becomes (images, files and
+statistics in ``out_dir``, or the engine's Render Result from ``done``), who may stop it (Esc,
+Blender's render break) and what the daemon is asked (``_request``: a render, a comparison, a
+trade).
 
 A lost daemon is reconnected (or restarted) and the frame sent again; a frame counts as done
 only once its files and statistics are written, so a cancelled or failed job leaves complete
@@ -22,9 +29,9 @@ from pathlib import Path
 
 import bpy
 
+from ..export.exporter import Exporter, ExportError, FrameExport, mesh_arrays
+from ..properties.options import RenderOptions
 from . import results
-from .export import Exporter, ExportError, FrameExport, camera_path, mesh_arrays
-from .options import RenderOptions
 
 #: How often one frame is sent again after the daemon went away.
 RETRIES_PER_FRAME = 2
@@ -53,6 +60,25 @@ def frames_to_warm_up(
 
 class JobFailed(RuntimeError):
     """A frame could not be rendered; the message names the frame (and object or field)."""
+
+
+class SceneFrames:
+    """Frames evaluated by setting the scene's frame (the panel's jobs, batches); the scene's
+    frame is put back at the job's end."""
+
+    def __init__(self, scene):
+        self.scene = scene
+        self.start = scene.frame_current
+
+    def evaluate(self, frame: int):
+        """The evaluated depsgraph of ``frame``."""
+        if self.scene.frame_current != frame:
+            self.scene.frame_set(frame)
+        return bpy.context.evaluated_depsgraph_get()
+
+    def restore(self):
+        if self.scene.frame_current != self.start:
+            self.scene.frame_set(self.start)
 
 
 def send_frame(session, export: FrameExport) -> None:
@@ -105,11 +131,19 @@ class RenderJob:
     link: object
     out_dir: Path | None = None
     load_images: bool = True
-    send_camera_path: bool = True
     on_frame: object = None
-    #: ``on_stage(job, frame, stage, done, total)`` on the main thread as ``run`` sees the
-    #: daemon's progress move (a comparison: each method pass).
+    #: ``on_stage(job, frame, stage, done, total)`` on the main thread as a frame's export starts
+    #: (stage ``export``) and as ``run`` sees the daemon's progress move (a comparison: each
+    #: method pass).
     on_stage: object = None
+    #: Where the frames are evaluated (``evaluate(frame)``, ``restore()``); None: the scene's
+    #: frame (:class:`SceneFrames`).
+    frame_source: object = None
+    #: Reads meshes from Blender, keeping static ones between frames; a driver that keeps its
+    #: session across jobs (the engine) passes it on from job to job, as it does ``last_rendered``.
+    exporter: Exporter | None = None
+    #: The last frame the session rendered or warmed up on.
+    last_rendered: int | None = None
     #: Recorded with each frame's statistics (``results.run_key``): what a resume compares.
     key: str | None = None
     #: The animation's frames before ``frames[0]``, in order, that a warm-up may render.
@@ -128,18 +162,15 @@ class RenderJob:
     finished: bool = False
     #: (stage, done, total) of the render in flight, for progress displays.
     stage: tuple[str, int, int] = ("", 0, 0)
-    camera_path_seconds: float = 0.0
 
     def __post_init__(self):
         self.pending = deque(self.frames)
+        if self.frame_source is None:
+            self.frame_source = SceneFrames(self.scene)
         self._work: _Work | None = None
-        self._exporter: Exporter | None = None
         self._retries = 0
         self._reconnect = False
-        self._camera_path: dict | None = None
-        self._camera_path_sent_to = None
-        self._start_frame = self.scene.frame_current
-        self._last_rendered: int | None = None
+        self._shown_stage: tuple[str, int, int] | None = None
 
     # -- the steps --------------------------------------------------------------------------
 
@@ -177,16 +208,23 @@ class RenderJob:
             return False
         return self._failed_frame(work)
 
-    def run(self, poll: float = 0.005) -> RenderJob:
-        """Runs to the end in this thread (batches, ``execute``)."""
-        shown = None
+    def run(self, poll: float = 0.005, stop=None) -> RenderJob:
+        """Runs to the end in this thread (batches, ``execute``, the engine); ``stop()``, asked
+        every ``poll`` seconds, cancels the job when it says so (Blender's render break)."""
         while not self.step():
             if self._work is not None and self._work.thread is not None:
                 self._work.thread.join(poll)
-                if self.on_stage is not None and self.stage[0] and self.stage != shown:
-                    shown = self.stage
-                    self.on_stage(self, self._work.frame, *self.stage)
+                self._show_stage()
+            if stop is not None and not self.cancelled and stop():
+                self.cancel()
         return self
+
+    def _show_stage(self):
+        if self.on_stage is None or self._work is None or not self.stage[0]:
+            return
+        if self.stage != self._shown_stage:
+            self._shown_stage = self.stage
+            self.on_stage(self, self._work.frame, *self.stage)
 
     def cancel(self):
         """Stops after the frame in flight (which the daemon is asked to abandon)."""
@@ -209,33 +247,36 @@ class RenderJob:
         if not self.warm_up:
             return frame
         run = self.lead_in + self.frames
-        before = frames_to_warm_up(run, frame, self._last_rendered, self.warm_up)
+        before = frames_to_warm_up(run, frame, self.last_rendered, self.warm_up)
         return before[0] if before else frame
 
-    def _is_warm_up(self, frame: int) -> bool:
+    def is_warm_up(self, frame: int) -> bool:
+        """Whether ``frame``, in flight, is a warm-up (not the pending frame)."""
         return not self.pending or frame != self.pending[0]
 
     @property
     def warming_up(self) -> bool:
-        return self._work is not None and self._is_warm_up(self._work.frame)
+        return self._work is not None and self.is_warm_up(self._work.frame)
 
     # -- inside a step ----------------------------------------------------------------------
 
     def _begin(self, frame: int):
         frame = self._next_to_render(frame)
-        client = self.link.module
-        if self._exporter is None:
-            self._exporter = Exporter(client, normals=self.options.wants_normals())
-            if self.send_camera_path and len(self.frames) > 1:
-                self._camera_path, self.camera_path_seconds = camera_path(self.scene, self.frames)
-        if self.scene.frame_current != frame:
-            self.scene.frame_set(frame)
-        depsgraph = bpy.context.evaluated_depsgraph_get()
+        if self.exporter is None:
+            self.exporter = Exporter(self.link.module, normals=self.options.wants_normals())
+        self.stage = self._shown_stage = ("export", 0, 0)
+        if self.on_stage is not None:
+            self.on_stage(self, frame, *self.stage)
+        depsgraph = self.frame_source.evaluate(frame)
         percentage = self.options.percentage(self.scene.render.resolution_percentage)
-        export = self._exporter.frame(depsgraph, self.scene, frame, percentage)
+        export = self.exporter.frame(depsgraph, self.scene, frame, percentage)
         self._work = _Work(frame, export)
+        # A daemon thread: a request the daemon never answers does not keep Blender from exiting.
         self._work.thread = threading.Thread(
-            target=self._send_and_render, args=(self._work,), name=f"antumbra frame {frame}"
+            target=self._send_and_render,
+            args=(self._work,),
+            name=f"antumbra frame {frame}",
+            daemon=True,
         )
         self._work.thread.start()
 
@@ -243,12 +284,8 @@ class RenderJob:
         """On the worker thread: everything that waits for the daemon."""
         try:
             session = self._session()
-            e = work.export
-            if self._camera_path is not None and self._camera_path_sent_to is not session:
-                session.camera_path(self._camera_path)
-                self._camera_path_sent_to = session
-            send_frame(session, e)
-            work.result = self._request(session, e.frame)
+            send_frame(session, work.export)
+            work.result = self._request(session, work.frame)
         except BaseException as error:  # noqa: BLE001 - handed to the main thread
             work.error = error
 
@@ -262,7 +299,7 @@ class RenderJob:
     def _request(self, session, frame: int):
         """On the worker thread: what the job asks of the daemon for a frame it has sent."""
         kwargs = self.options.render_kwargs()
-        if self._is_warm_up(frame):
+        if self.is_warm_up(frame):
             kwargs.update(passes=(), warm_up=True)  # only the session's state is wanted
         return session.render(frame, progress=self._progress, **kwargs)
 
@@ -271,10 +308,14 @@ class RenderJob:
         return not self.cancelled
 
     def _collect(self, work: _Work):
-        self._last_rendered = work.frame
-        if self._is_warm_up(work.frame):
-            self.warmed.append(work.frame)
+        self.last_rendered = work.frame
+        if self.is_warm_up(work.frame):
+            self.warmed.append(work.frame)  # the session's state: not a result
             return
+        self._record(work)
+
+    def _record(self, work: _Work):
+        """Records a rendered frame (not a warm-up) and reports it done."""
         result = work.result
         client = self.link.module
         images = results.load_images(client, result) if self.load_images else {}
@@ -314,7 +355,7 @@ class RenderJob:
             # again with all its meshes; nothing of it was kept.
             self._retries += 1
             self._reconnect = True
-            self._last_rendered = None  # a new session: its state starts afresh
+            self.last_rendered = None  # a new session: its state starts afresh
             return False
         return self._fail(f"frame {work.frame}: {error}")
 
@@ -324,8 +365,7 @@ class RenderJob:
 
     def _finish(self) -> bool:
         self.finished = True
-        if len(self.frames) > 1 and self.scene.frame_current != self._start_frame:
-            self.scene.frame_set(self._start_frame)
+        self.frame_source.restore()
         return True
 
     # -- for displays -----------------------------------------------------------------------

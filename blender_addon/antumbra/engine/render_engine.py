@@ -15,25 +15,18 @@ exists): the daemon builds their trees and traces their camera rays only
 from __future__ import annotations
 
 import os
-import threading
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import bpy
 
-from . import daemon, passes, preferences, results, view_settings
-from .export import Exporter, ExportError
-from .jobs import (
-    RETRIES_PER_FRAME,
-    WARM_UP_FRAMES,
-    FrameDone,
-    frames_to_warm_up,
-    is_cancelled,
-    is_lost,
-    send_frame,
-)
-from .options import RenderOptions
+from .. import daemon
+from ..export.exporter import Exporter, ExportError
+from ..jobs import results
+from ..jobs.frame_job import WARM_UP_FRAMES, FrameDone, JobFailed, RenderJob
+from ..properties import preferences
+from ..properties.options import RenderOptions
+from . import passes, view_settings
 
 ENGINE_ID = "ANTUMBRA"
 #: How often the render thread looks at Blender's cancel flag while the daemon works.
@@ -49,7 +42,9 @@ class Cancelled(Exception):
 
 @dataclass
 class EngineJob:
-    """A render job's state across its frames: the daemon session and the exporter's caches."""
+    """A render job's state across its frames: the daemon session, the exporter's caches and
+    the frame the session last rendered, handed to the frame job of each frame Blender asks
+    for."""
 
     link: daemon.DaemonLink
     options: RenderOptions
@@ -63,11 +58,30 @@ class EngineJob:
     def close(self):
         self.link.close()
 
-    def warm_up_frames(self, frame: int, start: int, step: int) -> list[int]:
-        """The frames before ``frame`` (from ``start`` on, every ``step``) the session warms up
-        on first (``jobs.frames_to_warm_up``, the one rule)."""
-        run = [f for f in range(frame - WARM_UP_FRAMES * step, frame + 1, step) if f >= start]
-        return frames_to_warm_up(run, frame, self.last)
+    def frame_job(self, scene, frame: int, frame_source, on_stage) -> RenderJob:
+        """The frame job of ``frame`` on this render job's session. With the scene's animation
+        start on, it warms up on up to WARM_UP_FRAMES predecessors (every ``frame_step``, from
+        the start on) that the session has not just rendered."""
+        first = scene.antumbra.first_frame()
+        step = max(1, scene.frame_step)
+        before = range(frame - WARM_UP_FRAMES * step, frame, step)
+        return RenderJob(
+            scene=scene,
+            frames=[frame],
+            options=self.options,
+            link=self.link,
+            load_images=False,
+            on_stage=on_stage,
+            lead_in=[f for f in before if first is not None and f >= first],
+            warm_up=WARM_UP_FRAMES if first is not None else 0,
+            frame_source=frame_source,
+            exporter=self.exporter,
+            last_rendered=self.last,
+        )
+
+    def ended(self, job: RenderJob):
+        """What the next frame's job takes over from ``job``."""
+        self.exporter, self.last = job.exporter, job.last_rendered
 
 
 _JOB: EngineJob | None = None
@@ -110,6 +124,24 @@ def _say(line: str):
     print(f"antumbra: {line}", flush=True)
 
 
+class _RenderFrames:
+    """Frames evaluated in the render's own depsgraph, moved with ``RenderEngine.frame_set`` (as
+    for motion blur); it is back at the frame being rendered at the job's end."""
+
+    def __init__(self, engine: bpy.types.RenderEngine, depsgraph, frame: int):
+        self.engine, self.depsgraph = engine, depsgraph
+        self.frame = self.at = frame
+
+    def evaluate(self, frame: int):
+        if frame != self.at:
+            self.engine.frame_set(frame, 0.0)
+            self.at = frame
+        return self.depsgraph
+
+    def restore(self):
+        self.evaluate(self.frame)
+
+
 class AntumbraRenderEngine(bpy.types.RenderEngine):
     bl_idname = ENGINE_ID
     bl_label = "antumbra"
@@ -131,13 +163,14 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
         frame = scene.frame_current
         job = _job(scene)
         try:
-            self._warm_up(job, depsgraph, frame)
+            self._check_size(job, scene, frame)
             done = self._render_frame(job, depsgraph, frame)
         except Cancelled:
             _say(f"frame {frame}: cancelled")
             return
         except Exception as e:  # noqa: BLE001 - Blender shows it and stops the job
-            message = str(e) if isinstance(e, ExportError) else f"frame {frame}: {e}"
+            named = isinstance(e, (ExportError, JobFailed))  # their messages name the frame
+            message = str(e) if named else f"frame {frame}: {e}"
             self.report({"ERROR"}, f"antumbra: {message}")
             _say(f"error: {message}")
             return
@@ -146,61 +179,9 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
             job.pending[frame] = results.frame_record(done, job.key)
         _say(f"frame {frame} {done.seconds:.2f} s | " + " | ".join(done.stats_lines))
 
-    # -- one frame --------------------------------------------------------------------------
+    # -- one frame, through the frame job ----------------------------------------------------
 
-    def _warm_up(self, job: EngineJob, depsgraph, frame: int):
-        """The session's warm-up on the frames before ``frame`` it has not just rendered."""
-        scene = depsgraph.scene
-        first = scene.antumbra.first_frame()
-        if first is None:
-            return
-        before = job.warm_up_frames(frame, first, max(1, scene.frame_step))
-        if not before:
-            return
-        try:
-            for f in before:
-                # The render's own depsgraph at another frame (as for motion blur).
-                self.frame_set(f, 0.0)
-                label = f"warm-up on frame {f} for frame {frame}"
-                self._request(job, self._export(job, depsgraph, f, label), label, warm_up=True)
-                job.last = f
-        finally:
-            self.frame_set(frame, 0.0)
-        _say("warmed up on (state only): " + ", ".join(map(str, before)))
-
-    def _export(self, job: EngineJob, depsgraph, frame: int, label: str):
-        """The frame exported; ``label`` names it on the status line (a frame or a warm-up)."""
-        scene = depsgraph.scene
-        if job.exporter is None:
-            job.exporter = Exporter(job.link.module, normals=job.options.wants_normals())
-        self.update_stats("", f"antumbra: {label}: export")
-        return job.exporter.frame(depsgraph, scene, frame, scene.render.resolution_percentage)
-
-    def _request(self, job: EngineJob, export, label: str, warm_up: bool = False):
-        """Sends a frame and renders it (or warms up on it), through daemon losses."""
-        client = job.link.module
-        retries = 0
-        while True:
-            work = _Request(job, export, reconnect=retries > 0, warm_up=warm_up)
-            work.start()
-            self._wait(job, work, label)
-            if work.error is None:
-                return work.result
-            if is_cancelled(client, work.error):
-                raise Cancelled
-            if is_lost(client, work.error) and retries < RETRIES_PER_FRAME:
-                # The daemon went away: reconnect (restart it if the job started it) and send
-                # the frame again with all its meshes.
-                retries += 1
-                job.last = None  # a new session: its state starts afresh
-                continue
-            raise work.error
-
-    def _render_frame(self, job: EngineJob, depsgraph, frame: int) -> FrameDone:
-        started = time.perf_counter()
-        scene = depsgraph.scene
-        label = f"frame {frame}"
-        export = self._export(job, depsgraph, frame, label)
+    def _check_size(self, job: EngineJob, scene, frame: int):
         r = scene.render
         size = job.options.size(r.resolution_x, r.resolution_y, r.resolution_percentage)
         if size != (self.resolution_x, self.resolution_y):
@@ -208,40 +189,33 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
                 f"frame {frame}: Blender renders {self.resolution_x} x {self.resolution_y} px, "
                 f"antumbra {size[0]} x {size[1]}"
             )
-        self.update_progress(0.1)
-        result = self._request(job, export, label)
-        job.last = frame
-        self.update_progress(1.0)
-        return FrameDone(
-            frame=frame,
-            result=result,
-            seconds=time.perf_counter() - started,
-            export_seconds=export.seconds,
-            stats_lines=results.stats_summary(result.stats),
-            images={},
-            files=[],
-            objects=len(export.objects),
-            triangles=export.triangles,
-        )
 
-    def _wait(self, job: EngineJob, work: _Request, label: str):
-        """On the render thread while the daemon works: progress, and Blender's cancel flag
-        passed on to the daemon (until a cancel is sent or the request ends)."""
-        cancel_sent, shown = False, None
-        while work.is_alive():
-            work.join(POLL_SECONDS)
-            stage, done, total = work.stage
-            if stage and work.stage != shown:
-                shown = work.stage
-                self.update_stats("", f"antumbra: {label}: {stage}")
+    def _render_frame(self, job: EngineJob, depsgraph, frame: int) -> FrameDone:
+        """The frame (after its warm-up) rendered by the frame job, which stops on Blender's
+        render break; the status line and progress follow it."""
+
+        def on_stage(frame_job: RenderJob, f: int, stage: str, done: int, total: int):
+            warm_up = frame_job.is_warm_up(f)
+            label = f"warm-up on frame {f} for frame {frame}" if warm_up else f"frame {f}"
+            self.update_stats("", f"antumbra: {label}: {stage}")
+            if stage != "export":
                 self.update_progress(0.1 + 0.8 * (done + 1) / max(1, total + 1))
-            if not cancel_sent and self.test_break():
-                work.cancelled = True
-                client = job.link.client
-                cancel_sent = client is not None and client.cancel()
-        if work.cancelled and work.error is None:
-            # Cancelled before the request went out or after it ended: the frame is not kept.
+
+        frame_job = job.frame_job(
+            depsgraph.scene, frame, _RenderFrames(self, depsgraph, frame), on_stage
+        )
+        try:
+            frame_job.run(POLL_SECONDS, stop=self.test_break)
+        finally:
+            job.ended(frame_job)
+        if frame_job.warmed:
+            _say("warmed up on (state only): " + ", ".join(map(str, frame_job.warmed)))
+        if frame_job.cancelled:
             raise Cancelled
+        if frame_job.error:
+            raise JobFailed(frame_job.error)
+        self.update_progress(1.0)
+        return frame_job.done[-1]
 
     def _write_result(self, layer_name: str, result):
         existing = self.get_result()
@@ -259,37 +233,6 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
             passes.fill(target, result)
         finally:
             self.end_result(rr)
-
-
-class _Request(threading.Thread):
-    """The frame sent and rendered on a worker thread (the client releases the GIL)."""
-
-    def __init__(self, job: EngineJob, export, reconnect: bool, warm_up: bool):
-        super().__init__(name=f"antumbra frame {export.frame}", daemon=True)
-        self.job, self.export, self.reconnect = job, export, reconnect
-        self.warm_up = warm_up
-        self.result = None
-        self.error: BaseException | None = None
-        self.stage: tuple[str, int, int] = ("", 0, 0)
-        self.cancelled = False
-
-    def run(self):
-        try:
-            link = self.job.link
-            session = link.reconnect() if self.reconnect else link.session()
-            send_frame(session, self.export)
-            if self.cancelled:
-                return
-            kwargs = self.job.options.render_kwargs()
-            if self.warm_up:
-                kwargs.update(passes=(), warm_up=True)  # only the session's state
-            self.result = session.render(self.export.frame, progress=self._progress, **kwargs)
-        except BaseException as error:  # noqa: BLE001 - handed to the render thread
-            self.error = error
-
-    def _progress(self, stage: str, done: int, total: int):
-        self.stage = (stage, done, total)
-        return not self.cancelled
 
 
 # -- the job's end, and its statistics beside Blender's output ---------------------------------

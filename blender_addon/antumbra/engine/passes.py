@@ -9,8 +9,8 @@ import hashlib
 
 import numpy as np
 
-from . import client_loader
-from .export import light_dict
+from .. import client_loader
+from ..export.exporter import light_dict
 
 #: Blender's own pass of every engine, where the mean of the masks goes.
 COMBINED = "Combined"

@@ -10,9 +10,12 @@ from pathlib import Path
 
 import bpy
 
-from . import compare_ops, daemon, preferences, results, trade_ops
-from .compare_job import CompareJob
-from .jobs import RenderJob
+from .. import daemon
+from ..jobs import results
+from ..jobs.compare import CompareJob
+from ..jobs.frame_job import RenderJob
+from ..properties import preferences
+from . import compare, trade
 
 #: The job the UI is running (one at a time).
 _ACTIVE: RenderJob | None = None
@@ -195,8 +198,8 @@ class ANTUMBRA_OT_render(_JobOperator, bpy.types.Operator):
 
 
 class _SweepOperator(_JobOperator):
-    """A comparison or a trade: ``_ops`` (``compare_ops``, ``trade_ops``) makes its job and
-    reports its mismatches after the render's end."""
+    """A comparison or a trade: ``_ops`` (``operators.compare``, ``operators.trade``) makes its
+    job and reports its mismatches after the render's end."""
 
     _ops = None
 
@@ -218,7 +221,7 @@ class ANTUMBRA_OT_compare(_SweepOperator, bpy.types.Operator):
     bl_idname = "antumbra.compare"
     bl_label = "Compare methods"
     bl_options = {"REGISTER"}
-    _ops = compare_ops
+    _ops = compare
 
     animation: bpy.props.BoolProperty(
         name="Animation", description="Compare over the scene's frame range", default=False
@@ -232,7 +235,7 @@ class ANTUMBRA_OT_trade(_SweepOperator, bpy.types.Operator):
     bl_idname = "antumbra.trade"
     bl_label = "Trade speed against accuracy"
     bl_options = {"REGISTER"}
-    _ops = trade_ops
+    _ops = trade
 
     animation: bpy.props.BoolProperty(
         name="Animation", description="Trade over the scene's frame range", default=False
@@ -280,13 +283,7 @@ class ANTUMBRA_OT_daemon_stop(bpy.types.Operator):
 CLASSES = (
     ANTUMBRA_OT_render,
     ANTUMBRA_OT_compare,
-    *compare_ops.CLASSES,
     ANTUMBRA_OT_trade,
-    *trade_ops.CLASSES,
     ANTUMBRA_OT_daemon_start,
     ANTUMBRA_OT_daemon_stop,
 )
-
-
-# Registered in order, unregistered in reverse.
-register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -9,7 +9,7 @@ import functools
 
 import bpy
 
-from . import client_loader
+from .. import client_loader
 
 #: Groups shown folded by default (the settings most users leave alone).
 FOLDED = ("osah", "spatial_splits", "wide_bvh")

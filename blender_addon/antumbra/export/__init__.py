@@ -1,0 +1,1 @@
+"""Blender's evaluated scene as the daemon's input."""
