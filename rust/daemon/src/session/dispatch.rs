@@ -59,11 +59,6 @@ impl Session<'_> {
             }
             Request::UploadMesh(upload) => self.upload(&upload),
             Request::FrameUpdate(update) => self.frame_update(update),
-            Request::CameraPath { frames } => {
-                self.camera_path = frames;
-                tracing::debug!(frames = self.camera_path.len(), "camera path");
-                self.out.send(&Reply::Ack);
-            }
             Request::Render(r) => self.render(r),
             Request::Compare(c) => self.compare(c),
             Request::Trade(t) => self.trade(t),

@@ -21,7 +21,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use antumbra_core::scene::Mesh;
-use antumbra_protocol::{CameraState, FrameUpdate, Limits, RecordingWriter, Request};
+use antumbra_protocol::{FrameUpdate, Limits, RecordingWriter, Request};
 
 use crate::gate::Admission;
 use crate::listen::Conn;
@@ -75,7 +75,6 @@ struct Session<'a> {
     /// generation in which it last touched them. Holding the `Arc` keeps them out of eviction.
     pins: HashMap<u64, (Arc<Mesh>, u64)>,
     frames: VecDeque<Arc<FrameUpdate>>,
-    camera_path: Vec<(i32, CameraState)>,
     controls: Controls,
     worker: Option<Worker>,
     recorder: Option<RecordingWriter<BufWriter<File>>>,
@@ -113,7 +112,6 @@ pub(crate) fn run(shared: &Arc<Shared>, conn: Conn, id: u64, admission: Admissio
         generation: 0,
         pins: HashMap::new(),
         frames: VecDeque::new(),
-        camera_path: Vec::new(),
         controls: Arc::default(),
         worker: None,
         recorder: None,

@@ -136,13 +136,6 @@ class _Session:
         """
         return self._native.frame_update(frame, objects, camera, lights, resolution)
 
-    def camera_path(
-        self, frames: Iterable[tuple[int, Mapping[str, Any]]] | Mapping[int, Mapping[str, Any]]
-    ) -> None:
-        """Sends the camera of every frame of the animation up front: (frame, camera dict)
-        pairs, or a dict from frame to camera dict."""
-        self._native.camera_path(frames)
-
     # -- rendering ------------------------------------------------------------------------
 
     def render(
