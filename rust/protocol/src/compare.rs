@@ -133,7 +133,11 @@ pub fn compare_result_reply(
 }
 
 /// The reply to a warm-up: the methods, and no rows, mismatches or heat.
-pub fn compare_warm_up_reply(comparison: &Comparison, frame: i32, request_id: u64) -> CompareResultReply {
+pub fn compare_warm_up_reply(
+    comparison: &Comparison,
+    frame: i32,
+    request_id: u64,
+) -> CompareResultReply {
     CompareResultReply {
         request_id,
         frame,

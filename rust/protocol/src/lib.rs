@@ -45,6 +45,4 @@ pub use messages::*;
 pub use recording::{
     replay_scenes, RecordedAnimation, RecordingError, RecordingReader, RecordingWriter, Replay,
 };
-pub use trade::{
-    TradeMismatchState, TradeRequest, TradeResultReply, TradeRowState, TRADE_STAGE,
-};
+pub use trade::{TradeMismatchState, TradeRequest, TradeResultReply, TradeRowState, TRADE_STAGE};

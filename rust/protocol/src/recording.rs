@@ -278,10 +278,12 @@ impl<R: Read> RecordingReader<R> {
     pub fn next_request(&mut self) -> Result<Option<Request>, RecordingError> {
         while !self.done {
             let read = read_frame(&mut self.r, &self.limits).and_then(|body| {
-                decode_body(&body).map(Some).or_else(|e| match is_retired(&body) {
-                    true => Ok(None),
-                    false => Err(e),
-                })
+                decode_body(&body)
+                    .map(Some)
+                    .or_else(|e| match is_retired(&body) {
+                        true => Ok(None),
+                        false => Err(e),
+                    })
             });
             match read {
                 Ok(request) => {

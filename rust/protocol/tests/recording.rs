@@ -233,15 +233,18 @@ fn retired_camera_paths_of_older_recordings_are_skipped() {
         .unwrap()
         .map(|r| r.unwrap().kind())
         .collect();
-    assert_eq!(kinds, ["UploadMesh", "UploadMesh", "FrameUpdate", "FrameUpdate"]);
+    assert_eq!(
+        kinds,
+        ["UploadMesh", "UploadMesh", "FrameUpdate", "FrameUpdate"]
+    );
     let replayed = replay_scenes_from(&bytes[..]).unwrap();
     assert_eq!(replayed.len(), 2);
     for (a, b) in scenes.iter().zip(&replayed) {
         common::assert_same_scene(a, b);
     }
     // Anything else that does not decode is still an error naming the message.
-    let unknown = rmp_serde::to_vec_named(&std::collections::BTreeMap::from([("Teleport", 1)]))
-        .unwrap();
+    let unknown =
+        rmp_serde::to_vec_named(&std::collections::BTreeMap::from([("Teleport", 1)])).unwrap();
     let mut bad = recording_of(&uploads);
     bad.extend((unknown.len() as u32).to_le_bytes());
     bad.extend(&unknown);

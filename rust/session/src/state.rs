@@ -105,7 +105,9 @@ impl SessionState {
             Request::Render(r) => self.render(r),
             Request::Compare(c) => self.compare(c),
             Request::Trade(t) => self.trade(t),
-            Request::Cancel { request_id } => return Handled::Control(Control::Cancel { request_id }),
+            Request::Cancel { request_id } => {
+                return Handled::Control(Control::Cancel { request_id })
+            }
             Request::Stats => return Handled::Control(Control::Stats),
             Request::Close => return Handled::Control(Control::Close),
             Request::Shutdown => return Handled::Control(Control::Shutdown),
@@ -250,7 +252,12 @@ impl SessionState {
         let scene = self.scene(c.frame, &what, request_id)?;
         // Built here only to check the methods and size the work; the renderer keeps its own.
         let admitted = c.comparison().and_then(|comparison| {
-            admit_compare(self.asked(&what, &scene), &comparison, c.images, &self.limits)
+            admit_compare(
+                self.asked(&what, &scene),
+                &comparison,
+                c.images,
+                &self.limits,
+            )
         });
         admitted.map_err(|e| refused(&what, &e, request_id))?;
         Ok(Job {

@@ -9,10 +9,10 @@ use antumbra_protocol::{
     check_hello, decode_body, read_frame, welcome, ErrorCode, FrameError, Reply, Request,
 };
 
-use antumbra_session::error_reply;
 use super::{End, Flow, Next, Session};
 use crate::gate::{self, Admission};
 use crate::listen::{constant_time_eq, Conn};
+use antumbra_session::error_reply;
 
 /// Reads under one deadline for all the reads (none: no limit), by narrowing the socket's read
 /// timeout to what is left of it before each read.
@@ -166,8 +166,10 @@ impl Session<'_> {
                     self.start_recording();
                     self.record(&request);
                     tracing::info!(client = %self.client, "hello");
-                    self.out
-                        .send(&welcome(&self.shared.config.server_name, self.state.limits()));
+                    self.out.send(&welcome(
+                        &self.shared.config.server_name,
+                        self.state.limits(),
+                    ));
                     return None;
                 }
                 Err(e) => {

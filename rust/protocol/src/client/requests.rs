@@ -7,9 +7,9 @@ use antumbra_core::scene::Scene;
 
 use super::{Blocking, Client, ClientError, Interrupt, Wait};
 use crate::{
-    frame_update_from_scene, upload_from_mesh, CompareRequest, CompareResultReply,
-    DaemonStats, FrameResultReply, FrameUpdate, NamedSettings, Passes, RenderRequest, Reply,
-    Request, TradeRequest, TradeResultReply, UploadMesh,
+    frame_update_from_scene, upload_from_mesh, CompareRequest, CompareResultReply, DaemonStats,
+    FrameResultReply, FrameUpdate, NamedSettings, Passes, RenderRequest, Reply, Request,
+    TradeRequest, TradeResultReply, UploadMesh,
 };
 
 /// How long to wait for a cancelled render to end after the caller interrupted the wait.
