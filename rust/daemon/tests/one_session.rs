@@ -13,7 +13,7 @@ use antumbra_daemon::spool::{JobSpec, DONE_FILE};
 use antumbra_protocol::client::Client;
 use antumbra_protocol::{
     planes_from_reply, scene_to_messages, stats_from_reply, Limits, NamedSettings, Passes,
-    RenderRequest, Reply, Request, TradeRequest, COMPARE_STAGE, TRADE_STAGE,
+    RenderRequest, Reply, Request, TradeRequest,
 };
 use antumbra_session::{Handled, MeshCache, SessionRenderer, SessionState};
 use common::{compare_request, tiny_scene, TestDaemon};
@@ -110,11 +110,7 @@ impl InProcess {
             Handled::Job(job) => job,
             Handled::Control(_) => panic!("no control request is sent"),
         };
-        let stage = match job.what() {
-            "Compare" => COMPARE_STAGE,
-            "Trade" => TRADE_STAGE,
-            _ => "",
-        };
+        let stage = job.stage();
         let mut progress = Vec::new();
         let done = self
             .renderer

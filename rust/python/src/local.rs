@@ -12,7 +12,7 @@ use std::time::Instant;
 use antumbra_core::cancel::CancelToken;
 use antumbra_protocol::{
     check_limits, upload_from_mesh, DaemonStats, ErrorCode, Limits, ProtocolError, RenderRequest,
-    Reply, Request, COMPARE_STAGE, TRADE_STAGE,
+    Reply, Request,
 };
 use antumbra_session::{
     Handled, Job, MeshCache, SessionRenderer, SessionState, ENCODE_STAGE, RENDER_STAGE,
@@ -127,19 +127,19 @@ fn render_error(e: &ProtocolError, request_id: u64) -> ClientError {
 }
 
 impl LocalSession {
-    /// Runs a `Compare` or `Trade` (`stage`) admitted by the session, counted as the daemon
-    /// counts it: `progress(stage, done, total)` and Ctrl-C are read between passes; returning
-    /// False or raising cancels.
+    /// Runs a `Compare` or `Trade` admitted by the session, counted as the daemon counts it:
+    /// `progress(stage, done, total)` and Ctrl-C are read between passes; returning False or
+    /// raising cancels.
     fn measure(
         &self,
         py: Python<'_>,
         request: Request,
-        stage: &str,
         progress: Option<Bound<'_, PyAny>>,
     ) -> ClientResult<Reply> {
         let mut state = self.lock()?;
         let state = &mut *state;
         let job = state.admit(request)?;
+        let stage = job.stage();
         let callback = progress.map(Bound::unbind);
         let cancel = CancelToken::new();
         // The first exception of the callback or of Ctrl-C, raised once the frame ends.
@@ -450,7 +450,7 @@ impl LocalSession {
             let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
             request.request_id = request_id;
             let Reply::CompareResult(reply) =
-                self.measure(py, Request::Compare(request), COMPARE_STAGE, progress)?
+                self.measure(py, Request::Compare(request), progress)?
             else {
                 return wrong_reply();
             };
@@ -484,7 +484,7 @@ impl LocalSession {
             let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
             request.request_id = request_id;
             let Reply::TradeResult(reply) =
-                self.measure(py, Request::Trade(request.clone()), TRADE_STAGE, progress)?
+                self.measure(py, Request::Trade(request.clone()), progress)?
             else {
                 return wrong_reply();
             };

@@ -3,7 +3,9 @@
 
 use antumbra_core::render::RenderSettings;
 use antumbra_core::scene::Scene;
-use antumbra_protocol::{CompareRequest, Passes, TradeRequest};
+use antumbra_protocol::{CompareRequest, Passes, TradeRequest, COMPARE_STAGE, TRADE_STAGE};
+
+use crate::renderer::RENDER_STAGE;
 
 pub struct Job {
     /// The client's id, echoed in every reply to the job.
@@ -31,6 +33,16 @@ impl Job {
             JobKind::Render { .. } => "Render",
             JobKind::Compare(_) => "Compare",
             JobKind::Trade(_) => "Trade",
+        }
+    }
+
+    /// The `Progress` stage of the job's work: a render's first, or the stage of a
+    /// comparison's or trade's passes.
+    pub fn stage(&self) -> &'static str {
+        match self.kind {
+            JobKind::Render { .. } => RENDER_STAGE,
+            JobKind::Compare(_) => COMPARE_STAGE,
+            JobKind::Trade(_) => TRADE_STAGE,
         }
     }
 

@@ -10,7 +10,7 @@ use std::thread::JoinHandle;
 use std::time::Instant;
 
 use antumbra_core::cancel::CancelToken;
-use antumbra_protocol::{encode_message_within, ErrorCode, Reply, COMPARE_STAGE, TRADE_STAGE};
+use antumbra_protocol::{encode_message_within, ErrorCode, Reply};
 use antumbra_session::{
     error_reply, protocol_error, Job, JobKind, SessionRenderer, ENCODE_STAGE, RENDER_STAGE,
     RENDER_STAGES,
@@ -90,8 +90,7 @@ impl WorkerCtx {
         for queued in rx {
             match &queued.job.kind {
                 JobKind::Render { .. } => self.render(&mut session, &queued),
-                JobKind::Compare(_) => self.measure(&mut session, &queued, COMPARE_STAGE),
-                JobKind::Trade(_) => self.measure(&mut session, &queued, TRADE_STAGE),
+                JobKind::Compare(_) | JobKind::Trade(_) => self.measure(&mut session, &queued),
             }
             self.controls.remove(queued.job.request_id, &queued.ctl);
         }
@@ -293,8 +292,9 @@ impl WorkerCtx {
     /// render slot, sending progress under `stage` per pass; between passes the slot goes to
     /// renders waiting for one ([`Slot::share`]: the request hears `queued` until it has it
     /// back). Ends as a render does when cancelled.
-    fn measure(&self, session: &mut SessionRenderer, queued: &Queued, stage: &str) {
+    fn measure(&self, session: &mut SessionRenderer, queued: &Queued) {
         let job = &queued.job;
+        let stage = job.stage();
         let id = job.request_id;
         let frame = job.frame();
         let what = job.what();
