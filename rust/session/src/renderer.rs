@@ -31,7 +31,7 @@ impl Done {
     /// The reply to `job` (a frame carries the planes the job asked for).
     pub fn into_reply(self, job: &Job) -> Reply {
         let passes = match &job.kind {
-            JobKind::Render { passes, .. } => passes.clone(),
+            JobKind::Render { passes, .. } => *passes,
             _ => Default::default(),
         };
         match self {
