@@ -358,10 +358,8 @@ def test_progress_callback(scene):
     assert session.stats()["renders_cancelled"] == 1
 
 
-def test_animation_and_camera_path(session):
+def test_animation(session):
     hashes = upload_scene(session)
-    session.camera_path([(f, camera(f)) for f in (1, 2, 3)])
-    session.camera_path({4: camera(4)})
     results = []
     for frame in (1, 2, 3):
         assert send_frame(session, hashes, frame) == []
@@ -566,8 +564,6 @@ def test_bad_containers(scene):
         session.frame_update(1, [], {}, [], RESOLUTION)
     with pytest.raises(antumbra.InvalidInput, match=r"frame: expected an integer, got float"):
         session.frame_update(1.0, [], camera(), [], RESOLUTION)
-    with pytest.raises(antumbra.InvalidInput, match=r"frames\[0\]: expected a \(frame, camera"):
-        session.camera_path([1, 2])
     with pytest.raises(antumbra.InvalidInput, match=r"hashes\[1\]: expected an integer"):
         session.missing_meshes([1, "2"])
     with pytest.raises(antumbra.InvalidInput, match=r"visible_shadow.*cast_shadow.*not both"):

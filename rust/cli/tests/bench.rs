@@ -259,7 +259,9 @@ fn methods_on_frames(scene: &Path, frames: &[i64], dir: &Path) {
             .all(|r| r["primary_nit"].as_f64().unwrap() > 0.0));
     }
     let range = format!("{}-{}", frames[0], frames[frames.len() - 1]);
-    let stats = render_stats(scene, &dir.join("sah"), &["--frames", &range]);
+    // The build methods' table measures binary trees.
+    let binary = ["--frames", &range, "--width", "2"];
+    let stats = render_stats(scene, &dir.join("sah"), &binary);
     for row in rows.iter().filter(|r| r["method"] == "sah") {
         let frame: i64 = row["camera"].as_str().unwrap()[6..].parse().unwrap();
         let primary = stats

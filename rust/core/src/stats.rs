@@ -91,6 +91,19 @@ impl StatsRow {
         self.nts_per_ray = (totals.inner + totals.leaves) as f64 / r;
     }
 
+    /// The row with its wall-clock columns zeroed (build, trace, Mrays/s, preparation and
+    /// visibility times): what two runs of the same frames must agree on exactly.
+    pub fn untimed(&self) -> StatsRow {
+        StatsRow {
+            build_ms: 0.0,
+            trace_ms: 0.0,
+            mrays_per_s: 0.0,
+            sort_ms: 0.0,
+            visibility_ms: 0.0,
+            ..self.clone()
+        }
+    }
+
     pub fn set_timing(&mut self, trace_ms: f64, without_counters: bool) {
         self.trace_ms = trace_ms;
         self.timed_without_counters = without_counters;

@@ -35,17 +35,6 @@ fn settings(build: &str, width: &str, order: &str) -> RenderSettings {
     }
 }
 
-fn untimed(r: &StatsRow) -> StatsRow {
-    StatsRow {
-        build_ms: 0.0,
-        trace_ms: 0.0,
-        mrays_per_s: 0.0,
-        sort_ms: 0.0,
-        visibility_ms: 0.0,
-        ..r.clone()
-    }
-}
-
 fn assert_same(got: &FrameResult, want: &FrameResult, what: &str) {
     assert_eq!(got.masks, want.masks, "{what}: masks");
     assert_eq!(got.combined, want.combined, "{what}: combined");
@@ -60,7 +49,7 @@ fn assert_same(got: &FrameResult, want: &FrameResult, what: &str) {
             .map(|h| (h.primary.clone(), h.shadow.clone())),
         "{what}: heat maps"
     );
-    let rows = |r: &FrameResult| r.stats.iter().map(untimed).collect::<Vec<_>>();
+    let rows = |r: &FrameResult| r.stats.iter().map(StatsRow::untimed).collect::<Vec<_>>();
     assert_eq!(rows(got), rows(want), "{what}: statistics");
     // Costs reported by a fresh render are reported after a cancelled one too.
     for (g, w) in got.stats.iter().zip(&want.stats) {

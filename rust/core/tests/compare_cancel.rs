@@ -38,17 +38,7 @@ fn comparison() -> Comparison {
 /// The rows without their timings, which differ from run to run.
 fn counters(rows: Vec<CompareRow>) -> Vec<(String, StatsRow)> {
     rows.into_iter()
-        .map(|r| {
-            let stats = StatsRow {
-                build_ms: 0.0,
-                trace_ms: 0.0,
-                mrays_per_s: 0.0,
-                sort_ms: 0.0,
-                visibility_ms: 0.0,
-                ..r.stats
-            };
-            (r.label, stats)
-        })
+        .map(|r| (r.label, r.stats.untimed()))
         .collect()
 }
 

@@ -46,18 +46,6 @@ fn settings(build: &str, visibility: &str, width: &str, order: &str) -> RenderSe
     }
 }
 
-/// A row with its times zeroed.
-fn untimed(r: &StatsRow) -> StatsRow {
-    StatsRow {
-        build_ms: 0.0,
-        trace_ms: 0.0,
-        mrays_per_s: 0.0,
-        sort_ms: 0.0,
-        visibility_ms: 0.0,
-        ..r.clone()
-    }
-}
-
 fn assert_same(a: &FrameResult, b: &FrameResult, what: &str) {
     let f = a.frame;
     assert_eq!(a.masks.len(), b.masks.len(), "{what} frame {f}");
@@ -75,7 +63,7 @@ fn assert_same(a: &FrameResult, b: &FrameResult, what: &str) {
     assert_eq!(heat(a), heat(b), "{what} frame {f}: heat maps");
     assert_eq!(a.primary_ids, b.primary_ids, "{what} frame {f}");
     assert_eq!(a.visible, b.visible, "{what} frame {f}");
-    let rows = |r: &FrameResult| r.stats.iter().map(untimed).collect::<Vec<_>>();
+    let rows = |r: &FrameResult| r.stats.iter().map(StatsRow::untimed).collect::<Vec<_>>();
     assert_eq!(rows(a), rows(b), "{what} frame {f}: statistics rows");
 }
 
@@ -130,8 +118,12 @@ fn without_the_warm_up_a_chunk_differs() {
     let mut cold = Renderer::new();
     let r = cold.render("t", &frame(4), &s).unwrap();
     assert_ne!(
-        r.stats.iter().map(untimed).collect::<Vec<_>>(),
-        run[4].stats.iter().map(untimed).collect::<Vec<_>>()
+        r.stats.iter().map(StatsRow::untimed).collect::<Vec<_>>(),
+        run[4]
+            .stats
+            .iter()
+            .map(StatsRow::untimed)
+            .collect::<Vec<_>>()
     );
     let mut once = Renderer::new();
     once.warm_up(&frame(3), &s).unwrap();
@@ -168,7 +160,7 @@ fn a_comparison_warms_up_every_method() {
         let done = c.frame("t", &frame(f)).unwrap();
         assert!(done.mismatches.is_empty());
         let rows = done.methods.iter().flat_map(|m| &m.rows);
-        rows.map(|r| (r.label.clone(), untimed(&r.stats)))
+        rows.map(|r| (r.label.clone(), StatsRow::untimed(&r.stats)))
             .collect::<Vec<_>>()
     };
     let mut one_run = new();

@@ -4,8 +4,9 @@
 //!
 //! - [`Daemon::bind`] opens the Unix socket (and an optional loopback TCP port guarded by a
 //!   token), [`Daemon::run`] accepts connections until stopped: each connection is a session on
-//!   its own thread, with its own [`antumbra_core::render::Renderer`] (BVH reuse across frames),
-//!   sharing one mesh cache ([`cache`]) and a bound on concurrent renders ([`slots`]).
+//!   its own thread, serving one `antumbra_session` session (its own renderer, BVH reuse across
+//!   frames), sharing one mesh cache (`antumbra_session::MeshCache`) and a bound on concurrent
+//!   renders ([`slots`]).
 //! - [`spool`] renders jobs from a folder, writing each frame's results atomically, so a killed
 //!   daemon resumes without losing or duplicating frames.
 //! - The client of the protocol is `antumbra_protocol::client` (the Python binding, tests,
@@ -15,7 +16,6 @@
 
 #![cfg(unix)]
 
-pub mod cache;
 pub mod config;
 pub mod error;
 mod gate;

@@ -7,8 +7,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use antumbra_protocol::DaemonStats;
+use antumbra_session::MeshCache;
 
-use crate::cache::MeshCache;
 use crate::config::DaemonConfig;
 use crate::gate::Gate;
 use crate::listen::Conn;
@@ -31,7 +31,8 @@ pub(crate) fn bump(c: &AtomicU64) {
 /// What every session, the spool and the accept loop share.
 pub(crate) struct Shared {
     pub config: DaemonConfig,
-    pub cache: MeshCache,
+    /// Every session's meshes (each session holds its working set in its `SessionState`).
+    pub cache: Arc<MeshCache>,
     pub slots: RenderSlots,
     pub counters: Counters,
     /// Set by `Shutdown`, a signal or [`DaemonHandle::stop`]; everything winds down once set.
@@ -48,7 +49,7 @@ pub(crate) struct Shared {
 impl Shared {
     pub fn new(config: DaemonConfig) -> Self {
         Shared {
-            cache: MeshCache::new(config.memory_budget),
+            cache: Arc::new(MeshCache::new(config.memory_budget)),
             slots: RenderSlots::new(config.max_renders),
             counters: Counters::default(),
             stop: Arc::new(AtomicBool::new(false)),

@@ -61,14 +61,7 @@ fn content(r: &FrameResultReply) -> (Vec<(String, Vec<u32>)>, Vec<antumbra_core:
         .collect();
     let rows = stats_from_reply(r)
         .into_iter()
-        .map(|mut row| {
-            row.build_ms = 0.0;
-            row.trace_ms = 0.0;
-            row.mrays_per_s = 0.0;
-            row.sort_ms = 0.0;
-            row.visibility_ms = 0.0;
-            row
-        })
+        .map(|row| row.untimed())
         .collect();
     (images, rows)
 }
@@ -123,7 +116,10 @@ fn a_chunk_after_two_warm_ups_renders_what_one_session_renders() {
 }
 
 fn compare_request(frame: i32, request_id: u64, warm_up: bool) -> CompareRequest {
-    let methods = ["sah=build=sah", "osah=build=osah,width=4,order=sorted"];
+    let methods = [
+        "sah=build=sah,width=2,order=fbto",
+        "osah=build=osah,width=4,order=sorted",
+    ];
     CompareRequest {
         frame,
         request_id,
@@ -155,12 +151,7 @@ fn a_comparison_warms_up_every_method() {
             .compare(&mut Blocking, compare_request(s.frame, id, false), None)
             .unwrap();
         assert!(reply.mismatches.is_empty());
-        let rows = reply.rows.into_iter().map(|r| {
-            let mut s = r.stats;
-            (s.build_ms, s.trace_ms, s.mrays_per_s, s.sort_ms) = (0.0, 0.0, 0.0, 0.0);
-            s.visibility_ms = 0.0;
-            (r.label, s)
-        });
+        let rows = reply.rows.into_iter().map(|r| (r.label, r.stats.untimed()));
         rows.collect::<Vec<_>>()
     };
     let mut one = d.client("warmcmp");

@@ -204,10 +204,6 @@ fn decode_frame(dir: &Path) -> Res {
         request_id: 7,
         warm_up: false,
     });
-    let mut camera_path = Vec::new();
-    if let Request::FrameUpdate(u) = &frame {
-        camera_path = vec![(1, u.camera.clone()), (2, u.camera.clone())];
-    }
     let mut session = vec![
         hello.clone(),
         Request::MissingMeshes {
@@ -217,9 +213,6 @@ fn decode_frame(dir: &Path) -> Res {
     session.extend(uploads.iter().cloned());
     session.extend([
         frame.clone(),
-        Request::CameraPath {
-            frames: camera_path,
-        },
         render.clone(),
         Request::Cancel { request_id: 7 },
         Request::Stats,

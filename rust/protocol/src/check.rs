@@ -116,7 +116,6 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
             )
         }
         Request::Hello { .. }
-        | Request::CameraPath { .. }
         | Request::Cancel { .. }
         | Request::Stats
         | Request::Close

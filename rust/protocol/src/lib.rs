@@ -28,7 +28,7 @@ pub use admission::{admit_compare, admit_render, admit_trade, Asked};
 pub use check::{check_limits, check_repeat, reply_planes, MAX_COMPARE_REPEAT};
 pub use compare::{
     compare_result_reply, heat_from_reply, CompareMethod, CompareRequest, CompareResultReply,
-    CompareRowState, CompareState, MismatchState, COMPARE_STAGE, DEFAULT_REPEAT,
+    CompareRowState, MismatchState, COMPARE_STAGE, DEFAULT_REPEAT,
 };
 pub use convert::{
     frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,
@@ -45,6 +45,4 @@ pub use messages::*;
 pub use recording::{
     replay_scenes, RecordedAnimation, RecordingError, RecordingReader, RecordingWriter, Replay,
 };
-pub use trade::{
-    TradeMismatchState, TradeRequest, TradeResultReply, TradeRowState, TradeState, TRADE_STAGE,
-};
+pub use trade::{TradeMismatchState, TradeRequest, TradeResultReply, TradeRowState, TRADE_STAGE};

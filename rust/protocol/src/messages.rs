@@ -20,9 +20,11 @@ use crate::compare::{CompareRequest, CompareResultReply};
 use crate::limits::Limits;
 use crate::trade::{TradeRequest, TradeResultReply};
 
-/// The protocol version this crate speaks; `Hello` must carry it. Version 2: mesh hashes are
-/// XXH3 and render settings a map by name (version 1: FNV-1a, nested settings structs).
-pub const PROTOCOL_VERSION: u32 = 2;
+/// The protocol version this crate speaks; `Hello` must carry it. Version 3: no `CameraPath`
+/// (an older client would send it and fail mid-session; the version refuses it at `Hello`).
+/// Version 2: mesh hashes are XXH3 and render settings a map by name (version 1: FNV-1a,
+/// nested settings structs).
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// A message from the client to the daemon.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -42,9 +44,6 @@ pub enum Request {
     UploadMesh(UploadMesh),
     /// The whole scene state of one frame. Reply: `FrameAccepted`.
     FrameUpdate(FrameUpdate),
-    /// The camera of every frame of the animation, sent up front (for visibility prediction).
-    /// Reply: `Ack`.
-    CameraPath { frames: Vec<(i32, CameraState)> },
     /// Render a frame that was sent with `FrameUpdate`. Replies: zero or more `Progress`, then
     /// `FrameResult` (or `Error`).
     Render(RenderRequest),
@@ -338,7 +337,6 @@ impl Request {
             Request::MissingMeshes { .. } => "MissingMeshes",
             Request::UploadMesh(_) => "UploadMesh",
             Request::FrameUpdate(_) => "FrameUpdate",
-            Request::CameraPath { .. } => "CameraPath",
             Request::Render(_) => "Render",
             Request::Compare(_) => "Compare",
             Request::Trade(_) => "Trade",

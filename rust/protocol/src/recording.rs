@@ -4,7 +4,8 @@
 //! Format: the 8 bytes `ANTREC1\n` (version 1), then framed [`Request`]s exactly as on the socket
 //! (4-byte LE length + MessagePack body), until the end of the file. Replaying stores every
 //! `UploadMesh` of the file, then builds each `FrameUpdate`'s scene, so a frame may come before the
-//! meshes it uses (as the add-on sends them); every other request is skipped.
+//! meshes it uses (as the add-on sends them); every other request is skipped, and so are the
+//! requests the protocol no longer has ([`RETIRED_REQUESTS`]), so older files still replay.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::fs::File;
@@ -19,9 +20,19 @@ use thiserror::Error;
 use crate::check::check_limits;
 use crate::convert::{mesh_from_upload, scene_from_frame, scene_to_messages};
 use crate::error::{FrameError, ProtocolError};
-use crate::frame::{read_message, write_message};
+use crate::frame::{decode_body, read_frame, write_message};
 use crate::limits::{Limits, MAX_FRAME_BYTES_CEILING};
 use crate::messages::{FrameUpdate, Request};
+
+/// Requests that older recordings hold and the protocol no longer has; the reader skips them.
+/// `CameraPath` (the camera of every frame, sent up front) was stored and read by nothing.
+pub const RETIRED_REQUESTS: &[&str] = &["CameraPath"];
+
+/// Whether a frame's body is one of the [`RETIRED_REQUESTS`] (a one-entry map from its name).
+fn is_retired(body: &[u8]) -> bool {
+    let value: Result<BTreeMap<String, serde::de::IgnoredAny>, _> = decode_body(body);
+    value.is_ok_and(|m| m.len() == 1 && m.keys().all(|k| RETIRED_REQUESTS.contains(&k.as_str())))
+}
 
 /// The version this antumbra writes; it reads every version from 1 up to it. (Replaying
 /// regardless of order needed no new version: it reads every file the in-order replay read, to
@@ -265,27 +276,35 @@ impl<R: Read> RecordingReader<R> {
 
     /// The next request, `None` at the end of the recording.
     pub fn next_request(&mut self) -> Result<Option<Request>, RecordingError> {
-        if self.done {
-            return Ok(None);
+        while !self.done {
+            let read = read_frame(&mut self.r, &self.limits).and_then(|body| {
+                decode_body(&body)
+                    .map(Some)
+                    .or_else(|e| match is_retired(&body) {
+                        true => Ok(None),
+                        false => Err(e),
+                    })
+            });
+            match read {
+                Ok(request) => {
+                    // A retired request is counted too, so errors name messages as the file holds them.
+                    self.index += 1;
+                    if request.is_some() {
+                        return Ok(request);
+                    }
+                }
+                Err(FrameError::Closed) => self.done = true,
+                Err(source) => {
+                    // A bad frame may have left the reader mid-stream; nothing after it is trusted.
+                    self.done = true;
+                    return Err(RecordingError::Frame {
+                        index: self.index,
+                        error: source,
+                    });
+                }
+            }
         }
-        match read_message(&mut self.r, &self.limits) {
-            Ok(request) => {
-                self.index += 1;
-                Ok(Some(request))
-            }
-            Err(FrameError::Closed) => {
-                self.done = true;
-                Ok(None)
-            }
-            Err(source) => {
-                // A bad frame may have left the reader mid-stream; nothing after it is trusted.
-                self.done = true;
-                Err(RecordingError::Frame {
-                    index: self.index,
-                    error: source,
-                })
-            }
-        }
+        Ok(None)
     }
 
     /// The limits the reader was made with (mesh uploads are checked against them on replay).

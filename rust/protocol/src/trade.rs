@@ -1,11 +1,9 @@
 //! The `Trade` request: one frame swept over every knob of a trade by antumbra-core's [`Trade`]
 //! (each knob's values a comparison, image knobs against the reference), whose rows and
-//! mismatches travel back as the core's own serde forms, and the trade a session keeps across
-//! its requests ([`TradeState`]).
+//! mismatches travel back as the core's own serde forms. (The trade a session keeps across its
+//! requests is `antumbra_session::TradeState`.)
 
-use antumbra_core::cancel::CancelToken;
-use antumbra_core::scene::Scene;
-use antumbra_core::trade::{Trade, TradeStep};
+use antumbra_core::trade::Trade;
 use serde::{Deserialize, Serialize};
 
 use crate::error::ProtocolError;
@@ -65,65 +63,3 @@ impl TradeRequest {
 /// The `Progress` stage of a running trade: `done` of `total` passes ([`Trade::steps`]), sent
 /// once before the first and after each.
 pub const TRADE_STAGE: &str = "trade";
-
-/// The trade a session keeps across its `Trade` requests (the daemon's session and the
-/// in-process `LocalSession` alike), kept and replaced as [`crate::CompareState`] keeps its
-/// comparison: a request of the same knobs, settings and repeat continues it; a refused one
-/// leaves it as it was; a frame that fails or is cancelled leaves it as before that frame; a
-/// panic leaves none.
-#[derive(Default)]
-pub struct TradeState {
-    kept: Option<(TradeRequest, Trade)>,
-}
-
-impl TradeState {
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Drops the kept trade (the session ends).
-    pub fn clear(&mut self) {
-        self.kept = None;
-    }
-
-    /// Sweeps `scene` (the request's frame) over every knob of `request`, reading `cancel` per
-    /// tile and calling `progress(done, total)` before the first pass and after each. A
-    /// cancelled frame is `Err` with code `Cancelled`.
-    pub fn frame(
-        &mut self,
-        request: &TradeRequest,
-        scene_name: &str,
-        scene: &Scene,
-        cancel: &CancelToken,
-        progress: &mut (dyn FnMut(u32, u32) + Send),
-    ) -> Result<TradeResultReply, ProtocolError> {
-        let (kept, mut trade) = match self.kept.take() {
-            Some((kept, t)) if kept.same_trade(request) => (kept, t),
-            other => match request.trade() {
-                Ok(t) => (request.clone(), t),
-                Err(e) => {
-                    self.kept = other;
-                    return Err(e);
-                }
-            },
-        };
-        let total = u32::try_from(trade.steps()).unwrap_or(u32::MAX);
-        progress(0, total);
-        let result = trade.frame(scene_name, scene, cancel, &mut |s: TradeStep| {
-            progress(u32::try_from(s.done).unwrap_or(u32::MAX), total)
-        });
-        let reply = result
-            .map(|r| TradeResultReply {
-                request_id: request.request_id,
-                frame: r.frame,
-                rows: r.rows,
-                mismatches: r.mismatches,
-            })
-            .map_err(|error| ProtocolError::InFrame {
-                frame: scene.frame,
-                error,
-            });
-        self.kept = Some((kept, trade));
-        reply
-    }
-}

@@ -298,7 +298,8 @@ fn hello_checks() {
     .unwrap_err();
     assert_eq!(err.code(), ErrorCode::VersionMismatch);
     assert!(err.to_string().contains("version 1"), "{err}");
-    assert!(err.to_string().contains("version 2"), "{err}");
+    let ours = format!("version {PROTOCOL_VERSION}");
+    assert!(err.to_string().contains(&ours), "{err}");
     assert!(
         err.to_string().contains("update the Blender add-on"),
         "{err}"

@@ -205,3 +205,49 @@ fn newer_versions_are_refused_naming_theirs() {
     let e = replay_scenes_from(&bytes[..]).err().unwrap().to_string();
     assert!(e.contains("not an antumbra recording"), "{e}");
 }
+
+#[test]
+fn retired_camera_paths_of_older_recordings_are_skipped() {
+    // Written as protocol version 2 wrote a `CameraPath` (the camera of every frame up front).
+    let scenes: Vec<_> = (1..=2).map(common::tiny_scene).collect();
+    let (uploads, update) = scene_to_messages(&scenes[0]).unwrap();
+    let Request::FrameUpdate(first) = &update else {
+        panic!("scene_to_messages gives a FrameUpdate")
+    };
+    let camera_path = std::collections::BTreeMap::from([(
+        "CameraPath",
+        std::collections::BTreeMap::from([("frames", vec![(1, first.camera.clone())])]),
+    )]);
+    let body = rmp_serde::to_vec_named(&camera_path).unwrap();
+    let mut bytes = recording_of(&uploads);
+    bytes.extend((body.len() as u32).to_le_bytes());
+    bytes.extend(&body);
+    let mut rest = Vec::new();
+    for s in &scenes {
+        let (_, update) = scene_to_messages(s).unwrap();
+        rest.push(update);
+    }
+    bytes.extend(&recording_of(&rest)[RECORDING_MAGIC.len()..]);
+
+    let kinds: Vec<&str> = RecordingReader::new(&bytes[..])
+        .unwrap()
+        .map(|r| r.unwrap().kind())
+        .collect();
+    assert_eq!(
+        kinds,
+        ["UploadMesh", "UploadMesh", "FrameUpdate", "FrameUpdate"]
+    );
+    let replayed = replay_scenes_from(&bytes[..]).unwrap();
+    assert_eq!(replayed.len(), 2);
+    for (a, b) in scenes.iter().zip(&replayed) {
+        common::assert_same_scene(a, b);
+    }
+    // Anything else that does not decode is still an error naming the message.
+    let unknown =
+        rmp_serde::to_vec_named(&std::collections::BTreeMap::from([("Teleport", 1)])).unwrap();
+    let mut bad = recording_of(&uploads);
+    bad.extend((unknown.len() as u32).to_le_bytes());
+    bad.extend(&unknown);
+    let e = replay_scenes_from(&bad[..]).err().unwrap().to_string();
+    assert!(e.contains("Teleport"), "{e}");
+}

@@ -244,7 +244,6 @@ fn request() -> impl Strategy<Value = Request> {
                     resolution,
                 })
             }),
-        vec((any::<i32>(), camera()), 0..4).prop_map(|frames| Request::CameraPath { frames }),
         (
             any::<i32>(),
             settings(),

@@ -406,25 +406,6 @@ impl Connection {
         .py_result(py)
     }
 
-    /// Sends the camera of every frame up front: pairs (frame, camera dict).
-    fn camera_path(&self, py: Python<'_>, frames: &Bound<'_, PyAny>) -> PyResult<()> {
-        let mut wait = PyWait::new(py);
-        (|| {
-            let frames = scene::camera_path(frames)?;
-            let mut guard = self.lock()?;
-            let state = Self::state(&mut guard)?;
-            let request = state
-                .client
-                .camera_path(&mut wait, frames)
-                .map_err(|e| wait.error(e))?;
-            if let Some(rec) = state.recorder.as_mut() {
-                rec.camera_path(&request)?;
-            }
-            Ok(())
-        })()
-        .py_result(py)
-    }
-
     /// Renders a frame sent with frame_update; returns a dict that `antumbra.Result` wraps. A
     /// progress callback that raises (or returns False) and Ctrl-C cancel the render; its last
     /// reply is still read so the session stays in step, then the exception is raised.

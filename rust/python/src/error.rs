@@ -1,7 +1,7 @@
 //! Errors of the client, and their Python exceptions (defined in `antumbra/errors.py`, so the
 //! Python package owns the hierarchy and both sessions raise the same classes).
 
-use antumbra_protocol::{ErrorCode, ProtocolError};
+use antumbra_protocol::{ErrorCode, Reply};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -52,22 +52,29 @@ impl ClientError {
         ClientError::Invalid(message.into())
     }
 
-    /// A protocol-layer error found by the in-process session: the error the daemon would send.
-    pub fn local(e: &ProtocolError) -> Self {
-        let (code, session_usable) = match e.to_reply() {
-            antumbra_protocol::Reply::Error {
+    /// The error reply of the in-process session: the daemon's error, raised as a
+    /// `RequestError` that is no `DaemonError`.
+    pub fn local(reply: Reply) -> Self {
+        match reply {
+            Reply::Error {
                 code,
+                message,
                 session_usable,
-                ..
-            } => (code, session_usable),
-            _ => (e.code(), true),
-        };
-        ClientError::Request {
-            code,
-            message: e.to_string(),
-            session_usable,
-            request_id: None,
-            daemon: false,
+                request_id,
+            } => ClientError::Request {
+                code,
+                message,
+                session_usable,
+                request_id,
+                daemon: false,
+            },
+            other => ClientError::Request {
+                code: ErrorCode::Internal,
+                message: format!("the session answered {}", other.kind()),
+                session_usable: true,
+                request_id: None,
+                daemon: false,
+            },
         }
     }
 

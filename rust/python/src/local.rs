@@ -1,25 +1,23 @@
-//! The in-process session: the same methods as the socket session, rendering with
-//! antumbra-core in this process. It goes through the protocol's conversions exactly as the
-//! daemon does (uploads through `mesh_from_upload`, frames through `scene_from_frame`, results
-//! through `frame_result_reply`), so both sessions give the same images.
+//! The in-process session: the same methods as the socket session, answered by the daemon's
+//! own session logic (`antumbra_session`: the same `SessionState` handler for meshes, frames
+//! and admission, the same `SessionRenderer` for renders, comparisons and trades) run in this
+//! process, so both sessions give the same replies. The client-side checks are the socket
+//! client's; what this file adds is the Python face (progress callbacks, Ctrl-C, statistics).
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::HashSet;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::time::Instant;
 
 use antumbra_core::cancel::CancelToken;
-use antumbra_core::render::Renderer;
-use antumbra_core::scene::Mesh;
 use antumbra_protocol::{
-    admit_compare, admit_trade, check_limits, frame_result_reply, mesh_from_upload, missing_meshes,
-    render_settings, scene_from_frame, upload_from_mesh, warm_up_reply, Asked, CameraState,
-    CompareState, DaemonStats, ErrorCode, FrameUpdate, Limits, ProtocolError, Request, TradeState,
-    COMPARE_STAGE, TRADE_STAGE,
+    check_limits, upload_from_mesh, DaemonStats, ErrorCode, Limits, ProtocolError, RenderRequest,
+    Reply, Request,
 };
-
-/// The progress stages, as the daemon reports them: ("render", 0, 2), then ("encode", 1, 2).
-const STAGES: u32 = 2;
+use antumbra_session::{
+    Handled, Job, MeshCache, SessionRenderer, SessionState, ENCODE_STAGE, RENDER_STAGE,
+    RENDER_STAGES,
+};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
 
@@ -33,18 +31,72 @@ use crate::scene;
 use crate::settings::RenderSettings;
 use crate::trade::{trade_reply_to_py, trade_request};
 
+/// Renders counted as the daemon counts them (`DaemonStats`).
+#[derive(Default)]
+struct Counts {
+    done: u64,
+    cancelled: u64,
+    failed: u64,
+}
+
 struct LocalState {
-    meshes: HashMap<u64, Arc<Mesh>>,
-    frames: HashMap<i32, FrameUpdate>,
-    cameras: BTreeMap<i32, CameraState>,
-    renderer: Renderer,
-    /// The comparison kept across `Compare` requests, as the daemon's session keeps it.
-    comparison: CompareState,
-    /// The trade kept across `Trade` requests, likewise.
-    trade: TradeState,
-    stats: DaemonStats,
+    /// The session's meshes (a cache of its own that keeps every mesh: nothing else shares it).
+    cache: Arc<MeshCache>,
+    /// The daemon's session state over that cache: meshes, frames, admission.
+    session: SessionState,
+    /// The daemon's job runner: renderer, comparison and trade kept across requests.
+    renderer: SessionRenderer,
+    counts: Counts,
     recorder: Option<Recorder>,
     closed: bool,
+}
+
+impl LocalState {
+    fn new(limits: &Limits) -> Self {
+        let cache = Arc::new(MeshCache::new(u64::MAX));
+        LocalState {
+            session: SessionState::new(cache.clone(), limits.clone()),
+            cache,
+            renderer: SessionRenderer::new(),
+            counts: Counts::default(),
+            recorder: None,
+            closed: false,
+        }
+    }
+
+    /// Answers `request` with the daemon's session state; a job or a control is not expected
+    /// here (callers send only what answers at once).
+    fn answer(&mut self, request: Request) -> ClientResult<Reply> {
+        match self.session.handle(request) {
+            Handled::Reply(reply @ Reply::Error { .. }) => Err(ClientError::local(reply)),
+            Handled::Reply(reply) => Ok(reply),
+            Handled::Refused(_) | Handled::Job(_) | Handled::Control(_) => wrong_reply(),
+        }
+    }
+
+    /// Admits a `Render`, `Compare` or `Trade` as the daemon does; a refusal counts as a failed
+    /// render.
+    fn admit(&mut self, request: Request) -> ClientResult<Job> {
+        match self.session.handle(request) {
+            Handled::Job(job) => Ok(*job),
+            Handled::Refused(reply) | Handled::Reply(reply) => {
+                self.counts.failed += 1;
+                Err(ClientError::local(reply))
+            }
+            Handled::Control(_) => wrong_reply(),
+        }
+    }
+}
+
+/// A reply of the wrong kind for its request (a bug, reported rather than panicking).
+fn wrong_reply<T>() -> ClientResult<T> {
+    Err(ClientError::Request {
+        code: ErrorCode::Internal,
+        message: "the session answered a request with the wrong kind of reply".into(),
+        session_usable: true,
+        request_id: None,
+        daemon: false,
+    })
 }
 
 /// Renders in this process with the daemon's code path (`antumbra._native.LocalSession`); use
@@ -75,47 +127,27 @@ fn render_error(e: &ProtocolError, request_id: u64) -> ClientError {
 }
 
 impl LocalSession {
-    /// Runs a `Compare` or `Trade` (`what`, reporting progress under `stage`) of a frame sent
-    /// with frame_update, counted as the daemon counts it: `progress(stage, done, total)` and
-    /// Ctrl-C are read between passes; returning False or raising cancels.
-    #[allow(clippy::too_many_arguments)]
-    fn measure<R: Send>(
+    /// Runs a `Compare` or `Trade` admitted by the session, counted as the daemon counts it:
+    /// `progress(stage, done, total)` and Ctrl-C are read between passes; returning False or
+    /// raising cancels.
+    fn measure(
         &self,
         py: Python<'_>,
-        frame: i32,
-        request_id: u64,
-        (what, stage): (&str, &str),
+        request: Request,
         progress: Option<Bound<'_, PyAny>>,
-        run: impl FnOnce(
-                &mut LocalState,
-                &antumbra_core::scene::Scene,
-                &CancelToken,
-                &mut (dyn FnMut(u32, u32) + Send),
-            ) -> Result<R, ProtocolError>
-            + Send,
-    ) -> ClientResult<R> {
+    ) -> ClientResult<Reply> {
         let mut state = self.lock()?;
         let state = &mut *state;
-        let update = state.frames.get(&frame).ok_or_else(|| {
-            request_error(
-                ErrorCode::InvalidInput,
-                format!(
-                    "{what} frame {frame} (request {request_id}): no FrameUpdate for frame \
-                     {frame} in this session"
-                ),
-                request_id,
-            )
-        })?;
-        let scene = scene_from_frame(update, &state.meshes).map_err(|e| {
-            state.stats.renders_failed += 1;
-            render_error(&e, request_id)
-        })?;
+        let job = state.admit(request)?;
+        let stage = job.stage();
         let callback = progress.map(Bound::unbind);
         let cancel = CancelToken::new();
         // The first exception of the callback or of Ctrl-C, raised once the frame ends.
         let mut raised: Option<PyErr> = None;
+        let renderer = &mut state.renderer;
+        let label = self.label.as_str();
         let result = py.detach(|| {
-            run(state, &scene, &cancel, &mut |done, total| {
+            renderer.run(&job, label, &cancel, &mut |done, total| {
                 if cancel.is_cancelled() {
                     return;
                 }
@@ -138,13 +170,14 @@ impl LocalSession {
                 })
             })
         });
+        let (what, frame, request_id) = (job.what(), job.frame(), job.request_id);
         match result {
-            Ok(reply) => {
-                state.stats.renders_done += 1;
-                Ok(reply)
+            Ok(done) => {
+                state.counts.done += 1;
+                Ok(done.into_reply(&job))
             }
             Err(e) if e.code() == ErrorCode::Cancelled => {
-                state.stats.renders_cancelled += 1;
+                state.counts.cancelled += 1;
                 Err(match raised {
                     Some(e) => ClientError::Py(e),
                     None => request_error(
@@ -157,7 +190,7 @@ impl LocalSession {
                 })
             }
             Err(e) => {
-                state.stats.renders_failed += 1;
+                state.counts.failed += 1;
                 Err(render_error(&e, request_id))
             }
         }
@@ -185,25 +218,12 @@ impl LocalSession {
     #[new]
     #[pyo3(signature = (client_name = "antumbra-python".to_string()))]
     fn new(client_name: String) -> Self {
+        let limits = Limits::default();
         LocalSession {
             label: client_name,
-            limits: Limits::default(),
+            state: Mutex::new(LocalState::new(&limits)),
+            limits,
             started: Instant::now(),
-            state: Mutex::new(LocalState {
-                meshes: HashMap::new(),
-                frames: HashMap::new(),
-                cameras: BTreeMap::new(),
-                renderer: Renderer::new(),
-                comparison: CompareState::new(),
-                trade: TradeState::new(),
-                stats: DaemonStats {
-                    sessions: 1,
-                    sessions_total: 1,
-                    ..DaemonStats::default()
-                },
-                recorder: None,
-                closed: false,
-            }),
             next_id: AtomicU64::new(1),
         }
     }
@@ -231,23 +251,23 @@ impl LocalSession {
     fn missing_meshes(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>) -> PyResult<Vec<u64>> {
         (|| {
             let hashes = scene::hashes(hashes)?;
-            check_limits(
-                &Request::MissingMeshes {
-                    hashes: hashes.clone(),
-                },
-                &self.limits,
-            )
-            .map_err(|e| ClientError::invalid(e.to_string()))?;
-            let state = self.lock()?;
+            let request = Request::MissingMeshes {
+                hashes: hashes.clone(),
+            };
+            check_limits(&request, &self.limits)
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let mut state = self.lock()?;
+            let Reply::Missing { hashes: lacking } = state.answer(request)? else {
+                return wrong_reply();
+            };
+            // A recording lacking a mesh asks for it again, as the socket session does.
+            let lacking: HashSet<u64> = lacking.into_iter().collect();
+            let in_file = |h| !matches!(&state.recorder, Some(r) if !r.has_mesh(h));
             let mut seen = HashSet::new();
-            let mut out = Vec::new();
-            for h in hashes {
-                let in_file = !matches!(&state.recorder, Some(r) if !r.has_mesh(h));
-                if (!state.meshes.contains_key(&h) || !in_file) && seen.insert(h) {
-                    out.push(h);
-                }
-            }
-            Ok(out)
+            Ok(hashes
+                .into_iter()
+                .filter(|&h| (lacking.contains(&h) || !in_file(h)) && seen.insert(h))
+                .collect())
         })()
         .py_result(py)
     }
@@ -268,22 +288,21 @@ impl LocalSession {
             drop(mesh);
             check_limits(&request, &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
-            let Request::UploadMesh(upload) = &request else {
-                unreachable!()
-            };
             let mut state = self.lock()?;
-            if !state.meshes.contains_key(&hash) {
-                // As the daemon stores an upload.
-                let mesh = py
-                    .detach(|| mesh_from_upload(upload, &self.limits))
-                    .map_err(|e| ClientError::local(&e))?;
-                state.stats.meshes_cached += 1;
-                state.stats.bytes_cached +=
-                    (upload.positions.len() + upload.triangles.len()) as u64;
-                state.meshes.insert(hash, Arc::new(mesh));
+            let state = &mut *state;
+            let recorded = match (&state.recorder, &request) {
+                (Some(_), Request::UploadMesh(upload)) => Some(upload.clone()),
+                _ => None,
+            };
+            let session = &mut state.session;
+            let reply = py.detach(|| session.handle(request));
+            match reply {
+                Handled::Reply(Reply::MeshStored { .. }) => {}
+                Handled::Reply(reply) => return Err(ClientError::local(reply)),
+                _ => return wrong_reply(),
             }
-            if let Some(rec) = state.recorder.as_mut() {
-                rec.mesh(upload)?;
+            if let (Some(rec), Some(upload)) = (state.recorder.as_mut(), recorded) {
+                rec.mesh(&upload)?;
             }
             Ok(hash)
         })()
@@ -303,30 +322,19 @@ impl LocalSession {
             let update = scene::frame_update(frame, objects, camera, lights, resolution)?;
             scene::check_frame(&update, &self.limits)?;
             let mut state = self.lock()?;
-            let mut missing = missing_meshes(&update, &state.meshes);
+            let Reply::FrameAccepted {
+                meshes_missing: mut missing,
+                ..
+            } = state.answer(Request::FrameUpdate(update.clone()))?
+            else {
+                return wrong_reply();
+            };
             if let Some(rec) = state.recorder.as_mut() {
                 let mut seen: HashSet<u64> = missing.iter().copied().collect();
                 missing.extend(rec.missing(&update).into_iter().filter(|h| seen.insert(*h)));
                 rec.frame(&update)?;
             }
-            state.cameras.insert(update.frame, update.camera.clone());
-            state.frames.insert(update.frame, update);
             Ok(missing)
-        })()
-        .py_result(py)
-    }
-
-    fn camera_path(&self, py: Python<'_>, frames: &Bound<'_, PyAny>) -> PyResult<()> {
-        (|| {
-            let frames = scene::camera_path(frames)?;
-            let mut state = self.lock()?;
-            if let Some(rec) = state.recorder.as_mut() {
-                rec.camera_path(&Request::CameraPath {
-                    frames: frames.clone(),
-                })?;
-            }
-            state.cameras.extend(frames);
-            Ok(())
         })()
         .py_result(py)
     }
@@ -361,28 +369,19 @@ impl LocalSession {
             let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
             let mut state = self.lock()?;
             let state = &mut *state;
-            let update = state.frames.get(&frame).ok_or_else(|| {
-                request_error(
-                    ErrorCode::InvalidInput,
-                    format!(
-                        "Render frame {frame} (request {request_id}): no FrameUpdate for frame \
-                         {frame} in this session"
-                    ),
-                    request_id,
-                )
-            })?;
-            let settings =
-                render_settings(&settings_state).map_err(|e| render_error(&e, request_id))?;
-            let scene = scene_from_frame(update, &state.meshes).map_err(|e| {
-                state.stats.renders_failed += 1;
-                render_error(&e, request_id)
-            })?;
+            let job = state.admit(Request::Render(RenderRequest {
+                frame,
+                settings: settings_state,
+                passes,
+                request_id,
+                warm_up,
+            }))?;
             let stop = |v: Bound<'py, PyAny>| -> bool {
                 v.is_instance_of::<PyBool>() && !v.is_truthy().unwrap_or(true)
             };
             if let Some(cb) = &progress {
-                if stop(cb.call1(("render", 0u32, STAGES))?) {
-                    state.stats.renders_cancelled += 1;
+                if stop(cb.call1((RENDER_STAGE, 0u32, RENDER_STAGES))?) {
+                    state.counts.cancelled += 1;
                     return Err(request_error(
                         ErrorCode::Cancelled,
                         format!(
@@ -394,23 +393,19 @@ impl LocalSession {
             }
             let renderer = &mut state.renderer;
             let label = self.label.as_str();
-            let reply = py
-                .detach(|| match warm_up {
-                    true => renderer
-                        .warm_up(&scene, &settings)
-                        .map(|w| warm_up_reply(&w, request_id, &passes)),
-                    false => renderer
-                        .render(label, &scene, &settings)
-                        .map(|r| frame_result_reply(&r, request_id, &passes)),
-                })
-                .map_err(|error| {
-                    state.stats.renders_failed += 1;
-                    render_error(&ProtocolError::InFrame { frame, error }, request_id)
+            let done = py
+                .detach(|| renderer.run(&job, label, &CancelToken::new(), &mut |_, _| {}))
+                .map_err(|e| {
+                    state.counts.failed += 1;
+                    render_error(&e, request_id)
                 })?;
             if let Some(cb) = &progress {
-                cb.call1(("encode", 1u32, STAGES))?;
+                cb.call1((ENCODE_STAGE, 1u32, RENDER_STAGES))?;
             }
-            state.stats.renders_done += 1;
+            state.counts.done += 1;
+            let Reply::FrameResult(reply) = done.into_reply(&job) else {
+                return wrong_reply();
+            };
             frame_result_to_py(py, reply)
         })()
         .py_result(py)
@@ -454,27 +449,11 @@ impl LocalSession {
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
             let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
             request.request_id = request_id;
-            let reply = self.measure(
-                py,
-                frame,
-                request_id,
-                ("Compare", COMPARE_STAGE),
-                progress,
-                |state, scene, cancel, progress| {
-                    // The daemon's admission, on the scene as this session holds it.
-                    let what = format!("Compare frame {frame} (request {request_id})");
-                    let asked = Asked {
-                        what: &what,
-                        scene,
-                        frames: 1,
-                    };
-                    admit_compare(asked, &request.comparison()?, request.images, &self.limits)?;
-                    let label = self.label.as_str();
-                    state
-                        .comparison
-                        .frame(&request, label, scene, cancel, progress)
-                },
-            )?;
+            let Reply::CompareResult(reply) =
+                self.measure(py, Request::Compare(request), progress)?
+            else {
+                return wrong_reply();
+            };
             compare_reply_to_py(py, &asked, baseline, reply)
         })()
         .py_result(py)
@@ -504,24 +483,11 @@ impl LocalSession {
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
             let request_id = self.next_id.fetch_add(1, Ordering::SeqCst);
             request.request_id = request_id;
-            let reply = self.measure(
-                py,
-                frame,
-                request_id,
-                ("Trade", TRADE_STAGE),
-                progress,
-                |state, scene, cancel, progress| {
-                    let what = format!("Trade frame {frame} (request {request_id})");
-                    let asked = Asked {
-                        what: &what,
-                        scene,
-                        frames: 1,
-                    };
-                    admit_trade(asked, &request.trade()?, &self.limits)?;
-                    let label = self.label.as_str();
-                    state.trade.frame(&request, label, scene, cancel, progress)
-                },
-            )?;
+            let Reply::TradeResult(reply) =
+                self.measure(py, Request::Trade(request.clone()), progress)?
+            else {
+                return wrong_reply();
+            };
             trade_reply_to_py(py, &request, reply)
         })()
         .py_result(py)
@@ -538,8 +504,18 @@ impl LocalSession {
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         (|| {
             let state = self.lock()?;
-            let mut s = state.stats.clone();
-            s.uptime_s = self.started.elapsed().as_secs_f64();
+            let cache = state.cache.stats();
+            let s = DaemonStats {
+                sessions: 1,
+                sessions_total: 1,
+                meshes_cached: cache.meshes,
+                bytes_cached: cache.bytes,
+                renders_done: state.counts.done,
+                renders_cancelled: state.counts.cancelled,
+                renders_failed: state.counts.failed,
+                uptime_s: self.started.elapsed().as_secs_f64(),
+                meshes_evicted: cache.evicted,
+            };
             Ok(daemon_stats(py, &s)?)
         })()
         .py_result(py)
@@ -587,12 +563,8 @@ impl LocalSession {
             if let Some(r) = state.recorder.take() {
                 r.finish()?;
             }
+            *state = LocalState::new(&self.limits);
             state.closed = true;
-            state.meshes.clear();
-            state.frames.clear();
-            state.renderer = Renderer::new();
-            state.comparison.clear();
-            state.trade.clear();
             Ok(())
         })()
         .py_result(py)

@@ -58,10 +58,6 @@ impl Recorder {
         self.flush_ready()
     }
 
-    pub fn camera_path(&mut self, request: &Request) -> ClientResult<()> {
-        self.append(request)
-    }
-
     /// Meshes a frame uses that the file lacks (distinct, in order of first use).
     pub fn missing(&self, update: &FrameUpdate) -> Vec<u64> {
         let mut seen = HashSet::new();

@@ -541,41 +541,6 @@ pub fn check_frame(update: &FrameUpdate, limits: &Limits) -> ClientResult<()> {
         .map_err(|e| ClientError::invalid(e.to_string()))
 }
 
-/// `camera_path`'s argument: pairs of (frame, camera dict), or a dict from frame to camera.
-pub fn camera_path(v: &Bound<'_, PyAny>) -> ClientResult<Vec<(i32, CameraState)>> {
-    let pairs: Vec<Bound<'_, PyAny>> = match v.cast::<PyDict>() {
-        Ok(d) => d.items().iter().collect(),
-        Err(_) => items(v, "frames")?,
-    };
-    pairs
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let bad = || {
-                ClientError::invalid(format!(
-                    "frames[{i}]: expected a (frame, camera dict) pair, got {}",
-                    describe(p)
-                ))
-            };
-            if p.cast::<PyString>().is_ok() || p.len().ok() != Some(2) {
-                return Err(bad());
-            }
-            let frame = frame_number(
-                &p.get_item(0).map_err(|_| bad())?,
-                &format!("frames[{i}][0]"),
-            )?;
-            let cam = camera(
-                &p.get_item(1).map_err(|_| bad())?,
-                &format!("frames[{i}] camera (frame {frame})"),
-            )?;
-            Camera::from(&cam)
-                .validate()
-                .map_err(|e| ClientError::invalid(format!("frame {frame}: {e}")))?;
-            Ok((frame, cam))
-        })
-        .collect()
-}
-
 // ---------------------------------------------------------------------------------------------
 // Passes
 

@@ -13,7 +13,7 @@ use crate::Interval;
 #[derive(Clone, Debug, PartialEq)]
 pub struct BuildOptions {
     /// The binary builder: SAH, SBVH, ABVH, OSAH or VSAH (`auto` is the renderer's per-frame
-    /// policy, not a builder, and is refused).
+    /// policy, not a builder).
     pub method: BuildMethod,
     /// Bins, leaf sizes, SAH costs and spatial splits of the builder.
     pub settings: BuildSettings,
@@ -47,13 +47,6 @@ impl Default for BuildOptions {
 
 impl BuildOptions {
     pub(crate) fn check(&self, triangles: usize) -> Result<()> {
-        if self.method == BuildMethod::Auto {
-            return Err(Error::invalid(
-                "method",
-                "'auto' chooses a builder per frame inside the renderer; give a builder \
-                 (sah, sbvh, abvh, osah or vsah)",
-            ));
-        }
         let s = &self.settings;
         in_range("settings.bins", s.bins, 2, MAX_BINS)?;
         in_range("settings.max_leaf_size", s.max_leaf_size, 1, 64)?;
@@ -113,8 +106,8 @@ pub struct TraceOptions {
     pub kernel: BoxKernel,
     /// The child order of any-hit queries: `stored`, `fbto` (the default), `sato`, `rtsah`,
     /// `random`, or `sorted`, prepared from the pseudo-random `budget` share of the batch's own
-    /// rays. It changes the work, never the answers. `srdh` and `auto` are the renderer's
-    /// per-light policies and are refused.
+    /// rays. It changes the work, never the answers. `srdh` (a per-light tree of the renderer) is
+    /// refused; `auto` is the renderer's per-light policy, not an order.
     pub order: ShadowOrder,
     /// Threads: 0 uses rayon's global pool, n a pool of its own of n threads (1: the timing of
     /// one core).
@@ -126,7 +119,7 @@ impl TraceOptions {
         check_threads(self.threads)?;
         self.order.validate()?;
         match self.order {
-            ShadowOrder::Srdh(_) | ShadowOrder::Auto => Err(Error::invalid(
+            ShadowOrder::Srdh(_) => Err(Error::invalid(
                 "order",
                 format!(
                     "'{}' is a per-light policy of the renderer; ray queries take stored, fbto, \

@@ -3,16 +3,15 @@
 use std::sync::OnceLock;
 
 use antumbra_core::build::{build_with_visibility, CollapseSettings};
-use antumbra_core::bvh::{Bvh, BvhWidth, WideBvh};
+use antumbra_core::bvh::{Bvh, BvhWidth};
 use antumbra_core::geometry::Ray as RenderRay;
-use antumbra_core::order::{AnyHitOrder, ShadowOrder};
+use antumbra_core::order::{AnyHitOrder, OrderView, ShadowOrder};
 use antumbra_core::render::WideTree;
 use antumbra_core::sampling::hash_u32;
 use antumbra_core::scene::RenderSpace;
-use antumbra_core::trace::wide::{BoxKernel, WideQueries};
+use antumbra_core::trace::wide::BoxKernel;
 use antumbra_core::trace::{
-    BinaryOcclusion, ClosestHitQuery, Counters, Hit as RenderHit, NoStats, TraversalStats,
-    WideOcclusion,
+    Counters, Hit as RenderHit, NoStats, OrderedBinary, OrderedWide, TraversalStats,
 };
 use antumbra_core::{Error, Result};
 use glam::{DVec3, Vec3};
@@ -178,15 +177,21 @@ impl Scene {
     }
 
     /// Closest hits of render-space rays, with the render's triangle ids.
-    pub(crate) fn closest_render<C: Counters + Default + Clone + Send>(
+    pub(crate) fn closest_render<C: Counters>(
         &self,
         rays: &[RenderRay],
         kernel: BoxKernel,
     ) -> (Vec<Option<RenderHit>>, Vec<C>) {
+        // A closest hit reads no any-hit order.
+        let order = OrderView::FrontToBack;
         match self.wide.get() {
             _ if self.width == BvhWidth::Two => batch::closest_hits(&self.bvh, rays),
-            Some(WideTree::Four(bvh)) => batch::closest_hits(&WideClosest { bvh, kernel }, rays),
-            Some(WideTree::Eight(bvh)) => batch::closest_hits(&WideClosest { bvh, kernel }, rays),
+            Some(WideTree::Four(bvh)) => {
+                batch::closest_hits(&OrderedWide { bvh, order, kernel }, rays)
+            }
+            Some(WideTree::Eight(bvh)) => {
+                batch::closest_hits(&OrderedWide { bvh, order, kernel }, rays)
+            }
             _ => unreachable!("4- and 8-wide scenes collapse when built"),
         }
     }
@@ -206,14 +211,14 @@ impl Scene {
     /// Occlusion of render-space rays, children in `order` (prepared here, the sorted order
     /// from a sample of `rays`): the binary traversal where the order is one it has at width 2,
     /// else the wide tree with the prepared order, as the renderer chooses.
-    pub(crate) fn occluded_render<C: Counters + Default + Clone + Send>(
+    pub(crate) fn occluded_render<C: Counters>(
         &self,
         rays: &[RenderRay],
         order: &ShadowOrder,
         kernel: BoxKernel,
     ) -> (Vec<bool>, Vec<C>) {
         if let Some(order) = self.binary_order(order) {
-            let query = BinaryOcclusion {
+            let query = OrderedBinary {
                 bvh: &self.bvh,
                 order,
             };
@@ -223,9 +228,9 @@ impl Scene {
         let prepared = tree.prepare(order, None, &sample(rays, order));
         let order = prepared.view();
         match tree {
-            WideTree::Two(bvh) => batch::occlusion(&WideOcclusion { bvh, order, kernel }, rays),
-            WideTree::Four(bvh) => batch::occlusion(&WideOcclusion { bvh, order, kernel }, rays),
-            WideTree::Eight(bvh) => batch::occlusion(&WideOcclusion { bvh, order, kernel }, rays),
+            WideTree::Two(bvh) => batch::occlusion(&OrderedWide { bvh, order, kernel }, rays),
+            WideTree::Four(bvh) => batch::occlusion(&OrderedWide { bvh, order, kernel }, rays),
+            WideTree::Eight(bvh) => batch::occlusion(&OrderedWide { bvh, order, kernel }, rays),
         }
     }
 
@@ -279,20 +284,4 @@ fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> Result<R> {
         .build()
         .map_err(|e| Error::invalid("threads", format!("no pool of {threads} threads: {e}")))?;
     Ok(pool.install(f))
-}
-
-/// Closest hit on a wide tree with a chosen box kernel.
-struct WideClosest<'a, const N: usize> {
-    bvh: &'a WideBvh<N>,
-    kernel: BoxKernel,
-}
-
-impl<const N: usize> ClosestHitQuery for WideClosest<'_, N>
-where
-    WideBvh<N>: WideQueries,
-{
-    #[inline]
-    fn closest_hit<C: Counters>(&self, ray: &RenderRay, stats: &mut C) -> Option<RenderHit> {
-        WideQueries::closest_hit(self.bvh, ray, self.kernel, stats)
-    }
 }

@@ -6,12 +6,14 @@
 
 use std::sync::Arc;
 
+use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray as RenderRay;
 use antumbra_core::render::{
     samples_for, LightSampler, PrimaryPass, PrimaryRays, RenderSettings, Renderer, SamplePlan,
 };
 use antumbra_core::scene::{Mesh, Object, RenderSpace, Resolution, Scene as CoreScene};
-use antumbra_rays::{BuildMethod, BuildOptions, BvhWidth, Ray, Scene, TraceOptions};
+use antumbra_core::trace::TraversalStats;
+use antumbra_rays::{BuildMethod, BuildOptions, BvhWidth, Ray, Scene, ShadowOrder, TraceOptions};
 use antumbra_scenes::SceneParams;
 use glam::{DMat4, DVec3};
 
@@ -69,11 +71,12 @@ fn assert_round_trip(space: &RenderSpace, render: &[RenderRay], world: &[Ray]) {
 
 fn check(name: &str, method: BuildMethod, width: BvhWidth, order: &str) {
     let (scene, vertices, triangles) = flattened(name);
+    let shadow_order: ShadowOrder = order.parse().unwrap();
     let settings = RenderSettings {
-        build: method,
+        build: method.into(),
         width,
-        shadow_order: order.parse().unwrap(),
-        ..RenderSettings::default()
+        shadow_order: shadow_order.into(),
+        ..RenderSettings::baseline()
     };
     let mut renderer = Renderer::new();
     let frame = renderer.render(name, &scene, &settings).unwrap();
@@ -94,7 +97,7 @@ fn check(name: &str, method: BuildMethod, width: BvhWidth, order: &str) {
         "the same normalisation as FrameGeometry"
     );
     let trace = TraceOptions {
-        order: settings.shadow_order,
+        order: shadow_order,
         ..TraceOptions::default()
     };
     let what = format!("{name} {} width {width} {order}", method.name());
@@ -128,7 +131,10 @@ fn check(name: &str, method: BuildMethod, width: BvhWidth, order: &str) {
     );
 
     // Shadow rays of every shadow-casting light: each pixel's mask from the public answers.
-    let primary = PrimaryPass::counted(&camera, camera_bvh, &geometry.camera);
+    let never = CancelToken::new();
+    let primary =
+        PrimaryPass::trace::<TraversalStats>(&camera, camera_bvh, &geometry.camera, &never)
+            .unwrap();
     let lights: Vec<_> = scene
         .lights
         .iter()

@@ -35,7 +35,7 @@ const SLAT_PITCH: f64 = 0.045;
 const GARDEN: f64 = 30.0;
 const TREES: u64 = 28;
 /// The camera's way: high over the garden, down the path and straight through the door.
-const CAMERA_PATH: [DVec3; 4] = [
+const EYE_CURVE: [DVec3; 4] = [
     DVec3::new(-9.0, -24.0, 9.0),
     DVec3::new(0.0, -15.0, 2.0),
     DVec3::new(0.0, -6.0, 1.5),
@@ -168,7 +168,7 @@ fn blocked(x: f64, y: f64, clearance: f64) -> bool {
             p.z < 8.0 && DVec3::new(p.x - x, p.y - y, 0.0).length() < 2.5 + clearance
         })
     };
-    house || path || low(CAMERA_PATH) || low(LAMP_PATH)
+    house || path || low(EYE_CURVE) || low(LAMP_PATH)
 }
 
 /// Ground, trees (trunk and crown) and rocks, scattered with a fixed seed.
@@ -304,7 +304,7 @@ impl Animation for Indoors {
         let t = self.clock.progress(frame);
         let u = ease(t);
         // High over the garden, down the path and straight through the middle of the door.
-        let eye = bezier(CAMERA_PATH, u);
+        let eye = bezier(EYE_CURVE, u);
         let target = lerp3(DVec3::new(0.0, 0.0, 0.8), DVec3::new(-1.5, -1.0, 0.3), u);
         let cam = camera(eye, target, 20.0, (0.05, 120.0));
         let mut scene = self.stage.scene(frame, cam, Indoors::lights(u));

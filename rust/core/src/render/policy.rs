@@ -97,6 +97,9 @@ impl Policy {
         trees: Option<&FrameTrees>,
         frames_rendered: u64,
     ) -> Choice<BuildChoice> {
+        // Trees a cancelled render left are not an earlier frame's: auto chooses as a fresh
+        // renderer would (and a build over the same key reuses them anyway).
+        let trees = trees.filter(|t| t.reported);
         let (w, h) = scene.resolution.pixels();
         let context = auto::BuildContext {
             rays: w as u64 * h as u64,

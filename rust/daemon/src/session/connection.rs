@@ -9,10 +9,10 @@ use antumbra_protocol::{
     check_hello, decode_body, read_frame, welcome, ErrorCode, FrameError, Reply, Request,
 };
 
-use super::out::error_reply;
 use super::{End, Flow, Next, Session};
 use crate::gate::{self, Admission};
 use crate::listen::{constant_time_eq, Conn};
+use antumbra_session::error_reply;
 
 /// Reads under one deadline for all the reads (none: no limit), by narrowing the socket's read
 /// timeout to what is left of it before each read.
@@ -74,7 +74,7 @@ impl Session<'_> {
     /// Reads the next request. Frame errors are answered here; those that leave the stream
     /// misaligned (truncated, too large) end the session.
     fn next(&mut self, reader: &mut BufReader<Conn>) -> Next {
-        let frame = read_frame(reader, &self.limits);
+        let frame = read_frame(reader, self.state.limits());
         self.interpret(frame)
     }
 
@@ -116,7 +116,7 @@ impl Session<'_> {
     /// it does.
     fn handshake(&mut self, reader: &mut BufReader<Conn>) -> Option<End> {
         let config = &self.shared.config;
-        let mut limits = self.limits.clone();
+        let mut limits = self.state.limits().clone();
         limits.max_frame_bytes = limits.frame_limit().min(config.handshake_max_frame_bytes);
         let deadline = match &self.admission {
             Admission::Pending(p) => Some(p.accepted + config.handshake_timeout),
@@ -166,8 +166,10 @@ impl Session<'_> {
                     self.start_recording();
                     self.record(&request);
                     tracing::info!(client = %self.client, "hello");
-                    self.out
-                        .send(&welcome(&self.shared.config.server_name, &self.limits));
+                    self.out.send(&welcome(
+                        &self.shared.config.server_name,
+                        self.state.limits(),
+                    ));
                     return None;
                 }
                 Err(e) => {

@@ -1,18 +1,17 @@
 //! One client connection, from the handshake until the client closes, a frame error ends it or
 //! the daemon stops; the session's state, its start and its end.
 
-// The connection's thread reads requests (`connection`) and answers them (`dispatch`); renders
-// run on a second thread (`worker`) so that `Cancel` and `Stats` are answered meanwhile; both
-// reply through `out`, a whole frame at a time.
+// The connection's thread reads requests (`connection`) and answers them through the session's
+// `SessionState` (`dispatch`); its jobs run on a second thread (`worker`, with the session's
+// `SessionRenderer`) so that `Cancel` and `Stats` are answered meanwhile; both reply through
+// `out`, a whole frame at a time.
 mod connection;
 mod dispatch;
 mod in_flight;
-mod measure;
 mod out;
 mod recording;
 mod worker;
 
-use std::collections::{HashMap, VecDeque};
 use std::fs::File;
 use std::io::{BufReader, BufWriter};
 use std::path::{Path, PathBuf};
@@ -20,8 +19,8 @@ use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use antumbra_core::scene::Mesh;
-use antumbra_protocol::{CameraState, FrameUpdate, Limits, RecordingWriter, Request};
+use antumbra_protocol::{RecordingWriter, Request};
+use antumbra_session::SessionState;
 
 use crate::gate::Admission;
 use crate::listen::Conn;
@@ -29,9 +28,6 @@ use crate::lock;
 use crate::shared::Shared;
 use out::Out;
 use worker::{Controls, Worker};
-
-/// Frame descriptions a session keeps for `Render` (the most recently updated ones).
-const FRAMES_KEPT: usize = 8;
 
 /// Why a session ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -68,14 +64,8 @@ struct Session<'a> {
     tcp: bool,
     out: Arc<Out>,
     client: String,
-    limits: Limits,
-    /// Frame updates seen (the generation of the session's mesh working set).
-    generation: u64,
-    /// The session's working set: meshes it uploaded, asked about or used recently, with the
-    /// generation in which it last touched them. Holding the `Arc` keeps them out of eviction.
-    pins: HashMap<u64, (Arc<Mesh>, u64)>,
-    frames: VecDeque<Arc<FrameUpdate>>,
-    camera_path: Vec<(i32, CameraState)>,
+    /// The meshes and frames the client sent, and the admission of its renders.
+    state: SessionState,
     controls: Controls,
     worker: Option<Worker>,
     recorder: Option<RecordingWriter<BufWriter<File>>>,
@@ -109,11 +99,7 @@ pub(crate) fn run(shared: &Arc<Shared>, conn: Conn, id: u64, admission: Admissio
             limits: limits.clone(),
         }),
         client: String::new(),
-        limits,
-        generation: 0,
-        pins: HashMap::new(),
-        frames: VecDeque::new(),
-        camera_path: Vec::new(),
+        state: SessionState::new(shared.cache.clone(), limits),
         controls: Arc::default(),
         worker: None,
         recorder: None,

@@ -5,7 +5,8 @@ use std::io::{BufWriter, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
-use antumbra_protocol::{encode_message_within, ErrorCode, Limits, ProtocolError, Reply};
+use antumbra_protocol::{encode_message_within, Limits, Reply};
+use antumbra_session::error_reply;
 
 use crate::listen::Conn;
 use crate::lock;
@@ -46,31 +47,5 @@ impl Out {
                 self.send(&error_reply(e.code(), e.to_string(), true, request_id))
             }
         }
-    }
-}
-
-pub(super) fn error_reply(
-    code: ErrorCode,
-    message: impl Into<String>,
-    session_usable: bool,
-    request_id: Option<u64>,
-) -> Reply {
-    Reply::Error {
-        code,
-        message: message.into(),
-        session_usable,
-        request_id,
-    }
-}
-
-pub(super) fn protocol_error(e: &ProtocolError, request_id: Option<u64>) -> Reply {
-    match e.to_reply() {
-        Reply::Error {
-            code,
-            message,
-            session_usable,
-            ..
-        } => error_reply(code, message, session_usable, request_id),
-        other => other,
     }
 }

@@ -55,11 +55,7 @@ impl Session<'_> {
             if w.has_mesh(hash) {
                 continue;
             }
-            let held = match self.pins.get(&hash) {
-                Some((mesh, _)) => Some(mesh.clone()),
-                None => self.shared.cache.get(hash),
-            };
-            if let Some(mesh) = held {
+            if let Some(mesh) = self.state.held(hash) {
                 let result = self.append(&Request::UploadMesh(upload_from_mesh(&mesh)));
                 self.keep_or_stop(result);
             }

@@ -1,5 +1,6 @@
-//! A session's render worker: a second thread that owns the session's [`Renderer`] (BVH reuse
-//! across frames), so that `Cancel`, `Stats` and frame updates are answered while a render runs.
+//! A session's render worker: a second thread that owns the session's [`SessionRenderer`] (its
+//! renderer, with BVH reuse across frames, its comparison and its trade), so that `Cancel`,
+//! `Stats` and frame updates are answered while a job runs in a render slot.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -9,21 +10,18 @@ use std::thread::JoinHandle;
 use std::time::Instant;
 
 use antumbra_core::cancel::CancelToken;
-use antumbra_core::render::{FrameResult, RenderSettings, Renderer, WarmUp};
-use antumbra_core::scene::Scene;
-use antumbra_protocol::{
-    encode_message_within, frame_result_reply, warm_up_reply, CompareRequest, CompareState,
-    ErrorCode, Passes, ProtocolError, Reply, TradeRequest, TradeState, COMPARE_STAGE, TRADE_STAGE,
+use antumbra_protocol::{encode_message_within, ErrorCode, Reply};
+use antumbra_session::{
+    error_reply, protocol_error, Job, JobKind, SessionRenderer, ENCODE_STAGE, RENDER_STAGE,
+    RENDER_STAGES,
 };
 
-use super::out::{error_reply, protocol_error, Out};
+use super::out::Out;
 use crate::shared::{bump, Shared};
 use crate::slots::{Acquired, Sharing, Slot};
 
 /// Renders one session may have waiting; more get `Busy`.
 pub(super) const RENDER_QUEUE: usize = 32;
-/// Progress stages of a render after the optional `queued`: `render`, then `encode`.
-const STAGES: u32 = 2;
 
 /// A render's controls, shared by the reader (Cancel), the worker and the session's end.
 pub(super) struct RenderCtl {
@@ -32,46 +30,16 @@ pub(super) struct RenderCtl {
     pub(super) started: AtomicBool,
 }
 
-pub(super) struct Job {
-    pub(super) request_id: u64,
-    pub(super) scene: Scene,
-    pub(super) settings: RenderSettings,
-    pub(super) passes: Passes,
-    /// A `Render` for the session's state only (`RenderRequest::warm_up`).
-    pub(super) warm_up: bool,
+/// An admitted job waiting for the worker, with its controls.
+pub(super) struct Queued {
+    pub(super) job: Job,
     pub(super) ctl: Arc<RenderCtl>,
-    pub(super) kind: JobKind,
-}
-
-/// What a job runs: a `Render`, or a `Compare` or `Trade` (then `settings` and `passes` are
-/// unused).
-pub(super) enum JobKind {
-    Render,
-    Compare(CompareRequest),
-    Trade(TradeRequest),
-}
-
-impl JobKind {
-    /// The request's name in messages.
-    fn what(&self) -> &'static str {
-        match self {
-            JobKind::Render => "Render",
-            JobKind::Compare(_) => "Compare",
-            JobKind::Trade(_) => "Trade",
-        }
-    }
-}
-
-/// What a `Render` job produced: a frame, or a warm-up's state.
-enum Done {
-    Frame(Box<FrameResult>),
-    WarmUp(WarmUp),
 }
 
 pub(super) type Controls = Arc<super::in_flight::InFlight>;
 
 pub(super) struct Worker {
-    pub(super) tx: SyncSender<Job>,
+    pub(super) tx: SyncSender<Queued>,
     thread: JoinHandle<()>,
 }
 
@@ -117,23 +85,14 @@ struct WorkerCtx {
 }
 
 impl WorkerCtx {
-    fn run(self, rx: Receiver<Job>) {
-        let mut renderer = Renderer::new();
-        let mut comparison = CompareState::new();
-        let mut trade = TradeState::new();
-        for job in rx {
-            match &job.kind {
-                JobKind::Render => self.render(&mut renderer, &job),
-                JobKind::Compare(request) => self.measure(&job, COMPARE_STAGE, |cancel, p| {
-                    let reply = comparison.frame(request, &self.label, &job.scene, cancel, p);
-                    reply.map(Reply::CompareResult)
-                }),
-                JobKind::Trade(request) => self.measure(&job, TRADE_STAGE, |cancel, p| {
-                    let reply = trade.frame(request, &self.label, &job.scene, cancel, p);
-                    reply.map(Reply::TradeResult)
-                }),
+    fn run(self, rx: Receiver<Queued>) {
+        let mut session = SessionRenderer::new();
+        for queued in rx {
+            match &queued.job.kind {
+                JobKind::Render { .. } => self.render(&mut session, &queued),
+                JobKind::Compare(_) | JobKind::Trade(_) => self.measure(&mut session, &queued),
             }
-            self.controls.remove(job.request_id, &job.ctl);
+            self.controls.remove(queued.job.request_id, &queued.ctl);
         }
     }
 
@@ -147,7 +106,8 @@ impl WorkerCtx {
     }
 
     /// Ends a cancelled render; `when` says at which point, and whether it held a slot.
-    fn cancelled(&self, job: &Job, when: &str) {
+    fn cancelled(&self, queued: &Queued, when: &str) {
+        let job = &queued.job;
         bump(&self.shared.counters.renders_cancelled);
         let why = if self.shared.stopping() {
             "the daemon is stopping"
@@ -160,7 +120,7 @@ impl WorkerCtx {
             when,
             "render cancelled"
         );
-        let what = job.kind.what();
+        let what = job.what();
         self.out.send(&error_reply(
             ErrorCode::Cancelled,
             format!(
@@ -200,10 +160,10 @@ impl WorkerCtx {
     /// A render slot for `job` (renders and comparisons alike), its place in the queue sent as
     /// progress; None once the job has been answered: cancelled before or while queued, or
     /// timed out in the queue.
-    fn take_slot(&self, job: &Job) -> Option<Slot<'_>> {
-        let cancel = &job.ctl.cancel;
+    fn take_slot(&self, queued: &Queued) -> Option<Slot<'_>> {
+        let (job, cancel) = (&queued.job, &queued.ctl.cancel);
         if cancel.is_cancelled() {
-            self.cancelled(job, "before it started");
+            self.cancelled(queued, "before it started");
             return None;
         }
         let acquired = self.shared.slots.acquire(
@@ -217,7 +177,7 @@ impl WorkerCtx {
         let slot = match acquired {
             Acquired::Slot(slot, _) => slot,
             Acquired::GaveUp => {
-                self.cancelled(job, "while queued (it left the queue)");
+                self.cancelled(queued, "while queued (it left the queue)");
                 return None;
             }
             Acquired::TimedOut { position, waited } => {
@@ -225,58 +185,48 @@ impl WorkerCtx {
                 return None;
             }
         };
-        job.ctl.started.store(true, Ordering::Relaxed);
+        queued.ctl.started.store(true, Ordering::Relaxed);
         if cancel.is_cancelled() {
             drop(slot);
-            self.cancelled(job, "before it started; its render slot is free");
+            self.cancelled(queued, "before it started; its render slot is free");
             return None;
         }
         Some(slot)
     }
 
-    fn render(&self, renderer: &mut Renderer, job: &Job) {
+    fn render(&self, session: &mut SessionRenderer, queued: &Queued) {
+        let job = &queued.job;
         let id = job.request_id;
-        let frame = job.scene.frame;
-        let cancel = &job.ctl.cancel;
-        let Some(slot) = self.take_slot(job) else {
+        let frame = job.frame();
+        let cancel = &queued.ctl.cancel;
+        let Some(slot) = self.take_slot(queued) else {
             return;
         };
-        self.progress(id, "render", 0, STAGES);
+        self.progress(id, RENDER_STAGE, 0, RENDER_STAGES);
         let t0 = Instant::now();
         let result = catch_unwind(AssertUnwindSafe(|| {
-            slot.install(|| {
-                let (scene, settings) = (&job.scene, &job.settings);
-                if job.warm_up {
-                    let warmed = renderer.warm_up_cancellable(scene, settings, cancel);
-                    warmed.map(Done::WarmUp)
-                } else {
-                    let result = renderer.render_cancellable(&self.label, scene, settings, cancel);
-                    result.map(|r| Done::Frame(Box::new(r)))
-                }
-            })
+            slot.install(|| session.run(job, &self.label, cancel, &mut |_, _| {}))
         }));
         // The slot is free as soon as the render stops, finished or cancelled.
         drop(slot);
         let render_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let result = match result {
-            Ok(Ok(r)) => r,
-            Ok(Err(antumbra_core::Error::Cancelled)) => {
+        let done = match result {
+            Ok(Ok(done)) => done,
+            Ok(Err(e)) if e.code() == ErrorCode::Cancelled => {
                 let when = format!(
                     "after {:.1} s of rendering; its render slot is free",
                     render_ms / 1e3
                 );
-                return self.cancelled(job, &when);
+                return self.cancelled(queued, &when);
             }
             Ok(Err(e)) => {
                 bump(&self.shared.counters.renders_failed);
-                let e = ProtocolError::InFrame { frame, error: e };
                 tracing::warn!(request_id = id, error = %e, "render failed");
                 self.out.send(&protocol_error(&e, Some(id)));
                 return;
             }
             Err(_) => {
-                // The renderer's cache may be half-updated: start afresh.
-                *renderer = Renderer::new();
+                session.after_panic();
                 bump(&self.shared.counters.renders_failed);
                 tracing::error!(request_id = id, frame, "render panicked");
                 self.out.send(&error_reply(
@@ -289,15 +239,15 @@ impl WorkerCtx {
             }
         };
         if cancel.is_cancelled() {
-            return self.cancelled(job, "after rendering; its render slot is free");
+            return self.cancelled(queued, "after rendering; its render slot is free");
         }
-        self.progress(id, "encode", 1, STAGES);
-        let result = match result {
-            Done::Frame(r) => frame_result_reply(&r, id, &job.passes),
-            Done::WarmUp(w) => warm_up_reply(&w, id, &job.passes),
+        self.progress(id, ENCODE_STAGE, 1, RENDER_STAGES);
+        let reply = done.into_reply(job);
+        let (width, height) = match &reply {
+            Reply::FrameResult(r) => (r.width, r.height),
+            _ => (0, 0),
         };
-        let (width, height) = (result.width, result.height);
-        let reply = Reply::FrameResult(result);
+        let warm_up = matches!(job.kind, JobKind::Render { warm_up: true, .. });
         match encode_message_within(&reply, &self.out.limits) {
             Ok(bytes) => {
                 drop(reply);
@@ -308,7 +258,7 @@ impl WorkerCtx {
                         frame,
                         width,
                         height,
-                        warm_up = job.warm_up,
+                        warm_up,
                         render_ms,
                         bytes = bytes.len(),
                         "frame rendered"
@@ -338,22 +288,18 @@ impl WorkerCtx {
         }
     }
 
-    /// A `Compare` or `Trade`: `run` (the session's [`CompareState`] or [`TradeState`]) renders
-    /// the frame in one render slot, sending progress under `stage` per pass; between passes
-    /// the slot goes to renders waiting for one ([`Slot::share`]: the request hears `queued`
-    /// until it has it back). Ends as a render does when cancelled.
-    fn measure(
-        &self,
-        job: &Job,
-        stage: &str,
-        run: impl FnOnce(&CancelToken, &mut (dyn FnMut(u32, u32) + Send)) -> Result<Reply, ProtocolError>
-            + Send,
-    ) {
+    /// A `Compare` or `Trade`: the session's comparison or trade renders the frame in one
+    /// render slot, sending progress under `stage` per pass; between passes the slot goes to
+    /// renders waiting for one ([`Slot::share`]: the request hears `queued` until it has it
+    /// back). Ends as a render does when cancelled.
+    fn measure(&self, session: &mut SessionRenderer, queued: &Queued) {
+        let job = &queued.job;
+        let stage = job.stage();
         let id = job.request_id;
-        let frame = job.scene.frame;
-        let what = job.kind.what();
-        let cancel = &job.ctl.cancel;
-        let Some(slot) = self.take_slot(job) else {
+        let frame = job.frame();
+        let what = job.what();
+        let cancel = &queued.ctl.cancel;
+        let Some(slot) = self.take_slot(queued) else {
             return;
         };
         let fail = |reply: Reply| {
@@ -378,17 +324,20 @@ impl WorkerCtx {
             }
         };
         let result = catch_unwind(AssertUnwindSafe(|| {
-            slot.install(|| run(cancel, &mut |done, total| between_passes(done, total)))
+            slot.install(|| {
+                let mut progress = |done, total| between_passes(done, total);
+                session.run(job, &self.label, cancel, &mut progress)
+            })
         }));
         drop(slot);
         let result = match result {
-            Ok(Ok(r)) => r,
+            Ok(Ok(done)) => done.into_reply(job),
             Ok(Err(e)) if e.code() == ErrorCode::Cancelled => {
                 let when = format!(
                     "after {:.1} s of comparing; its render slot is free",
                     t0.elapsed().as_secs_f64()
                 );
-                return self.cancelled(job, &when);
+                return self.cancelled(queued, &when);
             }
             Ok(Err(e)) => {
                 tracing::warn!(request_id = id, error = %e, "{what} failed");

@@ -1,17 +1,19 @@
-//! One job: its results folder checked, its frames rendered in order, each start recorded
-//! first, each failed write retried, and its end (`DONE` or `ERROR`) written.
+//! One job: its results folder checked, its frames rendered in order by one session's
+//! renderer (`antumbra_session`, as a daemon session renders), each start recorded first, each
+//! failed write retried, and its end (`DONE` or `ERROR`) written.
 
 use std::collections::HashSet;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
 use antumbra_core::cancel::CancelToken;
-use antumbra_core::render::{all_output_planes, Renderer};
+use antumbra_core::render::all_output_planes;
 use antumbra_core::scene::Animation;
 use antumbra_protocol::RecordedAnimation;
 use antumbra_protocol::{
     admit_render, check_limits, frame_update_from_scene, render_settings, Asked, Request,
 };
+use antumbra_session::{Done, Job, JobKind, SessionRenderer};
 
 use super::attempts::Attempts;
 use super::name::JobName;
@@ -37,7 +39,7 @@ pub(super) fn run_job(
             e => e,
         },
     )?;
-    let mut job = Job {
+    let mut job = Running {
         shared,
         status,
         id,
@@ -53,14 +55,15 @@ pub(super) fn run_job(
     }
 }
 
-struct Job<'a> {
+/// A job being rendered: where its results and status go.
+struct Running<'a> {
     shared: &'a Shared,
     status: &'a mut Status,
     id: &'a str,
     results: &'a JobResults,
 }
 
-impl Job<'_> {
+impl Running<'_> {
     /// A write of the job's results, retried until it works.
     fn write<T>(
         &mut self,
@@ -114,7 +117,7 @@ impl Job<'_> {
         let mut attempts = self.write(None, || Attempts::load(results))?;
         tracing::info!(job = %id, frames = frames.len(), todo = todo.len(), "job started");
         let t0 = Instant::now();
-        let mut renderer = Renderer::new();
+        let mut session = SessionRenderer::new();
         let what = format!("job '{id}'");
         for frame in todo {
             if shared.stopping() {
@@ -144,14 +147,16 @@ impl Job<'_> {
             // On disk before the render: a frame that kills the daemon is counted.
             self.write(Some(frame), || attempts.record_start(results, frame))?;
             self.status.rendering(id, frame);
-            let r = self.render_frame(
-                &mut renderer,
-                frame,
-                &label,
-                &scene,
-                &settings,
-                &spec.outputs,
-            );
+            let job = Job {
+                request_id: 0,
+                scene,
+                kind: JobKind::Render {
+                    settings: settings.clone(),
+                    passes: Default::default(),
+                    warm_up: false,
+                },
+            };
+            let r = self.render_frame(&mut session, &job, &label, &spec.outputs);
             if let Err(JobError::Stopped) = r {
                 attempts.record_stopped(results, frame);
             }
@@ -165,16 +170,15 @@ impl Job<'_> {
         Ok(())
     }
 
-    /// Renders one frame in a render slot and writes its folder.
+    /// Renders one frame (`job`, a `Render`) in a render slot and writes its folder.
     fn render_frame(
         &mut self,
-        renderer: &mut Renderer,
-        frame: i32,
+        session: &mut SessionRenderer,
+        job: &Job,
         label: &str,
-        scene: &antumbra_core::scene::Scene,
-        settings: &antumbra_core::render::RenderSettings,
         outputs: &antumbra_core::output::Outputs,
     ) -> Result<(), JobError> {
+        let frame = job.frame();
         let shared = self.shared;
         let slot = match shared.slots.acquire(|| shared.stopping(), None, |_| {}) {
             Acquired::Slot(s, _) => s,
@@ -183,17 +187,22 @@ impl Job<'_> {
         // A stopping daemon cancels the frame; it is rendered again on the next start.
         let stop = CancelToken::from_flag(shared.stop.clone());
         let result = catch_unwind(AssertUnwindSafe(|| {
-            slot.install(|| renderer.render_cancellable(label, scene, settings, &stop))
+            slot.install(|| session.run(job, label, &stop, &mut |_, _| {}))
         }));
         drop(slot);
         let result = match result {
-            Ok(Ok(r)) => r,
-            Ok(Err(antumbra_core::Error::Cancelled)) => return Err(JobError::Stopped),
+            Ok(Ok(Done::Frame(r))) => r,
+            Ok(Err(e)) if e.code() == antumbra_protocol::ErrorCode::Cancelled => {
+                return Err(JobError::Stopped)
+            }
             Ok(Err(e)) => {
                 bump(&shared.counters.renders_failed);
-                return Err(failed(format!("frame {frame}: {e}")));
+                return Err(failed(e));
             }
+            // A `Render` that is no warm-up always gives a frame.
+            Ok(Ok(_)) => return Err(failed(format!("frame {frame}: the render gave no frame"))),
             Err(_) => {
+                session.after_panic();
                 bump(&shared.counters.renders_failed);
                 return Err(failed(format!(
                     "frame {frame}: internal error in the renderer"

@@ -424,7 +424,7 @@ impl Client {
         Ok(self.limits.clone())
     }
 
-    /// Sends a request whose answer is `Ack` (`Close`, `Shutdown`, `CameraPath`).
+    /// Sends a request whose answer is `Ack` (`Close`, `Shutdown`).
     pub fn ack(&mut self, wait: &mut impl Wait, request: &Request) -> Result<(), ClientError> {
         match self.request(wait, request)? {
             Reply::Ack => Ok(()),

@@ -7,9 +7,9 @@ use antumbra_core::scene::Scene;
 
 use super::{Blocking, Client, ClientError, Interrupt, Wait};
 use crate::{
-    frame_update_from_scene, upload_from_mesh, CameraState, CompareRequest, CompareResultReply,
-    DaemonStats, FrameResultReply, FrameUpdate, NamedSettings, Passes, RenderRequest, Reply,
-    Request, TradeRequest, TradeResultReply, UploadMesh,
+    frame_update_from_scene, upload_from_mesh, CompareRequest, CompareResultReply, DaemonStats,
+    FrameResultReply, FrameUpdate, NamedSettings, Passes, RenderRequest, Reply, Request,
+    TradeRequest, TradeResultReply, UploadMesh,
 };
 
 /// How long to wait for a cancelled render to end after the caller interrupted the wait.
@@ -82,17 +82,6 @@ impl Client {
             } if frame == update.frame => Ok((update, meshes_missing)),
             other => Err(self.unexpected("FrameUpdate", &other)),
         }
-    }
-
-    /// Sends the camera of every frame up front; returns the request (for a recording).
-    pub fn camera_path(
-        &mut self,
-        wait: &mut impl Wait,
-        frames: Vec<(i32, CameraState)>,
-    ) -> Result<Request, ClientError> {
-        let request = Request::CameraPath { frames };
-        self.ack(wait, &request)?;
-        Ok(request)
     }
 
     /// The daemon's statistics.

@@ -185,10 +185,6 @@ class _SessionMethods:
         lights: Iterable[Mapping[str, Any]],
         resolution: Mapping[str, Any] | tuple[int, int],
     ) -> list[int]: ...
-    def camera_path(
-        self,
-        frames: Iterable[tuple[int, Mapping[str, Any]]] | Mapping[int, Mapping[str, Any]],
-    ) -> None: ...
     def render(
         self,
         frame: int,

@@ -136,13 +136,6 @@ class _Session:
         """
         return self._native.frame_update(frame, objects, camera, lights, resolution)
 
-    def camera_path(
-        self, frames: Iterable[tuple[int, Mapping[str, Any]]] | Mapping[int, Mapping[str, Any]]
-    ) -> None:
-        """Sends the camera of every frame of the animation up front: (frame, camera dict)
-        pairs, or a dict from frame to camera dict."""
-        self._native.camera_path(frames)
-
     # -- rendering ------------------------------------------------------------------------
 
     def render(
@@ -415,10 +408,11 @@ class _Session:
 
 
 class LocalSession(_Session):
-    """Renders in this process, with the daemon's code path: meshes go through the daemon's
-    upload checks, frames through its scene conversion, results through its reply conversion,
-    so a LocalSession and a daemon give the same images bit for bit. For tests and notebooks;
-    there is no socket and no daemon.
+    """A daemon session run in this process: every request is answered by the daemon's own
+    session logic (its upload checks, frame checks, admission, renderer, comparison and trade),
+    so a LocalSession and a daemon give the same replies, images bit for bit. It keeps the last
+    8 frames sent, as a daemon session does. For tests and notebooks; there is no socket and no
+    daemon.
 
     ``client_name`` fills the ``scene`` column of the statistics, as the daemon does with the
     client's name.

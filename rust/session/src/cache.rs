@@ -1,6 +1,7 @@
-//! The mesh cache shared by all sessions: meshes by content hash, as `Arc<Mesh>` so every session
-//! and every frame that uses a mesh shares one copy (and the renderers see the same `Arc`, which
-//! is how they know the geometry did not change).
+//! The mesh cache behind sessions (a daemon's, shared by all its sessions; a `LocalSession`'s
+//! own, with no budget): meshes by content hash, as `Arc<Mesh>` so every session and every
+//! frame that uses a mesh shares one copy (and the renderers see the same `Arc`, which is how
+//! they know the geometry did not change).
 //!
 //! Memory is bounded by a budget: when the cached bytes exceed it, meshes that nothing but the
 //! cache holds (no live session has them in its working set, no renderer keeps them) are dropped,

@@ -2,14 +2,14 @@
 //! methods stay the same, rebuilt when they change, kept when refused, kept as before the
 //! frame when a frame is cancelled; progress before the first method pass and after each.
 
+#[path = "../../protocol/tests/common/mod.rs"]
 mod common;
 
 use antumbra_core::cancel::CancelToken;
 use antumbra_core::compare::CompareRow;
 use antumbra_core::stats::StatsRow;
-use antumbra_protocol::{
-    CompareMethod, CompareRequest, CompareState, ErrorCode, NamedSettings, ProtocolError,
-};
+use antumbra_protocol::{CompareMethod, CompareRequest, ErrorCode, NamedSettings, ProtocolError};
+use antumbra_session::CompareState;
 use common::tiny_scene;
 
 fn request(frame: i32, repeat: u32) -> CompareRequest {
