@@ -113,11 +113,11 @@ fn bad_rays_and_trace_options_are_named() {
             .to_string();
         assert!(e.contains(expected), "{e}");
     }
-    let trace = TraceOptions {
+    let srdh = TraceOptions {
         order: "srdh".parse::<ShadowOrder>().unwrap(),
         ..TraceOptions::default()
     };
-    let e = scene.occluded(&[good], &trace).unwrap_err().to_string();
+    let e = scene.occluded(&[good], &srdh).unwrap_err().to_string();
     assert!(e.starts_with("order:"), "{e}");
     // `auto` is the renderer's per-light policy, not an order.
     assert!("auto".parse::<ShadowOrder>().is_err());

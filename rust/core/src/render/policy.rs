@@ -148,6 +148,9 @@ impl Policy {
             .as_ref()
             .filter(|_| settings.width != BvhWidth::Two);
         let surfaces = primary.surfaces.iter().flatten().count() as u64;
+        // What a finished frame left prepared; a cancelled render's preparations do not count,
+        // so auto chooses after it as a fresh renderer would.
+        let prepared = wide.filter(|_| trees.reported);
         lights
             .map(|(index, light)| {
                 let sampler = LightSampler::new(light, &geometry.space);
@@ -165,10 +168,10 @@ impl Policy {
                     triangles: geometry.shadow_set().len() as u64,
                     srdh_rays,
                     log_rays,
-                    sato_ready: wide
+                    sato_ready: prepared
                         .and_then(|w| w.per_tree_order.as_ref())
                         .is_some_and(|p| p.order == ShadowOrder::Sato),
-                    tables_ready: wide.is_some_and(|w| w.sort_tables.is_some()),
+                    tables_ready: prepared.is_some_and(|w| w.sort_tables.is_some()),
                 };
                 let plan = auto::choose_order(&self.history, &context, at);
                 LightPlan {

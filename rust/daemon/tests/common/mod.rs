@@ -285,13 +285,20 @@ pub fn assert_closed(c: &mut Client) {
 pub struct Bystander {
     pub client: Client,
     frame: i32,
+    /// Renders the bystander's frames in process, in the order its session renders them (the
+    /// default method, `auto`, chooses from the frames before).
+    here: Renderer,
 }
 
 impl Bystander {
     pub fn new(d: &TestDaemon) -> Self {
         let mut client = d.client("bystander");
         client.send_scene(&tiny_scene(1, 16, 12)).unwrap();
-        Bystander { client, frame: 1 }
+        Bystander {
+            client,
+            frame: 1,
+            here: Renderer::new(),
+        }
     }
 
     /// Renders a new frame and checks it against an in-process render.
@@ -300,12 +307,10 @@ impl Bystander {
         let s = tiny_scene(self.frame, 16, 12);
         self.client.send_scene(&s).unwrap();
         let reply = render_reply(&mut self.client, self.frame, 1000 + self.frame as u64);
-        let want = render_in_process(
-            "bystander",
-            std::slice::from_ref(&s),
-            &RenderSettings::default(),
-        );
-        assert_same_result(&reply, &want[0]);
+        let want = (self.here)
+            .render("bystander", &s, &RenderSettings::default())
+            .unwrap();
+        assert_same_result(&reply, &want);
         assert!(matches!(
             self.client.call(&Request::Stats).unwrap(),
             Reply::DaemonStats(_)
