@@ -13,6 +13,8 @@ from selenium import webdriver
 from selenium.webdriver.chrome.options import Options
 from selenium.webdriver.chrome.service import Service
 
+import antumbra
+
 PLOTS = ["shadow_nb", "frame_ms", "time_parts", "pareto"]
 REPO = Path(__file__).resolve().parents[2]
 
@@ -89,8 +91,8 @@ def test_report_loads_with_every_plot_and_image(report, browser):
         "return [...document.querySelectorAll('img.diff')]"
         ".map(i => [i.complete, i.naturalWidth, i.naturalHeight]);"
     )
-    # 4 methods besides the baseline x 2 frames.
-    assert len(sizes) == 8
+    # Every method besides the baseline x 2 frames.
+    assert len(sizes) == (len(antumbra.DEFAULT_METHODS) - 1) * 2
     assert all(c and w == 48 and h == 36 for c, w, h in sizes), sizes
     verdict = browser.find_element("id", "verdict")
     assert "bit for bit" in verdict.text

@@ -486,3 +486,41 @@ fn lights_differing_in_non_ascii_letters_keep_their_names_and_files() {
         assert!(exr.iter().any(|p| p.name == plane), "{plane}");
     }
 }
+
+#[test]
+fn the_frame_trees_are_the_trees_the_passes_traced() {
+    use antumbra_core::bvh::BvhWidth;
+    use antumbra_core::render::CameraTree;
+    let scene = soft_scene();
+    for width in [BvhWidth::Two, BvhWidth::Eight] {
+        let settings = RenderSettings {
+            width,
+            shadow_order: Pick::Fixed("sato".parse().unwrap()),
+            ..RenderSettings::baseline()
+        };
+        let mut r = Renderer::new();
+        let frame = r.render("t", &scene, &settings).unwrap();
+        let trees = r.trees().expect("a rendered frame keeps its trees");
+        let primary = &frame.stats[0];
+        let nodes = match trees.camera() {
+            CameraTree::Binary(b) => b.nodes.len(),
+            CameraTree::Wide(t) => t.node_count(),
+        };
+        assert_eq!(nodes as u64, primary.bvh_nodes, "{width}: the camera tree");
+        assert_eq!(
+            matches!(trees.camera(), CameraTree::Wide(_)),
+            width != BvhWidth::Two,
+            "{width}: widths 4 and 8 trace the collapse"
+        );
+        // Every object casts shadows: the shadow rays trace the camera's tree.
+        assert!(std::ptr::eq(trees.shadow_bvh(), trees.camera_bvh()));
+        // SATO is an order the binary traversal lacks: at width 2 too, shadow rays trace the
+        // (2-wide) collapse, with the order made once for the tree and read by every light.
+        let shadow = trees.shadow();
+        let traced = shadow.wide.map(|t| t.node_count() as u64);
+        for row in frame.stats.iter().filter(|s| s.pass == "shadow") {
+            assert_eq!(Some(row.bvh_nodes), traced, "{width}: {}", row.light);
+        }
+        assert!(shadow.per_tree.is_some_and(|p| p.0.to_string() == "sato"));
+    }
+}

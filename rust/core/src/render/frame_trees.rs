@@ -82,6 +82,13 @@ pub(super) struct WideTrees {
     pub(super) collapse_ms: Option<f64>,
 }
 
+impl WideTrees {
+    /// The wide tree shadow rays trace.
+    pub(super) fn shadow_tree(&self) -> &WideTree {
+        self.shadow.as_deref().unwrap_or(&self.camera)
+    }
+}
+
 #[derive(Clone)]
 pub(super) struct PerTreeOrder {
     pub(super) order: ShadowOrder,
@@ -175,7 +182,7 @@ impl FrameTrees {
         ShadowTrees {
             bvh: self.shadow_bvh(),
             triangles: &self.geometry.shadow_set().vertices,
-            wide: wide.map(|w| w.shadow.as_deref().unwrap_or(&w.camera)),
+            wide: wide.map(WideTrees::shadow_tree),
             sort_tables: wide.and_then(|w| w.sort_tables.as_ref()),
             per_tree: wide
                 .and_then(|w| w.per_tree_order.as_ref())
@@ -253,7 +260,8 @@ impl FrameTrees {
         let Some(w) = self.wide.as_mut() else {
             return Ok(());
         };
-        let tree = w.shadow.as_ref().unwrap_or(&w.camera);
+        // Field by field (not `shadow_tree()`): the tables and the order are set below.
+        let tree = w.shadow.as_deref().unwrap_or(&w.camera);
         let sorted = orders.iter().any(|o| matches!(o, ShadowOrder::Sorted(_)));
         if sorted && w.sort_tables.is_none() {
             w.sort_tables = Some(tree.sort_tables());

@@ -162,9 +162,7 @@ impl Policy {
                     index: index as u32,
                     rays,
                     wide: wide.is_some(),
-                    wide_nodes: wide.map_or(0, |w| {
-                        w.shadow.as_ref().unwrap_or(&w.camera).node_count() as u64
-                    }),
+                    wide_nodes: wide.map_or(0, |w| w.shadow_tree().node_count() as u64),
                     triangles: geometry.shadow_set().len() as u64,
                     srdh_rays,
                     log_rays,

@@ -270,7 +270,7 @@ impl Frame {
 
     fn shadow_triangles(&self) -> &[[glam::Vec3; 3]] {
         let g = &self.geometry;
-        &g.shadow.as_ref().unwrap_or(&g.camera).vertices
+        &g.shadow_set().vertices
     }
 
     /// A light's rays (the same the shadow pass traces) and its order made from them.
