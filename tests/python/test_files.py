@@ -79,8 +79,10 @@ def test_session_render_and_save_equal_the_cli(antumbra_bin, recording, tmp_path
             "render",
             "--scene",
             str(recording),
+            # Frames 1 and 2, as the session renders them: the default method, auto, chooses
+            # frame 2's orders from what frame 1 measured.
             "--frames",
-            "2",
+            "1-2",
             "--spp",
             "2",
             "--out",

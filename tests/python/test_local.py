@@ -285,11 +285,13 @@ def test_collapse_and_spatial_axes_change_work_not_masks(scene):
 
 def test_render_is_deterministic_and_reuses_bvhs(scene):
     session, _ = scene
-    a = session.render(1, spp=4, seed=3)
-    b = session.render(1, spp=4, seed=3)
+    # A fixed method: auto's second render chooses from what the first measured.
+    fixed = {"build": "sah", "width": 2, "order": "fbto"}
+    a = session.render(1, spp=4, seed=3, **fixed)
+    b = session.render(1, spp=4, seed=3, **fixed)
     assert all(np.array_equal(x, y) for (_, x), (_, y) in zip(a.planes, b.planes, strict=True))
     assert [s["rebuilt"] for s in b.stats] == [False] * 3
-    c = session.render(1, spp=4, seed=4)
+    c = session.render(1, spp=4, seed=4, **fixed)
     assert not np.array_equal(a.masks["Lamp"], c.masks["Lamp"])  # another sample pattern
 
 

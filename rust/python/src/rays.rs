@@ -46,6 +46,16 @@ fn parse<T: std::str::FromStr<Err = antumbra_rays::Error>>(text: &str) -> Client
     text.parse().map_err(invalid)
 }
 
+/// The builder named by the `method` keyword, its errors named after the keyword.
+fn build_method(text: &str) -> ClientResult<BuildMethod> {
+    text.parse::<BuildMethod>().map_err(|e| match e {
+        antumbra_rays::Error::Invalid { message, .. } => {
+            ClientError::invalid(format!("method: {message}"))
+        }
+        e => invalid(e),
+    })
+}
+
 fn kernel(name: &str) -> ClientResult<BoxKernel> {
     Ok(match name {
         "auto" => BoxKernel::Auto,
@@ -135,7 +145,7 @@ impl RayScene {
     ) -> PyResult<Self> {
         let build = || -> ClientResult<Scene> {
             let options = BuildOptions {
-                method: parse::<BuildMethod>(method)?,
+                method: build_method(method)?,
                 width: BvhWidth::try_from(width).map_err(invalid)?,
                 collapse: CollapseSettings::new(parse::<CollapseMethod>(collapse)?),
                 visible: match &visible {
