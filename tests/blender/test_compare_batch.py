@@ -47,7 +47,10 @@ def forget_frames(folder: Path, frames: list[int]) -> None:
 
 def test_compare_batch_resumes(scene_blend, antumbra_bin, short_tmp):
     out = short_tmp / "out"
-    run = ["--frames", f"1-{FRAMES}", "--compare", "--repeat", "1"]
+    # The default methods but auto: a resumed comparison warms each method's trees up, not
+    # what auto measured, so auto's work rows would differ from one run's (docs/auto.md).
+    fixed = [m for m in antumbra.DEFAULT_METHODS if "=auto" not in m]
+    run = ["--frames", f"1-{FRAMES}", "--compare", *fixed, "--repeat", "1"]
     done = batch(scene_blend, out, short_tmp, antumbra_bin, *run)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert compared_frames(done.stdout) == list(range(1, FRAMES + 1)), done.stdout
@@ -55,7 +58,7 @@ def test_compare_batch_resumes(scene_blend, antumbra_bin, short_tmp):
     # Progress per method pass, before the frame's line.
     assert "antumbra: frame 2: compare pass 1/" in done.stdout, done.stdout[-3000:]
     folder = out / "compare"
-    labels = [m.partition("=")[0] for m in antumbra.DEFAULT_METHODS]
+    labels = [m.partition("=")[0] for m in fixed]
     whole = rows_without_times(folder / "compare.csv")
     assert len(whole) == FRAMES * len(labels) * (1 + len(LIGHTS))
     assert (folder / "report.html").is_file()
