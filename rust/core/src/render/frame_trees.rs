@@ -13,8 +13,10 @@ use super::RenderSettings;
 use crate::build::{BuildMethod, BuildSettings, CollapseSettings};
 use crate::bvh::{Bvh, BvhWidth};
 use crate::cancel::CancelToken;
+use crate::geometry::Ray;
 use crate::order::{PreparedOrder, ShadowOrder, SortTables};
 use crate::scene::{FrameGeometry, Mesh, Scene, TriangleRef};
+use crate::trace::{Counters, Hit, RayQuery};
 use crate::Result;
 
 /// What identifies a frame's geometry: mesh identities, transforms and visibility flags. One key
@@ -118,6 +120,43 @@ pub enum CameraTree<'a> {
     Binary(&'a Bvh),
     /// The collapse, at widths 4 and 8.
     Wide(&'a WideTree),
+}
+
+/// The camera tree answers rays like any tree: a batch reads its variant once.
+impl RayQuery for CameraTree<'_> {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        match self {
+            CameraTree::Binary(b) => b.occluded(ray, stats),
+            CameraTree::Wide(t) => t.occluded(ray, stats),
+        }
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        match self {
+            CameraTree::Binary(b) => b.closest_hit(ray, stats),
+            CameraTree::Wide(t) => t.closest_hit(ray, stats),
+        }
+    }
+    #[inline]
+    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
+        match self {
+            CameraTree::Binary(b) => b.occluded_batch(rays, out, counters),
+            CameraTree::Wide(t) => t.occluded_batch(rays, out, counters),
+        }
+    }
+    #[inline]
+    fn closest_hit_batch<C: Counters>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    ) {
+        match self {
+            CameraTree::Binary(b) => b.closest_hit_batch(rays, out, counters),
+            CameraTree::Wide(t) => t.closest_hit_batch(rays, out, counters),
+        }
+    }
 }
 
 impl FrameTrees {

@@ -1,21 +1,19 @@
 //! `antumbra bench`'s main table: per scene and frame, SAH build time, Mrays/s and work per ray
 //! on exactly the rays a frame traces (camera rays, then every light's shadow rays in its
 //! order), on one thread and on all, optionally beside Embree timed in turn on the same rays.
+//! The trees and orders are the renderer's own (a warm-up's `FrameTrees`): one pipeline.
 
 use antumbra_core::build::{build_binned_sah, CollapseSettings};
-use antumbra_core::bvh::{Bvh, BvhWidth};
 use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
-use antumbra_core::order::PreparedOrder;
-use antumbra_core::order::{AnyHitOrder, ShadowOrder};
+use antumbra_core::order::ShadowOrder;
 use antumbra_core::render::{
-    binary_order, representative_rays, shadow_rays, srdh_for_light, LightSrdh, PrimaryPass,
-    PrimaryRays, RenderSettings, WideTree,
+    shadow_rays, CameraTree, FrameTrees, LightRays, LightTracing, PrimaryPass, PrimaryRays,
+    RenderSettings, Renderer,
 };
-use antumbra_core::scene::{Animation, FrameGeometry, Resolution};
+use antumbra_core::scene::{Animation, Resolution};
 use antumbra_core::stats::StatsRow;
-use antumbra_core::trace::wide::BoxKernel;
-use antumbra_core::trace::{NoStats, OrderedBinary, OrderedWide, RayQuery, TraversalStats};
+use antumbra_core::trace::{NoStats, RayQuery, TraversalStats};
 use anyhow::Result;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -25,59 +23,8 @@ use super::reference::Reference;
 use super::{bench_order, best_of, best_of_in_turn, mrays, print_json, BenchArgs};
 use crate::shadow_lights::{shadow_lights, ShadowLight};
 
-/// Runs `$body` with `$o` bound to the concrete occlusion query of one light of a frame (its
-/// SRDH tree, the binary tree, or the wide tree of its width with the light's order), so timed
-/// loops have no per-ray dispatch.
-macro_rules! with_occluder {
-    ($frame:expr, $light:expr, |$o:ident| $body:expr) => {
-        match (
-            &$light.srdh,
-            $frame.binary,
-            &$frame.wide_shadow,
-            &$light.prepared,
-        ) {
-            (Some(srdh), _, _, _) => match srdh.tree.as_ref() {
-                Some(t) => {
-                    let $o = t;
-                    $body
-                }
-                // Too few occluded rays: the SAH tree front to back, as the renderer does.
-                None => {
-                    let $o = &OrderedBinary {
-                        bvh: $frame.shadow_bvh(),
-                        order: AnyHitOrder::NearFirst,
-                    };
-                    $body
-                }
-            },
-            (None, Some(order), _, _) => {
-                let $o = &OrderedBinary {
-                    bvh: $frame.shadow_bvh(),
-                    order,
-                };
-                $body
-            }
-            (None, None, Some(tree), Some(p)) => {
-                let (order, kernel) = (p.view(), BoxKernel::Auto);
-                match tree {
-                    WideTree::Two(bvh) => {
-                        let $o = &OrderedWide { bvh, order, kernel };
-                        $body
-                    }
-                    WideTree::Four(bvh) => {
-                        let $o = &OrderedWide { bvh, order, kernel };
-                        $body
-                    }
-                    WideTree::Eight(bvh) => {
-                        let $o = &OrderedWide { bvh, order, kernel };
-                        $body
-                    }
-                }
-            }
-            _ => unreachable!("a wide order comes with its tree"),
-        }
-    };
-}
+/// Rays per batch of the query face in the timed and counted loops.
+const CHUNK: usize = 256;
 
 #[derive(Debug, Default, Serialize)]
 pub struct BenchRow {
@@ -148,7 +95,8 @@ pub(super) fn run(args: &BenchArgs, scenes: &[String], settings: &RenderSettings
     for name in scenes {
         let scene = BenchScene::open(name, args.triangles, args.frames.as_deref(), 1)?;
         for &f in &scene.frames {
-            let frame = Frame::prepare(scene.animation.as_ref(), f, args, settings)?;
+            let state = FrameState::prepare(scene.animation.as_ref(), f, args, settings)?;
+            let frame = Frame::new(&state, settings);
             for threads in [1, all] {
                 rows.push(frame.timed_row(threads, args, settings)?);
             }
@@ -162,153 +110,130 @@ pub(super) fn run(args: &BenchArgs, scenes: &[String], settings: &RenderSettings
     }
 }
 
-/// One light's shadow rays and what traces them: its prepared wide order or its SRDH tree.
-struct LightRays {
-    rays: Vec<Ray>,
-    prepared: Option<PreparedOrder>,
-    srdh: Option<LightSrdh>,
-}
-
-/// One frame of a scene with its trees and rays, ready to be timed, and their counted work.
-struct Frame {
+/// A frame's trees made as a render makes them (a warm-up: `FrameTrees`, the one pipeline), its
+/// camera rays' hits and its shadow-casting lights.
+struct FrameState {
     scene: String,
     frame: i32,
-    geometry: FrameGeometry,
-    bvh: Bvh,
-    /// The tree of the shadow-casting triangles when they are not the camera's.
-    shadow_bvh: Option<Bvh>,
-    binary: Option<AnyHitOrder>,
-    wide_camera: Option<WideTree>,
-    wide_shadow: Option<WideTree>,
-    primary: Vec<Ray>,
-    lights: Vec<LightRays>,
-    /// Every light's rays in turn, and antumbra's answer for each.
-    shadow: Vec<Ray>,
-    answers: Vec<bool>,
-    primary_work: TraversalStats,
-    shadow_work: TraversalStats,
+    renderer: Renderer,
+    camera: PrimaryRays,
+    pass: PrimaryPass,
+    lights: Vec<ShadowLight>,
 }
 
-impl Frame {
+impl FrameState {
     fn prepare(
         anim: &dyn Animation,
         number: i32,
         args: &BenchArgs,
         s: &RenderSettings,
-    ) -> Result<Frame> {
+    ) -> Result<FrameState> {
         let mut scene = anim.frame(number);
         scene.resolution = Resolution::new(args.size.width, args.size.height);
-        let geometry = FrameGeometry::from_scene(&scene)?;
-        let bvh = build_binned_sah(&geometry.camera.vertices, &s.build_settings);
-        let primary_gen = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
+        let mut renderer = Renderer::new();
+        renderer.warm_up(&scene, s)?;
+        let trees = renderer.trees().expect("a warm-up keeps the frame's trees");
+        let space = trees.geometry().space;
+        let camera = PrimaryRays::new(&scene.camera, &scene.resolution, &space);
+        let never = CancelToken::new();
         let pass = PrimaryPass::trace::<NoStats>(
-            &primary_gen,
-            &bvh,
-            &geometry.camera,
-            &CancelToken::new(),
-        )
-        .expect("a new token is never cancelled");
-        let shadow_bvh = geometry
-            .shadow
-            .as_ref()
-            .map(|set| build_binned_sah(&set.vertices, &s.build_settings));
-        let wide_camera =
-            (s.width != BvhWidth::Two).then(|| WideTree::collapse(&bvh, s.width, &s.collapse));
-        // Counted on the tree the timed loop traces (the timed loop has no counters).
-        let primary_work = match &wide_camera {
-            Some(t) => PrimaryPass::trace::<TraversalStats>(
-                &primary_gen,
-                t,
-                &geometry.camera,
-                &CancelToken::new(),
-            )
-            .expect("a new token is never cancelled"),
-            None => PrimaryPass::trace::<TraversalStats>(
-                &primary_gen,
-                &bvh,
-                &geometry.camera,
-                &CancelToken::new(),
-            )
-            .expect("a new token is never cancelled"),
-        }
-        .totals;
-        let mut frame = Frame {
+            &camera,
+            &trees.camera(),
+            &trees.geometry().camera,
+            &never,
+        )?;
+        Ok(FrameState {
             scene: anim.name().to_string(),
             frame: number,
-            primary: camera_rays(&primary_gen, args.size.width, args.size.height),
-            binary: binary_order(s.width, bench_order(s)),
-            wide_camera,
-            geometry,
-            bvh,
-            shadow_bvh,
-            wide_shadow: None,
-            lights: Vec::new(),
-            shadow: Vec::new(),
+            lights: shadow_lights(&scene, &space, s.spp, s.seed),
+            renderer,
+            camera,
+            pass,
+        })
+    }
+
+    fn trees(&self) -> &FrameTrees {
+        self.renderer.trees().expect("prepared with its trees")
+    }
+}
+
+/// One light's shadow rays and its tree and order, prepared from them as the renderer does.
+struct LightRaysOf<'a> {
+    rays: Vec<Ray>,
+    tracing: LightTracing<'a>,
+}
+
+/// One frame of a scene with its trees and rays, ready to be timed, and their counted work.
+struct Frame<'a> {
+    state: &'a FrameState,
+    trees: &'a FrameTrees,
+    primary: Vec<Ray>,
+    lights: Vec<LightRaysOf<'a>>,
+    /// Every light's rays in turn, and antumbra's answer for each.
+    shadow: Vec<Ray>,
+    answers: Vec<bool>,
+    primary_work: TraversalStats,
+    shadow_work: TraversalStats,
+    /// Whether the lights trace SRDH trees of their own.
+    srdh: bool,
+}
+
+impl<'a> Frame<'a> {
+    fn new(state: &'a FrameState, s: &RenderSettings) -> Frame<'a> {
+        let trees = state.trees();
+        let camera = &state.camera;
+        // Counted on the tree the timed loop traces (the timed loop has no counters).
+        let primary_work = PrimaryPass::trace::<TraversalStats>(
+            camera,
+            &trees.camera(),
+            &trees.geometry().camera,
+            &CancelToken::new(),
+        )
+        .expect("a new token is never cancelled")
+        .totals;
+        let order = bench_order(s);
+        let lights: Vec<LightRaysOf> = state
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(i, light)| {
+                let rays = LightRays {
+                    primary: &state.pass,
+                    sampler: &light.sampler,
+                    plan: light.plan,
+                    sah: &s.build_settings,
+                    first: i == 0,
+                };
+                let prepare = || trees.for_light(order, s.width, &rays);
+                // A sorted order's logging and sorting run on one thread, as the target asks.
+                let tracing = match order {
+                    ShadowOrder::Sorted(_) => rayon::ThreadPoolBuilder::new()
+                        .num_threads(1)
+                        .build()
+                        .expect("thread pool")
+                        .install(prepare),
+                    _ => prepare(),
+                };
+                LightRaysOf {
+                    rays: shadow_rays(&state.pass, &light.sampler, light.plan),
+                    tracing,
+                }
+            })
+            .collect();
+        let shadow = lights.iter().flat_map(|l| l.rays.iter().copied()).collect();
+        let mut frame = Frame {
+            state,
+            trees,
+            primary: camera_rays(camera, camera.width, camera.height),
+            lights,
+            shadow,
             answers: Vec::new(),
             primary_work,
             shadow_work: TraversalStats::default(),
+            srdh: matches!(order, ShadowOrder::Srdh(_)),
         };
-        let srdh = matches!(bench_order(s), ShadowOrder::Srdh(_));
-        frame.wide_shadow = (frame.binary.is_none() && !srdh)
-            .then(|| WideTree::collapse(frame.shadow_bvh(), s.width, &s.collapse));
-        frame.lights = shadow_lights(&scene, &frame.geometry.space, s.spp, s.seed)
-            .iter()
-            .map(|light| frame.light_rays(&pass, light, s))
-            .collect();
-        frame.shadow = frame
-            .lights
-            .iter()
-            .flat_map(|l| l.rays.iter().copied())
-            .collect();
         (frame.answers, frame.shadow_work) = frame.counted_occlusion();
-        Ok(frame)
-    }
-
-    fn shadow_bvh(&self) -> &Bvh {
-        self.shadow_bvh.as_ref().unwrap_or(&self.bvh)
-    }
-
-    fn shadow_triangles(&self) -> &[[glam::Vec3; 3]] {
-        let g = &self.geometry;
-        &g.shadow_set().vertices
-    }
-
-    /// A light's rays (the same the shadow pass traces) and its order made from them.
-    fn light_rays(&self, pass: &PrimaryPass, light: &ShadowLight, s: &RenderSettings) -> LightRays {
-        let (sampler, plan) = (&light.sampler, light.plan);
-        let order = bench_order(s);
-        let tables = matches!(order, ShadowOrder::Sorted(_))
-            .then(|| self.wide_shadow.as_ref().map(|t| t.sort_tables()))
-            .flatten();
-        let prepared = self.wide_shadow.as_ref().map(|t| {
-            let representative = match order {
-                ShadowOrder::Sorted(o) => representative_rays(pass, sampler, plan, o.budget),
-                _ => Vec::new(),
-            };
-            // The sorting itself runs on one thread, as the target asks.
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(1)
-                .build()
-                .expect("thread pool")
-                .install(|| t.prepare(order, tables.as_ref(), &representative))
-        });
-        let srdh = match order {
-            ShadowOrder::Srdh(o) => Some(srdh_for_light(
-                pass,
-                sampler,
-                plan,
-                o,
-                self.shadow_bvh(),
-                self.shadow_triangles(),
-                &s.build_settings,
-            )),
-            _ => None,
-        };
-        LightRays {
-            rays: shadow_rays(pass, sampler, plan),
-            prepared,
-            srdh,
-        }
+        frame
     }
 
     /// Every shadow ray's answer, and the work of all of them, counted.
@@ -316,16 +241,15 @@ impl Frame {
         let mut answers = Vec::with_capacity(self.shadow.len());
         let mut total = TraversalStats::default();
         for light in &self.lights {
-            let (a, work): (Vec<bool>, Vec<TraversalStats>) = with_occluder!(self, light, |o| {
-                light
-                    .rays
-                    .par_iter()
-                    .map(|r| {
-                        let mut w = TraversalStats::default();
-                        (o.occluded(r, &mut w), w)
-                    })
-                    .unzip()
-            });
+            let tracer = light.tracing.tracer();
+            let mut a = vec![false; light.rays.len()];
+            let mut work = vec![TraversalStats::default(); light.rays.len()];
+            light
+                .rays
+                .par_chunks(CHUNK)
+                .zip(a.par_chunks_mut(CHUNK))
+                .zip(work.par_chunks_mut(CHUNK))
+                .for_each(|((r, a), w)| tracer.occluded_batch(r, a, w));
             answers.extend(a);
             for w in work {
                 total += w;
@@ -337,36 +261,34 @@ impl Frame {
     /// The row's counts, before anything is timed.
     fn row(&self, threads: usize, s: &RenderSettings) -> BenchRow {
         let occluded = self.answers.iter().filter(|a| **a).count();
+        let (bvh_bytes, collapse_ms) = match self.trees.camera() {
+            CameraTree::Binary(b) => (b.bytes(), 0.0),
+            CameraTree::Wide(t) => (t.bytes(), t.collapse_ms()),
+        };
         BenchRow {
-            scene: self.scene.clone(),
-            frame: self.frame,
+            scene: self.state.scene.clone(),
+            frame: self.state.frame,
             method: method_name(s),
-            triangles: self.geometry.camera.vertices.len(),
+            triangles: self.trees.geometry().camera.vertices.len(),
             threads,
-            bvh_bytes: self
-                .wide_camera
-                .as_ref()
-                .map_or(self.bvh.bytes(), |t| t.bytes()),
+            bvh_bytes,
             primary_rays: self.primary.len(),
             shadow_rays: self.shadow.len(),
             shadow_occluded: occluded as f64 / self.shadow.len().max(1) as f64,
             primary_work: PassWork::of(&self.primary_work, self.primary.len()),
             shadow_work: PassWork::of(&self.shadow_work, self.shadow.len()),
-            collapse_ms: self.wide_camera.as_ref().map_or(0.0, |t| t.collapse_ms()),
+            collapse_ms,
             sort_ms_per_light: self
                 .lights
                 .iter()
-                .filter_map(|l| match &l.srdh {
-                    Some(srdh) => Some(srdh.ms),
-                    None => l.prepared.as_ref().map(|p| p.sort_ms()),
-                })
+                .map(|l| l.tracing.sort_ms)
                 .filter(|ms| *ms > 0.0)
                 .collect(),
             srdh_bytes_per_light: self
                 .lights
                 .iter()
-                .filter_map(|l| l.srdh.as_ref())
-                .map(|l| l.tree.as_ref().map_or(0, |t| t.bytes()))
+                .filter(|_| self.srdh)
+                .map(|l| l.tracing.own_tree().map_or(0, |t| t.bytes()))
                 .collect(),
             ..BenchRow::default()
         }
@@ -385,7 +307,7 @@ impl Frame {
         let reference = match &args.compare {
             Some(_) => Some(Reference::build(
                 &args.embree_quality,
-                &self.geometry.camera.vertices,
+                &self.trees.geometry().camera.vertices,
                 threads,
                 args.repeat,
             )?),
@@ -393,7 +315,7 @@ impl Frame {
         };
         pool.install(|| {
             row.build_ms = best_of(args.repeat, || {
-                build_binned_sah(&self.geometry.camera.vertices, &s.build_settings)
+                build_binned_sah(&self.trees.geometry().camera.vertices, &s.build_settings)
             });
             let (ms, reference_ms) = self.time_primary(args.repeat, reference.as_ref());
             row.primary_mrays = mrays(self.primary.len(), ms);
@@ -411,31 +333,29 @@ impl Frame {
 
     /// Best ms of the camera rays' closest hits, ours and the reference's.
     fn time_primary(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Option<f64>) {
-        let closest = |tree: &(dyn Fn(&Ray) + Sync)| {
-            best_of_in_turn(
-                repeat,
-                || self.primary.par_iter().with_min_len(256).for_each(tree),
-                reference.map(|r| {
-                    || {
-                        self.primary
-                            .par_iter()
-                            .with_min_len(256)
-                            .for_each(|ray| r.intersect(ray))
-                    }
-                }),
-            )
-        };
-        match &self.wide_camera {
-            Some(WideTree::Four(t)) => closest(&|r| {
-                std::hint::black_box(t.closest_hit(r, &mut NoStats));
+        let tree = self.trees.camera();
+        best_of_in_turn(
+            repeat,
+            || {
+                // A chunk's rays as one batch of the query face, into a buffer per thread.
+                self.primary.par_chunks(CHUNK).for_each_init(
+                    || vec![None; CHUNK],
+                    |hits, rays| {
+                        let hits = &mut hits[..rays.len()];
+                        tree.closest_hit_batch(rays, hits, &mut [NoStats; CHUNK][..rays.len()]);
+                        std::hint::black_box(hits);
+                    },
+                )
+            },
+            reference.map(|r| {
+                || {
+                    self.primary
+                        .par_iter()
+                        .with_min_len(CHUNK)
+                        .for_each(|ray| r.intersect(ray))
+                }
             }),
-            Some(WideTree::Eight(t)) => closest(&|r| {
-                std::hint::black_box(t.closest_hit(r, &mut NoStats));
-            }),
-            _ => closest(&|r| {
-                std::hint::black_box(self.bvh.closest_hit(r, &mut NoStats));
-            }),
-        }
+        )
     }
 
     /// Best ms of every light's shadow rays, ours light by light in its order, and the
@@ -445,16 +365,21 @@ impl Frame {
             repeat,
             || {
                 for light in &self.lights {
-                    with_occluder!(self, light, |o| {
-                        light.rays.par_iter().with_min_len(256).for_each(|r| {
-                            std::hint::black_box(o.occluded(r, &mut NoStats));
-                        })
-                    })
+                    let tracer = light.tracing.tracer();
+                    light.rays.par_chunks(CHUNK).for_each_init(
+                        || vec![false; CHUNK],
+                        |answers, rays| {
+                            let answers = &mut answers[..rays.len()];
+                            let none = &mut [NoStats; CHUNK][..rays.len()];
+                            tracer.occluded_batch(rays, answers, none);
+                            std::hint::black_box(answers);
+                        },
+                    )
                 }
             },
             reference.map(|r| {
                 || {
-                    self.shadow.par_iter().with_min_len(256).for_each(|ray| {
+                    self.shadow.par_iter().with_min_len(CHUNK).for_each(|ray| {
                         std::hint::black_box(r.occluded(ray));
                     })
                 }
