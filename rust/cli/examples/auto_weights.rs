@@ -16,7 +16,7 @@ use antumbra_core::bvh::BvhWidth;
 use antumbra_core::cancel::CancelToken;
 use antumbra_core::compare::MethodSpec;
 use antumbra_core::order::{ShadowOrder, SrdhSettings};
-use antumbra_core::render::auto::{Kernel, OrderChoice};
+use antumbra_core::render::auto::{OrderChoice, Traversal};
 use antumbra_core::render::{
     representative_rays, samples_for, srdh_rays, visibility_flags, LightSampler, PrimaryPass,
     PrimaryRays, Renderer, SamplePlan, StatsMode, WideTree,
@@ -28,8 +28,8 @@ use antumbra_core::trace::NoStats;
 use antumbra_scenes::{builtin, SceneParams};
 
 /// Unknowns of the trace fit: ns per box test, triangle test, shadow ray, camera ray, and per
-/// node entered by each kernel (in the order of `Kernel::ALL`).
-const K: usize = 4 + Kernel::ALL.len();
+/// node entered by each kernel (in the order of `Traversal::ALL`).
+const K: usize = 4 + Traversal::ALL.len();
 const NAMES: [&str; K] = [
     "box_test",
     "triangle_test",
@@ -186,7 +186,7 @@ fn main() {
                     let nodes = (row.nb_per_ray + row.nl_per_ray) * n;
                     let camera = row.pass == "primary";
                     let kernel = if camera {
-                        Kernel::camera(wide)
+                        Traversal::camera(wide)
                     } else {
                         order.kernel(wide)
                     };

@@ -193,7 +193,7 @@ impl Policy {
     ) {
         let wide = settings.width != BvhWidth::Two;
         if let Some(b) = build.auto {
-            let kernel = auto::Kernel::camera(wide);
+            let kernel = auto::Traversal::camera(wide);
             let rays = primary.ray_count();
             if let Some(m) = auto::measured(kernel, &primary.totals, rays, frame, true) {
                 self.history.record_build(b.choice, m);

@@ -7,7 +7,7 @@ use crate::trace::TraversalStats;
 /// two boxes one by one, a wide one eight at once; front to back on a wide tree also sorts the
 /// children it hits), and camera and shadow rays cost differently to make.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kernel {
+pub enum Traversal {
     /// Shadow rays on a binary tree (front to back, or a light's SRDH tree).
     BinaryAnyHit,
     /// Shadow rays on a wide tree in a stored order (SATO, sorted per light).
@@ -20,36 +20,36 @@ pub enum Kernel {
     WideClosest,
 }
 
-impl Kernel {
-    pub const ALL: [Kernel; 5] = [
-        Kernel::BinaryAnyHit,
-        Kernel::WideAnyHit,
-        Kernel::WideFrontToBack,
-        Kernel::BinaryClosest,
-        Kernel::WideClosest,
+impl Traversal {
+    pub const ALL: [Traversal; 5] = [
+        Traversal::BinaryAnyHit,
+        Traversal::WideAnyHit,
+        Traversal::WideFrontToBack,
+        Traversal::BinaryClosest,
+        Traversal::WideClosest,
     ];
 
     pub fn name(self) -> &'static str {
         match self {
-            Kernel::BinaryAnyHit => "binary_any_hit",
-            Kernel::WideAnyHit => "wide_any_hit",
-            Kernel::WideFrontToBack => "wide_front_to_back",
-            Kernel::BinaryClosest => "binary_closest",
-            Kernel::WideClosest => "wide_closest",
+            Traversal::BinaryAnyHit => "binary_any_hit",
+            Traversal::WideAnyHit => "wide_any_hit",
+            Traversal::WideFrontToBack => "wide_front_to_back",
+            Traversal::BinaryClosest => "binary_closest",
+            Traversal::WideClosest => "wide_closest",
         }
     }
 
     /// The camera rays' traversal: on the wide tree at widths 4 and 8, else the binary one.
-    pub fn camera(wide: bool) -> Kernel {
+    pub fn camera(wide: bool) -> Traversal {
         if wide {
-            Kernel::WideClosest
+            Traversal::WideClosest
         } else {
-            Kernel::BinaryClosest
+            Traversal::BinaryClosest
         }
     }
 
     fn is_camera(self) -> bool {
-        matches!(self, Kernel::BinaryClosest | Kernel::WideClosest)
+        matches!(self, Traversal::BinaryClosest | Traversal::WideClosest)
     }
 }
 
@@ -63,7 +63,7 @@ pub struct Weights {
     /// the mask's write) and a camera ray (its surface record).
     pub shadow_ray: f64,
     pub camera_ray: f64,
-    /// Per node entered (N_B + N_L), by kernel in the order of [`Kernel::ALL`].
+    /// Per node entered (N_B + N_L), by kernel in the order of [`Traversal::ALL`].
     pub node: [f64; 5],
     /// Building the binary tree, per triangle: binned SAH, and OSAH (the split builder).
     pub sah_triangle: f64,
@@ -106,7 +106,7 @@ pub const WEIGHTS: Weights = Weights {
 
 impl Weights {
     /// The estimated time of the traversal work `w` of `rays` rays on `kernel`, ns.
-    pub fn trace_ns(&self, kernel: Kernel, w: &TraversalStats, rays: u64) -> f64 {
+    pub fn trace_ns(&self, kernel: Traversal, w: &TraversalStats, rays: u64) -> f64 {
         let ray = if kernel.is_camera() {
             self.camera_ray
         } else {
@@ -119,7 +119,7 @@ impl Weights {
     }
 
     /// Estimated time per ray of the work `w` over `rays` rays on `kernel`, ns (0 without rays).
-    pub fn per_ray_ns(&self, kernel: Kernel, w: &TraversalStats, rays: u64) -> f64 {
+    pub fn per_ray_ns(&self, kernel: Traversal, w: &TraversalStats, rays: u64) -> f64 {
         if rays == 0 {
             0.0
         } else {
@@ -140,7 +140,7 @@ mod tests {
             triangles: 4,
             boxes: 8,
         };
-        for kernel in Kernel::ALL {
+        for kernel in Traversal::ALL {
             let ns = WEIGHTS.trace_ns(kernel, &w, 2);
             let ray = if kernel.is_camera() {
                 WEIGHTS.camera_ray

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use super::cost::Kernel;
+use super::cost::Traversal;
 use crate::order::ShadowOrder;
 
 /// A shadow order `auto` may pick for a light.
@@ -48,12 +48,12 @@ impl OrderChoice {
 
     /// The traversal its rays run, on a wide tree or not (SRDH always traces a binary tree:
     /// the light's own, or the shared one front to back).
-    pub fn kernel(self, wide: bool) -> Kernel {
+    pub fn kernel(self, wide: bool) -> Traversal {
         match self {
-            OrderChoice::Srdh => Kernel::BinaryAnyHit,
-            _ if !wide => Kernel::BinaryAnyHit,
-            OrderChoice::Fbto => Kernel::WideFrontToBack,
-            OrderChoice::Sato | OrderChoice::Sorted => Kernel::WideAnyHit,
+            OrderChoice::Srdh => Traversal::BinaryAnyHit,
+            _ if !wide => Traversal::BinaryAnyHit,
+            OrderChoice::Fbto => Traversal::WideFrontToBack,
+            OrderChoice::Sato | OrderChoice::Sorted => Traversal::WideAnyHit,
         }
     }
 

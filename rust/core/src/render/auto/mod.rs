@@ -5,7 +5,7 @@ mod cost;
 mod history;
 mod policy;
 
-pub use cost::{Kernel, Weights, WEIGHTS};
+pub use cost::{Traversal, Weights, WEIGHTS};
 pub use history::{BuildChoice, History, Measured, OrderChoice};
 pub use policy::{
     build_candidates, build_ns, choose_build, choose_order, order_candidates, order_estimate,
@@ -47,7 +47,7 @@ pub fn prep_rays(rays: u64, surfaces: u64, samples: u64) -> (u64, u64) {
 /// What a counted frame teaches: the measured cost per ray of the work `totals` of `rays` rays
 /// on `kernel`.
 pub fn measured(
-    kernel: Kernel,
+    kernel: Traversal,
     totals: &TraversalStats,
     rays: u64,
     frame: u64,
