@@ -18,14 +18,13 @@ from __future__ import annotations
 
 import subprocess
 
+import embreex.mesh_construction as embreex_mesh
+import embreex.rtcore_scene as embreex_scene
 import numpy as np
 import pytest
 
 import antumbra
 from antumbra.rays import Scene
-
-embreex_scene = pytest.importorskip("embreex.rtcore_scene", reason="embreex is the oracle")
-embreex_mesh = pytest.importorskip("embreex.mesh_construction")
 
 # Relative to the scene's extent (the largest side of its bounding box).
 EDGE = 1e-5

@@ -17,10 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 from antumbra.rays import RayMeshIntersector
-
-trimesh = pytest.importorskip("trimesh", reason="trimesh is what the intersector plugs into")
 
 MODELS = Path(__file__).resolve().parent / "data" / "trimesh"
 
