@@ -9,7 +9,7 @@ use std::path::Path;
 
 use antumbra_core::render::RenderSettings;
 use antumbra_core::scene::{Camera, Light, LightKind, Mesh, Object, Resolution, Scene};
-use antumbra_core::settings::SCHEMA;
+use antumbra_core::settings::{Kind, SCHEMA};
 use antumbra_protocol::*;
 use glam::{DMat4, DVec3, Vec3};
 use std::sync::Arc;
@@ -135,15 +135,22 @@ fn settings(fuzz: &Path) -> Res {
         "srdh:rays=all:bins=8:kernels=constant\nsrdh:rays=0.05:leaf=4\nrandom:seed=7\n\
          near\nprepass:16x16\n16x16\nsbvh\ngreedy\nobject\n8\n",
     )?;
-    // libFuzzer's dictionary: the settings' names and the order grammar's words.
+    // libFuzzer's dictionary: the settings' names, every choice's words (from the schema) and
+    // the order grammar's words.
     let mut words: Vec<String> = SCHEMA.iter().map(|s| s.name.to_string()).collect();
     words.extend(
         SCHEMA
             .iter()
             .map(|s| format!("--{}", s.name.replace('_', "-"))),
     );
+    for spec in SCHEMA {
+        if let Kind::Choice(choices) = spec.kind {
+            words.extend(choices.iter().map(|w| w.to_string()));
+        }
+    }
     words.extend(
         [
+            "auto",
             "stored",
             "fbto",
             "near",
@@ -180,6 +187,8 @@ fn settings(fuzz: &Path) -> Res {
         ]
         .map(String::from),
     );
+    let mut seen = std::collections::HashSet::new();
+    words.retain(|w| seen.insert(w.clone()));
     let dict: String = words.iter().map(|w| format!("{:?}\n", w)).collect();
     std::fs::write(fuzz.join("settings.dict"), dict)?;
     Ok(())
