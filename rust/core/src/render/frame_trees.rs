@@ -13,10 +13,9 @@ use super::RenderSettings;
 use crate::build::{BuildMethod, BuildSettings, CollapseSettings};
 use crate::bvh::{Bvh, BvhWidth};
 use crate::cancel::CancelToken;
-use crate::geometry::Ray;
 use crate::order::{PreparedOrder, ShadowOrder, SortTables};
 use crate::scene::{FrameGeometry, Mesh, Scene, TriangleRef};
-use crate::trace::{Counters, Hit, RayQuery};
+use crate::trace::forward_ray_query;
 use crate::Result;
 
 /// What identifies a frame's geometry: mesh identities, transforms and visibility flags. One key
@@ -122,42 +121,17 @@ pub enum CameraTree<'a> {
     Wide(&'a WideTree),
 }
 
-/// The camera tree answers rays like any tree: a batch reads its variant once.
-impl RayQuery for CameraTree<'_> {
-    #[inline]
-    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
-        match self {
-            CameraTree::Binary(b) => b.occluded(ray, stats),
-            CameraTree::Wide(t) => t.occluded(ray, stats),
+/// Calls `$f` with the tree `$camera` holds.
+macro_rules! with_camera {
+    ($camera:expr, $q:ident => $f:expr) => {
+        match $camera {
+            CameraTree::Binary($q) => $f,
+            CameraTree::Wide($q) => $f,
         }
-    }
-    #[inline]
-    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
-        match self {
-            CameraTree::Binary(b) => b.closest_hit(ray, stats),
-            CameraTree::Wide(t) => t.closest_hit(ray, stats),
-        }
-    }
-    #[inline]
-    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
-        match self {
-            CameraTree::Binary(b) => b.occluded_batch(rays, out, counters),
-            CameraTree::Wide(t) => t.occluded_batch(rays, out, counters),
-        }
-    }
-    #[inline]
-    fn closest_hit_batch<C: Counters>(
-        &self,
-        rays: &[Ray],
-        out: &mut [Option<Hit>],
-        counters: &mut [C],
-    ) {
-        match self {
-            CameraTree::Binary(b) => b.closest_hit_batch(rays, out, counters),
-            CameraTree::Wide(t) => t.closest_hit_batch(rays, out, counters),
-        }
-    }
+    };
 }
+// The camera tree answers rays like any tree: a batch reads its variant once.
+forward_ray_query!(CameraTree<'_>, with_camera);
 
 impl FrameTrees {
     #[allow(clippy::too_many_arguments)]

@@ -16,7 +16,8 @@ use crate::bvh::{Bvh, BvhWidth};
 use crate::geometry::Ray;
 use crate::order::{AnyHitOrder, PreparedOrder, ShadowOrder, SortTables};
 use crate::srdh::SrdhBvh;
-use crate::trace::{Counters, Hit, OrderedBinary, RayQuery};
+use crate::trace::forward_ray_query;
+use crate::trace::OrderedBinary;
 
 /// The tree and order one light's shadow pass traces; a batch reads which once.
 pub enum ShadowTracer<'a> {
@@ -37,29 +38,7 @@ macro_rules! with_query {
     };
 }
 
-impl RayQuery for ShadowTracer<'_> {
-    #[inline]
-    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
-        with_query!(self, q => q.occluded(ray, stats))
-    }
-    #[inline]
-    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
-        with_query!(self, q => q.closest_hit(ray, stats))
-    }
-    #[inline]
-    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
-        with_query!(self, q => q.occluded_batch(rays, out, counters))
-    }
-    #[inline]
-    fn closest_hit_batch<C: Counters>(
-        &self,
-        rays: &[Ray],
-        out: &mut [Option<Hit>],
-        counters: &mut [C],
-    ) {
-        with_query!(self, q => q.closest_hit_batch(rays, out, counters))
-    }
-}
+forward_ray_query!(ShadowTracer<'_>, with_query);
 
 /// The binary traversal's order when `order` at `width` is one the binary traversal has.
 pub fn binary_order(width: BvhWidth, order: &ShadowOrder) -> Option<AnyHitOrder> {

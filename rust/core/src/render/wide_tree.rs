@@ -4,8 +4,9 @@ use crate::build::CollapseSettings;
 use crate::bvh::{Bvh, BvhWidth, WideBvh};
 use crate::geometry::Ray;
 use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
+use crate::trace::forward_ray_query;
 use crate::trace::wide::BoxKernel;
-use crate::trace::{Counters, Hit, OrderedWide, RayQuery};
+use crate::trace::OrderedWide;
 
 /// A collapsed BVH of one of the supported widths.
 #[derive(Clone, Debug)]
@@ -80,31 +81,13 @@ impl WideTree {
 }
 
 /// A wide tree alone: any hit front to back, the box kernel chosen at run time.
-impl RayQuery for WideTree {
-    #[inline]
-    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
-        self.ordered(OrderView::FrontToBack).occluded(ray, stats)
-    }
-    #[inline]
-    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
-        self.ordered(OrderView::FrontToBack).closest_hit(ray, stats)
-    }
-    #[inline]
-    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
-        self.ordered(OrderView::FrontToBack)
-            .occluded_batch(rays, out, counters)
-    }
-    #[inline]
-    fn closest_hit_batch<C: Counters>(
-        &self,
-        rays: &[Ray],
-        out: &mut [Option<Hit>],
-        counters: &mut [C],
-    ) {
-        self.ordered(OrderView::FrontToBack)
-            .closest_hit_batch(rays, out, counters)
-    }
+macro_rules! with_front_to_back {
+    ($tree:expr, $q:ident => $f:expr) => {{
+        let $q = $tree.ordered(OrderView::FrontToBack);
+        $f
+    }};
 }
+forward_ray_query!(WideTree, with_front_to_back);
 
 /// A wide tree of a run-time width with a prepared any-hit order and a box kernel; a batch reads
 /// the width once.
@@ -126,26 +109,4 @@ macro_rules! with_ordered {
     }};
 }
 
-impl RayQuery for OrderedWideTree<'_> {
-    #[inline]
-    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
-        with_ordered!(self, q => q.occluded(ray, stats))
-    }
-    #[inline]
-    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
-        with_ordered!(self, q => q.closest_hit(ray, stats))
-    }
-    #[inline]
-    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
-        with_ordered!(self, q => q.occluded_batch(rays, out, counters))
-    }
-    #[inline]
-    fn closest_hit_batch<C: Counters>(
-        &self,
-        rays: &[Ray],
-        out: &mut [Option<Hit>],
-        counters: &mut [C],
-    ) {
-        with_ordered!(self, q => q.closest_hit_batch(rays, out, counters))
-    }
-}
+forward_ray_query!(OrderedWideTree<'_>, with_ordered);

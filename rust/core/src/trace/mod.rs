@@ -14,6 +14,7 @@ pub use any_hit::{occluded, occluded_with, occluding_leaf};
 pub use brute::{brute_closest_hit, brute_occluded};
 pub use closest::closest_hit;
 pub use counters::{Counters, NoStats, TraversalStats};
+pub(crate) use query::forward_ray_query;
 pub use query::{OrderedBinary, OrderedWide, RayQuery};
 
 /// A closest hit: the ray parameter, the triangle id (in the `TriangleSet` the BVH was built

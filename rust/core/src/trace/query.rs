@@ -8,6 +8,51 @@ use crate::bvh::{Bvh, WideBvh};
 use crate::geometry::Ray;
 use crate::order::{AnyHitOrder, OrderView};
 
+/// Implements [`RayQuery`] for a type that holds one of several queries by handing every call,
+/// single ray or batch, to the query `$with!(self, q => ...)` picks: the choice is made once per
+/// call, so a batch pays it once. `$with` is a macro of the implementing module.
+macro_rules! forward_ray_query {
+    ($ty:ty, $with:ident) => {
+        impl $crate::trace::RayQuery for $ty {
+            #[inline]
+            fn occluded<C: $crate::trace::Counters>(
+                &self,
+                ray: &$crate::geometry::Ray,
+                stats: &mut C,
+            ) -> bool {
+                $with!(self, q => q.occluded(ray, stats))
+            }
+            #[inline]
+            fn closest_hit<C: $crate::trace::Counters>(
+                &self,
+                ray: &$crate::geometry::Ray,
+                stats: &mut C,
+            ) -> Option<$crate::trace::Hit> {
+                $with!(self, q => q.closest_hit(ray, stats))
+            }
+            #[inline]
+            fn occluded_batch<C: $crate::trace::Counters>(
+                &self,
+                rays: &[$crate::geometry::Ray],
+                out: &mut [bool],
+                counters: &mut [C],
+            ) {
+                $with!(self, q => q.occluded_batch(rays, out, counters))
+            }
+            #[inline]
+            fn closest_hit_batch<C: $crate::trace::Counters>(
+                &self,
+                rays: &[$crate::geometry::Ray],
+                out: &mut [Option<$crate::trace::Hit>],
+                counters: &mut [C],
+            ) {
+                $with!(self, q => q.closest_hit_batch(rays, out, counters))
+            }
+        }
+    };
+}
+pub(crate) use forward_ray_query;
+
 /// Any hit and closest hit, for one ray or a batch. The any-hit order is the implementor's
 /// (a tree alone goes front to back); a closest hit ignores it and breaks ties by the smaller
 /// triangle id, so every implementation gives the same answers.
