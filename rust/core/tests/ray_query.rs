@@ -11,7 +11,7 @@ use antumbra_core::render::{ShadowTracer, WideTree};
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::srdh::{build_srdh, RaySet};
 use antumbra_core::trace::{
-    brute_closest_hit, brute_occluded, Hit, NoStats, OrderedBinary, OrderedWide, RayQuery,
+    brute_closest_hit, brute_occluded, Hit, NoStats, OrderedBinary, OrderedWide, RayMode, RayQuery,
     TraversalStats,
 };
 use glam::Vec3;
@@ -139,6 +139,7 @@ fn every_layout_answers_through_one_face_for_a_ray_and_a_batch() {
                 bvh,
                 order: prepared.view(),
                 kernel: antumbra_core::trace::wide::BoxKernel::Scalar,
+                rays: RayMode::Single,
             };
             check("8-wide sato, scalar kernel", &q, &tris, &rays);
             let stored = OrderedWide {
@@ -152,4 +153,124 @@ fn every_layout_answers_through_one_face_for_a_ray_and_a_batch() {
     let srdh = build_srdh(&tris, &set, &SrdhSettings::default(), &settings);
     check("srdh", &srdh, &tris, &rays);
     check("tracer srdh", &ShadowTracer::Srdh(&srdh), &tris, &rays);
+}
+
+/// A packet query's batches against its single-ray answers: occlusion, and closest hits bit
+/// for bit (t, triangle, barycentrics), counted and uncounted. A ray no triangle occludes
+/// enters every box it meets whatever the order, so its packet counts equal its single-ray
+/// counts exactly; an occluded ray may stop elsewhere in another order. Returns the rays
+/// occluded.
+fn check_packets(name: &str, q: &impl RayQuery, rays: &[Ray]) -> usize {
+    let n = rays.len();
+    let (mut single_occ, mut single_any, mut single_hits) = (vec![], vec![], vec![]);
+    for ray in rays {
+        let mut w = TraversalStats::default();
+        single_occ.push(q.occluded(ray, &mut w));
+        single_any.push(w);
+        single_hits.push(q.closest_hit(ray, &mut NoStats));
+    }
+    let mut occluded = vec![true; n];
+    let mut counted = vec![TraversalStats::default(); n];
+    q.occluded_batch(rays, &mut occluded, &mut counted);
+    same(&occluded, &single_occ, name, "packets, occluded");
+    for i in (0..n).filter(|&i| !single_occ[i]) {
+        assert_eq!(
+            counted[i], single_any[i],
+            "{name}: ray {i}: an unoccluded ray's counts"
+        );
+    }
+    let mut uncounted = vec![true; n];
+    q.occluded_batch(rays, &mut uncounted, &mut vec![NoStats; n]);
+    same(
+        &uncounted,
+        &single_occ,
+        name,
+        "packets, occluded, no counters",
+    );
+    let mut hits = vec![None; n];
+    q.closest_hit_batch(rays, &mut hits, &mut vec![TraversalStats::default(); n]);
+    same(&hits, &single_hits, name, "packets, closest hits");
+    let mut hits = vec![None; n];
+    q.closest_hit_batch(rays, &mut hits, &mut vec![NoStats; n]);
+    same(
+        &hits,
+        &single_hits,
+        name,
+        "packets, closest hits, no counters",
+    );
+    single_occ.iter().filter(|o| **o).count()
+}
+
+/// Coherent rays as the passes make them: a grid of camera rays from one point, and shadow
+/// rays from points spread over the cloud toward one point light, both in row-major tiles of
+/// 4x4 so that each 16 consecutive rays are neighbours; some along axis planes (a zero
+/// direction component), where packets mix fixed and free octants.
+fn coherent_rays() -> Vec<Ray> {
+    let eye = Vec3::new(0.1, 0.2, 2.5);
+    let light = Vec3::new(-0.3, 1.6, 0.4);
+    let mut rays = Vec::new();
+    for tile in 0..64u32 {
+        for k in 0..16u32 {
+            let (x, y) = ((tile % 8) * 4 + k % 4, (tile / 8) * 4 + k / 4);
+            let (u, w) = (x as f32 / 16.0 - 1.0, y as f32 / 16.0 - 1.0);
+            // The middle column and row are exactly on axis planes.
+            rays.push(Ray::new(eye, Vec3::new(u, w, -1.0), 0.0, f32::INFINITY));
+            let p = Vec3::new(u, 0.5 * w, 0.9 * u * w);
+            rays.push(Ray::new(p, light - p, 1e-4, 1.0));
+        }
+    }
+    // Camera rays then shadow rays, each in their tiles of 16.
+    let (camera, shadow): (Vec<_>, Vec<_>) = rays.iter().enumerate().partition(|(i, _)| i % 2 == 0);
+    camera.into_iter().chain(shadow).map(|(_, r)| *r).collect()
+}
+
+#[test]
+fn packets_answer_as_single_rays_on_every_width_order_and_kernel() {
+    use antumbra_core::trace::wide::BoxKernel;
+    let tris = triangles(1500);
+    let settings = BuildSettings {
+        max_leaf_size: 4,
+        ..BuildSettings::default()
+    };
+    let bvh: Bvh = build_binned_sah(&tris, &settings);
+    let mut ray_sets = vec![("coherent", coherent_rays()), ("random", rays(700))];
+    // A short last chunk and a single ray.
+    ray_sets.push(("coherent, 37", coherent_rays()[..37].to_vec()));
+    let collapse = CollapseSettings::default();
+    let mut occluded = 0;
+    for width in [BvhWidth::Two, BvhWidth::Four, BvhWidth::Eight] {
+        let tree = WideTree::collapse(&bvh, width, &collapse);
+        let tables = tree.sort_tables();
+        let representative = &coherent_rays()[1024..];
+        let sorted = ShadowOrder::Sorted(Default::default());
+        for order in [ShadowOrder::Fbto, ShadowOrder::Sato, sorted] {
+            let prepared = tree.prepare(&order, Some(&tables), representative);
+            for kernel in [
+                BoxKernel::Auto,
+                BoxKernel::Avx2,
+                BoxKernel::Sse,
+                BoxKernel::Scalar,
+            ] {
+                for (set, rays) in &ray_sets {
+                    let mut q = tree.ordered(prepared.view()).with_rays(RayMode::Packet);
+                    q.kernel = kernel;
+                    let name = format!("{width:?} {order:?} {kernel:?} {set}");
+                    occluded += check_packets(&name, &q, rays);
+                }
+            }
+        }
+    }
+    assert!(occluded > 1000, "{occluded} occluded rays in all");
+    // The packets' answers are brute force's (not only the single rays').
+    let tree = WideTree::collapse(&bvh, BvhWidth::Eight, &collapse);
+    let q = tree
+        .ordered(OrderView::FrontToBack)
+        .with_rays(RayMode::Packet);
+    let rays = coherent_rays();
+    let mut hits = vec![None; rays.len()];
+    q.closest_hit_batch(&rays, &mut hits, &mut vec![NoStats; rays.len()]);
+    for (i, (ray, hit)) in rays.iter().zip(&hits).enumerate() {
+        let want = brute_closest_hit(&tris, ray).map(|h| (h.triangle, h.t));
+        assert_eq!(hit.map(|h| (h.triangle, h.t)), want, "ray {i}");
+    }
 }

@@ -11,7 +11,7 @@ use antumbra_core::sampling::hash_u32;
 use antumbra_core::scene::RenderSpace;
 use antumbra_core::trace::wide::BoxKernel;
 use antumbra_core::trace::{
-    Counters, Hit as RenderHit, NoStats, OrderedBinary, OrderedWide, TraversalStats,
+    Counters, Hit as RenderHit, NoStats, OrderedBinary, OrderedWide, RayMode, TraversalStats,
 };
 use antumbra_core::{Error, Result};
 use glam::{DVec3, Vec3};
@@ -186,12 +186,24 @@ impl Scene {
         let order = OrderView::FrontToBack;
         match self.wide.get() {
             _ if self.width == BvhWidth::Two => batch::closest_hits(&self.bvh, rays),
-            Some(WideTree::Four(bvh)) => {
-                batch::closest_hits(&OrderedWide { bvh, order, kernel }, rays)
-            }
-            Some(WideTree::Eight(bvh)) => {
-                batch::closest_hits(&OrderedWide { bvh, order, kernel }, rays)
-            }
+            Some(WideTree::Four(bvh)) => batch::closest_hits(
+                &OrderedWide {
+                    bvh,
+                    order,
+                    kernel,
+                    rays: RayMode::Single,
+                },
+                rays,
+            ),
+            Some(WideTree::Eight(bvh)) => batch::closest_hits(
+                &OrderedWide {
+                    bvh,
+                    order,
+                    kernel,
+                    rays: RayMode::Single,
+                },
+                rays,
+            ),
             _ => unreachable!("4- and 8-wide scenes collapse when built"),
         }
     }
@@ -228,9 +240,33 @@ impl Scene {
         let prepared = tree.prepare(order, None, &sample(rays, order));
         let order = prepared.view();
         match tree {
-            WideTree::Two(bvh) => batch::occlusion(&OrderedWide { bvh, order, kernel }, rays),
-            WideTree::Four(bvh) => batch::occlusion(&OrderedWide { bvh, order, kernel }, rays),
-            WideTree::Eight(bvh) => batch::occlusion(&OrderedWide { bvh, order, kernel }, rays),
+            WideTree::Two(bvh) => batch::occlusion(
+                &OrderedWide {
+                    bvh,
+                    order,
+                    kernel,
+                    rays: RayMode::Single,
+                },
+                rays,
+            ),
+            WideTree::Four(bvh) => batch::occlusion(
+                &OrderedWide {
+                    bvh,
+                    order,
+                    kernel,
+                    rays: RayMode::Single,
+                },
+                rays,
+            ),
+            WideTree::Eight(bvh) => batch::occlusion(
+                &OrderedWide {
+                    bvh,
+                    order,
+                    kernel,
+                    rays: RayMode::Single,
+                },
+                rays,
+            ),
         }
     }
 

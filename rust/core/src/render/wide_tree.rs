@@ -6,7 +6,7 @@ use crate::geometry::Ray;
 use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
 use crate::trace::forward_ray_query;
 use crate::trace::wide::BoxKernel;
-use crate::trace::OrderedWide;
+use crate::trace::{OrderedWide, RayMode};
 
 /// A collapsed BVH of one of the supported widths.
 #[derive(Clone, Debug)]
@@ -70,12 +70,14 @@ impl WideTree {
         with_tree!(self, t => PreparedOrder::new(t, order, tables, representative, BoxKernel::Auto))
     }
 
-    /// This tree with a prepared any-hit order, the box kernel chosen at run time.
+    /// This tree with a prepared any-hit order, the box kernel chosen at run time, batches
+    /// traced one ray at a time ([`OrderedWideTree::with_rays`] for packets).
     pub fn ordered<'a>(&'a self, order: OrderView<'a>) -> OrderedWideTree<'a> {
         OrderedWideTree {
             tree: self,
             order,
             kernel: BoxKernel::Auto,
+            rays: RayMode::Single,
         }
     }
 }
@@ -96,14 +98,22 @@ pub struct OrderedWideTree<'a> {
     pub tree: &'a WideTree,
     pub order: OrderView<'a>,
     pub kernel: BoxKernel,
+    pub rays: RayMode,
+}
+
+impl<'a> OrderedWideTree<'a> {
+    /// The same query with batches traced as `rays`.
+    pub fn with_rays(self, rays: RayMode) -> Self {
+        OrderedWideTree { rays, ..self }
+    }
 }
 
 /// Calls `$f` with the [`OrderedWide`] of whatever width `$q`'s tree holds.
 macro_rules! with_ordered {
     ($q:expr, $o:ident => $f:expr) => {{
-        let (order, kernel) = ($q.order, $q.kernel);
+        let (order, kernel, rays) = ($q.order, $q.kernel, $q.rays);
         with_tree!($q.tree, bvh => {
-            let $o = OrderedWide { bvh, order, kernel };
+            let $o = OrderedWide { bvh, order, kernel, rays };
             $f
         })
     }};

@@ -15,7 +15,7 @@ pub use brute::{brute_closest_hit, brute_occluded};
 pub use closest::closest_hit;
 pub use counters::{Counters, NoStats, TraversalStats};
 pub(crate) use query::forward_ray_query;
-pub use query::{OrderedBinary, OrderedWide, RayQuery};
+pub use query::{OrderedBinary, OrderedWide, RayMode, RayQuery};
 
 /// A closest hit: the ray parameter, the triangle id (in the `TriangleSet` the BVH was built
 /// from) and the barycentric weights of its vertices.

@@ -136,12 +136,27 @@ impl RayQuery for OrderedBinary<'_> {
     }
 }
 
-/// A wide tree with a prepared any-hit order and a box kernel.
+/// How a batch of rays is traced: one ray at a time, or in packets of neighbouring rays (SIMD
+/// across rays). Both give the same answers; packets pay off where neighbouring rays are
+/// coherent (a tile's camera rays, its shadow rays toward one light).
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum RayMode {
+    #[default]
+    Single,
+    Packet,
+}
+
+/// A wide tree with a prepared any-hit order, a box kernel, and single rays or packets for
+/// batches.
 #[derive(Clone, Copy)]
 pub struct OrderedWide<'a, const N: usize> {
     pub bvh: &'a WideBvh<N>,
     pub order: OrderView<'a>,
     pub kernel: BoxKernel,
+    pub rays: RayMode,
 }
 
 impl<const N: usize> RayQuery for OrderedWide<'_, N>
@@ -155,5 +170,37 @@ where
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
         WideQueries::closest_hit(self.bvh, ray, self.kernel, stats)
+    }
+    #[inline]
+    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
+        match self.rays {
+            RayMode::Single => {
+                for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+                    *o = self.occluded(ray, c);
+                }
+            }
+            RayMode::Packet => {
+                self.bvh
+                    .occluded_packets(rays, self.order, self.kernel, out, counters)
+            }
+        }
+    }
+    #[inline]
+    fn closest_hit_batch<C: Counters>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    ) {
+        match self.rays {
+            RayMode::Single => {
+                for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+                    *o = self.closest_hit(ray, c);
+                }
+            }
+            RayMode::Packet => self
+                .bvh
+                .closest_hit_packets(rays, self.kernel, out, counters),
+        }
     }
 }

@@ -6,7 +6,7 @@ use super::boxes::{ChildBoxTest, WideRay};
 use super::leaf::{first_hit, LeafLanes};
 use super::stack::Stack;
 use crate::bvh::{WideBvh, WideNode};
-use crate::geometry::{intersect_triangle, Ray, WatertightRay};
+use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 use crate::order::{ChildOrder, Children, FrontToBack, OrderRay};
 use crate::trace::Counters;
 
@@ -31,9 +31,14 @@ impl<const N: usize> Children for WideChildren<'_, N> {
 /// A child reference on the stack: interior node index or first triangle, and the triangle
 /// count (0 for interior nodes).
 #[derive(Clone, Copy, Default)]
-struct ChildRef {
-    child: u32,
-    count: u32,
+pub(crate) struct ChildRef {
+    pub child: u32,
+    pub count: u32,
+}
+
+impl ChildRef {
+    /// The root node.
+    pub const ROOT: ChildRef = ChildRef { child: 0, count: 0 };
 }
 
 /// Traces an occlusion ray. Returns the first triangle slot of the leaf that occluded the ray
@@ -55,6 +60,35 @@ pub(crate) fn any_hit<
     if bvh.nodes.is_empty() {
         return None;
     }
+    // The root box: counted as the binary traversal counts it, but only tested when counting.
+    // A ray that misses it misses every child box (each lies inside it, and the slab test is
+    // monotone in the planes under rounding), so the timed path lets the root node's test
+    // reject it instead.
+    if C::COUNTING {
+        stats.boxes(1);
+        let pre = RayBoxPrecomp::new(ray);
+        let r = &bvh.root_bounds;
+        pre.hit(r.min, r.max, ray.t_min, ray.t_max + pre.t_margin)?;
+    }
+    any_hit_from::<N, K, O, C, OCT>(bvh, ray, ChildRef::ROOT, order, stats)
+}
+
+/// [`any_hit`] in the subtree of `start` (a node or a leaf), without the root box: where a
+/// packet traversal hands one of its rays over to single-ray traversal.
+#[inline(always)]
+pub(crate) fn any_hit_from<
+    const N: usize,
+    K: ChildBoxTest<N>,
+    O: ChildOrder,
+    C: Counters,
+    const OCT: usize,
+>(
+    bvh: &WideBvh<N>,
+    ray: &Ray,
+    start: ChildRef,
+    order: &O,
+    stats: &mut C,
+) -> Option<u32> {
     let wray = WideRay::<N>::for_octant::<OCT>(ray);
     let oray = OrderRay::new::<O>(ray);
     // The triangle test's set-up is built at the first leaf: many shadow rays reach none, and
@@ -63,17 +97,8 @@ pub(crate) fn any_hit<
     let t_min = ray.t_min;
     // Box tests reach a margin past the segment's end; triangle tests do not (see t_margin).
     let t_max = ray.t_max + wray.pre.t_margin;
-    // The root box: counted as the binary traversal counts it, but only tested when counting.
-    // A ray that misses it misses every child box (each lies inside it, and the slab test is
-    // monotone in the planes under rounding), so the timed path lets the root node's test
-    // reject it instead.
-    if C::COUNTING {
-        stats.boxes(1);
-        let r = &bvh.root_bounds;
-        wray.pre.hit(r.min, r.max, t_min, t_max)?;
-    }
     let mut stack = Stack::<ChildRef>::new();
-    let mut current = ChildRef { child: 0, count: 0 };
+    let mut current = start;
     let mut t_near = [0f32; N];
     loop {
         // Descend through interior nodes until a leaf: a tight loop of its own, so the box

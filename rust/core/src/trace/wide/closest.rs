@@ -2,12 +2,12 @@
 //! ones stacked with their entry distance and culled when a closer hit is known by the time they
 //! come off the stack. Same tie rule and `t_margin` reach as the binary traversal.
 
-use super::any_hit::near_to_far;
+use super::any_hit::{near_to_far, ChildRef};
 use super::boxes::{ChildBoxTest, WideRay};
 use super::leaf::{each_hit, LeafLanes};
 use super::stack::Stack;
 use crate::bvh::WideBvh;
-use crate::geometry::{intersect_triangle, Ray, WatertightRay};
+use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 use crate::trace::{Counters, Hit};
 
 #[derive(Clone, Copy, Default)]
@@ -28,21 +28,39 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT
     if bvh.nodes.is_empty() {
         return None;
     }
-    let wray = WideRay::<N>::for_octant::<OCT>(ray);
-    let wt = WatertightRay::new(ray);
-    let margin = wray.pre.t_margin;
-    let t_min = ray.t_min;
-    let mut t_max = ray.t_max;
-    let mut best: Option<Hit> = None;
     // The root box only when counting (see `any_hit`: the root node's test rejects the same
     // rays).
     if C::COUNTING {
         stats.boxes(1);
+        let pre = RayBoxPrecomp::new(ray);
         let r = &bvh.root_bounds;
-        wray.pre.hit(r.min, r.max, t_min, t_max + margin)?;
+        pre.hit(r.min, r.max, ray.t_min, ray.t_max + pre.t_margin)?;
     }
+    closest_from::<N, K, C, OCT>(bvh, ray, ChildRef::ROOT, None, stats)
+}
+
+/// [`closest`] in the subtree of `start` (a node or a leaf), without the root box, given the
+/// closest hit found so far (its distance bounds the search): where a packet traversal hands
+/// one of its rays over to single-ray traversal.
+#[inline(always)]
+pub(crate) fn closest_from<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT: usize>(
+    bvh: &WideBvh<N>,
+    ray: &Ray,
+    start: ChildRef,
+    mut best: Option<Hit>,
+    stats: &mut C,
+) -> Option<Hit> {
+    let wray = WideRay::<N>::for_octant::<OCT>(ray);
+    let wt = WatertightRay::new(ray);
+    let margin = wray.pre.t_margin;
+    let t_min = ray.t_min;
+    let mut t_max = best.map_or(ray.t_max, |b| b.t);
     let mut stack = Stack::<Entry>::new();
-    let mut current = Entry::default();
+    let mut current = Entry {
+        child: start.child,
+        count: start.count,
+        t_entry: 0.0,
+    };
     let mut t_near = [0f32; N];
     loop {
         if current.count > 0 {

@@ -5,6 +5,10 @@
 #[cfg(target_arch = "x86_64")]
 use super::boxes::{Avx2, Avx512, Sse, WideRay};
 use super::boxes::{BoxKernel, ChildBoxTest, Scalar, ANY_OCTANT};
+use super::packet::{self, Packet};
+#[cfg(target_arch = "x86_64")]
+use super::packet_boxes::{Avx2Packet, Avx512Packet};
+use super::packet_boxes::{PacketBoxTest, ScalarPacket};
 use super::{any_hit, closest};
 use crate::bvh::WideBvh;
 use crate::geometry::Ray;
@@ -169,3 +173,140 @@ unsafe fn with_avx2<T: Traversal<8>, const OCT: usize>(t: T) -> T::Out {
 unsafe fn with_avx512<T: Traversal<8>, const OCT: usize>(t: T) -> T::Out {
     t.run::<Avx512, OCT>()
 }
+
+/// One packet query on one tree, run with a single-ray kernel `K` (for the lanes that go on
+/// alone and the leaf tests), a packet box test `P` and an octant, chosen by
+/// [`PacketDispatch`].
+pub(crate) trait PacketTraversal<const N: usize> {
+    /// False when the counters compile away (only then are per-octant instances used).
+    const COUNTING: bool;
+    /// The packet's octant when every ray in it has that fixed octant.
+    fn fixed_octant(&self) -> Option<usize>;
+    fn run<K: ChildBoxTest<N>, P: PacketBoxTest, const OCT: usize>(self);
+}
+
+pub(crate) struct AnyHitPacket<'a, const N: usize, C> {
+    pub bvh: &'a WideBvh<N>,
+    pub packet: &'a Packet<'a>,
+    pub order: &'a OrderView<'a>,
+    pub out: &'a mut [bool],
+    pub counters: &'a mut [C],
+}
+
+impl<const N: usize, C: Counters> PacketTraversal<N> for AnyHitPacket<'_, N, C> {
+    const COUNTING: bool = C::COUNTING;
+    #[inline(always)]
+    fn fixed_octant(&self) -> Option<usize> {
+        self.packet.no_nan.then_some(self.packet.octant)
+    }
+    #[inline(always)]
+    fn run<K: ChildBoxTest<N>, P: PacketBoxTest, const OCT: usize>(self) {
+        packet::occluded_packet::<N, K, P, OrderView, C, OCT>(
+            self.bvh,
+            self.packet,
+            self.order,
+            self.out,
+            self.counters,
+        )
+    }
+}
+
+pub(crate) struct ClosestPacket<'a, const N: usize, C> {
+    pub bvh: &'a WideBvh<N>,
+    pub packet: &'a Packet<'a>,
+    pub out: &'a mut [Option<Hit>],
+    pub counters: &'a mut [C],
+}
+
+impl<const N: usize, C: Counters> PacketTraversal<N> for ClosestPacket<'_, N, C> {
+    const COUNTING: bool = C::COUNTING;
+    #[inline(always)]
+    fn fixed_octant(&self) -> Option<usize> {
+        self.packet.no_nan.then_some(self.packet.octant)
+    }
+    #[inline(always)]
+    fn run<K: ChildBoxTest<N>, P: PacketBoxTest, const OCT: usize>(self) {
+        packet::closest_packet::<N, K, P, C, OCT>(self.bvh, self.packet, self.out, self.counters)
+    }
+}
+
+/// The packet kernels of width N.
+pub(crate) trait PacketDispatch<const N: usize> {
+    fn dispatch_packet<T: PacketTraversal<N>>(t: T, kernel: BoxKernel);
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+impl<const N: usize> PacketDispatch<N> for Kernels {
+    #[inline(always)]
+    fn dispatch_packet<T: PacketTraversal<N>>(t: T, _: BoxKernel) {
+        t.run::<Scalar, ScalarPacket, ANY_OCTANT>()
+    }
+}
+
+/// The packet dispatch of one width on x86_64: `$single512`, `$single2` and `$sse` are the
+/// single-ray kernels that go with the AVX-512, AVX2 and SSE packet paths; `$octants`
+/// (`per_octant` or `any_octant`) says whether this width's traversals are instantiated per
+/// octant, as the single-ray dispatch's are.
+#[cfg(target_arch = "x86_64")]
+macro_rules! packet_dispatch {
+    ($n:literal, $octants:ident, $single512:ty, $single2:ty, $sse:ty) => {
+        impl PacketDispatch<$n> for Kernels {
+            #[inline(always)]
+            fn dispatch_packet<T: PacketTraversal<$n>>(t: T, kernel: BoxKernel) {
+                /// The whole packet traversal compiled with AVX-512.
+                #[target_feature(enable = "avx512f,avx512vl")]
+                unsafe fn with_avx512<T: PacketTraversal<$n>, const OCT: usize>(t: T) {
+                    t.run::<$single512, Avx512Packet, OCT>()
+                }
+                /// The whole packet traversal compiled with AVX2.
+                #[target_feature(enable = "avx2")]
+                unsafe fn with_avx2<T: PacketTraversal<$n>, const OCT: usize>(t: T) {
+                    t.run::<$single2, Avx2Packet, OCT>()
+                }
+                match kernel {
+                    BoxKernel::Scalar => t.run::<Scalar, ScalarPacket, ANY_OCTANT>(),
+                    // SAFETY: AVX-512F and VL were detected on this CPU just above.
+                    BoxKernel::Auto if avx512() => unsafe {
+                        packet_per_octant!($octants, with_avx512::<T>(t))
+                    },
+                    // SAFETY: AVX2 was detected on this CPU just above.
+                    BoxKernel::Auto | BoxKernel::Avx2 if avx2() => unsafe {
+                        packet_per_octant!($octants, with_avx2::<T>(t))
+                    },
+                    _ => t.run::<$sse, ScalarPacket, ANY_OCTANT>(),
+                }
+            }
+        }
+    };
+}
+
+/// Calls `$f::<T, OCT>($t)` with the packet's fixed octant as `OCT` (`per_octant`, as
+/// `per_octant!`; counting traversals take `ANY_OCTANT`), or always with `ANY_OCTANT`.
+#[cfg(target_arch = "x86_64")]
+macro_rules! packet_per_octant {
+    (per_octant, $f:ident::<$ty:ident>($t:expr)) => {{
+        let t = $t;
+        match t.fixed_octant() {
+            _ if $ty::COUNTING => $f::<$ty, ANY_OCTANT>(t),
+            Some(0) => $f::<$ty, 0>(t),
+            Some(1) => $f::<$ty, 1>(t),
+            Some(2) => $f::<$ty, 2>(t),
+            Some(3) => $f::<$ty, 3>(t),
+            Some(4) => $f::<$ty, 4>(t),
+            Some(5) => $f::<$ty, 5>(t),
+            Some(6) => $f::<$ty, 6>(t),
+            Some(7) => $f::<$ty, 7>(t),
+            _ => $f::<$ty, ANY_OCTANT>(t),
+        }
+    }};
+    (any_octant, $f:ident::<$ty:ident>($t:expr)) => {
+        $f::<$ty, ANY_OCTANT>($t)
+    };
+}
+
+#[cfg(target_arch = "x86_64")]
+packet_dispatch!(2, any_octant, Scalar, Scalar, Scalar);
+#[cfg(target_arch = "x86_64")]
+packet_dispatch!(4, any_octant, Sse, Sse, Sse);
+#[cfg(target_arch = "x86_64")]
+packet_dispatch!(8, per_octant, Avx512, Avx2, Sse);

@@ -8,15 +8,18 @@ mod boxes;
 mod closest;
 mod dispatch;
 mod leaf;
+mod packet;
+mod packet_boxes;
 mod stack;
 
 pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay, ANY_OCTANT};
+pub use packet_boxes::LANES as PACKET_LANES;
 
 use super::{Counters, Hit, NoStats};
 use crate::bvh::WideBvh;
 use crate::geometry::Ray;
 use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
-use dispatch::{AnyHit, Closest, Dispatch, Kernels};
+use dispatch::{AnyHit, AnyHitPacket, Closest, ClosestPacket, Dispatch, Kernels, PacketDispatch};
 
 /// The queries of a wide BVH of one width, dispatched to a box kernel.
 pub trait WideQueries {
@@ -40,14 +43,75 @@ pub trait WideQueries {
     ) -> Option<u32>;
     /// The closest hit, ties broken by the smaller triangle id.
     fn closest_hit<C: Counters>(&self, ray: &Ray, kernel: BoxKernel, stats: &mut C) -> Option<Hit>;
+
+    /// [`WideQueries::occluded`] of every ray, traced in packets of neighbouring rays.
+    fn occluded_packets<C: Counters>(
+        &self,
+        rays: &[Ray],
+        order: OrderView,
+        kernel: BoxKernel,
+        out: &mut [bool],
+        counters: &mut [C],
+    );
+
+    /// [`WideQueries::closest_hit`] of every ray, traced in packets of neighbouring rays.
+    fn closest_hit_packets<C: Counters>(
+        &self,
+        rays: &[Ray],
+        kernel: BoxKernel,
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    );
 }
 
 /// One implementation for every width: the traversal is generic over the width, and
 /// [`Dispatch`] maps the run-time [`BoxKernel`] to the box kernels each width has.
 impl<const N: usize> WideQueries for WideBvh<N>
 where
-    Kernels: Dispatch<N>,
+    Kernels: Dispatch<N> + PacketDispatch<N>,
 {
+    fn occluded_packets<C: Counters>(
+        &self,
+        rays: &[Ray],
+        order: OrderView,
+        kernel: BoxKernel,
+        out: &mut [bool],
+        counters: &mut [C],
+    ) {
+        assert!(out.len() == rays.len() && counters.len() == rays.len());
+        out.fill(false);
+        packet::each_packet(rays, |packet| {
+            let call = AnyHitPacket {
+                bvh: self,
+                packet,
+                order: &order,
+                out: &mut *out,
+                counters: &mut *counters,
+            };
+            Kernels::dispatch_packet(call, kernel)
+        });
+    }
+
+    fn closest_hit_packets<C: Counters>(
+        &self,
+        rays: &[Ray],
+        kernel: BoxKernel,
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    ) {
+        assert!(out.len() == rays.len() && counters.len() == rays.len());
+        out.fill(None);
+        packet::each_packet(rays, |packet| {
+            let call = ClosestPacket {
+                bvh: self,
+                packet,
+                out: &mut *out,
+                counters: &mut *counters,
+            };
+            Kernels::dispatch_packet(call, kernel)
+        });
+    }
+
     #[inline]
     fn occluder_leaf<C: Counters>(
         &self,
