@@ -313,7 +313,7 @@ mod tests {
         let has_avx2 = std::arch::is_x86_feature_detected!("avx2");
         let has_avx512 = std::arch::is_x86_feature_detected!("avx512f");
         let (mut hits, mut cases) = (0, 0);
-        for k in 0..1500u32 {
+        for k in 0..3000u32 {
             let r = |i: u32| unit(hash_combine(k, i));
             let mut node = WideNode::<8>::default();
             for s in 0..8u32 {
@@ -350,7 +350,7 @@ mod tests {
                     if d.abs().max_element() == 0.0 {
                         d.x = sign(0);
                     }
-                    Ray::new(origin, d, 0.0, 3.0)
+                    Ray::new(origin, d, 0.0, 10.0)
                 })
                 .collect();
             let no_nan = rays
@@ -379,12 +379,10 @@ mod tests {
                 let mut check = |(mask, f): (u32, f32), got: [f32; LANES]| {
                     assert_eq!(mask, expected, "case {k} slot {s}");
                     assert_eq!(f, first, "case {k} slot {s}");
+                    // Equal values; a zero distance's sign may differ when NaN-free lanes take
+                    // the shallower min/max tree, and no comparison sees it.
                     for lane in (0..LANES).filter(|l| expected & (1 << l) != 0) {
-                        assert_eq!(
-                            got[lane].to_bits(),
-                            want[lane].to_bits(),
-                            "case {k} slot {s} lane {lane}"
-                        );
+                        assert_eq!(got[lane], want[lane], "case {k} slot {s} lane {lane}");
                     }
                     cases += 1;
                 };
@@ -400,7 +398,7 @@ mod tests {
                 hits += expected.count_ones();
             }
         }
-        assert!(hits > 5000, "{hits} lane hits");
+        assert!(hits > 2000, "{hits} lane hits");
         assert!(cases > 0 || !has_avx2);
     }
 }
