@@ -17,7 +17,7 @@ use crate::geometry::Ray;
 use crate::order::{AnyHitOrder, PreparedOrder, ShadowOrder, SortTables};
 use crate::srdh::SrdhBvh;
 use crate::trace::forward_ray_query;
-use crate::trace::OrderedBinary;
+use crate::trace::{OrderedBinary, RayMode};
 
 /// The tree and order one light's shadow pass traces; a batch reads which once.
 pub enum ShadowTracer<'a> {
@@ -77,10 +77,14 @@ enum Route<'a> {
 }
 
 impl<'a> LightTracing<'a> {
-    pub fn tracer(&self) -> ShadowTracer<'_> {
+    /// What the light's pass traces, its batches as `rays` on a wide tree (the binary and
+    /// SRDH trees trace single rays).
+    pub fn tracer(&self, rays: RayMode) -> ShadowTracer<'_> {
         match &self.route {
             Route::Binary(b) => ShadowTracer::Binary(*b),
-            Route::Wide { tree, order } => ShadowTracer::Wide(tree.ordered(order.view())),
+            Route::Wide { tree, order } => {
+                ShadowTracer::Wide(tree.ordered(order.view()).with_rays(rays))
+            }
             Route::Srdh(t) => ShadowTracer::Srdh(t),
         }
     }

@@ -5,7 +5,7 @@ use super::auto;
 use super::facing::face_shading_normals;
 use super::frame_trees::{BvhInfo, CameraTree, FrameTrees, Prepared};
 use super::light_tracer::LightRays;
-use super::policy::{LightMeasurement, LightPlan};
+use super::policy::{camera_rays, LightMeasurement, LightPlan};
 use super::primary::heat_planes;
 use super::renderer::{FrameResult, HeatMaps};
 use super::shadow::{samples_for, SamplePlan};
@@ -17,6 +17,7 @@ use super::{
 use crate::bvh::Bvh;
 use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
+use crate::order::OrderView;
 use crate::scene::Scene;
 use crate::stats::StatsRow;
 use crate::trace::{NoStats, RayQuery, TraversalStats};
@@ -71,7 +72,7 @@ pub(super) fn primary_pass(
     cancel: &CancelToken,
 ) -> Result<(PrimaryPass, StatsRow)> {
     let (counted, timed) = counted_timed(settings);
-    let trace = |counted: bool| trace_camera(trees, scene, counted, cancel);
+    let trace = |counted: bool| trace_camera(trees, scene, settings, counted, cancel);
     let mut primary = trace(counted)?;
     let wide = match trees.camera() {
         CameraTree::Wide(t) => Some(t),
@@ -102,13 +103,19 @@ pub(super) fn primary_pass(
 pub(super) fn trace_camera(
     trees: &FrameTrees,
     scene: &Scene,
+    settings: &RenderSettings,
     counted: bool,
     cancel: &CancelToken,
 ) -> Result<PrimaryPass> {
     let geometry = trees.geometry();
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
     match trees.camera() {
-        CameraTree::Wide(t) => trace_primary(counted, &rays, t, &geometry.camera, cancel),
+        CameraTree::Wide(t) => {
+            let q = t
+                .ordered(OrderView::FrontToBack)
+                .with_rays(camera_rays(settings));
+            trace_primary(counted, &rays, &q, &geometry.camera, cancel)
+        }
         CameraTree::Binary(b) => trace_primary(counted, &rays, b, &geometry.camera, cancel),
     }
 }
@@ -180,7 +187,7 @@ pub(super) fn shadow_passes(
         per_tree_unreported &= !order.order.is_per_tree();
         let tracing = trees.for_light(&order.order, settings.width, &light_rays);
         cancel.check()?;
-        let tracer = tracing.tracer();
+        let tracer = tracing.tracer(order.rays);
         let pass_of = |counted: bool| {
             if counted {
                 ShadowPass::trace::<TraversalStats>(primary, &tracer, &sampler, plan, cancel)
@@ -227,7 +234,7 @@ pub(super) fn shadow_passes(
         // `auto`'s sample: the same in counted and timed frames, so timing includes it.
         let sampled = order.sample.map(|o| {
             let s = trees.for_light(&o.order(), settings.width, &light_rays);
-            auto::sample_work(primary, &sampler, plan, &s.tracer())
+            auto::sample_work(primary, &sampler, plan, &s.tracer(order.rays))
         });
         out.measured.push(LightMeasurement {
             light: light.name.clone(),

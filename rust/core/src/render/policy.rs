@@ -11,9 +11,10 @@ use super::{LightSampler, Pick, PrimaryPass, RenderSettings, VisibilitySource};
 use crate::build::BuildMethod;
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
+use crate::scene::Light;
 use crate::scene::Scene;
 use crate::stats::StatsRow;
-use crate::trace::TraversalStats;
+use crate::trace::{RayMode, TraversalStats};
 
 /// The frame's camera tree: its builder, and whether last frame's trees are kept as they are.
 #[derive(Clone, Copy)]
@@ -27,6 +28,8 @@ pub(super) struct BuildPlan {
 /// One shadow-casting light's order this frame, and `auto`'s choice behind it.
 pub(super) struct LightPlan {
     pub(super) order: ShadowOrder,
+    /// Single rays or packets for the light's pass.
+    pub(super) rays: RayMode,
     pub(super) auto: Option<Choice<OrderChoice>>,
     /// An order `auto` measures on a sample of the light's rays.
     pub(super) sample: Option<OrderChoice>,
@@ -134,8 +137,9 @@ impl Policy {
         let Pick::Auto = settings.shadow_order else {
             let order = *settings.shadow_order.fixed().expect("not auto");
             return lights
-                .map(|_| LightPlan {
+                .map(|(_, light)| LightPlan {
                     order,
+                    rays: light_rays(settings, light),
                     auto: None,
                     sample: None,
                 })
@@ -174,6 +178,7 @@ impl Policy {
                 let plan = auto::choose_order(&self.history, &context, at);
                 LightPlan {
                     order: plan.choice.choice.order(),
+                    rays: light_rays(settings, light),
                     auto: Some(plan.choice),
                     sample: plan.sample,
                 }
@@ -232,5 +237,25 @@ fn moment(settings: &RenderSettings, frames_rendered: u64) -> auto::Moment {
     auto::Moment {
         seed: settings.seed,
         frame: frames_rendered,
+    }
+}
+
+/// How the camera pass traces its tiles: the setting, or `auto`'s rule (docs/auto.md):
+/// single rays, which packets have not yet beaten on camera rays (BENCHMARKS.md).
+pub(super) fn camera_rays(settings: &RenderSettings) -> RayMode {
+    match settings.rays {
+        Pick::Fixed(m) => m,
+        Pick::Auto => RayMode::Single,
+    }
+}
+
+/// How a light's shadow pass traces its tiles: the setting, or `auto`'s rule (docs/auto.md):
+/// packets for a hard light, whose rays from a tile all run toward one point or along one
+/// direction; single rays for a soft light's scattered samples.
+fn light_rays(settings: &RenderSettings, light: &Light) -> RayMode {
+    match settings.rays {
+        Pick::Fixed(m) => m,
+        Pick::Auto if light.is_hard() => RayMode::Packet,
+        Pick::Auto => RayMode::Single,
     }
 }

@@ -190,7 +190,7 @@ impl Renderer {
             .as_mut()
             .expect("prepare leaves the frame's trees");
         trees.collapse(settings, cancel)?;
-        let primary = trace_camera(trees, scene, false, cancel)?;
+        let primary = trace_camera(trees, scene, settings, false, cancel)?;
         let ids: Vec<u32> = primary
             .surfaces
             .iter()

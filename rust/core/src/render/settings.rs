@@ -4,6 +4,7 @@ use super::{Facing, Pick, VisibilitySource};
 use crate::build::{BuildMethod, BuildSettings, CollapseMethod, CollapseSettings};
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
+use crate::trace::RayMode;
 
 /// What the passes measure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -44,6 +45,14 @@ pub struct RenderSettings {
     /// Which normal decides that a light sample is behind the surface.
     #[serde(default)]
     pub facing: Facing,
+    /// How the wide trees trace a tile's rays: one at a time, in packets of neighbouring rays,
+    /// or `auto` (the policy's rule per pass, docs/auto.md). Same answers either way.
+    #[serde(default = "auto_rays")]
+    pub rays: Pick<RayMode>,
+}
+
+fn auto_rays() -> Pick<RayMode> {
+    Pick::Auto
 }
 
 impl Default for RenderSettings {
@@ -56,6 +65,7 @@ impl Default for RenderSettings {
             build: Pick::Auto,
             shadow_order: Pick::Auto,
             width: BvhWidth::Eight,
+            rays: Pick::Auto,
             ..Self::baseline()
         }
     }
@@ -79,6 +89,7 @@ impl RenderSettings {
             stats: StatsMode::Counts,
             visibility: VisibilitySource::Previous,
             facing: Facing::Geometric,
+            rays: Pick::Fixed(RayMode::Single),
         }
     }
 
@@ -109,7 +120,12 @@ impl RenderSettings {
         } else {
             String::new()
         };
-        format!("{build}/bin{}{collapse}/{}", self.width, self.shadow_order)
+        // Packets are named when fixed (`auto` and single rays are the unnamed default).
+        let rays = match self.rays {
+            Pick::Fixed(RayMode::Packet) => "/packet",
+            _ => "",
+        };
+        format!("{build}/bin{}{collapse}/{}{rays}", self.width, self.shadow_order)
     }
 }
 

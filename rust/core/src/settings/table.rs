@@ -5,6 +5,7 @@ use crate::build::{BuildMethod, CollapseMethod, SpatialAxes};
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
 use crate::render::{Facing, Pick, RenderSettings, StatsMode, VisibilitySource};
+use crate::trace::RayMode;
 use crate::{Error, Result};
 
 const U32_MAX: i64 = u32::MAX as i64;
@@ -364,6 +365,19 @@ pub static SCHEMA: &[Setting] = &[
         get: |s| s.collapse.cost.max_leaf.into(),
         set: |s, v| {
             s.collapse.cost.max_leaf = v.as_int() as u32;
+            Ok(())
+        },
+    },
+    Setting {
+        name: "rays",
+        kind: Kind::Choice(&["single", "packet", "auto"]),
+        group: Group::WideBvh,
+        help: "How widths 4 and 8 trace a tile's rays: one at a time, in packets of 16 \
+               neighbouring rays (SIMD across rays), or auto (packets where they pay: \
+               docs/auto.md). Same answers either way.",
+        get: |s| s.rays.to_string().into(),
+        set: |s, v| {
+            s.rays = parsed::<Pick<RayMode>>("rays", v)?;
             Ok(())
         },
     },

@@ -149,6 +149,35 @@ pub enum RayMode {
     Packet,
 }
 
+impl RayMode {
+    pub const ALL: [RayMode; 2] = [RayMode::Single, RayMode::Packet];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            RayMode::Single => "single",
+            RayMode::Packet => "packet",
+        }
+    }
+}
+
+impl std::fmt::Display for RayMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for RayMode {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> crate::Result<Self> {
+        RayMode::ALL
+            .into_iter()
+            .find(|m| m.name() == s.trim())
+            .ok_or_else(|| {
+                crate::Error::invalid("rays", format!("must be single, packet or auto, got '{s}'"))
+            })
+    }
+}
+
 /// A wide tree with a prepared any-hit order, a box kernel, and single rays or packets for
 /// batches.
 #[derive(Clone, Copy)]

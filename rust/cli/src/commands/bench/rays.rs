@@ -241,7 +241,7 @@ impl<'a> Frame<'a> {
         let mut answers = Vec::with_capacity(self.shadow.len());
         let mut total = TraversalStats::default();
         for light in &self.lights {
-            let tracer = light.tracing.tracer();
+            let tracer = light.tracing.tracer(antumbra_core::trace::RayMode::Single);
             let mut a = vec![false; light.rays.len()];
             let mut work = vec![TraversalStats::default(); light.rays.len()];
             light
@@ -365,7 +365,7 @@ impl<'a> Frame<'a> {
             repeat,
             || {
                 for light in &self.lights {
-                    let tracer = light.tracing.tracer();
+                    let tracer = light.tracing.tracer(antumbra_core::trace::RayMode::Single);
                     light.rays.par_chunks(CHUNK).for_each_init(
                         || vec![false; CHUNK],
                         |answers, rays| {

@@ -1,7 +1,7 @@
 //! Packet traversal of the wide BVH (Embree's hybrid scheme): up to [`LANES`] rays of one
 //! octant walk the tree together, each child box tested against every active ray at once
 //! (SIMD across rays); a child is entered by the lanes that hit it, and once few lanes remain
-//! active ([`SWITCH_TO_SINGLE`]) each goes on alone with the single-ray traversal from that
+//! active (`PacketBoxTest::SWITCH_TO_SINGLE`) each goes on alone with the single-ray traversal from that
 //! node. Leaves are tested per active lane with the single-ray leaf test.
 //!
 //! Answers equal the single-ray traversal's bit for bit: every lane's box test is the single-ray
@@ -14,16 +14,13 @@ use super::boxes::ChildBoxTest;
 use super::closest::closest_from;
 use super::leaf::{each_hit, first_hit, LeafLanes};
 use super::packet_boxes::{PacketBoxTest, PacketRays, LANES};
+use std::mem::MaybeUninit;
+
 use super::stack::Stack;
 use crate::bvh::{WideBvh, EMPTY_CHILD};
 use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 use crate::order::{ChildOrder, FrontToBack, OrderRay};
 use crate::trace::{Counters, Hit};
-
-/// A packet goes on as single rays once this many of its lanes or fewer are active: a box
-/// test of the whole packet then costs more than the rays' own tests (measured on the built-in
-/// scenes, BENCHMARKS.md).
-pub(crate) const SWITCH_TO_SINGLE: u32 = 3;
 
 /// Iterates the set bits of a lane mask, lowest first.
 #[inline(always)]
@@ -85,6 +82,31 @@ impl Packet<'_> {
     }
 }
 
+/// Each lane's triangle-test set-up, made at its first leaf (many shadow rays reach none).
+struct LaneTriangleRays {
+    made: u32,
+    rays: [MaybeUninit<WatertightRay>; LANES],
+}
+
+impl LaneTriangleRays {
+    #[inline(always)]
+    fn new() -> Self {
+        LaneTriangleRays {
+            made: 0,
+            rays: [MaybeUninit::uninit(); LANES],
+        }
+    }
+    #[inline(always)]
+    fn get(&mut self, lane: usize, ray: &Ray) -> &WatertightRay {
+        if self.made & (1 << lane) == 0 {
+            self.rays[lane].write(WatertightRay::new(ray));
+            self.made |= 1 << lane;
+        }
+        // SAFETY: lane `lane` was written above or at an earlier call (its bit is set).
+        unsafe { self.rays[lane].assume_init_ref() }
+    }
+}
+
 /// The lanes of `active` counting an interior node.
 #[inline(always)]
 fn count_node<C: Counters>(packet: &Packet, active: u32, arity: u32, counters: &mut [C]) {
@@ -98,7 +120,8 @@ fn count_node<C: Counters>(packet: &Packet, active: u32, arity: u32, counters: &
 }
 
 /// The children of `node` the lanes of `active` enter: per slot its lanes and the smallest
-/// entry distance among them (each lane's own entry distance in `t_lanes` when wanted).
+/// entry distance among them (each lane's own entry distance in `t_lanes[slot]` when it has a
+/// row per slot).
 #[inline(always)]
 fn enter_children<const N: usize, P: PacketBoxTest>(
     p: &PacketRays,
@@ -106,14 +129,22 @@ fn enter_children<const N: usize, P: PacketBoxTest>(
     active: u32,
     masks: &mut [u32; N],
     t_first: &mut [f32; N],
-    t_lanes: &mut [[f32; LANES]; N],
+    t_lanes: &mut [[f32; LANES]],
 ) -> u32 {
+    // One row per slot when the caller keeps each lane's entry distance, else one scratch row.
+    let per_slot = t_lanes.len() >= N;
     let mut slots = 0;
     for s in 0..N {
         if node.child[s] == EMPTY_CHILD {
             continue;
         }
-        let (m, first) = P::test(p, node, s, active, &mut t_lanes[s]);
+        let (m, first) = P::test(
+            p,
+            node,
+            s,
+            active,
+            &mut t_lanes[if per_slot { s } else { 0 }],
+        );
         masks[s] = m;
         t_first[s] = first;
         slots |= ((m != 0) as u32) << s;
@@ -145,20 +176,20 @@ pub(crate) fn occluded_packet<
     let p = packet.lanes();
     let valid = packet.entering_root(bvh, counters);
     let mut occluded = 0u32;
-    let mut wts: [Option<WatertightRay>; LANES] = [None; LANES];
+    let mut wts = LaneTriangleRays::new();
     // The order reads one ray: the packet's first (all share an octant, and per-light orders
     // key on the light, not the ray).
     let oray = OrderRay::new::<O>(packet.ray(0));
     let mut stack = Stack::<(ChildRef, u32)>::new();
     stack.push((ChildRef::ROOT, valid));
-    let (mut masks, mut t_first, mut t_lanes) = ([0u32; N], [0f32; N], [[0f32; LANES]; N]);
+    let (mut masks, mut t_first, mut scratch) = ([0u32; N], [0f32; N], [[0f32; LANES]; 1]);
     'pop: while let Some((mut current, mask)) = stack.pop() {
         let mut active = mask & !occluded;
         loop {
             if active == 0 {
                 continue 'pop;
             }
-            if active.count_ones() <= SWITCH_TO_SINGLE {
+            if active.count_ones() <= P::SWITCH_TO_SINGLE {
                 for lane in lanes(active) {
                     let i = packet.index[lane] as usize;
                     let ray = packet.ray(lane);
@@ -177,7 +208,7 @@ pub(crate) fn occluded_packet<
                     let c = &mut counters[i];
                     c.leaf();
                     let ray = packet.ray(lane);
-                    let wt = &*wts[lane].get_or_insert_with(|| WatertightRay::new(ray));
+                    let wt = wts.get(lane, ray);
                     if leaf_occludes::<N, K, C>(bvh, wt, ray, first, count, c) {
                         occluded |= 1 << lane;
                     }
@@ -188,7 +219,7 @@ pub(crate) fn occluded_packet<
             let node = &bvh.nodes[index];
             count_node(packet, active, node.arity() as u32, counters);
             let slots =
-                enter_children::<N, P>(&p, node, active, &mut masks, &mut t_first, &mut t_lanes);
+                enter_children::<N, P>(&p, node, active, &mut masks, &mut t_first, &mut scratch);
             if slots == 0 {
                 break;
             }
@@ -288,7 +319,7 @@ pub(crate) fn closest_packet<
     let mut p = packet.lanes();
     let valid = packet.entering_root(bvh, counters);
     let mut best: [Option<Hit>; LANES] = [None; LANES];
-    let mut wts: [Option<WatertightRay>; LANES] = [None; LANES];
+    let mut wts = LaneTriangleRays::new();
     let mut stack = Stack::<ClosestEntry>::new();
     stack.push(ClosestEntry {
         child: ChildRef::ROOT,
@@ -304,7 +335,7 @@ pub(crate) fn closest_packet<
             if active == 0 {
                 break;
             }
-            if active.count_ones() <= SWITCH_TO_SINGLE {
+            if active.count_ones() <= P::SWITCH_TO_SINGLE {
                 for lane in lanes(active) {
                     let i = packet.index[lane] as usize;
                     let ray = packet.ray(lane);
@@ -325,7 +356,7 @@ pub(crate) fn closest_packet<
                 for lane in lanes(active) {
                     let i = packet.index[lane] as usize;
                     let ray = packet.ray(lane);
-                    let wt = &*wts[lane].get_or_insert_with(|| WatertightRay::new(ray));
+                    let wt = wts.get(lane, ray);
                     leaf_closest::<N, K, C>(
                         bvh,
                         wt,

@@ -69,6 +69,10 @@ impl PacketRays {
 
 /// Tests one child box against the lanes of a packet.
 pub trait PacketBoxTest {
+    /// A packet goes on as single rays once this many of its lanes or fewer are active: below
+    /// it, testing a box for the whole packet costs more than the active rays' own tests.
+    const SWITCH_TO_SINGLE: u32;
+
     /// The lanes of `active` whose ray enters child `slot` of `node` within (t_min, t_reach],
     /// and the smallest entry distance among them (+inf when none); each entering lane's entry
     /// distance is written to `t_near` (other lanes unspecified).
@@ -99,6 +103,8 @@ pub trait PacketBoxTest {
 pub struct ScalarPacket;
 
 impl PacketBoxTest for ScalarPacket {
+    // One lane at a time: the packet saves only the per-node bookkeeping.
+    const SWITCH_TO_SINGLE: u32 = 1;
     #[inline(always)]
     fn test<const N: usize>(
         p: &PacketRays,
@@ -193,6 +199,8 @@ mod x86 {
     pub struct Avx512Packet;
 
     impl PacketBoxTest for Avx512Packet {
+        // One instruction tests 16 lanes, about what a single ray's node test costs.
+        const SWITCH_TO_SINGLE: u32 = 3;
         #[inline(always)]
         fn test<const N: usize>(
             p: &PacketRays,
@@ -236,6 +244,8 @@ mod x86 {
     pub struct Avx2Packet;
 
     impl PacketBoxTest for Avx2Packet {
+        // Two halves, each skipped when none of its lanes is active.
+        const SWITCH_TO_SINGLE: u32 = 4;
         #[inline(always)]
         fn test<const N: usize>(
             p: &PacketRays,

@@ -24,7 +24,7 @@ pub(crate) const CAPACITY: usize = 7 * MAX_DEPTH + 1;
 #[repr(C)]
 pub(crate) struct Stack<T: Copy> {
     len: usize,
-    items: MaybeUninit<[T; CAPACITY]>,
+    items: [MaybeUninit<T>; CAPACITY],
 }
 
 impl<T: Copy> Stack<T> {
@@ -32,7 +32,7 @@ impl<T: Copy> Stack<T> {
     pub(crate) fn new() -> Self {
         Stack {
             len: 0,
-            items: MaybeUninit::uninit(),
+            items: [const { MaybeUninit::uninit() }; CAPACITY],
         }
     }
 
@@ -42,7 +42,7 @@ impl<T: Copy> Stack<T> {
             overflow();
         }
         // SAFETY: `len < CAPACITY`, so the write stays inside the array.
-        unsafe { self.items.as_mut_ptr().cast::<T>().add(self.len).write(v) };
+        unsafe { self.items.get_unchecked_mut(self.len).write(v) };
         self.len += 1;
     }
 
@@ -53,7 +53,7 @@ impl<T: Copy> Stack<T> {
         }
         self.len -= 1;
         // SAFETY: entries below the old `len` were written by `push` and lie inside the array.
-        Some(unsafe { self.items.as_ptr().cast::<T>().add(self.len).read() })
+        Some(unsafe { self.items.get_unchecked(self.len).assume_init_read() })
     }
 }
 
