@@ -125,7 +125,10 @@ impl RenderSettings {
             Pick::Fixed(RayMode::Packet) => "/packet",
             _ => "",
         };
-        format!("{build}/bin{}{collapse}/{}{rays}", self.width, self.shadow_order)
+        format!(
+            "{build}/bin{}{collapse}/{}{rays}",
+            self.width, self.shadow_order
+        )
     }
 }
 

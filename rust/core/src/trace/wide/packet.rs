@@ -119,37 +119,40 @@ fn count_node<C: Counters>(packet: &Packet, active: u32, arity: u32, counters: &
     }
 }
 
-/// The children of `node` the lanes of `active` enter: per slot its lanes and the smallest
-/// entry distance among them (each lane's own entry distance in `t_lanes[slot]` when it has a
-/// row per slot).
+/// The children of `node` the lanes of `active` enter: per slot its lanes and each lane's
+/// entry distance (`t_lanes[slot]`). Returns the mask of slots entered.
 #[inline(always)]
 fn enter_children<const N: usize, P: PacketBoxTest>(
     p: &PacketRays,
     node: &crate::bvh::WideNode<N>,
     active: u32,
     masks: &mut [u32; N],
-    t_first: &mut [f32; N],
-    t_lanes: &mut [[f32; LANES]],
+    t_lanes: &mut [[f32; LANES]; N],
 ) -> u32 {
-    // One row per slot when the caller keeps each lane's entry distance, else one scratch row.
-    let per_slot = t_lanes.len() >= N;
     let mut slots = 0;
     for s in 0..N {
         if node.child[s] == EMPTY_CHILD {
             continue;
         }
-        let (m, first) = P::test(
-            p,
-            node,
-            s,
-            active,
-            &mut t_lanes[if per_slot { s } else { 0 }],
-        );
+        let m = P::test(p, node, s, active, &mut t_lanes[s]);
         masks[s] = m;
-        t_first[s] = first;
         slots |= ((m != 0) as u32) << s;
     }
     slots
+}
+
+/// Each entered slot's distance for ordering children: its lowest lane's entry (as Embree's
+/// packets, no reduction over the lanes; any key gives the same answers).
+#[inline(always)]
+fn slot_keys<const N: usize>(
+    slots: u32,
+    masks: &[u32; N],
+    t_lanes: &[[f32; LANES]; N],
+    keys: &mut [f32; N],
+) {
+    for s in lanes(slots) {
+        keys[s] = t_lanes[s][masks[s].trailing_zeros() as usize];
+    }
 }
 
 /// Any hit for the rays of `packet`: `out[index[i]]` is set when lane i is occluded.
@@ -182,7 +185,7 @@ pub(crate) fn occluded_packet<
     let oray = OrderRay::new::<O>(packet.ray(0));
     let mut stack = Stack::<(ChildRef, u32)>::new();
     stack.push((ChildRef::ROOT, valid));
-    let (mut masks, mut t_first, mut scratch) = ([0u32; N], [0f32; N], [[0f32; LANES]; 1]);
+    let (mut masks, mut keys, mut t_lanes) = ([0u32; N], [0f32; N], [[0f32; LANES]; N]);
     'pop: while let Some((mut current, mask)) = stack.pop() {
         let mut active = mask & !occluded;
         loop {
@@ -218,8 +221,7 @@ pub(crate) fn occluded_packet<
             let index = current.child as usize;
             let node = &bvh.nodes[index];
             count_node(packet, active, node.arity() as u32, counters);
-            let slots =
-                enter_children::<N, P>(&p, node, active, &mut masks, &mut t_first, &mut scratch);
+            let slots = enter_children::<N, P>(&p, node, active, &mut masks, &mut t_lanes);
             if slots == 0 {
                 break;
             }
@@ -227,9 +229,17 @@ pub(crate) fn occluded_packet<
                 child: node.child[s as usize],
                 count: node.count[s as usize] as u32,
             };
+            if slots & (slots - 1) == 0 {
+                // One child entered (most steps): no order to read.
+                let s = slots.trailing_zeros() as u8;
+                current = r(s);
+                active = masks[s as usize] & !occluded;
+                continue;
+            }
+            slot_keys(slots, &masks, &t_lanes, &mut keys);
             let mut visit = [0u8; N];
             let children = WideChildren {
-                t_near: &t_first,
+                t_near: &keys,
                 node,
             };
             let hits = order.ordered_hits(index, slots, &oray, &children, &mut visit);
@@ -326,7 +336,7 @@ pub(crate) fn closest_packet<
         mask: valid,
         t_near: p.t_min,
     });
-    let (mut masks, mut t_first, mut t_lanes) = ([0u32; N], [0f32; N], [[0f32; LANES]; N]);
+    let (mut masks, mut keys, mut t_lanes) = ([0u32; N], [0f32; N], [[0f32; LANES]; N]);
     while let Some(entry) = stack.pop() {
         // Lanes whose closest hit so far lies before the child's entry need not go in.
         let mut active = P::within_reach(&p, &entry.t_near, entry.mask);
@@ -373,14 +383,23 @@ pub(crate) fn closest_packet<
             }
             let node = &bvh.nodes[current.child as usize];
             count_node(packet, active, node.arity() as u32, counters);
-            let slots =
-                enter_children::<N, P>(&p, node, active, &mut masks, &mut t_first, &mut t_lanes);
+            let slots = enter_children::<N, P>(&p, node, active, &mut masks, &mut t_lanes);
             if slots == 0 {
                 break;
             }
+            if slots & (slots - 1) == 0 {
+                let s = slots.trailing_zeros() as usize;
+                current = ChildRef {
+                    child: node.child[s],
+                    count: node.count[s] as u32,
+                };
+                active = masks[s];
+                continue;
+            }
+            slot_keys(slots, &masks, &t_lanes, &mut keys);
             let mut visit = [0u8; N];
             let children = WideChildren {
-                t_near: &t_first,
+                t_near: &keys,
                 node,
             };
             let ray = OrderRay {

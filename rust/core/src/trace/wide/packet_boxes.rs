@@ -73,16 +73,15 @@ pub trait PacketBoxTest {
     /// it, testing a box for the whole packet costs more than the active rays' own tests.
     const SWITCH_TO_SINGLE: u32;
 
-    /// The lanes of `active` whose ray enters child `slot` of `node` within (t_min, t_reach],
-    /// and the smallest entry distance among them (+inf when none); each entering lane's entry
-    /// distance is written to `t_near` (other lanes unspecified).
+    /// The lanes of `active` whose ray enters child `slot` of `node` within (t_min, t_reach];
+    /// each entering lane's entry distance is written to `t_near` (other lanes unspecified).
     fn test<const N: usize>(
         p: &PacketRays,
         node: &WideNode<N>,
         slot: usize,
         active: u32,
         t_near: &mut [f32; LANES],
-    ) -> (u32, f32);
+    ) -> u32;
 
     /// The lanes of `mask` whose `t_near` is within their reach: those a stacked child may
     /// still matter to.
@@ -112,9 +111,9 @@ impl PacketBoxTest for ScalarPacket {
         slot: usize,
         active: u32,
         t_near: &mut [f32; LANES],
-    ) -> (u32, f32) {
+    ) -> u32 {
         let b = &node.bounds;
-        let (mut mask, mut first) = (0, f32::INFINITY);
+        let mut mask = 0;
         let mut bits = active;
         while bits != 0 {
             let lane = bits.trailing_zeros() as usize;
@@ -126,10 +125,9 @@ impl PacketBoxTest for ScalarPacket {
             if tn <= tf {
                 mask |= 1 << lane;
                 t_near[lane] = tn;
-                first = first.min(tn);
             }
         }
-        (mask, first)
+        mask
     }
 }
 
@@ -208,7 +206,7 @@ mod x86 {
             slot: usize,
             active: u32,
             t_near: &mut [f32; LANES],
-        ) -> (u32, f32) {
+        ) -> u32 {
             // SAFETY: only instantiated inside functions compiled with `avx512f` and called
             // after runtime detection; every load reads one whole 16-lane row of `p`.
             unsafe {
@@ -219,12 +217,7 @@ mod x86 {
                 );
                 let mask = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(active as __mmask16, tn, tf);
                 _mm512_storeu_ps(t_near.as_mut_ptr(), tn);
-                let first = if mask == 0 {
-                    f32::INFINITY
-                } else {
-                    _mm512_mask_reduce_min_ps(mask, tn)
-                };
-                (mask as u32, first)
+                mask as u32
             }
         }
 
@@ -253,7 +246,7 @@ mod x86 {
             slot: usize,
             active: u32,
             t_near: &mut [f32; LANES],
-        ) -> (u32, f32) {
+        ) -> u32 {
             let mut mask = 0;
             for half in [0, 8] {
                 if (active >> half) & 0xff == 0 {
@@ -272,13 +265,7 @@ mod x86 {
                     mask |= (hit << half) & active;
                 }
             }
-            let mut first = f32::INFINITY;
-            let mut bits = mask;
-            while bits != 0 {
-                first = first.min(t_near[bits.trailing_zeros() as usize]);
-                bits &= bits - 1;
-            }
-            (mask, first)
+            mask
         }
     }
 }
@@ -300,7 +287,7 @@ mod tests {
         s: usize,
         active: u32,
         t: &mut [f32; LANES],
-    ) -> (u32, f32) {
+    ) -> u32 {
         Avx512Packet::test(p, node, s, active, t)
     }
 
@@ -311,7 +298,7 @@ mod tests {
         s: usize,
         active: u32,
         t: &mut [f32; LANES],
-    ) -> (u32, f32) {
+    ) -> u32 {
         Avx2Packet::test(p, node, s, active, t)
     }
 
@@ -370,7 +357,7 @@ mod tests {
             let active = hash_combine(k, 77) & 0xffff;
             for s in 0..8 {
                 let mut want = [0f32; LANES];
-                let (expected, first) = ScalarPacket::test(&p, &node, s, active, &mut want);
+                let expected = ScalarPacket::test(&p, &node, s, active, &mut want);
                 // The reference itself against RayBoxPrecomp::hit.
                 for (lane, ray) in rays.iter().enumerate() {
                     let pre = RayBoxPrecomp::new(ray);
@@ -386,9 +373,8 @@ mod tests {
                         assert_eq!(t.to_bits(), want[lane].to_bits());
                     }
                 }
-                let mut check = |(mask, f): (u32, f32), got: [f32; LANES]| {
+                let mut check = |mask: u32, got: [f32; LANES]| {
                     assert_eq!(mask, expected, "case {k} slot {s}");
-                    assert_eq!(f, first, "case {k} slot {s}");
                     // Equal values; a zero distance's sign may differ when NaN-free lanes take
                     // the shallower min/max tree, and no comparison sees it.
                     for lane in (0..LANES).filter(|l| expected & (1 << l) != 0) {
