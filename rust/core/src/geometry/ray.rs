@@ -68,27 +68,35 @@ impl RayBoxPrecomp {
     #[inline]
     pub fn new(ray: &Ray) -> Self {
         let d = ray.direction;
-        // One packed division instead of three (each lane is the same IEEE quotient).
-        let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(d));
+        let (inv_dir, inv_dir_far, t_margin) = Self::reciprocals(ray);
         let neg = BVec3::new(
             d.x.is_sign_negative(),
             d.y.is_sign_negative(),
             d.z.is_sign_negative(),
         );
-        let magnitude = 2.0 + ray.origin.abs().max_element();
-        // 1 / |d| <= 1 / max |d_i| = min |1 / d_i|: from the reciprocals at hand, so the first
-        // node's test does not wait for a square root and a division.
-        let inv_length_bound = inv_dir.abs().min_element();
-        let inv_dir_far = inv_dir * FAR_SCALE;
         RayBoxPrecomp {
             origin: ray.origin,
             inv_dir,
             inv_dir_far,
             neg,
-            t_margin: magnitude * (1.0 / 65536.0) * inv_length_bound,
+            t_margin,
             #[cfg(target_arch = "x86_64")]
             simd: sse::Precomp::new(ray.origin, inv_dir, inv_dir_far, neg),
         }
+    }
+
+    /// `inv_dir`, `inv_dir_far` and `t_margin` of `ray`: the one definition the single-ray
+    /// and the packet box tests share.
+    #[inline(always)]
+    pub fn reciprocals(ray: &Ray) -> (Vec3, Vec3, f32) {
+        // One packed division instead of three (each lane is the same IEEE quotient).
+        let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(ray.direction));
+        let magnitude = 2.0 + ray.origin.abs().max_element();
+        // 1 / |d| <= 1 / max |d_i| = min |1 / d_i|: from the reciprocals at hand, so the first
+        // node's test does not wait for a square root and a division.
+        let inv_length_bound = inv_dir.abs().min_element();
+        let t_margin = magnitude * (1.0 / 65536.0) * inv_length_bound;
+        (inv_dir, inv_dir * FAR_SCALE, t_margin)
     }
 
     /// Entry distance of the box when the segment (t_min, t_max) overlaps it, else `None`.

@@ -38,6 +38,7 @@ pub struct PacketRays {
 
 impl PacketRays {
     /// The packet of `rays` (at most [`LANES`], all of octant `octant`).
+    #[inline(always)]
     pub fn new(rays: impl ExactSizeIterator<Item = Ray>, octant: usize, no_nan: bool) -> Self {
         debug_assert!(rays.len() <= LANES && octant < 8);
         let mut p = PacketRays {
@@ -52,16 +53,16 @@ impl PacketRays {
             no_nan,
         };
         for (lane, ray) in rays.enumerate() {
-            let pre = RayBoxPrecomp::new(&ray);
-            let (o, inv, far) = (pre.origin, pre.inv_dir, pre.inv_dir_far);
+            let (inv, far, t_margin) = RayBoxPrecomp::reciprocals(&ray);
+            let o = ray.origin;
             for a in 0..3 {
                 p.origin[a][lane] = o[a];
                 p.inv_dir[a][lane] = inv[a];
                 p.inv_dir_far[a][lane] = far[a];
             }
             p.t_min[lane] = ray.t_min;
-            p.t_margin[lane] = pre.t_margin;
-            p.t_reach[lane] = ray.t_max + pre.t_margin;
+            p.t_margin[lane] = t_margin;
+            p.t_reach[lane] = ray.t_max + t_margin;
         }
         p
     }
