@@ -5,7 +5,7 @@ use super::auto;
 use super::facing::face_shading_normals;
 use super::frame_trees::{BvhInfo, CameraTree, FrameTrees, Prepared};
 use super::light_tracer::LightRays;
-use super::policy::{camera_rays, LightMeasurement, LightPlan};
+use super::policy::{pass_rays, LightMeasurement, LightPlan};
 use super::primary::heat_planes;
 use super::renderer::{FrameResult, HeatMaps};
 use super::shadow::{samples_for, SamplePlan};
@@ -113,7 +113,7 @@ pub(super) fn trace_camera(
         CameraTree::Wide(t) => {
             let q = t
                 .ordered(OrderView::FrontToBack)
-                .with_rays(camera_rays(settings));
+                .with_rays(pass_rays(settings));
             trace_primary(counted, &rays, &q, &geometry.camera, cancel)
         }
         CameraTree::Binary(b) => trace_primary(counted, &rays, b, &geometry.camera, cancel),

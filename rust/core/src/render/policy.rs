@@ -11,7 +11,6 @@ use super::{LightSampler, Pick, PrimaryPass, RenderSettings, VisibilitySource};
 use crate::build::BuildMethod;
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
-use crate::scene::Light;
 use crate::scene::Scene;
 use crate::stats::StatsRow;
 use crate::trace::{RayMode, TraversalStats};
@@ -137,9 +136,9 @@ impl Policy {
         let Pick::Auto = settings.shadow_order else {
             let order = *settings.shadow_order.fixed().expect("not auto");
             return lights
-                .map(|(_, light)| LightPlan {
+                .map(|_| LightPlan {
                     order,
-                    rays: light_rays(settings, light),
+                    rays: pass_rays(settings),
                     auto: None,
                     sample: None,
                 })
@@ -178,7 +177,7 @@ impl Policy {
                 let plan = auto::choose_order(&self.history, &context, at);
                 LightPlan {
                     order: plan.choice.choice.order(),
-                    rays: light_rays(settings, light),
+                    rays: pass_rays(settings),
                     auto: Some(plan.choice),
                     sample: plan.sample,
                 }
@@ -240,22 +239,12 @@ fn moment(settings: &RenderSettings, frames_rendered: u64) -> auto::Moment {
     }
 }
 
-/// How the camera pass traces its tiles: the setting, or `auto`'s rule (docs/auto.md):
-/// single rays, which packets have not yet beaten on camera rays (BENCHMARKS.md).
-pub(super) fn camera_rays(settings: &RenderSettings) -> RayMode {
+/// How a pass traces its tiles on a wide tree, the camera's and every light's: the setting, or
+/// `auto`'s rule (docs/auto.md): packets, faster than single rays on the camera and shadow rays
+/// of the built-in scenes (BENCHMARKS.md, "Single rays and packets").
+pub(super) fn pass_rays(settings: &RenderSettings) -> RayMode {
     match settings.rays {
         Pick::Fixed(m) => m,
-        Pick::Auto => RayMode::Single,
-    }
-}
-
-/// How a light's shadow pass traces its tiles: the setting, or `auto`'s rule (docs/auto.md):
-/// packets for a hard light, whose rays from a tile all run toward one point or along one
-/// direction; single rays for a soft light's scattered samples.
-fn light_rays(settings: &RenderSettings, light: &Light) -> RayMode {
-    match settings.rays {
-        Pick::Fixed(m) => m,
-        Pick::Auto if light.is_hard() => RayMode::Packet,
-        Pick::Auto => RayMode::Single,
+        Pick::Auto => RayMode::Packet,
     }
 }
