@@ -118,8 +118,8 @@ fn every_builtin_scene_matches_brute_force() {
 }
 
 /// Every width, every shadow order and every box kernel (scalar, SSE, AVX2 where present) on
-/// every built-in scene: occlusion answers and closest-hit ids equal brute force, and sorting
-/// per light (from the frame's own shadow rays) changes no answer.
+/// every built-in scene, single rays and packets: occlusion answers and closest-hit ids equal
+/// brute force, and sorting per light (from the frame's own shadow rays) changes no answer.
 #[test]
 fn every_width_order_and_kernel_matches_brute_force_on_every_builtin_scene() {
     for name in BUILTIN_SCENES {
@@ -208,6 +208,15 @@ fn check_tree<const N: usize>(
             .filter(|(r, id)| wide.closest_hit(r, k, &mut NoStats).map(|h| h.triangle) != **id)
             .count();
         assert_eq!(differ, 0, "{label} N={N} {k:?}: closest-hit ids differ");
+        // Packets of 16 neighbouring camera rays (rows of pixels) answer as single rays do.
+        let mut hits = vec![None; primary.len()];
+        wide.closest_hit_packets(primary, k, &mut hits, &mut vec![NoStats; primary.len()]);
+        let packet_ids: Vec<Option<u32>> = hits.iter().map(|h| h.map(|h| h.triangle)).collect();
+        let differ = packet_ids.iter().zip(ids).filter(|(a, b)| a != b).count();
+        assert_eq!(
+            differ, 0,
+            "{label} N={N} {k:?}: packets' closest-hit ids differ"
+        );
     }
     for order in [
         "stored",
@@ -227,6 +236,15 @@ fn check_tree<const N: usize>(
                 .filter(|(r, o)| wide.occluded(r, prepared.view(), k, &mut NoStats) != **o)
                 .count();
             assert_eq!(differ, 0, "{label} N={N} {order} {k:?}: occlusion differs");
+            // Packets of the frame's shadow rays, light by light in pixel order.
+            let mut packets = vec![false; shadow.len()];
+            let none = &mut vec![NoStats; shadow.len()];
+            wide.occluded_packets(shadow, prepared.view(), k, &mut packets, none);
+            let differ = packets.iter().zip(occ).filter(|(a, b)| a != b).count();
+            assert_eq!(
+                differ, 0,
+                "{label} N={N} {order} {k:?}: packets' occlusion differs"
+            );
         }
     }
 }
