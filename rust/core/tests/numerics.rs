@@ -5,16 +5,30 @@ mod common;
 
 use std::sync::Arc;
 
-use antumbra_core::render::{RenderSettings, Renderer};
+use antumbra_core::bvh::BvhWidth;
+use antumbra_core::render::{Pick, RenderSettings, Renderer};
 use antumbra_core::scene::{FrameGeometry, Light, LightKind, Mesh, Object, Scene};
+use antumbra_core::trace::RayMode;
 use antumbra_core::Error;
 use glam::{DMat4, DVec3, Vec3};
 
 fn masks(scene: &Scene) -> Vec<Vec<f32>> {
-    let result = Renderer::new()
-        .render("test", scene, &RenderSettings::baseline())
-        .unwrap();
+    masks_with(scene, &RenderSettings::baseline())
+}
+
+fn masks_with(scene: &Scene, settings: &RenderSettings) -> Vec<Vec<f32>> {
+    let result = Renderer::new().render("test", scene, settings).unwrap();
     result.masks.into_iter().map(|m| m.data).collect()
+}
+
+/// The 8-wide tree traced in packets (each lane's own watertight test), which must give the
+/// baseline's shadows wherever the scene is.
+fn packets() -> RenderSettings {
+    RenderSettings {
+        width: BvhWidth::Eight,
+        rays: Pick::Fixed(RayMode::Packet),
+        ..RenderSettings::baseline()
+    }
 }
 
 fn differing(a: &[Vec<f32>], b: &[Vec<f32>]) -> usize {
@@ -41,6 +55,12 @@ fn translation_by_a_million_gives_the_same_shadows() {
     for offset in [DVec3::splat(1e6), DVec3::new(-1e6, 3e5, 1e6)] {
         let moved = common::transform_scene(&scene, DMat4::from_translation(offset));
         assert_eq!(differing(&reference, &masks(&moved)), 0, "offset {offset}");
+        let packed = masks_with(&moved, &packets());
+        assert_eq!(
+            differing(&reference, &packed),
+            0,
+            "offset {offset}, packets"
+        );
     }
 }
 
@@ -54,6 +74,8 @@ fn scaling_by_powers_of_ten_gives_the_same_shadows() {
         scaled.camera.clip_end *= k;
         // Mesh vertices stay as they are; the scale lives in the f64 matrices, as in Blender.
         assert_eq!(differing(&reference, &masks(&scaled)), 0, "scale {k}");
+        let packed = masks_with(&scaled, &packets());
+        assert_eq!(differing(&reference, &packed), 0, "scale {k}, packets");
     }
 }
 

@@ -3,11 +3,31 @@
 
 mod common;
 
-use antumbra_core::build::{build_binned_sah, BuildSettings};
+use antumbra_core::build::{build_binned_sah, BuildSettings, CollapseSettings};
+use antumbra_core::bvh::{Bvh, BvhWidth};
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::OrderView;
+use antumbra_core::render::WideTree;
 use antumbra_core::sampling::{hash_u32, unit_float};
-use antumbra_core::trace::{closest_hit, NoStats};
+use antumbra_core::trace::{closest_hit, NoStats, RayMode, RayQuery};
 use glam::Vec3;
+
+/// Rays that miss (closest hit) and that nothing occludes (any hit) when traced in packets of 16
+/// on the 8-wide collapse of `bvh`, every lane with its own watertight test.
+fn packet_misses(bvh: &Bvh, rays: &[Ray]) -> (usize, usize) {
+    let tree = WideTree::collapse(bvh, BvhWidth::Eight, &CollapseSettings::default());
+    let q = tree
+        .ordered(OrderView::FrontToBack)
+        .with_rays(RayMode::Packet);
+    let mut hits = vec![None; rays.len()];
+    q.closest_hit_batch(rays, &mut hits, &mut vec![NoStats; rays.len()]);
+    let mut occluded = vec![false; rays.len()];
+    q.occluded_batch(rays, &mut occluded, &mut vec![NoStats; rays.len()]);
+    (
+        hits.iter().filter(|h| h.is_none()).count(),
+        occluded.iter().filter(|o| !**o).count(),
+    )
+}
 
 fn tris(mesh: &antumbra_core::scene::Mesh) -> Vec<[Vec3; 3]> {
     mesh.triangles
@@ -31,6 +51,7 @@ fn rays_from_inside_a_closed_sphere_never_escape() {
     let bvh = build_binned_sah(&t, &BuildSettings::default());
     let mut misses = 0;
     let n = 100_000u32;
+    let mut rays = Vec::new();
     for i in 0..n {
         // Origins anywhere inside (radius up to 0.95), directions uniform incl. axis-aligned ones.
         let o = (rand3(2 * i) * 2.0 - 1.0) * 0.95 / 3f32.sqrt();
@@ -45,8 +66,14 @@ fn rays_from_inside_a_closed_sphere_never_escape() {
         if closest_hit(&bvh, &ray, &mut NoStats).is_none() {
             misses += 1;
         }
+        rays.push(ray);
     }
     assert_eq!(misses, 0, "rays escaped the closed sphere through cracks");
+    assert_eq!(
+        packet_misses(&bvh, &rays),
+        (0, 0),
+        "packets escaped through cracks"
+    );
 }
 
 #[test]
@@ -57,6 +84,7 @@ fn rays_through_shared_edges_and_vertices_of_a_grid_all_hit() {
     let bvh = build_binned_sah(&t, &BuildSettings::default());
     let mut misses = 0;
     let mut total = 0;
+    let mut rays = Vec::new();
     // Aim exactly at vertices, at edge midpoints and along the diagonals, from many directions.
     for j in 0..=2 * n {
         for i in 0..=2 * n {
@@ -76,6 +104,7 @@ fn rays_through_shared_edges_and_vertices_of_a_grid_all_hit() {
                 if closest_hit(&bvh, &ray, &mut NoStats).is_none() {
                     misses += 1;
                 }
+                rays.push(ray);
             }
         }
     }
@@ -83,5 +112,10 @@ fn rays_through_shared_edges_and_vertices_of_a_grid_all_hit() {
     assert_eq!(
         misses, 0,
         "{misses} of {total} rays fell through shared edges"
+    );
+    assert_eq!(
+        packet_misses(&bvh, &rays),
+        (0, 0),
+        "packets fell through shared edges"
     );
 }
