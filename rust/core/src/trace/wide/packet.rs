@@ -471,9 +471,9 @@ fn leaf_closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
             },
         );
     } else {
-        for slot in first..first + count {
-            if let Some(h) = intersect_triangle(wt, &bvh.triangles[slot], t_min, t_max) {
-                let id = ids[slot];
+        let range = first..first + count;
+        for (tri, &id) in bvh.triangles[range.clone()].iter().zip(&ids[range]) {
+            if let Some(h) = intersect_triangle(wt, tri, t_min, t_max) {
                 if Hit::closer_than(h.t, id, best) {
                     t_max = h.t;
                     *best = Some(Hit {
