@@ -24,14 +24,21 @@ pub fn unit_float(h: u32) -> f32 {
 /// in a seeded random order, one jittered point per cell.
 pub fn stratified_2d(n: u32, seed: u32, out: &mut Vec<[f32; 2]>) {
     out.clear();
+    extend_stratified_2d(n, seed, out);
+}
+
+/// [`stratified_2d`]'s points appended to `out`.
+#[inline]
+pub fn extend_stratified_2d(n: u32, seed: u32, out: &mut Vec<[f32; 2]>) {
     let side = (n as f32).sqrt().ceil().max(1.0) as u32;
     let cells = side * side;
-    // A seeded bijection on 0..cells visits distinct strata for the first n samples.
-    let offset = hash_u32(seed) % cells;
+    // A seeded bijection on 0..cells visits distinct strata for the first n samples: cell i is
+    // (offset + i * stride) mod cells, stepped without a division (stride < cells).
+    let mut cell = hash_u32(seed) % cells;
     let stride = coprime_stride(cells, hash_u32(seed ^ 0x5bd1_e995));
+    out.reserve(n as usize);
     for i in 0..n {
-        let cell = (offset as u64 + i as u64 * stride as u64) % cells as u64;
-        let (cx, cy) = ((cell as u32) % side, (cell as u32) / side);
+        let (cx, cy) = (cell % side, cell / side);
         let h = hash_combine(seed, i);
         let jx = unit_float(h);
         let jy = unit_float(hash_u32(h));
@@ -39,6 +46,10 @@ pub fn stratified_2d(n: u32, seed: u32, out: &mut Vec<[f32; 2]>) {
             ((cx as f32 + jx) / side as f32).min(1.0 - f32::EPSILON),
             ((cy as f32 + jy) / side as f32).min(1.0 - f32::EPSILON),
         ]);
+        cell += stride;
+        if cell >= cells {
+            cell -= cells;
+        }
     }
 }
 
@@ -99,6 +110,27 @@ mod tests {
             cells.sort();
             cells.dedup();
             assert_eq!(cells.len(), n as usize);
+        }
+    }
+
+    /// The stepped cells are the closed form's `(offset + i * stride) mod cells`.
+    #[test]
+    fn strata_follow_the_closed_form() {
+        let mut v = Vec::new();
+        for (n, seed) in [(2u32, 7u32), (4, 0), (9, 3), (10, 99), (4096, 5), (1, 1)] {
+            stratified_2d(n, seed, &mut v);
+            let side = (n as f32).sqrt().ceil().max(1.0) as u32;
+            let cells = side * side;
+            let offset = hash_u32(seed) % cells;
+            let stride = coprime_stride(cells, hash_u32(seed ^ 0x5bd1_e995));
+            for (i, p) in v.iter().enumerate() {
+                let cell = ((offset as u64 + i as u64 * stride as u64) % cells as u64) as u32;
+                let h = hash_combine(seed, i as u32);
+                let x = ((cell % side) as f32 + unit_float(h)) / side as f32;
+                let y = ((cell / side) as f32 + unit_float(hash_u32(h))) / side as f32;
+                assert_eq!(p[0], x.min(1.0 - f32::EPSILON));
+                assert_eq!(p[1], y.min(1.0 - f32::EPSILON));
+            }
         }
     }
 
