@@ -36,21 +36,33 @@ pub fn extend_stratified_2d(n: u32, seed: u32, out: &mut Vec<[f32; 2]>) {
     // (offset + i * stride) mod cells, stepped without a division (stride < cells).
     let mut cell = hash_u32(seed) % cells;
     let stride = coprime_stride(cells, hash_u32(seed ^ 0x5bd1_e995));
-    out.reserve(n as usize);
-    for i in 0..n {
-        let (cx, cy) = (cell % side, cell / side);
+    // A power-of-two side (4, 16, 64... samples) splits a cell by a shift and scales by an exact
+    // reciprocal: the same values as the division, without one.
+    let shift = side.trailing_zeros();
+    let pow2 = side.is_power_of_two();
+    let inv_side = 1.0 / side as f32;
+    out.extend((0..n).map(|i| {
+        let (cx, cy) = if pow2 {
+            (cell & (side - 1), cell >> shift)
+        } else {
+            (cell % side, cell / side)
+        };
         let h = hash_combine(seed, i);
-        let jx = unit_float(h);
-        let jy = unit_float(hash_u32(h));
-        out.push([
-            ((cx as f32 + jx) / side as f32).min(1.0 - f32::EPSILON),
-            ((cy as f32 + jy) / side as f32).min(1.0 - f32::EPSILON),
-        ]);
+        let (x, y) = (
+            cx as f32 + unit_float(h),
+            cy as f32 + unit_float(hash_u32(h)),
+        );
+        let (x, y) = if pow2 {
+            (x * inv_side, y * inv_side)
+        } else {
+            (x / side as f32, y / side as f32)
+        };
         cell += stride;
         if cell >= cells {
             cell -= cells;
         }
-    }
+        [x.min(1.0 - f32::EPSILON), y.min(1.0 - f32::EPSILON)]
+    }));
 }
 
 fn coprime_stride(n: u32, h: u32) -> u32 {
@@ -117,7 +129,15 @@ mod tests {
     #[test]
     fn strata_follow_the_closed_form() {
         let mut v = Vec::new();
-        for (n, seed) in [(2u32, 7u32), (4, 0), (9, 3), (10, 99), (4096, 5), (1, 1)] {
+        for (n, seed) in [
+            (2u32, 7u32),
+            (4, 0),
+            (9, 3),
+            (10, 99),
+            (16, 8),
+            (4096, 5),
+            (1, 1),
+        ] {
             stratified_2d(n, seed, &mut v);
             let side = (n as f32).sqrt().ceil().max(1.0) as u32;
             let cells = side * side;

@@ -119,7 +119,7 @@ mod tests {
 
     #[test]
     fn band_indices_are_the_pixels_in_their_band() {
-        let (w, h) = (21, 19);
+        let (w, h) = (21u32, 19u32);
         for b in 0..h.div_ceil(TILE_SIDE) {
             let y0 = b * TILE_SIDE;
             let mut seen = vec![false; band_pixels(w).min(((h - y0) * w) as usize)];
