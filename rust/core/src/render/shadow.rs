@@ -148,6 +148,8 @@ struct TileRays<'l, C> {
     points: Vec<(u32, PointRays<'l>)>,
     /// The samples of `points`, `plan.samples` per pixel.
     samples: Vec<[f32; 2]>,
+    /// One sample of each of `points` on the light.
+    targets: Vec<LightSample>,
     /// Pixels whose value needs no ray: no surface (lit) or out of the light's reach (dark).
     settled: Vec<(u32, f32)>,
     /// Per pixel of `points`: its rays not occluded, and their work.
@@ -186,9 +188,17 @@ impl<'l, C: Counters> TileRays<'l, C> {
         self.rays.clear();
         self.owners.clear();
         let spp = plan.samples as usize;
+        self.rays.reserve(spp * self.points.len());
+        self.owners.reserve(spp * self.points.len());
         for sample in 0..spp {
-            for (k, (_, point)) in self.points.iter().enumerate() {
-                match point.ray(self.samples[k * spp + sample]) {
+            // Light samples first, then rays: two short loops whose iterations are independent
+            // overlap in the core, where one long chain per ray would wait on each division.
+            self.targets.clear();
+            let pixels = self.points.iter().zip(self.samples.chunks_exact(spp));
+            self.targets
+                .extend(pixels.map(|((_, point), u)| point.light.sample(u[sample])));
+            for (k, ((_, point), target)) in self.points.iter().zip(&self.targets).enumerate() {
+                match point.ray_to(*target) {
                     Some(r) => {
                         self.rays.push(r);
                         self.owners.push(k as u32);
@@ -273,7 +283,12 @@ impl<'l> PointRays<'l> {
     /// [`super::Facing`]).
     #[inline]
     pub fn ray(&self, u: [f32; 2]) -> Option<Ray> {
-        let sample = self.light.sample(u);
+        self.ray_to(self.light.sample(u))
+    }
+
+    /// The ray towards `sample`, a sample of this point's light ([`Self::ray`]).
+    #[inline(always)]
+    fn ray_to(&self, sample: LightSample) -> Option<Ray> {
         let towards = match sample {
             LightSample::Point(q) => q - self.position,
             LightSample::Direction(w) => w,
