@@ -5,8 +5,9 @@ Reads `perf script --inline -F tid,ip,sym` (a `perf record -e cpu-clock --call-g
 one-thread render, BENCHMARKS.md) on stdin. A sample belongs to:
   shadow pass   a frame of `ShadowPass::trace` on its stack (its rayon closure included);
   traversal     of those, a frame of the tree's batch query (`RayQuery::occluded_batch`);
-  preparation   a frame of `light_tracing` (representative rays, logging, sorting), with
-                `representative_rays` (choosing the rays) counted apart.
+  preparation   a frame of `light_tracing` or of the order code it calls (on rayon's workers
+                the stack starts below it), with choosing the representative rays
+                (`representative_rays` and its parallel scan) counted apart.
 Prints the samples of each and the share of the shadow pass spent outside traversal, with its
 largest leaf functions.
 """
@@ -17,8 +18,8 @@ import sys
 
 SHADOW = "render::shadow::ShadowPass::trace"
 TRAVERSAL = "RayQuery>::occluded_batch"
-PREPARATION = "render::light_tracer::light_tracing"
-REPRESENTATIVE = "render::shadow::representative_rays"
+PREPARATION = ("render::light_tracer::light_tracing", "order::child_sort", "order::prepared")
+REPRESENTATIVE = ("render::shadow::representative_rays", "render::shadow::rays_of_pixels")
 
 
 def samples(lines):
@@ -48,9 +49,10 @@ def main():
     outside = collections.Counter()
     for frames in samples(sys.stdin):
         total += 1
-        if any(PREPARATION in f for f in frames):
+        chosen = any(r in f for f in frames for r in REPRESENTATIVE)
+        if chosen or any(p in f for f in frames for p in PREPARATION):
             prep += 1
-            representative += any(REPRESENTATIVE in f for f in frames)
+            representative += chosen
         if not any(SHADOW in f for f in frames):
             continue
         shadow += 1
