@@ -274,7 +274,13 @@ impl<'l> PointRays<'l> {
             normal: n,
             facing: surface.facing,
             front: offset_ray_origin(p, n),
-            back: offset_ray_origin(p, -n),
+            // Only a shading normal lets a ray leave behind the plane: with the geometric one
+            // (facing == normal) the back origin is never taken.
+            back: if surface.facing == n {
+                p
+            } else {
+                offset_ray_origin(p, -n)
+            },
         }
     }
 
