@@ -24,21 +24,49 @@ pub fn unit_float(h: u32) -> f32 {
 /// in a seeded random order, one jittered point per cell.
 pub fn stratified_2d(n: u32, seed: u32, out: &mut Vec<[f32; 2]>) {
     out.clear();
+    extend_stratified_2d(n, seed, out);
+}
+
+/// [`stratified_2d`]'s points appended to `out`.
+#[inline]
+pub fn extend_stratified_2d(n: u32, seed: u32, out: &mut Vec<[f32; 2]>) {
     let side = (n as f32).sqrt().ceil().max(1.0) as u32;
     let cells = side * side;
-    // A seeded bijection on 0..cells visits distinct strata for the first n samples.
-    let offset = hash_u32(seed) % cells;
+    // A seeded bijection on 0..cells visits distinct strata for the first n samples: cell i is
+    // (offset + i * stride) mod cells, stepped without a division (stride < cells).
+    let mut cell = if cells.is_power_of_two() {
+        hash_u32(seed) & (cells - 1)
+    } else {
+        hash_u32(seed) % cells
+    };
     let stride = coprime_stride(cells, hash_u32(seed ^ 0x5bd1_e995));
+    // A power-of-two side (4, 16, 64... samples) splits a cell by a shift and scales by an exact
+    // reciprocal: the same values as the division, without one.
+    let shift = side.trailing_zeros();
+    let pow2 = side.is_power_of_two();
+    let inv_side = 1.0 / side as f32;
+    out.reserve(n as usize);
     for i in 0..n {
-        let cell = (offset as u64 + i as u64 * stride as u64) % cells as u64;
-        let (cx, cy) = ((cell as u32) % side, (cell as u32) / side);
+        let (cx, cy) = if pow2 {
+            (cell & (side - 1), cell >> shift)
+        } else {
+            (cell % side, cell / side)
+        };
         let h = hash_combine(seed, i);
-        let jx = unit_float(h);
-        let jy = unit_float(hash_u32(h));
-        out.push([
-            ((cx as f32 + jx) / side as f32).min(1.0 - f32::EPSILON),
-            ((cy as f32 + jy) / side as f32).min(1.0 - f32::EPSILON),
-        ]);
+        let (x, y) = (
+            cx as f32 + unit_float(h),
+            cy as f32 + unit_float(hash_u32(h)),
+        );
+        let (x, y) = if pow2 {
+            (x * inv_side, y * inv_side)
+        } else {
+            (x / side as f32, y / side as f32)
+        };
+        out.push([x.min(1.0 - f32::EPSILON), y.min(1.0 - f32::EPSILON)]);
+        cell += stride;
+        if cell >= cells {
+            cell -= cells;
+        }
     }
 }
 
@@ -46,9 +74,18 @@ fn coprime_stride(n: u32, h: u32) -> u32 {
     if n <= 1 {
         return 1;
     }
+    // Coprime to a power of two (the grid of 4, 16, 64... samples) means odd: no gcd's divisions.
+    let coprime = |s: u32| {
+        if n.is_power_of_two() {
+            s & 1 == 1
+        } else {
+            gcd(s, n) == 1
+        }
+    };
     let mut s = 1 + h % (n - 1);
-    while gcd(s, n) != 1 {
-        s = s % (n - 1) + 1;
+    while !coprime(s) {
+        // s % (n - 1) + 1 for s in 1..n
+        s = if s == n - 1 { 1 } else { s + 1 };
     }
     s
 }
@@ -61,6 +98,11 @@ fn gcd(mut a: u32, mut b: u32) -> u32 {
 }
 
 /// Maps [0,1)^2 to the unit disk, preserving strata (Shirley & Chiu's concentric map).
+///
+/// The angle is pi/4 times a ratio in [-1, 1] (measured from the nearer axis), so its sine and
+/// cosine come from short series with no range reduction ([`sin_cos_octant`]) instead of a libm
+/// `sincosf` call per sample: the values are within an ulp of the libm form and the same on
+/// every platform (docs/sampling.md).
 #[inline]
 pub fn concentric_disk(u: [f32; 2]) -> [f32; 2] {
     let a = 2.0 * u[0] - 1.0;
@@ -68,15 +110,30 @@ pub fn concentric_disk(u: [f32; 2]) -> [f32; 2] {
     if a == 0.0 && b == 0.0 {
         return [0.0, 0.0];
     }
-    let (r, phi) = if a.abs() > b.abs() {
-        (a, std::f32::consts::FRAC_PI_4 * (b / a))
-    } else {
-        (
-            b,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b),
-        )
-    };
-    [r * phi.cos(), r * phi.sin()]
+    // phi = pi/4 * b/a from the x axis, or pi/2 - pi/4 * a/b from the y axis (cos and sin
+    // trade places): chosen by selects, as the side is a coin toss a branch would mispredict.
+    let x_side = a.abs() > b.abs();
+    let (num, den) = if x_side { (b, a) } else { (a, b) };
+    let (sin, cos) = sin_cos_octant(std::f32::consts::FRAC_PI_4 * (num / den));
+    let (x, y) = if x_side { (cos, sin) } else { (sin, cos) };
+    [den * x, den * y]
+}
+
+/// `(sin x, cos x)` for |x| <= pi/4: Taylor series evaluated in f64 (truncation below 2^-33
+/// relative) and rounded once to f32, so nearly always the correctly rounded values.
+#[inline]
+pub fn sin_cos_octant(x: f32) -> (f32, f32) {
+    let x = x as f64;
+    let x2 = x * x;
+    let sin = x
+        * (1.0
+            + x2 * (-1.0 / 6.0
+                + x2 * (1.0 / 120.0
+                    + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0 - x2 / 39_916_800.0)))));
+    let cos = 1.0
+        + x2 * (-0.5
+            + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 - x2 / 3_628_800.0))));
+    (sin as f32, cos as f32)
 }
 
 #[cfg(test)]
@@ -99,6 +156,97 @@ mod tests {
             cells.sort();
             cells.dedup();
             assert_eq!(cells.len(), n as usize);
+        }
+    }
+
+    /// The stepped cells are the closed form's `(offset + i * stride) mod cells`.
+    #[test]
+    fn strata_follow_the_closed_form() {
+        let mut v = Vec::new();
+        for (n, seed) in [
+            (2u32, 7u32),
+            (4, 0),
+            (9, 3),
+            (10, 99),
+            (16, 8),
+            (4096, 5),
+            (1, 1),
+        ] {
+            stratified_2d(n, seed, &mut v);
+            let side = (n as f32).sqrt().ceil().max(1.0) as u32;
+            let cells = side * side;
+            let offset = hash_u32(seed) % cells;
+            let stride = coprime_stride(cells, hash_u32(seed ^ 0x5bd1_e995));
+            for (i, p) in v.iter().enumerate() {
+                let cell = ((offset as u64 + i as u64 * stride as u64) % cells as u64) as u32;
+                let h = hash_combine(seed, i as u32);
+                let x = ((cell % side) as f32 + unit_float(h)) / side as f32;
+                let y = ((cell / side) as f32 + unit_float(hash_u32(h))) / side as f32;
+                assert_eq!(p[0], x.min(1.0 - f32::EPSILON));
+                assert_eq!(p[1], y.min(1.0 - f32::EPSILON));
+            }
+        }
+    }
+
+    /// Ulps between two floats of the same sign.
+    fn ulps(a: f32, b: f32) -> u32 {
+        (a.to_bits() as i64 - b.to_bits() as i64).unsigned_abs() as u32
+    }
+
+    #[test]
+    fn octant_series_is_within_an_ulp_of_libm() {
+        let n = 200_000;
+        let mut exact = 0;
+        for i in 0..=n {
+            let x = std::f32::consts::FRAC_PI_4 * (2.0 * i as f32 / n as f32 - 1.0);
+            let (s, c) = sin_cos_octant(x);
+            let (rs, rc) = ((x as f64).sin() as f32, (x as f64).cos() as f32);
+            assert!(
+                ulps(s, rs) <= 1 && ulps(c, rc) <= 1,
+                "{x}: {s} {rs} {c} {rc}"
+            );
+            exact += u32::from(s == rs && c == rc);
+        }
+        assert!(
+            exact as f64 > 0.999 * n as f64,
+            "correctly rounded: {exact} of {n}"
+        );
+    }
+
+    #[test]
+    fn disk_map_is_the_trigonometric_one() {
+        use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
+        for i in 0..20_000u32 {
+            let u = [
+                unit_float(hash_u32(i)),
+                unit_float(hash_u32(i ^ 0xdead_beef)),
+            ];
+            let (a, b) = (2.0 * u[0] - 1.0, 2.0 * u[1] - 1.0);
+            let (r, phi) = if a.abs() > b.abs() {
+                (a as f64, (FRAC_PI_4 * (b / a)) as f64)
+            } else {
+                (b as f64, FRAC_PI_2 as f64 - (FRAC_PI_4 * (a / b)) as f64)
+            };
+            let d = concentric_disk(u);
+            for (got, want) in [(d[0], r * phi.cos()), (d[1], r * phi.sin())] {
+                assert!(
+                    (got as f64 - want).abs() <= 2.5e-7 * r.abs(),
+                    "{u:?}: {got} {want}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn strides_are_the_first_coprime_from_the_hash() {
+        for n in 2..300u32 {
+            for h in [0u32, 1, 2, 7, 1000, 0xffff_ffff] {
+                let mut s = 1 + h % (n - 1);
+                while gcd(s, n) != 1 {
+                    s = s % (n - 1) + 1;
+                }
+                assert_eq!(coprime_stride(n, h), s, "n {n} h {h}");
+            }
         }
     }
 

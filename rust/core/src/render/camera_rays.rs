@@ -1,5 +1,6 @@
 use glam::{DMat4, Vec3};
 
+use super::tiles::{tiles, Tile};
 use crate::geometry::Ray;
 use crate::scene::{Camera, RenderSpace, Resolution, ViewPlane};
 
@@ -44,5 +45,19 @@ impl PrimaryRays {
         let d = self.plane.camera_direction(x as f64 + 0.5, y as f64 + 0.5);
         let dir = self.render_from_camera.transform_vector3(d).as_vec3();
         Ray::new(self.origin, dir, self.t_min, self.t_max)
+    }
+
+    /// A tile's camera rays in the order the primary pass hands them to the tree.
+    #[inline]
+    pub fn tile_rays(&self, tile: Tile) -> impl Iterator<Item = Ray> + '_ {
+        tile.pixels().map(|(x, y)| self.ray(x, y))
+    }
+
+    /// The primary pass's batches: each tile's camera rays ([`Self::tile_rays`]), for benchmarks
+    /// that must batch rays as the pass does.
+    pub fn batches(&self) -> Vec<Vec<Ray>> {
+        tiles(self.width, self.height)
+            .map(|tile| self.tile_rays(tile).collect())
+            .collect()
     }
 }

@@ -121,14 +121,42 @@ impl LightSampler {
     /// The sample for `u` in [0,1)^2 as seen from shading point `p`.
     #[inline]
     pub fn sample(&self, p: Vec3, u: [f32; 2]) -> LightSample {
-        match &self.kind {
+        self.seen_from(p).sample(u)
+    }
+
+    /// The light as seen from shading point `p`: what its samples share, made once for all of
+    /// a point's samples.
+    #[inline]
+    pub fn seen_from(&self, p: Vec3) -> LightFrom<'_> {
+        let disk = match &self.kind {
+            // A sphere light seen from p is a disk facing p (as Blender samples it).
+            Prepared::Sphere { center, radius, .. } if *radius != 0.0 => {
+                (p - *center).normalize_or(Vec3::Z).any_orthonormal_pair()
+            }
+            _ => (Vec3::ZERO, Vec3::ZERO),
+        };
+        LightFrom { light: self, disk }
+    }
+}
+
+/// A light as seen from one shading point ([`LightSampler::seen_from`]).
+#[derive(Clone, Copy, Debug)]
+pub struct LightFrom<'a> {
+    light: &'a LightSampler,
+    /// A sphere light's disk axes facing the point.
+    disk: (Vec3, Vec3),
+}
+
+impl LightFrom<'_> {
+    /// The sample for `u` in [0,1)^2.
+    #[inline]
+    pub fn sample(&self, u: [f32; 2]) -> LightSample {
+        match &self.light.kind {
             Prepared::Sphere { center, radius, .. } => {
                 if *radius == 0.0 {
                     return LightSample::Point(*center);
                 }
-                // A sphere light seen from p is a disk facing p (as Blender samples it).
-                let axis = (p - *center).normalize_or(Vec3::Z);
-                let (t1, t2) = axis.any_orthonormal_pair();
+                let (t1, t2) = self.disk;
                 let d = concentric_disk(u);
                 LightSample::Point(*center + (t1 * d[0] + t2 * d[1]) * *radius)
             }

@@ -17,6 +17,7 @@ mod renderer;
 mod settings;
 mod shadow;
 mod srdh_light;
+pub mod tiles;
 mod visibility;
 mod wide_tree;
 
@@ -26,7 +27,7 @@ pub use frame_trees::{CameraTree, FrameTrees};
 pub use light_tracer::{
     binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
 };
-pub use lights::{LightSample, LightSampler};
+pub use lights::{LightFrom, LightSample, LightSampler};
 pub use memory::{
     all_output_planes, estimate_comparison_bytes, estimate_render_bytes, format_bytes, RenderMemory,
 };
@@ -35,7 +36,8 @@ pub use primary::{PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, WarmUp, OBJECT_PLANE};
 pub use settings::{RenderSettings, StatsMode, MAX_SPP};
 pub use shadow::{
-    representative_rays, samples_for, shadow_rays, SamplePlan, ShadowPass, ShadowRayOutcome,
+    representative_rays, samples_for, shadow_ray_batches, shadow_rays, PointRays, SamplePlan,
+    ShadowPass, ShadowRayOutcome,
 };
 pub use srdh_light::{srdh_for_light, srdh_rays, LightSrdh};
 pub use visibility::{visibility_flags, VisibilitySource};

@@ -5,6 +5,7 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::tiles::{band_pixels, band_tiles, Tile, TILE_SIDE};
 use super::PrimaryRays;
 use crate::cancel::CancelToken;
 use crate::geometry::{triangle_normal, Ray};
@@ -43,7 +44,7 @@ pub struct PrimaryPass {
 impl PrimaryPass {
     /// Traces `tree` tile by tile, one batch of camera rays per tile, counting each pixel's work
     /// in `C` ([`TraversalStats`], or [`NoStats`] timed: `work` is then empty); stops with
-    /// [`crate::Error::Cancelled`] once `cancel` is set (read once per tile of [`TILE`] pixels).
+    /// [`crate::Error::Cancelled`] once `cancel` is set (read once per tile: [`super::tiles`]).
     pub fn trace<C: Counters>(
         rays: &PrimaryRays,
         tree: &impl RayQuery,
@@ -54,13 +55,18 @@ impl PrimaryPass {
         let pixels = (rays.width * rays.height) as usize;
         let mut surfaces = vec![None; pixels];
         let mut work = vec![C::default(); pixels];
+        let band = band_pixels(rays.width).max(1);
         surfaces
-            .par_chunks_mut(TILE)
-            .zip(work.par_chunks_mut(TILE))
+            .par_chunks_mut(band)
+            .zip(work.par_chunks_mut(band))
             .enumerate()
-            .for_each_init(TileHits::default, |buffers, (tile, (surfaces, work))| {
-                if !cancel.is_cancelled() {
-                    buffers.trace(rays, tile * TILE, tree, triangles, surfaces, work);
+            .for_each_init(TileHits::default, |buffers, (b, (surfaces, work))| {
+                let y0 = b as u32 * TILE_SIDE;
+                for tile in band_tiles(rays.width, rays.height, y0) {
+                    if cancel.is_cancelled() {
+                        return;
+                    }
+                    buffers.trace(rays, tile, tree, triangles, surfaces, work);
                 }
             });
         cancel.check()?;
@@ -116,9 +122,6 @@ pub(crate) fn heat_planes(
     ]
 }
 
-/// Pixels a pass traces between two reads of its cancel flag, in one batch of rays.
-pub(crate) const TILE: usize = 64;
-
 /// One thread's buffers for a tile's camera rays, reused from tile to tile.
 #[derive(Default)]
 struct TileHits<C> {
@@ -128,33 +131,30 @@ struct TileHits<C> {
 }
 
 impl<C: Counters> TileHits<C> {
-    /// The camera rays of the tile's pixels (row-major from `first_pixel`) in one batch; their
-    /// surface points and work written.
+    /// The camera rays of the tile's pixels in one batch, in the tile's order; their surface
+    /// points and work written into the tile's band of rows.
     #[inline]
     fn trace(
         &mut self,
         rays: &PrimaryRays,
-        first_pixel: usize,
+        tile: Tile,
         tree: &impl RayQuery,
         triangles: &TriangleSet,
         surfaces: &mut [Option<SurfacePoint>],
         work: &mut [C],
     ) {
-        let w = rays.width as usize;
         self.rays.clear();
-        self.rays.extend(
-            (first_pixel..first_pixel + surfaces.len())
-                .map(|i| rays.ray((i % w) as u32, (i / w) as u32)),
-        );
+        self.rays.extend(rays.tile_rays(tile));
         let n = self.rays.len();
         self.hits.resize(n, None);
         self.counters.clear();
         self.counters.resize(n, C::default());
         tree.closest_hit_batch(&self.rays, &mut self.hits, &mut self.counters);
-        for (i, (ray, hit)) in self.rays.iter().zip(&self.hits).enumerate() {
+        let answers = self.rays.iter().zip(&self.hits).zip(&self.counters);
+        for (i, ((ray, hit), counter)) in tile.band_indices(rays.width).zip(answers) {
             surfaces[i] = hit.map(|h| surface_point(ray, &h, triangles));
+            work[i] = *counter;
         }
-        work.copy_from_slice(&self.counters);
     }
 }
 

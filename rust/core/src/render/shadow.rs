@@ -4,16 +4,14 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::primary::TILE;
+use super::lights::LightFrom;
+use super::tiles::{band_pixels, band_tiles, tiles, Tile, TILE_SIDE};
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
 use crate::cancel::CancelToken;
 use crate::geometry::{offset_ray_origin, Ray};
 use crate::image::ImagePlane;
-use crate::sampling::hash_u32;
-use crate::sampling::{hash_combine, stratified_2d};
-#[cfg(doc)]
-use crate::trace::NoStats;
-use crate::trace::{Counters, RayQuery, TraversalStats};
+use crate::sampling::{extend_stratified_2d, hash_combine, hash_u32};
+use crate::trace::{Counters, NoStats, RayQuery, TraversalStats};
 use crate::Result;
 
 /// What happened to the shadow samples of one light, counted over a frame.
@@ -60,9 +58,9 @@ pub fn samples_for(light: &LightSampler, spp: u32) -> u32 {
 
 impl ShadowPass {
     /// Traces `tracer` (the tree with this light's child order) tile by tile, one batch of rays
-    /// per tile, counting each pixel's work in `C` ([`TraversalStats`], or [`NoStats`] timed:
-    /// `work` is then empty); stops with [`crate::Error::Cancelled`] once `cancel` is set (read
-    /// once per tile).
+    /// per tile ([`super::tiles`]), counting each pixel's work in `C` ([`TraversalStats`], or
+    /// [`NoStats`] timed: `work` is then empty); stops with [`crate::Error::Cancelled`] once
+    /// `cancel` is set (read once per tile).
     pub fn trace<C: Counters>(
         primary: &PrimaryPass,
         tracer: &impl RayQuery,
@@ -73,20 +71,36 @@ impl ShadowPass {
         let start = Instant::now();
         let mut mask = ImagePlane::new(light.name.clone(), primary.width, primary.height);
         let mut work = vec![C::default(); primary.surfaces.len()];
+        let band = band_pixels(primary.width).max(1);
         let outcome = primary
             .surfaces
-            .par_chunks(TILE)
-            .zip(mask.data.par_chunks_mut(TILE))
-            .zip(work.par_chunks_mut(TILE))
+            .par_chunks(band)
+            .zip(mask.data.par_chunks_mut(band))
+            .zip(work.par_chunks_mut(band))
             .enumerate()
             .map_init(
                 TileRays::default,
-                |buffers, (tile, ((surfaces, mask), work))| {
-                    if cancel.is_cancelled() {
-                        return ShadowRayOutcome::default();
+                |buffers, (b, ((surfaces, mask), work))| {
+                    let y0 = b as u32 * TILE_SIDE;
+                    let mut outcome = ShadowRayOutcome::default();
+                    for tile in band_tiles(primary.width, primary.height, y0) {
+                        if cancel.is_cancelled() {
+                            break;
+                        }
+                        let band = Band {
+                            surfaces,
+                            first_pixel: b * band,
+                            width: primary.width,
+                        };
+                        outcome += buffers.gather(&band, tile, light, plan);
+                        tracer.occluded_batch(
+                            &buffers.rays,
+                            &mut buffers.occluded,
+                            &mut buffers.counters,
+                        );
+                        outcome += buffers.write(plan, mask, work);
                     }
-                    let first_pixel = tile * TILE;
-                    buffers.trace(surfaces, first_pixel, tracer, light, plan, mask, work)
+                    outcome
                 },
             )
             .reduce(ShadowRayOutcome::default, |mut a, b| {
@@ -114,102 +128,192 @@ impl ShadowPass {
     }
 }
 
-/// One thread's buffers for a tile's shadow rays, reused from tile to tile.
+/// The primary hits of one band of rows ([`super::tiles`]).
+struct Band<'a> {
+    surfaces: &'a [Option<SurfacePoint>],
+    /// The band's first pixel in the image.
+    first_pixel: usize,
+    width: u32,
+}
+
+/// One thread's buffers for a tile's shadow rays to light `'l`, reused from tile to tile.
 #[derive(Default)]
-struct TileRays<C> {
+struct TileRays<'l, C> {
     rays: Vec<Ray>,
     occluded: Vec<bool>,
     counters: Vec<C>,
-    /// Per pixel of the tile: its rays' end in `rays`, its back-facing samples, and whether the
-    /// light reaches it.
-    pixels: Vec<(u32, u32, bool)>,
+    /// Per ray, its pixel in `points`.
+    owners: Vec<u32>,
+    /// The tile's pixels the light reaches: their index in the band and their rays' maker.
+    points: Vec<(u32, PointRays<'l>)>,
+    /// The samples of `points`, `plan.samples` per pixel.
     samples: Vec<[f32; 2]>,
+    /// One sample of each of `points` on the light.
+    targets: Vec<LightSample>,
+    /// Pixels whose value needs no ray: no surface (lit) or out of the light's reach (dark).
+    settled: Vec<(u32, f32)>,
+    /// Per pixel of `points`: its rays not occluded, and their work.
+    lit: Vec<u32>,
+    work: Vec<C>,
 }
 
-impl<C: Counters> TileRays<C> {
-    /// A tile's rays traced in one batch; its mask values and per-pixel work written, its
-    /// outcome returned.
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn trace(
+impl<'l, C: Counters> TileRays<'l, C> {
+    /// The tile's rays in `rays`, sample by sample and, within a sample, in the tile's pixel
+    /// order (so consecutive rays are neighbours, as packets want); the answer buffers sized.
+    /// Returns the samples that need no ray.
+    fn gather(
         &mut self,
-        surfaces: &[Option<SurfacePoint>],
-        first_pixel: usize,
-        tracer: &impl RayQuery,
-        light: &LightSampler,
+        band: &Band,
+        tile: Tile,
+        light: &'l LightSampler,
         plan: SamplePlan,
-        mask: &mut [f32],
-        work: &mut [C],
     ) -> ShadowRayOutcome {
+        let mut outcome = ShadowRayOutcome::default();
+        self.points.clear();
+        self.samples.clear();
+        self.settled.clear();
+        for i in tile.band_indices(band.width) {
+            let Some(s) = &band.surfaces[i] else {
+                self.settled.push((i as u32, 1.0));
+                continue;
+            };
+            if !light.reaches(s.position) {
+                outcome.unreached += plan.samples as u64;
+                self.settled.push((i as u32, 0.0));
+                continue;
+            }
+            self.points.push((i as u32, PointRays::new(s, light)));
+            plan.extend_samples(band.first_pixel + i, &mut self.samples);
+        }
         self.rays.clear();
-        self.pixels.clear();
-        for (i, s) in surfaces.iter().enumerate() {
-            let mut back_facing = 0;
-            let reached = s.as_ref().is_none_or(|s| {
-                let rays = &mut self.rays;
-                plan.for_each_ray(s, first_pixel + i, light, &mut self.samples, |r| match r {
-                    Some(r) => rays.push(r),
-                    None => back_facing += 1,
-                })
-            });
-            self.pixels
-                .push((self.rays.len() as u32, back_facing, reached));
+        self.owners.clear();
+        let spp = plan.samples as usize;
+        self.rays.reserve(spp * self.points.len());
+        self.owners.reserve(spp * self.points.len());
+        for sample in 0..spp {
+            // Light samples first, then rays: two short loops whose iterations are independent
+            // overlap in the core, where one long chain per ray would wait on each division.
+            self.targets.clear();
+            let pixels = self.points.iter().zip(self.samples.chunks_exact(spp));
+            self.targets
+                .extend(pixels.map(|((_, point), u)| point.light.sample(u[sample])));
+            for (k, ((_, point), target)) in self.points.iter().zip(&self.targets).enumerate() {
+                match point.ray_to(*target) {
+                    Some(r) => {
+                        self.rays.push(r);
+                        self.owners.push(k as u32);
+                    }
+                    None => outcome.back_facing += 1,
+                }
+            }
         }
         let n = self.rays.len();
+        self.occluded.clear();
         self.occluded.resize(n, false);
         self.counters.clear();
         self.counters.resize(n, C::default());
-        tracer.occluded_batch(&self.rays, &mut self.occluded, &mut self.counters);
-        let mut outcome = ShadowRayOutcome::default();
-        let mut begin = 0;
-        for (i, &(end, back_facing, reached)) in self.pixels.iter().enumerate() {
-            let range = begin as usize..end as usize;
-            begin = end;
-            if surfaces[i].is_none() {
-                mask[i] = 1.0;
-                continue;
-            }
-            let occluded = self.occluded[range.clone()].iter().filter(|o| **o).count() as u32;
-            let rays = end - range.start as u32;
-            if C::COUNTING {
-                let mut w = C::default();
-                for c in &self.counters[range] {
-                    w += *c;
-                }
-                work[i] = w;
-            }
-            outcome.rays += rays as u64;
-            outcome.occluded += occluded as u64;
-            outcome.back_facing += back_facing as u64;
-            if !reached {
-                outcome.unreached += plan.samples as u64;
-            }
-            mask[i] = (rays - occluded) as f32 / plan.samples as f32;
-        }
         outcome
+    }
+
+    /// The traced tile's mask values and per-pixel work written into its band; returns its
+    /// rays and how many were occluded.
+    fn write(&mut self, plan: SamplePlan, mask: &mut [f32], work: &mut [C]) -> ShadowRayOutcome {
+        let pixels = self.points.len();
+        self.lit.clear();
+        self.lit.resize(pixels, 0);
+        let mut occluded = 0;
+        for (&k, &o) in self.owners.iter().zip(&self.occluded) {
+            self.lit[k as usize] += u32::from(!o);
+            occluded += u64::from(o);
+        }
+        if C::COUNTING {
+            self.work.clear();
+            self.work.resize(pixels, C::default());
+            for (&k, c) in self.owners.iter().zip(&self.counters) {
+                self.work[k as usize] += *c;
+            }
+            for ((i, _), w) in self.points.iter().zip(&self.work) {
+                work[*i as usize] = *w;
+            }
+        }
+        let samples = plan.samples as f32;
+        for ((i, _), &lit) in self.points.iter().zip(&self.lit) {
+            mask[*i as usize] = lit as f32 / samples;
+        }
+        for &(i, value) in &self.settled {
+            mask[i as usize] = value;
+        }
+        ShadowRayOutcome {
+            rays: self.rays.len() as u64,
+            occluded,
+            ..ShadowRayOutcome::default()
+        }
     }
 }
 
-/// The shadow ray from a surface point towards a light sample, or `None` when the sample lies
-/// behind the surface's facing normal (its own plane, or its shading normal: [`super::Facing`]).
-#[inline]
-pub fn shadow_ray(surface: &SurfacePoint, sample: LightSample) -> Option<Ray> {
-    let p = surface.position;
-    let n = surface.normal;
-    let towards = match sample {
-        LightSample::Point(q) => q - p,
-        LightSample::Direction(w) => w,
-    };
-    if surface.facing.dot(towards) <= 0.0 {
-        return None;
+/// One surface point's shadow rays to one light: the light as seen from the point and the ray
+/// origins on either side of its plane, made once for all of the point's samples.
+#[derive(Clone, Copy, Debug)]
+pub struct PointRays<'l> {
+    light: LightFrom<'l>,
+    position: glam::Vec3,
+    normal: glam::Vec3,
+    facing: glam::Vec3,
+    /// The offset origins on the normal's side and on the other.
+    front: glam::Vec3,
+    back: glam::Vec3,
+}
+
+impl<'l> PointRays<'l> {
+    #[inline]
+    pub fn new(surface: &SurfacePoint, light: &'l LightSampler) -> Self {
+        let (p, n) = (surface.position, surface.normal);
+        PointRays {
+            light: light.seen_from(p),
+            position: p,
+            normal: n,
+            facing: surface.facing,
+            front: offset_ray_origin(p, n),
+            // Only a shading normal lets a ray leave behind the plane: with the geometric one
+            // (facing == normal) the back origin is never taken.
+            back: if surface.facing == n {
+                p
+            } else {
+                offset_ray_origin(p, -n)
+            },
+        }
     }
-    // A shading normal may let a sample behind the plane through: the ray leaves on that side.
-    let origin = offset_ray_origin(p, if n.dot(towards) > 0.0 { n } else { -n });
-    Some(match sample {
-        // t in (0, 1]: the segment ends on the light (lights are not geometry).
-        LightSample::Point(q) => Ray::new(origin, q - origin, 0.0, 1.0),
-        LightSample::Direction(w) => Ray::new(origin, w, 0.0, f32::INFINITY),
-    })
+
+    /// The ray towards the light's sample for `u` in [0,1)^2, or `None` when the sample lies
+    /// behind the surface's facing normal (its own plane, or its shading normal:
+    /// [`super::Facing`]).
+    #[inline]
+    pub fn ray(&self, u: [f32; 2]) -> Option<Ray> {
+        self.ray_to(self.light.sample(u))
+    }
+
+    /// The ray towards `sample`, a sample of this point's light ([`Self::ray`]).
+    #[inline(always)]
+    fn ray_to(&self, sample: LightSample) -> Option<Ray> {
+        let towards = match sample {
+            LightSample::Point(q) => q - self.position,
+            LightSample::Direction(w) => w,
+        };
+        if self.facing.dot(towards) <= 0.0 {
+            return None;
+        }
+        // A shading normal may let a sample behind the plane through: the ray leaves on that side.
+        let origin = if self.normal.dot(towards) > 0.0 {
+            self.front
+        } else {
+            self.back
+        };
+        Some(match sample {
+            // t in (0, 1]: the segment ends on the light (lights are not geometry).
+            LightSample::Point(q) => Ray::new(origin, q - origin, 0.0, 1.0),
+            LightSample::Direction(w) => Ray::new(origin, w, 0.0, f32::INFINITY),
+        })
+    }
 }
 
 /// How a pixel's shadow samples for one light are drawn: the same for every traversal, so
@@ -222,6 +326,18 @@ pub struct SamplePlan {
 }
 
 impl SamplePlan {
+    /// The pixel's sample positions in [0,1)^2 appended to `out` (`samples` of them): the
+    /// light's centre for one sample, else a stratified pattern seeded by seed, light and pixel.
+    #[inline]
+    pub fn extend_samples(&self, pixel: usize, out: &mut Vec<[f32; 2]>) {
+        if self.samples == 1 {
+            out.push([0.5, 0.5]);
+        } else {
+            let seed = hash_combine(hash_combine(self.seed, self.light_index), pixel as u32);
+            extend_stratified_2d(self.samples, seed, out);
+        }
+    }
+
     /// Calls `f` with each sample's shadow ray (`None` for a sample behind the surface's own
     /// plane). Returns false, without calling `f`, when the light cannot reach the point.
     #[inline]
@@ -236,15 +352,11 @@ impl SamplePlan {
         if !light.reaches(surface.position) {
             return false;
         }
-        if self.samples == 1 {
-            scratch.clear();
-            scratch.push([0.5, 0.5]);
-        } else {
-            let seed = hash_combine(hash_combine(self.seed, self.light_index), pixel as u32);
-            stratified_2d(self.samples, seed, scratch);
-        }
+        scratch.clear();
+        self.extend_samples(pixel, scratch);
+        let point = PointRays::new(surface, light);
         for &u in scratch.iter() {
-            f(shadow_ray(surface, light.sample(surface.position, u)));
+            f(point.ray(u));
         }
         true
     }
@@ -253,14 +365,32 @@ impl SamplePlan {
 /// Every shadow ray of one light for a primary pass, in pixel order (for benchmarks and
 /// oracles that must trace exactly the rays the shadow pass traces).
 pub fn shadow_rays(primary: &PrimaryPass, light: &LightSampler, plan: SamplePlan) -> Vec<Ray> {
-    let mut rays = Vec::new();
-    let mut scratch = Vec::new();
-    for (pixel, s) in primary.surfaces.iter().enumerate() {
-        if let Some(s) = s {
-            plan.for_each_ray(s, pixel, light, &mut scratch, |r| rays.extend(r));
-        }
-    }
-    rays
+    rays_of_pixels(primary, light, plan, |_| true)
+}
+
+/// The shadow pass's batches of one light: each tile's rays in the order the pass hands them to
+/// the tree ([`super::tiles`]), for benchmarks that must batch rays as the pass does.
+pub fn shadow_ray_batches(
+    primary: &PrimaryPass,
+    light: &LightSampler,
+    plan: SamplePlan,
+) -> Vec<Vec<Ray>> {
+    let band = band_pixels(primary.width).max(1);
+    let mut buffers = TileRays::<NoStats>::default();
+    tiles(primary.width, primary.height)
+        .map(|tile| {
+            let b = (tile.y0 / TILE_SIDE) as usize;
+            let first_pixel = b * band;
+            let end = (first_pixel + band).min(primary.surfaces.len());
+            let band = Band {
+                surfaces: &primary.surfaces[first_pixel..end],
+                first_pixel,
+                width: primary.width,
+            };
+            buffers.gather(&band, tile, light, plan);
+            buffers.rays.clone()
+        })
+        .collect()
 }
 
 /// The representative shadow rays of one light for per-light child sorting: the rays of a
@@ -273,14 +403,36 @@ pub fn representative_rays(
     budget: f32,
 ) -> Vec<Ray> {
     let threshold = (budget.clamp(0.0, 1.0) as f64 * u32::MAX as f64) as u32;
-    let mut rays = Vec::new();
-    let mut scratch = Vec::new();
-    for (pixel, s) in primary.surfaces.iter().enumerate() {
-        if let Some(s) = s {
-            if budget >= 1.0 || hash_u32(pixel as u32 ^ 0x9e37_79b9) < threshold {
-                plan.for_each_ray(s, pixel, light, &mut scratch, |r| rays.extend(r));
+    rays_of_pixels(primary, light, plan, |pixel| {
+        budget >= 1.0 || hash_u32(pixel as u32 ^ 0x9e37_79b9) < threshold
+    })
+}
+
+/// Pixels scanned per parallel task when collecting rays in pixel order.
+const SCAN_CHUNK: usize = 4096;
+
+/// The shadow rays of the pixels with a surface that `keep` accepts, in pixel order, the
+/// pixels scanned in parallel.
+fn rays_of_pixels(
+    primary: &PrimaryPass,
+    light: &LightSampler,
+    plan: SamplePlan,
+    keep: impl Fn(usize) -> bool + Sync,
+) -> Vec<Ray> {
+    let chunks: Vec<Vec<Ray>> = primary
+        .surfaces
+        .par_chunks(SCAN_CHUNK)
+        .enumerate()
+        .map_init(Vec::new, |scratch, (c, surfaces)| {
+            let mut rays = Vec::new();
+            for (j, s) in surfaces.iter().enumerate() {
+                let pixel = c * SCAN_CHUNK + j;
+                if let Some(s) = s.as_ref().filter(|_| keep(pixel)) {
+                    plan.for_each_ray(s, pixel, light, scratch, |r| rays.extend(r));
+                }
             }
-        }
-    }
-    rays
+            rays
+        })
+        .collect();
+    chunks.concat()
 }

@@ -8,7 +8,7 @@ use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::ShadowOrder;
 use antumbra_core::render::{
-    shadow_rays, CameraTree, FrameTrees, LightRays, LightTracing, PrimaryPass, PrimaryRays,
+    shadow_ray_batches, CameraTree, FrameTrees, LightRays, LightTracing, PrimaryPass, PrimaryRays,
     RenderSettings, Renderer,
 };
 use antumbra_core::scene::{Animation, Resolution};
@@ -23,7 +23,7 @@ use super::reference::Reference;
 use super::{bench_order, best_of, best_of_in_turn, mrays, print_json, BenchArgs};
 use crate::shadow_lights::{shadow_lights, ShadowLight};
 
-/// Rays per batch of the query face in the timed and counted loops.
+/// Rays handed to Embree's single-ray calls per parallel task.
 const CHUNK: usize = 256;
 
 #[derive(Debug, Default, Serialize)]
@@ -157,9 +157,10 @@ impl FrameState {
     }
 }
 
-/// One light's shadow rays and its tree and order, prepared from them as the renderer does.
+/// One light's shadow rays, batched per tile as the shadow pass batches them, and its tree and
+/// order, prepared as the renderer does.
 struct LightRaysOf<'a> {
-    rays: Vec<Ray>,
+    batches: Vec<Vec<Ray>>,
     tracing: LightTracing<'a>,
 }
 
@@ -167,7 +168,9 @@ struct LightRaysOf<'a> {
 struct Frame<'a> {
     state: &'a FrameState,
     trees: &'a FrameTrees,
-    primary: Vec<Ray>,
+    /// The camera rays, batched per tile as the primary pass batches them.
+    primary: Vec<Vec<Ray>>,
+    primary_rays: usize,
     lights: Vec<LightRaysOf<'a>>,
     /// Every light's rays in turn, and antumbra's answer for each.
     shadow: Vec<Ray>,
@@ -215,16 +218,21 @@ impl<'a> Frame<'a> {
                     _ => prepare(),
                 };
                 LightRaysOf {
-                    rays: shadow_rays(&state.pass, &light.sampler, light.plan),
+                    batches: shadow_ray_batches(&state.pass, &light.sampler, light.plan),
                     tracing,
                 }
             })
             .collect();
-        let shadow = lights.iter().flat_map(|l| l.rays.iter().copied()).collect();
+        let shadow = lights
+            .iter()
+            .flat_map(|l| l.batches.iter().flatten().copied())
+            .collect();
+        let primary = camera.batches();
         let mut frame = Frame {
             state,
             trees,
-            primary: camera_rays(camera, camera.width, camera.height),
+            primary_rays: primary.iter().map(Vec::len).sum(),
+            primary,
             lights,
             shadow,
             answers: Vec::new(),
@@ -242,16 +250,22 @@ impl<'a> Frame<'a> {
         let mut total = TraversalStats::default();
         for light in &self.lights {
             let tracer = light.tracing.tracer(antumbra_core::trace::RayMode::Single);
-            let mut a = vec![false; light.rays.len()];
-            let mut work = vec![TraversalStats::default(); light.rays.len()];
-            light
-                .rays
-                .par_chunks(CHUNK)
-                .zip(a.par_chunks_mut(CHUNK))
-                .zip(work.par_chunks_mut(CHUNK))
-                .for_each(|((r, a), w)| tracer.occluded_batch(r, a, w));
-            answers.extend(a);
-            for w in work {
+            let counted: Vec<(Vec<bool>, TraversalStats)> = light
+                .batches
+                .par_iter()
+                .map(|rays| {
+                    let mut a = vec![false; rays.len()];
+                    let mut work = vec![TraversalStats::default(); rays.len()];
+                    tracer.occluded_batch(rays, &mut a, &mut work);
+                    let mut sum = TraversalStats::default();
+                    for w in work {
+                        sum += w;
+                    }
+                    (a, sum)
+                })
+                .collect();
+            for (a, w) in counted {
+                answers.extend(a);
                 total += w;
             }
         }
@@ -272,10 +286,10 @@ impl<'a> Frame<'a> {
             triangles: self.trees.geometry().camera.vertices.len(),
             threads,
             bvh_bytes,
-            primary_rays: self.primary.len(),
+            primary_rays: self.primary_rays,
             shadow_rays: self.shadow.len(),
             shadow_occluded: occluded as f64 / self.shadow.len().max(1) as f64,
-            primary_work: PassWork::of(&self.primary_work, self.primary.len()),
+            primary_work: PassWork::of(&self.primary_work, self.primary_rays),
             shadow_work: PassWork::of(&self.shadow_work, self.shadow.len()),
             collapse_ms,
             sort_ms_per_light: self
@@ -318,8 +332,8 @@ impl<'a> Frame<'a> {
                 build_binned_sah(&self.trees.geometry().camera.vertices, &s.build_settings)
             });
             let (ms, reference_ms) = self.time_primary(args.repeat, reference.as_ref());
-            row.primary_mrays = mrays(self.primary.len(), ms);
-            row.embree_primary_mrays = reference_ms.map(|ms| mrays(self.primary.len(), ms));
+            row.primary_mrays = mrays(self.primary_rays, ms);
+            row.embree_primary_mrays = reference_ms.map(|ms| mrays(self.primary_rays, ms));
             let (ms, reference_ms) = self.time_shadow(args.repeat, reference.as_ref());
             row.shadow_mrays = mrays(self.shadow.len(), ms);
             row.embree_shadow_mrays = reference_ms.map(|ms| mrays(self.shadow.len(), ms));
@@ -337,12 +351,13 @@ impl<'a> Frame<'a> {
         best_of_in_turn(
             repeat,
             || {
-                // A chunk's rays as one batch of the query face, into a buffer per thread.
-                self.primary.par_chunks(CHUNK).for_each_init(
-                    || vec![None; CHUNK],
-                    |hits, rays| {
-                        let hits = &mut hits[..rays.len()];
-                        tree.closest_hit_batch(rays, hits, &mut [NoStats; CHUNK][..rays.len()]);
+                // A tile's rays as one batch of the query face, into buffers per thread.
+                self.primary.par_iter().for_each_init(
+                    || (Vec::new(), Vec::new()),
+                    |(hits, none), rays| {
+                        hits.resize(rays.len(), None);
+                        none.resize(rays.len(), NoStats);
+                        tree.closest_hit_batch(rays, hits, none);
                         std::hint::black_box(hits);
                     },
                 )
@@ -351,8 +366,7 @@ impl<'a> Frame<'a> {
                 || {
                     self.primary
                         .par_iter()
-                        .with_min_len(CHUNK)
-                        .for_each(|ray| r.intersect(ray))
+                        .for_each(|rays| rays.iter().for_each(|ray| r.intersect(ray)))
                 }
             }),
         )
@@ -366,11 +380,11 @@ impl<'a> Frame<'a> {
             || {
                 for light in &self.lights {
                     let tracer = light.tracing.tracer(antumbra_core::trace::RayMode::Single);
-                    light.rays.par_chunks(CHUNK).for_each_init(
-                        || vec![false; CHUNK],
-                        |answers, rays| {
-                            let answers = &mut answers[..rays.len()];
-                            let none = &mut [NoStats; CHUNK][..rays.len()];
+                    light.batches.par_iter().for_each_init(
+                        || (Vec::new(), Vec::new()),
+                        |(answers, none), rays| {
+                            answers.resize(rays.len(), false);
+                            none.resize(rays.len(), NoStats);
                             tracer.occluded_batch(rays, answers, none);
                             std::hint::black_box(answers);
                         },
@@ -400,13 +414,6 @@ impl<'a> Frame<'a> {
 }
 
 /// Every pixel's camera ray, row by row.
-fn camera_rays(rays: &PrimaryRays, w: u32, h: u32) -> Vec<Ray> {
-    (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| rays.ray(x, y))
-        .collect()
-}
-
 /// Builder / width / order; the collapse is named when it is not the default, e.g.
 /// `sah/bin8:sah/sorted`.
 fn method_name(s: &RenderSettings) -> String {
