@@ -4,9 +4,11 @@
 
 mod animation;
 mod frames;
+mod kernels;
 mod methods;
 mod rays;
 mod reference;
+mod tiles;
 
 use std::time::Instant;
 
@@ -160,22 +162,6 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     let t = Instant::now();
     let out = f();
     (out, t.elapsed().as_secs_f64() * 1e3)
-}
-
-/// Best times of `ours` and of `theirs` (when given) over `repeat` runs each, run in turn.
-fn best_of_in_turn(
-    repeat: u32,
-    mut ours: impl FnMut(),
-    mut theirs: Option<impl FnMut()>,
-) -> (f64, Option<f64>) {
-    let (mut best, mut best_theirs) = (f64::INFINITY, theirs.as_ref().map(|_| f64::INFINITY));
-    for _ in 0..repeat.max(1) {
-        best = best.min(timed(&mut ours).1);
-        if let (Some(f), Some(b)) = (theirs.as_mut(), best_theirs.as_mut()) {
-            *b = b.min(timed(f).1);
-        }
-    }
-    (best, best_theirs)
 }
 
 fn mrays(n: usize, ms: f64) -> f64 {

@@ -1,15 +1,15 @@
 //! `antumbra bench`'s main table: per scene and frame, SAH build time, Mrays/s and work per ray
 //! on exactly the rays a frame traces (camera rays, then every light's shadow rays in its
-//! order), on one thread and on all, optionally beside Embree timed in turn on the same rays.
-//! The trees and orders are the renderer's own (a warm-up's `FrameTrees`): one pipeline.
+//! order), on one thread and on all, optionally beside each of Embree's calls timed in turn on
+//! the same rays in the same tiles. The trees and orders are the renderer's own (a warm-up's
+//! `FrameTrees`): one pipeline; the rays go tile by tile, one batch of the query face per tile.
 
 use antumbra_core::build::{build_binned_sah, CollapseSettings};
 use antumbra_core::cancel::CancelToken;
-use antumbra_core::geometry::Ray;
 use antumbra_core::order::ShadowOrder;
 use antumbra_core::render::{
-    shadow_rays, CameraTree, FrameTrees, LightRays, LightTracing, PrimaryPass, PrimaryRays,
-    RenderSettings, Renderer,
+    CameraTree, FrameTrees, LightRays, LightTracing, PrimaryPass, PrimaryRays, RenderSettings,
+    Renderer,
 };
 use antumbra_core::scene::{Animation, Resolution};
 use antumbra_core::stats::StatsRow;
@@ -19,12 +19,11 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::frames::BenchScene;
+use super::kernels::{print_kernel_table, time_in_turn, Answers, KernelRow};
 use super::reference::Reference;
-use super::{bench_order, best_of, best_of_in_turn, mrays, print_json, BenchArgs};
+use super::tiles::TiledRays;
+use super::{bench_order, best_of, mrays, print_json, BenchArgs};
 use crate::shadow_lights::{shadow_lights, ShadowLight};
-
-/// Rays per batch of the query face in the timed and counted loops.
-const CHUNK: usize = 256;
 
 #[derive(Debug, Default, Serialize)]
 pub struct BenchRow {
@@ -56,8 +55,11 @@ pub struct BenchRow {
     pub embree_build_ms: Option<f64>,
     pub embree_primary_mrays: Option<f64>,
     pub embree_shadow_mrays: Option<f64>,
-    /// Shadow rays on which Embree and antumbra give the same occlusion answer.
+    /// Shadow rays on which Embree (`rtcOccluded1`) and antumbra give the same occlusion answer.
     pub embree_agreement: Option<f64>,
+    /// Each of Embree's calls on the same rays in the same tiles (empty without
+    /// `--compare embree`), shadow rays first.
+    pub embree_kernels: Vec<KernelRow>,
 }
 
 /// N_B, N_L, N_T and N_box per ray of one kind of pass, as the statistics rows compute them
@@ -106,6 +108,13 @@ pub(super) fn run(args: &BenchArgs, scenes: &[String], settings: &RenderSettings
         print_json(&rows)
     } else {
         print_table(&rows);
+        if rows.iter().any(|r| !r.embree_kernels.is_empty()) {
+            println!();
+            print_kernel_table(rows.iter().map(|r| {
+                let label = format!("{} {}", r.scene, r.frame);
+                (label, r.threads, r.embree_kernels.as_slice())
+            }));
+        }
         Ok(())
     }
 }
@@ -157,9 +166,9 @@ impl FrameState {
     }
 }
 
-/// One light's shadow rays and its tree and order, prepared from them as the renderer does.
+/// One light's shadow rays in tiles and its tree and order, prepared as the renderer does.
 struct LightRaysOf<'a> {
-    rays: Vec<Ray>,
+    rays: TiledRays,
     tracing: LightTracing<'a>,
 }
 
@@ -167,10 +176,12 @@ struct LightRaysOf<'a> {
 struct Frame<'a> {
     state: &'a FrameState,
     trees: &'a FrameTrees,
-    primary: Vec<Ray>,
+    primary: TiledRays,
+    /// antumbra's closest hit of each camera ray (its triangle).
+    primary_hits: Vec<Option<u32>>,
     lights: Vec<LightRaysOf<'a>>,
-    /// Every light's rays in turn, and antumbra's answer for each.
-    shadow: Vec<Ray>,
+    /// Every light's tiles in turn, and antumbra's answer for each ray.
+    shadow: TiledRays,
     answers: Vec<bool>,
     primary_work: TraversalStats,
     shadow_work: TraversalStats,
@@ -215,16 +226,20 @@ impl<'a> Frame<'a> {
                     _ => prepare(),
                 };
                 LightRaysOf {
-                    rays: shadow_rays(&state.pass, &light.sampler, light.plan),
+                    rays: TiledRays::shadow(&state.pass, light),
                     tracing,
                 }
             })
             .collect();
-        let shadow = lights.iter().flat_map(|l| l.rays.iter().copied()).collect();
+        let mut shadow = TiledRays::default();
+        for light in &lights {
+            shadow.append(&light.rays);
+        }
         let mut frame = Frame {
             state,
             trees,
-            primary: camera_rays(camera, camera.width, camera.height),
+            primary: TiledRays::camera(camera),
+            primary_hits: Vec::new(),
             lights,
             shadow,
             answers: Vec::new(),
@@ -233,7 +248,23 @@ impl<'a> Frame<'a> {
             srdh: matches!(order, ShadowOrder::Srdh(_)),
         };
         (frame.answers, frame.shadow_work) = frame.counted_occlusion();
+        frame.primary_hits = frame.closest_triangles();
         frame
+    }
+
+    /// The triangle each camera ray hits first (untimed, for the disagreement counts).
+    fn closest_triangles(&self) -> Vec<Option<u32>> {
+        let tree = self.trees.camera();
+        let per_tile: Vec<Vec<Option<u32>>> = self
+            .primary
+            .tile_rays()
+            .map(|rays| {
+                let mut hits = vec![None; rays.len()];
+                tree.closest_hit_batch(rays, &mut hits, &mut vec![NoStats; rays.len()]);
+                hits.iter().map(|h| h.map(|h| h.triangle)).collect()
+            })
+            .collect();
+        per_tile.concat()
     }
 
     /// Every shadow ray's answer, and the work of all of them, counted.
@@ -242,17 +273,21 @@ impl<'a> Frame<'a> {
         let mut total = TraversalStats::default();
         for light in &self.lights {
             let tracer = light.tracing.tracer();
-            let mut a = vec![false; light.rays.len()];
-            let mut work = vec![TraversalStats::default(); light.rays.len()];
-            light
+            let per_tile: Vec<(Vec<bool>, Vec<TraversalStats>)> = light
                 .rays
-                .par_chunks(CHUNK)
-                .zip(a.par_chunks_mut(CHUNK))
-                .zip(work.par_chunks_mut(CHUNK))
-                .for_each(|((r, a), w)| tracer.occluded_batch(r, a, w));
-            answers.extend(a);
-            for w in work {
-                total += w;
+                .tile_rays()
+                .map(|rays| {
+                    let mut a = vec![false; rays.len()];
+                    let mut work = vec![TraversalStats::default(); rays.len()];
+                    tracer.occluded_batch(rays, &mut a, &mut work);
+                    (a, work)
+                })
+                .collect();
+            for (a, work) in per_tile {
+                answers.extend(a);
+                for w in work {
+                    total += w;
+                }
             }
         }
         (answers, total)
@@ -295,7 +330,7 @@ impl<'a> Frame<'a> {
     }
 
     /// The row on `threads` threads: build, camera rays and shadow rays timed, each beside
-    /// Embree's when compared.
+    /// each of Embree's calls when compared.
     fn timed_row(&self, threads: usize, args: &BenchArgs, s: &RenderSettings) -> Result<BenchRow> {
         let mut row = self.row(threads, s);
         let pool = rayon::ThreadPoolBuilder::new()
@@ -317,94 +352,89 @@ impl<'a> Frame<'a> {
             row.build_ms = best_of(args.repeat, || {
                 build_binned_sah(&self.trees.geometry().camera.vertices, &s.build_settings)
             });
-            let (ms, reference_ms) = self.time_primary(args.repeat, reference.as_ref());
+            let (ms, camera_kernels) = self.time_primary(args.repeat, reference.as_ref());
             row.primary_mrays = mrays(self.primary.len(), ms);
-            row.embree_primary_mrays = reference_ms.map(|ms| mrays(self.primary.len(), ms));
-            let (ms, reference_ms) = self.time_shadow(args.repeat, reference.as_ref());
+            let (ms, shadow_kernels) = self.time_shadow(args.repeat, reference.as_ref());
             row.shadow_mrays = mrays(self.shadow.len(), ms);
-            row.embree_shadow_mrays = reference_ms.map(|ms| mrays(self.shadow.len(), ms));
             if let Some(r) = &reference {
+                let single = |rows: &[KernelRow], name: &str| {
+                    rows.iter().find(|k| k.kernel == name).map(|k| k.mrays)
+                };
                 row.embree_build_ms = Some(r.build_ms);
+                row.embree_primary_mrays = single(&camera_kernels, "rtcIntersect1");
+                row.embree_shadow_mrays = single(&shadow_kernels, "rtcOccluded1");
                 row.embree_agreement = Some(self.agreement(r));
+                row.embree_kernels = [shadow_kernels, camera_kernels].concat();
             }
         });
         Ok(row)
     }
 
-    /// Best ms of the camera rays' closest hits, ours and the reference's.
-    fn time_primary(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Option<f64>) {
+    /// antumbra's camera rays tile by tile, one batch of the query face per tile into a
+    /// buffer per thread.
+    fn trace_primary(&self) {
         let tree = self.trees.camera();
-        best_of_in_turn(
-            repeat,
-            || {
-                // A chunk's rays as one batch of the query face, into a buffer per thread.
-                self.primary.par_chunks(CHUNK).for_each_init(
-                    || vec![None; CHUNK],
-                    |hits, rays| {
-                        let hits = &mut hits[..rays.len()];
-                        tree.closest_hit_batch(rays, hits, &mut [NoStats; CHUNK][..rays.len()]);
-                        std::hint::black_box(hits);
-                    },
-                )
+        self.primary.tile_rays().for_each_init(
+            || (Vec::new(), Vec::new()),
+            |(hits, none), rays| {
+                hits.resize(rays.len(), None);
+                none.resize(rays.len(), NoStats);
+                tree.closest_hit_batch(rays, hits, none);
+                std::hint::black_box(hits);
             },
-            reference.map(|r| {
-                || {
-                    self.primary
-                        .par_iter()
-                        .with_min_len(CHUNK)
-                        .for_each(|ray| r.intersect(ray))
-                }
-            }),
         )
     }
 
-    /// Best ms of every light's shadow rays, ours light by light in its order, and the
-    /// reference's on the same rays.
-    fn time_shadow(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Option<f64>) {
-        best_of_in_turn(
-            repeat,
-            || {
-                for light in &self.lights {
-                    let tracer = light.tracing.tracer();
-                    light.rays.par_chunks(CHUNK).for_each_init(
-                        || vec![false; CHUNK],
-                        |answers, rays| {
-                            let answers = &mut answers[..rays.len()];
-                            let none = &mut [NoStats; CHUNK][..rays.len()];
-                            tracer.occluded_batch(rays, answers, none);
-                            std::hint::black_box(answers);
-                        },
-                    )
-                }
-            },
-            reference.map(|r| {
-                || {
-                    self.shadow.par_iter().with_min_len(CHUNK).for_each(|ray| {
-                        std::hint::black_box(r.occluded(ray));
-                    })
-                }
-            }),
-        )
+    /// antumbra's shadow rays light by light in its order, tile by tile.
+    fn trace_shadow(&self) {
+        for light in &self.lights {
+            let tracer = light.tracing.tracer();
+            light.rays.tile_rays().for_each_init(
+                || (Vec::new(), Vec::new()),
+                |(answers, none), rays| {
+                    answers.resize(rays.len(), false);
+                    none.resize(rays.len(), NoStats);
+                    tracer.occluded_batch(rays, answers, none);
+                    std::hint::black_box(answers);
+                },
+            )
+        }
+    }
+
+    /// Best ms of the camera rays' closest hits, and each of the reference's calls' row.
+    fn time_primary(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Vec<KernelRow>) {
+        match reference {
+            Some(r) => {
+                let answers = Answers::Triangles(&self.primary_hits);
+                time_in_turn(r, &self.primary, answers, repeat, || self.trace_primary())
+            }
+            None => (best_of(repeat, || self.trace_primary()), Vec::new()),
+        }
+    }
+
+    /// Best ms of every light's shadow rays, ours light by light in its order, and each of the
+    /// reference's calls' row on the same rays in the same tiles.
+    fn time_shadow(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Vec<KernelRow>) {
+        match reference {
+            Some(r) => {
+                let answers = Answers::Occluded(&self.answers);
+                time_in_turn(r, &self.shadow, answers, repeat, || self.trace_shadow())
+            }
+            None => (best_of(repeat, || self.trace_shadow()), Vec::new()),
+        }
     }
 
     /// The share of shadow rays the reference answers as antumbra does.
     fn agreement(&self, reference: &Reference) -> f64 {
         let agree = self
             .shadow
+            .rays
             .par_iter()
             .zip(&self.answers)
             .filter(|(ray, a)| reference.occluded(ray) == **a)
             .count();
         agree as f64 / self.shadow.len().max(1) as f64
     }
-}
-
-/// Every pixel's camera ray, row by row.
-fn camera_rays(rays: &PrimaryRays, w: u32, h: u32) -> Vec<Ray> {
-    (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| rays.ray(x, y))
-        .collect()
 }
 
 /// Builder / width / order; the collapse is named when it is not the default, e.g.
@@ -476,7 +506,7 @@ fn print_table(rows: &[BenchRow]) {
     }
     println!("{WORK_LEGEND}");
     if embree {
-        println!("build x = antumbra build / Embree build (quality per --embree-quality, default medium); shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays)");
+        println!("build x = antumbra build / Embree build (quality per --embree-quality, default medium); shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays); agree = shadow rays rtcOccluded1 answers as antumbra");
     }
 }
 
