@@ -13,8 +13,8 @@ use super::{mrays, timed};
 /// One Embree call on one kind of rays.
 #[derive(Clone, Debug, Serialize)]
 pub struct KernelRow {
-    /// `shadow` (any hit) or `camera` (closest hit).
-    pub rays: &'static str,
+    /// `any_hit` (a scene's shadow rays) or `closest_hit` (its camera rays).
+    pub query: &'static str,
     /// Embree's function, e.g. `rtcOccluded16`.
     pub kernel: &'static str,
     /// The context flag: `incoherent` or `coherent`.
@@ -78,9 +78,9 @@ pub(super) fn time_in_turn(
         .map(|(k, ms)| {
             let mrays = mrays(tiled.len(), ms);
             KernelRow {
-                rays: match query {
-                    Query::Occlusion => "shadow",
-                    Query::ClosestHit => "camera",
+                query: match query {
+                    Query::Occlusion => "any_hit",
+                    Query::ClosestHit => "closest_hit",
                 },
                 kernel: match query {
                     Query::Occlusion => k.occluded_name(),
@@ -153,20 +153,22 @@ fn disagreements(
         .sum()
 }
 
-/// The kernel table under the main one: per row of `rows`, its scene, frame and thread count
-/// beside each call's figures.
+/// The kernel table under the main one: per row of `rows` (a label such as scene and frame,
+/// and a thread count), each call's figures.
 pub(super) fn print_kernel_table<'a>(rows: impl Iterator<Item = (String, usize, &'a [KernelRow])>) {
+    let rows: Vec<_> = rows.collect();
+    let w = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
     println!(
-        "{:<24} {:>3} {:<6} {:<15} {:<10} {:>9} {:>10} {:>9}",
-        "", "thr", "rays", "Embree call", "context", "Mrays/s", "antumbra x", "disagree"
+        "{:<w$} {:>3} {:<11} {:<15} {:<10} {:>9} {:>10} {:>9}",
+        "", "thr", "query", "Embree call", "context", "Mrays/s", "antumbra x", "disagree"
     );
     for (label, threads, kernels) in rows {
         for k in kernels {
             println!(
-                "{:<24} {:>3} {:<6} {:<15} {:<10} {:>9.2} {:>10.2} {:>9}",
+                "{:<w$} {:>3} {:<11} {:<15} {:<10} {:>9.2} {:>10.2} {:>9}",
                 label,
                 threads,
-                k.rays,
+                k.query,
                 k.kernel,
                 k.context,
                 k.mrays,
@@ -176,7 +178,7 @@ pub(super) fn print_kernel_table<'a>(rows: impl Iterator<Item = (String, usize, 
         }
     }
     println!(
-        "Embree's calls on antumbra's rays, grouped as antumbra traces them (tiles of {0}x{0} pixels; a ray file's rays in groups of {1}); each call timed in turn with antumbra; antumbra x = antumbra Mrays/s / the call's; disagree = rays answered otherwise than antumbra (camera: another triangle or hit/miss)",
+        "Embree's calls on antumbra's rays, grouped as antumbra traces them (tiles of {0}x{0} pixels; a ray file's rays in groups of {1}); each call timed in turn with antumbra; antumbra x = antumbra Mrays/s / the call's; disagree = rays answered otherwise than antumbra (closest hit: another triangle or hit/miss); a scene's any_hit rays are its shadow rays, closest_hit its camera rays",
         super::tiles::TILE_SIDE,
         super::tiles::FILE_TILE
     );

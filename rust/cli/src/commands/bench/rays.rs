@@ -121,17 +121,17 @@ pub(super) fn run(args: &BenchArgs, scenes: &[String], settings: &RenderSettings
 
 /// A frame's trees made as a render makes them (a warm-up: `FrameTrees`, the one pipeline), its
 /// camera rays' hits and its shadow-casting lights.
-struct FrameState {
-    scene: String,
-    frame: i32,
+pub(super) struct FrameState {
+    pub scene: String,
+    pub frame: i32,
     renderer: Renderer,
-    camera: PrimaryRays,
-    pass: PrimaryPass,
-    lights: Vec<ShadowLight>,
+    pub camera: PrimaryRays,
+    pub pass: PrimaryPass,
+    pub lights: Vec<ShadowLight>,
 }
 
 impl FrameState {
-    fn prepare(
+    pub fn prepare(
         anim: &dyn Animation,
         number: i32,
         args: &BenchArgs,
@@ -161,7 +161,7 @@ impl FrameState {
         })
     }
 
-    fn trees(&self) -> &FrameTrees {
+    pub fn trees(&self) -> &FrameTrees {
         self.renderer.trees().expect("prepared with its trees")
     }
 }
