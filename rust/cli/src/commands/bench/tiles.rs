@@ -8,6 +8,7 @@ use std::ops::Range;
 
 use antumbra_core::geometry::Ray;
 use antumbra_core::render::{PrimaryPass, PrimaryRays};
+use rayon::prelude::*;
 
 use crate::shadow_lights::ShadowLight;
 
@@ -100,8 +101,7 @@ impl TiledRays {
     }
 
     /// Each tile's rays.
-    pub fn tile_rays(&self) -> impl rayon::iter::IndexedParallelIterator<Item = &[Ray]> {
-        use rayon::prelude::*;
+    pub fn tile_rays(&self) -> impl IndexedParallelIterator<Item = &[Ray]> {
         self.tiles.par_iter().map(|t| &self.rays[t.clone()])
     }
 }

@@ -32,23 +32,21 @@ pub(super) fn run(
                 .map_or(name.clone(), |s| s.to_string_lossy().into_owned());
             let base = format!("{stem}_f{f}");
             let triangles = &state.trees().geometry().camera.vertices;
-            let mut files = vec![(format!("{base}.triangles.bin"), None)];
-            files.push((
+            let path = dir.join(format!("{base}.triangles.bin"));
+            write_triangles(&path, triangles)?;
+            println!("{} ({})", path.display(), triangles.len());
+            let lights = state.lights.iter().enumerate().map(|(i, light)| {
+                let name = format!("{base}.light{i}.rays.bin");
+                (name, TiledRays::shadow(&state.pass, light))
+            });
+            let camera = (
                 format!("{base}.camera.rays.bin"),
-                Some(TiledRays::camera(&state.camera)),
-            ));
-            for (i, light) in state.lights.iter().enumerate() {
-                let rays = TiledRays::shadow(&state.pass, light);
-                files.push((format!("{base}.light{i}.rays.bin"), Some(rays)));
-            }
-            for (file, rays) in files {
+                TiledRays::camera(&state.camera),
+            );
+            for (file, rays) in std::iter::once(camera).chain(lights) {
                 let path = dir.join(file);
-                match &rays {
-                    None => write_triangles(&path, triangles)?,
-                    Some(r) => write_rays(&path, &r.rays)?,
-                }
-                let n = rays.map_or(triangles.len(), |r| r.len());
-                println!("{} ({n})", path.display());
+                write_rays(&path, &rays.rays)?;
+                println!("{} ({})", path.display(), rays.len());
             }
         }
     }
