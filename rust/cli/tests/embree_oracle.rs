@@ -155,8 +155,8 @@ fn assert_positive(rows: &[serde_json::Value], keys: &[&str]) {
 }
 
 /// `antumbra bench --compare embree` as a user runs it: every row carries Embree's build time
-/// and both of its ray rates, timed in turn with antumbra's, and Embree agrees with antumbra's
-/// shadow answers on (nearly) every ray.
+/// and both of its ray rates, timed in turn with antumbra's, each of its packet and stream calls
+/// beside them, and Embree agrees with antumbra's shadow answers on (nearly) every ray.
 #[test]
 fn bench_compares_with_embree_on_the_same_rays() {
     let rows = bench_rows(
@@ -179,6 +179,27 @@ fn bench_compares_with_embree_on_the_same_rays() {
     for row in &rows {
         let agreement = row["embree_agreement"].as_f64().unwrap();
         assert!(agreement > 0.999, "agreement {agreement} in {row}");
+        let kernels = row["embree_kernels"].as_array().unwrap();
+        assert_eq!(kernels.len(), 14, "7 calls per query: {kernels:?}");
+        // Every incoherent call answers as the single-ray call of its query does (the embree
+        // crate's tests check it ray for ray), so each disagrees with antumbra as often.
+        for query in ["any_hit", "closest_hit"] {
+            let of_query: Vec<_> = kernels.iter().filter(|k| k["query"] == query).collect();
+            let single = of_query[0]["disagreements"].as_u64().unwrap();
+            assert!(
+                single * 1000 < row["shadow_rays"].as_u64().unwrap(),
+                "{row}"
+            );
+            for k in &of_query {
+                assert!(k["mrays"].as_f64().unwrap() > 0.0, "{k}");
+                if k["context"] == "incoherent" {
+                    assert_eq!(k["disagreements"].as_u64(), Some(single), "{k}");
+                }
+            }
+        }
+        let any_hit_single = &kernels[0];
+        assert_eq!(any_hit_single["kernel"], "rtcOccluded1");
+        assert_eq!(any_hit_single["mrays"], row["embree_shadow_mrays"]);
     }
 }
 

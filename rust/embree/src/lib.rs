@@ -5,9 +5,14 @@
 //! raw `embree3::sys` FFI: the safe wrapper of the `embree3` crate has no build-quality setter
 //! and ties scenes to lifetimes we do not need here.
 //!
-//! Only single-ray queries are used (`rtcOccluded1` / `rtcIntersect1`, incoherent context):
-//! on Embree 3.13.5 the coherent packet/stream occlusion paths (`rtcOccluded8/16/1M`) gave wrong
-//! answers for rays starting 1e-4 from a surface, while the single-ray path was right.
+//! [`EmbreeScene::occluded`] and [`EmbreeScene::intersect`] are the single-ray calls
+//! (`rtcOccluded1` / `rtcIntersect1`, incoherent context), the oracle. [`EmbreeScene::occluded_with`]
+//! and [`EmbreeScene::intersect_with`] trace a batch with any of Embree's calls ([`EmbreeKernel`]:
+//! 8- and 16-wide packets, the stream) and either context flag ([`Coherence`]), for speed
+//! comparisons. The incoherent forms are tested ray for ray against the single-ray calls; the
+//! coherent ones are only a promise about the rays, so `bench` counts their disagreements instead
+//! (an earlier report of wrong coherent answers for rays leaving a surface is not reproduced by
+//! the CLI's `embree_coherence` example).
 //!
 //! # Ray segment
 //!
@@ -34,6 +39,10 @@
 //! compares answers exactly, so robust is the fair setting; `robust = false` is available
 //! through [`EmbreeScene::with_options`] for raw-speed comparisons.
 
+mod kernels;
+
+pub use kernels::{Coherence, EmbreeKernel};
+
 use std::ffi::CString;
 use std::os::raw::c_void;
 use std::ptr;
@@ -45,13 +54,13 @@ use embree3::sys::{
     rtcIntersect1, rtcNewDevice, rtcNewGeometry, rtcNewScene, rtcOccluded1, rtcReleaseDevice,
     rtcReleaseGeometry, rtcReleaseScene, rtcSetGeometryBuildQuality, rtcSetNewGeometryBuffer,
     rtcSetSceneBuildQuality, rtcSetSceneFlags, RTCBufferType, RTCBuildQuality, RTCDevice,
-    RTCDeviceProperty, RTCError, RTCFormat, RTCGeometryType, RTCHit, RTCIntersectContext,
-    RTCIntersectContextFlags, RTCRay, RTCRayHit, RTCScene, RTCSceneFlags,
+    RTCDeviceProperty, RTCError, RTCFormat, RTCGeometryType, RTCRay, RTCRayHit, RTCScene,
+    RTCSceneFlags,
 };
 use glam::Vec3;
 
 /// Embree's `RTC_INVALID_GEOMETRY_ID`.
-const INVALID_ID: u32 = u32::MAX;
+pub(crate) const INVALID_ID: u32 = u32::MAX;
 
 /// Embree's `FLT_LARGE`: the largest origin/direction component magnitude a ray may have.
 const FLT_LARGE: f32 = 1.844e18;
@@ -66,7 +75,7 @@ pub fn embree_accepts(ray: &Ray) -> bool {
 }
 
 #[inline(always)]
-fn check(ray: &Ray) {
+pub(crate) fn check(ray: &Ray) {
     assert!(
         embree_accepts(ray),
         "ray not accepted by Embree (needs t_min >= 0, t_max not NaN, |components| <= 1.844e18): \
@@ -97,7 +106,7 @@ impl EmbreeQuality {
 #[derive(Debug)]
 pub struct EmbreeScene {
     device: RTCDevice,
-    scene: RTCScene,
+    pub(crate) scene: RTCScene,
     build_ms: f64,
     triangle_count: usize,
     robust: bool,
@@ -243,7 +252,7 @@ impl EmbreeScene {
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         check(ray);
-        let mut context = context();
+        let mut context = kernels::context(Coherence::Incoherent);
         let mut r = rtc_ray(ray);
         // SAFETY: `scene` is committed and never modified afterwards; `context` and `r` are
         // valid, properly aligned locals.
@@ -260,19 +269,10 @@ impl EmbreeScene {
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, u32)> {
         check(ray);
-        let mut context = context();
+        let mut context = kernels::context(Coherence::Incoherent);
         let mut rh = RTCRayHit {
             ray: rtc_ray(ray),
-            hit: RTCHit {
-                Ng_x: 0.0,
-                Ng_y: 0.0,
-                Ng_z: 0.0,
-                u: 0.0,
-                v: 0.0,
-                primID: INVALID_ID,
-                geomID: INVALID_ID,
-                instID: [INVALID_ID],
-            },
+            hit: kernels::empty_hit(),
         };
         // SAFETY: as in `occluded`.
         unsafe { rtcIntersect1(self.scene, &mut context, &mut rh) };
@@ -341,17 +341,7 @@ unsafe fn fill_geometry(
 }
 
 #[inline(always)]
-fn context() -> RTCIntersectContext {
-    // What `rtcInitIntersectContext` (an inline C function, absent from the bindings) does.
-    RTCIntersectContext {
-        flags: RTCIntersectContextFlags::INCOHERENT,
-        filter: None,
-        instID: [INVALID_ID],
-    }
-}
-
-#[inline(always)]
-fn rtc_ray(ray: &Ray) -> RTCRay {
+pub(crate) fn rtc_ray(ray: &Ray) -> RTCRay {
     RTCRay {
         org_x: ray.origin.x,
         org_y: ray.origin.y,

@@ -8,14 +8,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::light_tracer::{binary_order, light_tracing, LightRays, LightTracing, ShadowTrees};
-use super::wide_tree::WideTree;
+use super::wide_tree::{OrderedWideTree, WideTree};
 use super::RenderSettings;
 use crate::build::{BuildMethod, BuildSettings, CollapseSettings};
 use crate::bvh::{Bvh, BvhWidth};
 use crate::cancel::CancelToken;
-use crate::order::{PreparedOrder, ShadowOrder, SortTables};
+use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
 use crate::scene::{FrameGeometry, Mesh, Scene, TriangleRef};
-use crate::trace::forward_ray_query;
+use crate::trace::{forward_ray_query, RayMode};
 use crate::Result;
 
 /// What identifies a frame's geometry: mesh identities, transforms and visibility flags. One key
@@ -132,6 +132,37 @@ macro_rules! with_camera {
 }
 // The camera tree answers rays like any tree: a batch reads its variant once.
 forward_ray_query!(CameraTree<'_>, with_camera);
+
+impl<'a> CameraTree<'a> {
+    /// The tree as the primary pass traces it: the wide tree's batches as `rays` (closest hits
+    /// read no order), the binary tree's one ray at a time.
+    pub fn traced_as(self, rays: RayMode) -> CameraQuery<'a> {
+        match self {
+            CameraTree::Binary(b) => CameraQuery::Binary(b),
+            CameraTree::Wide(w) => {
+                CameraQuery::Wide(w.ordered(OrderView::FrontToBack).with_rays(rays))
+            }
+        }
+    }
+}
+
+/// The camera tree with how its batches are traced ([`CameraTree::traced_as`]).
+#[derive(Clone, Copy)]
+pub enum CameraQuery<'a> {
+    Binary(&'a Bvh),
+    Wide(OrderedWideTree<'a>),
+}
+
+/// Calls `$f` with the query `$camera` holds.
+macro_rules! with_camera_query {
+    ($camera:expr, $q:ident => $f:expr) => {
+        match $camera {
+            CameraQuery::Binary($q) => $f,
+            CameraQuery::Wide($q) => $f,
+        }
+    };
+}
+forward_ray_query!(CameraQuery<'_>, with_camera_query);
 
 impl FrameTrees {
     #[allow(clippy::too_many_arguments)]

@@ -12,6 +12,7 @@ mod memory;
 mod passes;
 mod pick;
 mod policy;
+pub use policy::pass_rays;
 mod primary;
 mod renderer;
 mod settings;
@@ -23,7 +24,7 @@ mod wide_tree;
 
 pub use camera_rays::PrimaryRays;
 pub use facing::Facing;
-pub use frame_trees::{CameraTree, FrameTrees};
+pub use frame_trees::{CameraQuery, CameraTree, FrameTrees};
 pub use light_tracer::{
     binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
 };

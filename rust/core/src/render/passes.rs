@@ -17,7 +17,6 @@ use super::{
 use crate::bvh::Bvh;
 use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
-use crate::order::OrderView;
 use crate::scene::Scene;
 use crate::stats::StatsRow;
 use crate::trace::{NoStats, RayQuery, TraversalStats};
@@ -109,15 +108,8 @@ pub(super) fn trace_camera(
 ) -> Result<PrimaryPass> {
     let geometry = trees.geometry();
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
-    match trees.camera() {
-        CameraTree::Wide(t) => {
-            let q = t
-                .ordered(OrderView::FrontToBack)
-                .with_rays(pass_rays(settings));
-            trace_primary(counted, &rays, &q, &geometry.camera, cancel)
-        }
-        CameraTree::Binary(b) => trace_primary(counted, &rays, b, &geometry.camera, cancel),
-    }
+    let tree = trees.camera().traced_as(pass_rays(settings));
+    trace_primary(counted, &rays, &tree, &geometry.camera, cancel)
 }
 
 /// Whether a frame's passes count work, and whether they are timed without counters.

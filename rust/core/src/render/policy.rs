@@ -242,7 +242,7 @@ fn moment(settings: &RenderSettings, frames_rendered: u64) -> auto::Moment {
 /// How a pass traces its tiles on a wide tree, the camera's and every light's: the setting, or
 /// `auto`'s rule (docs/auto.md): packets, faster than single rays on the camera and shadow rays
 /// of the built-in scenes (BENCHMARKS.md, "Single rays and packets").
-pub(super) fn pass_rays(settings: &RenderSettings) -> RayMode {
+pub fn pass_rays(settings: &RenderSettings) -> RayMode {
     match settings.rays {
         Pick::Fixed(m) => m,
         Pick::Auto => RayMode::Packet,

@@ -4,9 +4,14 @@
 
 mod animation;
 mod frames;
+mod kernels;
 mod methods;
+mod ray_file_bench;
+mod ray_files;
 mod rays;
 mod reference;
+mod tiles;
+mod write_rays;
 
 use std::time::Instant;
 
@@ -42,6 +47,15 @@ pub struct BenchArgs {
     /// Compare with another tracer on the same triangles and rays ("embree").
     #[arg(long)]
     pub compare: Option<String>,
+    /// Trace an external ray set instead of a scene's: a triangle file (u64 n, then n x 9 f32)
+    /// and a ray file (u64 n, then n x 8 f32: ox oy oz tnear dx dy dz tfar), little-endian;
+    /// any hit and closest hit of every ray, beside each of Embree's calls with --compare embree.
+    #[arg(long, num_args = 2, value_names = ["TRIANGLES", "RAYS"], conflicts_with_all = ["scene", "methods", "animation", "write_rays"])]
+    pub rays: Vec<std::path::PathBuf>,
+    /// Write each scene's triangles, camera rays and per-light shadow rays in those two
+    /// formats into DIR (render space, tile order; one set per frame), then stop.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["methods", "animation"])]
+    pub write_rays: Option<std::path::PathBuf>,
     /// Print the table as JSON.
     #[arg(long)]
     pub json: bool,
@@ -83,7 +97,13 @@ pub struct SweepArgs {
 pub fn run(args: BenchArgs) -> Result<()> {
     check_compare(args.compare.as_deref())?;
     let settings = bench_settings(&args.method)?;
+    if let [triangles, rays] = args.rays.as_slice() {
+        return ray_file_bench::run(&args, triangles, rays);
+    }
     let scenes = frames::scene_names(&args.scene);
+    if let Some(dir) = &args.write_rays {
+        return write_rays::run(&args, &scenes, &settings, dir);
+    }
     if let Some(frames) = args.animation {
         for name in &scenes {
             // A file's folder is named by its stem (a path would escape --out).
@@ -160,22 +180,6 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     let t = Instant::now();
     let out = f();
     (out, t.elapsed().as_secs_f64() * 1e3)
-}
-
-/// Best times of `ours` and of `theirs` (when given) over `repeat` runs each, run in turn.
-fn best_of_in_turn(
-    repeat: u32,
-    mut ours: impl FnMut(),
-    mut theirs: Option<impl FnMut()>,
-) -> (f64, Option<f64>) {
-    let (mut best, mut best_theirs) = (f64::INFINITY, theirs.as_ref().map(|_| f64::INFINITY));
-    for _ in 0..repeat.max(1) {
-        best = best.min(timed(&mut ours).1);
-        if let (Some(f), Some(b)) = (theirs.as_mut(), best_theirs.as_mut()) {
-            *b = b.min(timed(f).1);
-        }
-    }
-    (best, best_theirs)
 }
 
 fn mrays(n: usize, ms: f64) -> f64 {

@@ -1,30 +1,29 @@
 //! `antumbra bench`'s main table: per scene and frame, SAH build time, Mrays/s and work per ray
 //! on exactly the rays a frame traces (camera rays, then every light's shadow rays in its
-//! order), on one thread and on all, optionally beside Embree timed in turn on the same rays.
-//! The trees and orders are the renderer's own (a warm-up's `FrameTrees`): one pipeline.
+//! order), on one thread and on all, optionally beside each of Embree's calls timed in turn on
+//! the same rays in the same tiles. The trees and orders are the renderer's own (a warm-up's
+//! `FrameTrees`): one pipeline; the rays go tile by tile, one batch of the query face per tile.
 
 use antumbra_core::build::{build_binned_sah, CollapseSettings};
 use antumbra_core::cancel::CancelToken;
-use antumbra_core::geometry::Ray;
 use antumbra_core::order::ShadowOrder;
 use antumbra_core::render::{
-    shadow_ray_batches, CameraTree, FrameTrees, LightRays, LightTracing, PrimaryPass, PrimaryRays,
+    pass_rays, CameraTree, FrameTrees, LightRays, LightTracing, PrimaryPass, PrimaryRays,
     RenderSettings, Renderer,
 };
 use antumbra_core::scene::{Animation, Resolution};
 use antumbra_core::stats::StatsRow;
-use antumbra_core::trace::{NoStats, RayQuery, TraversalStats};
+use antumbra_core::trace::{NoStats, RayMode, RayQuery, TraversalStats};
 use anyhow::Result;
 use rayon::prelude::*;
 use serde::Serialize;
 
 use super::frames::BenchScene;
+use super::kernels::{print_kernel_table, time_in_turn, Answers, KernelRow};
 use super::reference::Reference;
-use super::{bench_order, best_of, best_of_in_turn, mrays, print_json, BenchArgs};
+use super::tiles::TiledRays;
+use super::{bench_order, best_of, mrays, print_json, BenchArgs};
 use crate::shadow_lights::{shadow_lights, ShadowLight};
-
-/// Rays handed to Embree's single-ray calls per parallel task.
-const CHUNK: usize = 256;
 
 #[derive(Debug, Default, Serialize)]
 pub struct BenchRow {
@@ -56,8 +55,11 @@ pub struct BenchRow {
     pub embree_build_ms: Option<f64>,
     pub embree_primary_mrays: Option<f64>,
     pub embree_shadow_mrays: Option<f64>,
-    /// Shadow rays on which Embree and antumbra give the same occlusion answer.
+    /// Shadow rays on which Embree (`rtcOccluded1`) and antumbra give the same occlusion answer.
     pub embree_agreement: Option<f64>,
+    /// Each of Embree's calls on the same rays in the same tiles (empty without
+    /// `--compare embree`), shadow rays first.
+    pub embree_kernels: Vec<KernelRow>,
 }
 
 /// N_B, N_L, N_T and N_box per ray of one kind of pass, as the statistics rows compute them
@@ -106,23 +108,30 @@ pub(super) fn run(args: &BenchArgs, scenes: &[String], settings: &RenderSettings
         print_json(&rows)
     } else {
         print_table(&rows);
+        if rows.iter().any(|r| !r.embree_kernels.is_empty()) {
+            println!();
+            print_kernel_table(rows.iter().map(|r| {
+                let label = format!("{} {}", r.scene, r.frame);
+                (label, r.threads, r.embree_kernels.as_slice())
+            }));
+        }
         Ok(())
     }
 }
 
 /// A frame's trees made as a render makes them (a warm-up: `FrameTrees`, the one pipeline), its
 /// camera rays' hits and its shadow-casting lights.
-struct FrameState {
-    scene: String,
-    frame: i32,
+pub(super) struct FrameState {
+    pub scene: String,
+    pub frame: i32,
     renderer: Renderer,
-    camera: PrimaryRays,
-    pass: PrimaryPass,
-    lights: Vec<ShadowLight>,
+    pub camera: PrimaryRays,
+    pub pass: PrimaryPass,
+    pub lights: Vec<ShadowLight>,
 }
 
 impl FrameState {
-    fn prepare(
+    pub fn prepare(
         anim: &dyn Animation,
         number: i32,
         args: &BenchArgs,
@@ -138,7 +147,7 @@ impl FrameState {
         let never = CancelToken::new();
         let pass = PrimaryPass::trace::<NoStats>(
             &camera,
-            &trees.camera(),
+            &trees.camera().traced_as(pass_rays(s)),
             &trees.geometry().camera,
             &never,
         )?;
@@ -152,15 +161,14 @@ impl FrameState {
         })
     }
 
-    fn trees(&self) -> &FrameTrees {
+    pub fn trees(&self) -> &FrameTrees {
         self.renderer.trees().expect("prepared with its trees")
     }
 }
 
-/// One light's shadow rays, batched per tile as the shadow pass batches them, and its tree and
-/// order, prepared as the renderer does.
+/// One light's shadow rays in tiles and its tree and order, prepared as the renderer does.
 struct LightRaysOf<'a> {
-    batches: Vec<Vec<Ray>>,
+    rays: TiledRays,
     tracing: LightTracing<'a>,
 }
 
@@ -168,27 +176,30 @@ struct LightRaysOf<'a> {
 struct Frame<'a> {
     state: &'a FrameState,
     trees: &'a FrameTrees,
-    /// The camera rays, batched per tile as the primary pass batches them.
-    primary: Vec<Vec<Ray>>,
-    primary_rays: usize,
+    primary: TiledRays,
+    /// antumbra's closest hit of each camera ray (its triangle).
+    primary_hits: Vec<Option<u32>>,
     lights: Vec<LightRaysOf<'a>>,
-    /// Every light's rays in turn, and antumbra's answer for each.
-    shadow: Vec<Ray>,
+    /// Every light's tiles in turn, and antumbra's answer for each ray.
+    shadow: TiledRays,
     answers: Vec<bool>,
     primary_work: TraversalStats,
     shadow_work: TraversalStats,
     /// Whether the lights trace SRDH trees of their own.
     srdh: bool,
+    /// Single rays or packets, as a render with these settings traces them.
+    rays: RayMode,
 }
 
 impl<'a> Frame<'a> {
     fn new(state: &'a FrameState, s: &RenderSettings) -> Frame<'a> {
         let trees = state.trees();
         let camera = &state.camera;
+        let rays = pass_rays(s);
         // Counted on the tree the timed loop traces (the timed loop has no counters).
         let primary_work = PrimaryPass::trace::<TraversalStats>(
             camera,
-            &trees.camera(),
+            &trees.camera().traced_as(rays),
             &trees.geometry().camera,
             &CancelToken::new(),
         )
@@ -218,30 +229,46 @@ impl<'a> Frame<'a> {
                     _ => prepare(),
                 };
                 LightRaysOf {
-                    batches: shadow_ray_batches(&state.pass, &light.sampler, light.plan),
+                    rays: TiledRays::shadow(&state.pass, light),
                     tracing,
                 }
             })
             .collect();
-        let shadow = lights
-            .iter()
-            .flat_map(|l| l.batches.iter().flatten().copied())
-            .collect();
-        let primary = camera.batches();
+        let mut shadow = TiledRays::default();
+        for light in &lights {
+            shadow.append(&light.rays);
+        }
         let mut frame = Frame {
             state,
             trees,
-            primary_rays: primary.iter().map(Vec::len).sum(),
-            primary,
+            primary: TiledRays::camera(camera),
+            primary_hits: Vec::new(),
             lights,
             shadow,
             answers: Vec::new(),
             primary_work,
             shadow_work: TraversalStats::default(),
             srdh: matches!(order, ShadowOrder::Srdh(_)),
+            rays,
         };
         (frame.answers, frame.shadow_work) = frame.counted_occlusion();
+        frame.primary_hits = frame.closest_triangles();
         frame
+    }
+
+    /// The triangle each camera ray hits first (untimed, for the disagreement counts).
+    fn closest_triangles(&self) -> Vec<Option<u32>> {
+        let tree = self.trees.camera().traced_as(self.rays);
+        let per_tile: Vec<Vec<Option<u32>>> = self
+            .primary
+            .tile_rays()
+            .map(|rays| {
+                let mut hits = vec![None; rays.len()];
+                tree.closest_hit_batch(rays, &mut hits, &mut vec![NoStats; rays.len()]);
+                hits.iter().map(|h| h.map(|h| h.triangle)).collect()
+            })
+            .collect();
+        per_tile.concat()
     }
 
     /// Every shadow ray's answer, and the work of all of them, counted.
@@ -249,24 +276,22 @@ impl<'a> Frame<'a> {
         let mut answers = Vec::with_capacity(self.shadow.len());
         let mut total = TraversalStats::default();
         for light in &self.lights {
-            let tracer = light.tracing.tracer(antumbra_core::trace::RayMode::Single);
-            let counted: Vec<(Vec<bool>, TraversalStats)> = light
-                .batches
-                .par_iter()
+            let tracer = light.tracing.tracer(self.rays);
+            let per_tile: Vec<(Vec<bool>, Vec<TraversalStats>)> = light
+                .rays
+                .tile_rays()
                 .map(|rays| {
                     let mut a = vec![false; rays.len()];
                     let mut work = vec![TraversalStats::default(); rays.len()];
                     tracer.occluded_batch(rays, &mut a, &mut work);
-                    let mut sum = TraversalStats::default();
-                    for w in work {
-                        sum += w;
-                    }
-                    (a, sum)
+                    (a, work)
                 })
                 .collect();
-            for (a, w) in counted {
+            for (a, work) in per_tile {
                 answers.extend(a);
-                total += w;
+                for w in work {
+                    total += w;
+                }
             }
         }
         (answers, total)
@@ -286,10 +311,10 @@ impl<'a> Frame<'a> {
             triangles: self.trees.geometry().camera.vertices.len(),
             threads,
             bvh_bytes,
-            primary_rays: self.primary_rays,
+            primary_rays: self.primary.len(),
             shadow_rays: self.shadow.len(),
             shadow_occluded: occluded as f64 / self.shadow.len().max(1) as f64,
-            primary_work: PassWork::of(&self.primary_work, self.primary_rays),
+            primary_work: PassWork::of(&self.primary_work, self.primary.len()),
             shadow_work: PassWork::of(&self.shadow_work, self.shadow.len()),
             collapse_ms,
             sort_ms_per_light: self
@@ -309,7 +334,7 @@ impl<'a> Frame<'a> {
     }
 
     /// The row on `threads` threads: build, camera rays and shadow rays timed, each beside
-    /// Embree's when compared.
+    /// each of Embree's calls when compared.
     fn timed_row(&self, threads: usize, args: &BenchArgs, s: &RenderSettings) -> Result<BenchRow> {
         let mut row = self.row(threads, s);
         let pool = rayon::ThreadPoolBuilder::new()
@@ -331,80 +356,83 @@ impl<'a> Frame<'a> {
             row.build_ms = best_of(args.repeat, || {
                 build_binned_sah(&self.trees.geometry().camera.vertices, &s.build_settings)
             });
-            let (ms, reference_ms) = self.time_primary(args.repeat, reference.as_ref());
-            row.primary_mrays = mrays(self.primary_rays, ms);
-            row.embree_primary_mrays = reference_ms.map(|ms| mrays(self.primary_rays, ms));
-            let (ms, reference_ms) = self.time_shadow(args.repeat, reference.as_ref());
+            let (ms, camera_kernels) = self.time_primary(args.repeat, reference.as_ref());
+            row.primary_mrays = mrays(self.primary.len(), ms);
+            let (ms, shadow_kernels) = self.time_shadow(args.repeat, reference.as_ref());
             row.shadow_mrays = mrays(self.shadow.len(), ms);
-            row.embree_shadow_mrays = reference_ms.map(|ms| mrays(self.shadow.len(), ms));
             if let Some(r) = &reference {
+                let single = |rows: &[KernelRow], name: &str| {
+                    rows.iter().find(|k| k.kernel == name).map(|k| k.mrays)
+                };
                 row.embree_build_ms = Some(r.build_ms);
+                row.embree_primary_mrays = single(&camera_kernels, "rtcIntersect1");
+                row.embree_shadow_mrays = single(&shadow_kernels, "rtcOccluded1");
                 row.embree_agreement = Some(self.agreement(r));
+                row.embree_kernels = [shadow_kernels, camera_kernels].concat();
             }
         });
         Ok(row)
     }
 
-    /// Best ms of the camera rays' closest hits, ours and the reference's.
-    fn time_primary(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Option<f64>) {
-        let tree = self.trees.camera();
-        best_of_in_turn(
-            repeat,
-            || {
-                // A tile's rays as one batch of the query face, into buffers per thread.
-                self.primary.par_iter().for_each_init(
-                    || (Vec::new(), Vec::new()),
-                    |(hits, none), rays| {
-                        hits.resize(rays.len(), None);
-                        none.resize(rays.len(), NoStats);
-                        tree.closest_hit_batch(rays, hits, none);
-                        std::hint::black_box(hits);
-                    },
-                )
+    /// antumbra's camera rays tile by tile, one batch of the query face per tile into a
+    /// buffer per thread.
+    fn trace_primary(&self) {
+        let tree = self.trees.camera().traced_as(self.rays);
+        self.primary.tile_rays().for_each_init(
+            || (Vec::new(), Vec::new()),
+            |(hits, none), rays| {
+                hits.resize(rays.len(), None);
+                none.resize(rays.len(), NoStats);
+                tree.closest_hit_batch(rays, hits, none);
+                std::hint::black_box(hits);
             },
-            reference.map(|r| {
-                || {
-                    self.primary
-                        .par_iter()
-                        .for_each(|rays| rays.iter().for_each(|ray| r.intersect(ray)))
-                }
-            }),
         )
     }
 
-    /// Best ms of every light's shadow rays, ours light by light in its order, and the
-    /// reference's on the same rays.
-    fn time_shadow(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Option<f64>) {
-        best_of_in_turn(
-            repeat,
-            || {
-                for light in &self.lights {
-                    let tracer = light.tracing.tracer(antumbra_core::trace::RayMode::Single);
-                    light.batches.par_iter().for_each_init(
-                        || (Vec::new(), Vec::new()),
-                        |(answers, none), rays| {
-                            answers.resize(rays.len(), false);
-                            none.resize(rays.len(), NoStats);
-                            tracer.occluded_batch(rays, answers, none);
-                            std::hint::black_box(answers);
-                        },
-                    )
-                }
-            },
-            reference.map(|r| {
-                || {
-                    self.shadow.par_iter().with_min_len(CHUNK).for_each(|ray| {
-                        std::hint::black_box(r.occluded(ray));
-                    })
-                }
-            }),
-        )
+    /// antumbra's shadow rays light by light in its order, tile by tile.
+    fn trace_shadow(&self) {
+        for light in &self.lights {
+            let tracer = light.tracing.tracer(self.rays);
+            light.rays.tile_rays().for_each_init(
+                || (Vec::new(), Vec::new()),
+                |(answers, none), rays| {
+                    answers.resize(rays.len(), false);
+                    none.resize(rays.len(), NoStats);
+                    tracer.occluded_batch(rays, answers, none);
+                    std::hint::black_box(answers);
+                },
+            )
+        }
+    }
+
+    /// Best ms of the camera rays' closest hits, and each of the reference's calls' row.
+    fn time_primary(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Vec<KernelRow>) {
+        match reference {
+            Some(r) => {
+                let answers = Answers::Triangles(&self.primary_hits);
+                time_in_turn(r, &self.primary, answers, repeat, || self.trace_primary())
+            }
+            None => (best_of(repeat, || self.trace_primary()), Vec::new()),
+        }
+    }
+
+    /// Best ms of every light's shadow rays, ours light by light in its order, and each of the
+    /// reference's calls' row on the same rays in the same tiles.
+    fn time_shadow(&self, repeat: u32, reference: Option<&Reference>) -> (f64, Vec<KernelRow>) {
+        match reference {
+            Some(r) => {
+                let answers = Answers::Occluded(&self.answers);
+                time_in_turn(r, &self.shadow, answers, repeat, || self.trace_shadow())
+            }
+            None => (best_of(repeat, || self.trace_shadow()), Vec::new()),
+        }
     }
 
     /// The share of shadow rays the reference answers as antumbra does.
     fn agreement(&self, reference: &Reference) -> f64 {
         let agree = self
             .shadow
+            .rays
             .par_iter()
             .zip(&self.answers)
             .filter(|(ray, a)| reference.occluded(ray) == **a)
@@ -413,7 +441,6 @@ impl<'a> Frame<'a> {
     }
 }
 
-/// Every pixel's camera ray, row by row.
 /// Builder / width / order; the collapse is named when it is not the default, e.g.
 /// `sah/bin8:sah/sorted`.
 fn method_name(s: &RenderSettings) -> String {
@@ -483,7 +510,7 @@ fn print_table(rows: &[BenchRow]) {
     }
     println!("{WORK_LEGEND}");
     if embree {
-        println!("build x = antumbra build / Embree build (quality per --embree-quality, default medium); shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays)");
+        println!("build x = antumbra build / Embree build (quality per --embree-quality, default medium); shad x = antumbra shadow Mrays/s / Embree rtcOccluded1 Mrays/s (same rays); agree = shadow rays rtcOccluded1 answers as antumbra");
     }
 }
 

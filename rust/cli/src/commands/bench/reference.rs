@@ -1,5 +1,6 @@
-//! Embree on the same triangles and rays, for `--compare embree`: its build time and its two
-//! queries, called directly so its timed loops have no dynamic dispatch either.
+//! Embree on the same triangles and rays, for `--compare embree`: its build time, its two
+//! single-ray queries called directly (no dynamic dispatch in its timed loops either) and its
+//! packet and stream calls ([`Kernel`]).
 
 use antumbra_core::geometry::Ray;
 #[cfg(not(feature = "embree"))]
@@ -64,13 +65,50 @@ impl Reference {
     }
 
     #[inline]
-    pub(super) fn intersect(&self, ray: &Ray) {
-        std::hint::black_box(self.scene.intersect(ray));
-    }
-
-    #[inline]
     pub(super) fn occluded(&self, ray: &Ray) -> bool {
         self.scene.occluded(ray)
+    }
+
+    pub(super) fn occluded_with(&self, k: Kernel, rays: &[Ray], out: &mut [bool]) {
+        self.scene.occluded_with(k.0, k.1, rays, out);
+    }
+
+    pub(super) fn intersect_with(&self, k: Kernel, rays: &[Ray], out: &mut [Option<(f32, u32)>]) {
+        self.scene.intersect_with(k.0, k.1, rays, out);
+    }
+}
+
+/// One of Embree's calls with its context flag.
+#[cfg(feature = "embree")]
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Kernel(antumbra_embree::EmbreeKernel, antumbra_embree::Coherence);
+
+#[cfg(feature = "embree")]
+impl Kernel {
+    /// Every call the bench times: each incoherent, then the batch calls coherent (one ray per
+    /// call has nothing to be coherent with; Embree's single-ray path ignores the flag).
+    pub(super) fn all() -> Vec<Kernel> {
+        use antumbra_embree::{Coherence, EmbreeKernel};
+        let batch = EmbreeKernel::ALL
+            .into_iter()
+            .filter(|k| *k != EmbreeKernel::Single);
+        EmbreeKernel::ALL
+            .into_iter()
+            .map(|k| Kernel(k, Coherence::Incoherent))
+            .chain(batch.map(|k| Kernel(k, Coherence::Coherent)))
+            .collect()
+    }
+
+    pub(super) fn occluded_name(&self) -> &'static str {
+        self.0.occluded_name()
+    }
+
+    pub(super) fn intersect_name(&self) -> &'static str {
+        self.0.intersect_name()
+    }
+
+    pub(super) fn context(&self) -> &'static str {
+        self.1.name()
     }
 }
 
@@ -89,10 +127,34 @@ impl Reference {
     pub(super) fn build_only(_: &str, _: &[[glam::Vec3; 3]], _: usize) -> Result<f64> {
         bail!("built without the 'embree' feature")
     }
-    pub(super) fn intersect(&self, _: &Ray) {
-        match self.never {}
-    }
     pub(super) fn occluded(&self, _: &Ray) -> bool {
         match self.never {}
+    }
+    pub(super) fn occluded_with(&self, k: Kernel, _: &[Ray], _: &mut [bool]) {
+        match k {}
+    }
+    pub(super) fn intersect_with(&self, k: Kernel, _: &[Ray], _: &mut [Option<(f32, u32)>]) {
+        match k {}
+    }
+}
+
+/// Without the `embree` feature there is no call to time.
+#[cfg(not(feature = "embree"))]
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Kernel {}
+
+#[cfg(not(feature = "embree"))]
+impl Kernel {
+    pub(super) fn all() -> Vec<Kernel> {
+        Vec::new()
+    }
+    pub(super) fn occluded_name(&self) -> &'static str {
+        match *self {}
+    }
+    pub(super) fn intersect_name(&self) -> &'static str {
+        match *self {}
+    }
+    pub(super) fn context(&self) -> &'static str {
+        match *self {}
     }
 }
