@@ -1,4 +1,4 @@
-//! `antumbra bench --write-rays` and `--rays` as a user runs them: a scene's rays written in the
+//! `antumbra bench --write-rays` and `--ray-files` as a user runs them: a scene's rays written in the
 //! two little-endian formats trace back through antumbra (and Embree's every call, with the
 //! `embree` feature) with the answers antumbra gave, and each kind of bad file is an error
 //! naming the file, the item and the field, never a crash.
@@ -37,7 +37,7 @@ fn written(dir: &Path) -> [PathBuf; 4] {
 
 fn bench_rays(triangles: &Path, rays: &Path, extra: &[&str]) -> Vec<Value> {
     let out = ok(antumbra()
-        .args(["bench", "--repeat", "1", "--json", "--rays"])
+        .args(["bench", "--repeat", "1", "--json", "--ray-files"])
         .args([triangles, rays])
         .args(extra)
         .output()
@@ -112,10 +112,10 @@ fn written_rays_trace_through_every_embree_call() {
     }
 }
 
-/// What each bad file does to `--rays`: a failure whose message names the file and `needles`.
+/// What each bad file does to `--ray-files`: a failure whose message names the file and `needles`.
 fn refused(triangles: &Path, rays: &Path, bad: &Path, needles: &[&str]) {
     let out = antumbra()
-        .args(["bench", "--repeat", "1", "--rays"])
+        .args(["bench", "--repeat", "1", "--ray-files"])
         .args([triangles, rays])
         .output()
         .unwrap();

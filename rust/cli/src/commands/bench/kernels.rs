@@ -1,5 +1,5 @@
 //! Embree's calls one after another on the same tiled rays as antumbra (`--compare embree`,
-//! `--rays`): each call's Mrays/s, its ratio to antumbra's and the rays on which its answer
+//! `--ray-files`): each call's Mrays/s, its ratio to antumbra's and the rays on which its answer
 //! differs from antumbra's; every call's timed runs alternate with antumbra's.
 
 use antumbra_core::geometry::Ray;

@@ -51,7 +51,7 @@ pub struct BenchArgs {
     /// and a ray file (u64 n, then n x 8 f32: ox oy oz tnear dx dy dz tfar), little-endian;
     /// any hit and closest hit of every ray, beside each of Embree's calls with --compare embree.
     #[arg(long, num_args = 2, value_names = ["TRIANGLES", "RAYS"], conflicts_with_all = ["scene", "methods", "animation", "write_rays"])]
-    pub rays: Vec<std::path::PathBuf>,
+    pub ray_files: Vec<std::path::PathBuf>,
     /// Write each scene's triangles, camera rays and per-light shadow rays in those two
     /// formats into DIR (render space, tile order; one set per frame), then stop.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["methods", "animation"])]
@@ -97,7 +97,7 @@ pub struct SweepArgs {
 pub fn run(args: BenchArgs) -> Result<()> {
     check_compare(args.compare.as_deref())?;
     let settings = bench_settings(&args.method)?;
-    if let [triangles, rays] = args.rays.as_slice() {
+    if let [triangles, rays] = args.ray_files.as_slice() {
         return ray_file_bench::run(&args, triangles, rays);
     }
     let scenes = frames::scene_names(&args.scene);

@@ -1,4 +1,4 @@
-//! `antumbra bench --rays TRIANGLES RAYS`: an external ray set (see [`super::ray_files`]) traced
+//! `antumbra bench --ray-files TRIANGLES RAYS`: an external ray set (see [`super::ray_files`]) traced
 //! through antumbra's public ray queries (`antumbra-rays`: any hit and closest hit) and, with
 //! `--compare embree`, through each of Embree's calls on the same rays in groups of
 //! [`super::tiles::FILE_TILE`], so anyone can run the same rays through both.

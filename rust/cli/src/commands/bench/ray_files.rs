@@ -1,4 +1,4 @@
-//! The two little-endian files anyone's tracer can read (`--rays`, `--write-rays`): triangles
+//! The two little-endian files anyone's tracer can read (`--ray-files`, `--write-rays`): triangles
 //! (u64 n, then n x 9 f32: three vertices' x y z) and rays (u64 n, then n x 8 f32: ox oy oz
 //! tnear dx dy dz tfar). Reading checks everything Embree would assert on, so a bad file is an
 //! error naming the file, the item, the field and the limit, never a crash.
