@@ -28,15 +28,27 @@ pub struct PacketRays {
     pub t_reach: [f32; LANES],
     /// Per lane: `t_margin`, to move `t_reach` with a new `t_max`.
     pub t_margin: [f32; LANES],
-    /// Per axis: the row of a node's `bounds` holding the near (far) plane.
-    pub near: [usize; 3],
-    pub far: [usize; 3],
+    /// Per axis: the row of a node's `bounds` holding the near (far) plane (0..6; read
+    /// unchecked by [`PacketRays::plane`], so only `new` sets them).
+    near: [usize; 3],
+    far: [usize; 3],
     /// No slab distance can be NaN (every lane has a fixed octant, see
     /// `WideRay::fixed_octant`): the kernels may combine the axes in a shallower min/max tree.
     pub no_nan: bool,
 }
 
 impl PacketRays {
+    /// Child `slot`'s plane in row `row` of a node's `bounds`, `row` one of this packet's
+    /// `near` / `far` rows: without the row's bounds check, which the compiler cannot drop
+    /// (the rows are data) and which cost a compare and a branch per plane of every child.
+    #[inline(always)]
+    pub fn plane<const N: usize>(&self, bounds: &[[f32; N]; 6], row: usize, slot: usize) -> f32 {
+        debug_assert!(self.near.contains(&row) || self.far.contains(&row));
+        // SAFETY: `new` makes every `near` and `far` row in 0..6 and nothing changes them after.
+        let plane_row = unsafe { bounds.get_unchecked(row) };
+        plane_row[slot]
+    }
+
     /// The packet of `rays` (at most [`LANES`], all of octant `octant`).
     #[inline(always)]
     pub fn new(rays: impl ExactSizeIterator<Item = Ray>, octant: usize, no_nan: bool) -> Self {
@@ -162,12 +174,12 @@ mod x86 {
             }
             macro_rules! near {
                 ($a:expr) => {
-                    dist!(b[p.near[$a]][slot], $a, p.inv_dir)
+                    dist!(p.plane(b, p.near[$a], slot), $a, p.inv_dir)
                 };
             }
             macro_rules! far {
                 ($a:expr) => {
-                    dist!(b[p.far[$a]][slot], $a, p.inv_dir_far)
+                    dist!(p.plane(b, p.far[$a], slot), $a, p.inv_dir_far)
                 };
             }
             let (tmin, tmax) = (row!(p.t_min), row!(p.t_reach));
