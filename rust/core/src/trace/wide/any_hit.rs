@@ -169,26 +169,47 @@ pub(crate) fn any_hit_from<
         }
         stats.leaf();
         let wt = &*wt_slot.get_or_insert_with(|| WatertightRay::new(ray));
-        let first = current.child as usize;
-        let count = current.count as usize;
-        if K::LEAVES == LeafLanes::Scalar {
-            for slot in first..first + count {
-                stats.triangles(1);
-                if intersect_triangle(wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
-                    return Some(current.child);
-                }
-            }
-        } else {
-            let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
-            match first_hit(K::LEAVES, rows, tris, wt, first, count, t_min, ray.t_max) {
-                Some(tested) => {
-                    stats.triangles(tested);
-                    return Some(current.child);
-                }
-                None => stats.triangles(count as u32),
-            }
+        let (first, count) = (current.child as usize, current.count as usize);
+        if leaf_occludes::<N, K, C>(bvh, wt, ray, first, count, stats) {
+            return Some(current.child);
         }
         current = stack.pop()?;
+    }
+}
+
+/// Whether a triangle of the leaf at slots `first..first + count` hits the ray in
+/// (t_min, t_max], its triangles counted as the scalar loop tests them (up to the first hit):
+/// the leaf step of single rays and of packet lanes.
+#[inline(always)]
+pub(crate) fn leaf_occludes<const N: usize, K: ChildBoxTest<N>, C: Counters>(
+    bvh: &WideBvh<N>,
+    wt: &WatertightRay,
+    ray: &Ray,
+    first: usize,
+    count: usize,
+    stats: &mut C,
+) -> bool {
+    let (t_min, t_max) = (ray.t_min, ray.t_max);
+    if K::LEAVES == LeafLanes::Scalar {
+        for tri in &bvh.triangles[first..first + count] {
+            stats.triangles(1);
+            if intersect_triangle(wt, tri, t_min, t_max).is_some() {
+                return true;
+            }
+        }
+        false
+    } else {
+        let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+        match first_hit(K::LEAVES, rows, tris, wt, first, count, t_min, t_max) {
+            Some(tested) => {
+                stats.triangles(tested);
+                true
+            }
+            None => {
+                stats.triangles(count as u32);
+                false
+            }
+        }
     }
 }
 

@@ -187,6 +187,39 @@ impl<const N: usize> ChildBoxTest<N> for Scalar {
     }
 }
 
+/// A slab test's entry and exit, `(t_near, t_far)`, from the per-axis distances `$near!(a)`
+/// and `$far!(a)` and the segment's ends, with one vector width's `max` and `min`: the one
+/// combination every SIMD box test (one ray, or a packet's lanes) uses. `$no_nan` (no distance
+/// can be NaN) allows the shallower tree; otherwise a NaN distance (0 * inf) takes t_min or
+/// t_max, as `max`/`min` return their second operand when either is NaN.
+#[cfg(target_arch = "x86_64")]
+macro_rules! slab_interval {
+    ($no_nan:expr, $near:ident, $far:ident, $tmin:expr, $tmax:expr; $max:ident, $min:ident) => {{
+        let (tmin, tmax) = ($tmin, $tmax);
+        if $no_nan {
+            // Two levels: with no NaN, max and min are associative and commutative (up to the
+            // sign of a zero distance, which no comparison sees).
+            (
+                $max($max($near!(0), $near!(1)), $max($near!(2), tmin)),
+                $min($min($far!(0), $far!(1)), $min($far!(2), tmax)),
+            )
+        } else {
+            (
+                $max(
+                    $max($max($near!(0), tmin), $max($near!(1), tmin)),
+                    $max($near!(2), tmin),
+                ),
+                $min(
+                    $min($min($far!(0), tmax), $min($far!(1), tmax)),
+                    $min($far!(2), tmax),
+                ),
+            )
+        }
+    }};
+}
+#[cfg(target_arch = "x86_64")]
+pub(super) use slab_interval;
+
 #[cfg(target_arch = "x86_64")]
 pub use x86::{Avx2, Avx512, Sse};
 
@@ -242,27 +275,7 @@ mod x86 {
                     axis!($a, ray.far[$a], ray.inv_dir_far)
                 };
             }
-            if ray.no_nan {
-                // Two levels: with no NaN, max and min are associative and commutative (up to
-                // the sign of a zero distance, which no comparison sees).
-                (
-                    $max($max(near!(0), near!(1)), $max(near!(2), tmin)),
-                    $min($min(far!(0), far!(1)), $min(far!(2), tmax)),
-                )
-            } else {
-                // A NaN distance (0 * inf) takes t_min or t_max: the second operand of
-                // max/min is returned when either is NaN.
-                (
-                    $max(
-                        $max($max(near!(0), tmin), $max(near!(1), tmin)),
-                        $max(near!(2), tmin),
-                    ),
-                    $min(
-                        $min($min(far!(0), tmax), $min(far!(1), tmax)),
-                        $min(far!(2), tmax),
-                    ),
-                )
-            }
+            slab_interval!(ray.no_nan, near, far, tmin, tmax; $max, $min)
         }};
     }
 

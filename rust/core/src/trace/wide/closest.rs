@@ -66,55 +66,8 @@ pub(crate) fn closest_from<const N: usize, K: ChildBoxTest<N>, C: Counters, cons
         if current.count > 0 {
             stats.leaf();
             stats.triangles(current.count);
-            let first = current.child as usize;
-            let count = current.count as usize;
-            if K::LEAVES != LeafLanes::Scalar {
-                let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
-                let ids = &bvh.triangle_ids;
-                each_hit(
-                    K::LEAVES,
-                    rows,
-                    tris,
-                    &wt,
-                    first,
-                    count,
-                    t_min,
-                    t_max,
-                    |slot, t, [b0, b1, b2]| {
-                        let id = ids[slot];
-                        // The lane's values are the scalar test's, which does not depend on
-                        // t_max except to accept: the scalar loop, testing against the t_max
-                        // left by the triangles before this one, accepts exactly when t <= t_max.
-                        if t <= t_max && Hit::closer_than(t, id, &best) {
-                            t_max = t;
-                            best = Some(Hit {
-                                t,
-                                triangle: id,
-                                b0,
-                                b1,
-                                b2,
-                            });
-                        }
-                        t_max
-                    },
-                );
-            } else {
-                for slot in first..first + count {
-                    if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
-                        let id = bvh.triangle_ids[slot];
-                        if Hit::closer_than(h.t, id, &best) {
-                            t_max = h.t;
-                            best = Some(Hit {
-                                t: h.t,
-                                triangle: id,
-                                b0: h.b0,
-                                b1: h.b1,
-                                b2: h.b2,
-                            });
-                        }
-                    }
-                }
-            }
+            let (first, count) = (current.child as usize, current.count as usize);
+            closest_in_leaf::<N, K>(bvh, &wt, t_min, first, count, &mut t_max, &mut best);
         } else {
             stats.inner();
             let node = &bvh.nodes[current.child as usize];
@@ -172,6 +125,68 @@ pub(crate) fn closest_from<const N: usize, K: ChildBoxTest<N>, C: Counters, cons
                     break;
                 }
                 Some(_) => {}
+            }
+        }
+    }
+}
+
+/// The leaf at slots `first..first + count`: `best` becomes its closest hit in (t_min, t_max]
+/// where that is closer than `best` (ties by the smaller triangle id), and `t_max` that hit's
+/// distance; the leaf step of single rays and of packet lanes.
+#[inline(always)]
+pub(crate) fn closest_in_leaf<const N: usize, K: ChildBoxTest<N>>(
+    bvh: &WideBvh<N>,
+    wt: &WatertightRay,
+    t_min: f32,
+    first: usize,
+    count: usize,
+    t_max: &mut f32,
+    best: &mut Option<Hit>,
+) {
+    let range = first..first + count;
+    let ids = &bvh.triangle_ids;
+    if K::LEAVES != LeafLanes::Scalar {
+        let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+        each_hit(
+            K::LEAVES,
+            rows,
+            tris,
+            wt,
+            first,
+            count,
+            t_min,
+            *t_max,
+            |slot, t, [b0, b1, b2]| {
+                let id = ids[slot];
+                // The lane's values are the scalar test's, which does not depend on t_max
+                // except to accept: the scalar loop, testing against the t_max left by the
+                // triangles before this one, accepts exactly when t <= t_max.
+                if t <= *t_max && Hit::closer_than(t, id, best) {
+                    *t_max = t;
+                    *best = Some(Hit {
+                        t,
+                        triangle: id,
+                        b0,
+                        b1,
+                        b2,
+                    });
+                }
+                *t_max
+            },
+        );
+    } else {
+        for (tri, &id) in bvh.triangles[range.clone()].iter().zip(&ids[range]) {
+            if let Some(h) = intersect_triangle(wt, tri, t_min, *t_max) {
+                if Hit::closer_than(h.t, id, best) {
+                    *t_max = h.t;
+                    *best = Some(Hit {
+                        t: h.t,
+                        triangle: id,
+                        b0: h.b0,
+                        b1: h.b1,
+                        b2: h.b2,
+                    });
+                }
             }
         }
     }

@@ -9,17 +9,16 @@
 //! are the same function. Work is counted per ray: a ray counts a node, its boxes and a leaf
 //! where it is active in its packet.
 
-use super::any_hit::{any_hit_from, ChildRef, WideChildren};
+use super::any_hit::{any_hit_from, leaf_occludes, near_to_far, ChildRef, WideChildren};
 use super::boxes::ChildBoxTest;
-use super::closest::closest_from;
-use super::leaf::{each_hit, first_hit, LeafLanes};
+use super::closest::{closest_from, closest_in_leaf};
 use super::packet_boxes::{PacketBoxTest, PacketRays, LANES};
 use std::mem::MaybeUninit;
 
 use super::stack::Stack;
 use crate::bvh::{WideBvh, EMPTY_CHILD};
-use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
-use crate::order::{ChildOrder, FrontToBack, OrderRay};
+use crate::geometry::{Ray, RayBoxPrecomp, WatertightRay};
+use crate::order::{ChildOrder, OrderRay};
 use crate::trace::{Counters, Hit};
 
 /// Iterates the set bits of a lane mask, lowest first.
@@ -258,48 +257,6 @@ pub(crate) fn occluded_packet<
     }
 }
 
-/// The single-ray traversal's leaf test for any hit, with its counts.
-#[inline(always)]
-fn leaf_occludes<const N: usize, K: ChildBoxTest<N>, C: Counters>(
-    bvh: &WideBvh<N>,
-    wt: &WatertightRay,
-    ray: &Ray,
-    first: usize,
-    count: usize,
-    stats: &mut C,
-) -> bool {
-    if K::LEAVES == LeafLanes::Scalar {
-        for slot in first..first + count {
-            stats.triangles(1);
-            if intersect_triangle(wt, &bvh.triangles[slot], ray.t_min, ray.t_max).is_some() {
-                return true;
-            }
-        }
-        false
-    } else {
-        let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
-        match first_hit(
-            K::LEAVES,
-            rows,
-            tris,
-            wt,
-            first,
-            count,
-            ray.t_min,
-            ray.t_max,
-        ) {
-            Some(tested) => {
-                stats.triangles(tested);
-                true
-            }
-            None => {
-                stats.triangles(count as u32);
-                false
-            }
-        }
-    }
-}
-
 /// A stacked child of the closest-hit traversal: its lanes and their entry distances.
 #[derive(Clone, Copy)]
 struct ClosestEntry {
@@ -398,15 +355,7 @@ pub(crate) fn closest_packet<
             }
             slot_keys(slots, &masks, &t_lanes, &mut keys);
             let mut visit = [0u8; N];
-            let children = WideChildren {
-                t_near: &keys,
-                node,
-            };
-            let ray = OrderRay {
-                origin: glam::Vec3::ZERO,
-                key: 0,
-            };
-            let hits = FrontToBack.ordered_hits(0, slots, &ray, &children, &mut visit);
+            let hits = near_to_far(node, slots, &keys, &mut visit);
             let r = |s: u8| ChildRef {
                 child: node.child[s as usize],
                 count: node.count[s as usize] as u32,
@@ -427,7 +376,7 @@ pub(crate) fn closest_packet<
     }
 }
 
-/// The single-ray closest-hit traversal's leaf test for one lane, with its counts.
+/// One lane's leaf step, counted as the single-ray traversal counts it.
 #[inline(always)]
 fn leaf_closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
     bvh: &WideBvh<N>,
@@ -439,54 +388,9 @@ fn leaf_closest<const N: usize, K: ChildBoxTest<N>, C: Counters>(
 ) {
     stats.leaf();
     stats.triangles(leaf.count);
-    let (first, count) = (leaf.child as usize, leaf.count as usize);
-    let t_min = ray.t_min;
     let mut t_max = best.map_or(ray.t_max, |b| b.t);
-    let ids = &bvh.triangle_ids;
-    if K::LEAVES != LeafLanes::Scalar {
-        let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
-        each_hit(
-            K::LEAVES,
-            rows,
-            tris,
-            wt,
-            first,
-            count,
-            t_min,
-            t_max,
-            |slot, t, [b0, b1, b2]| {
-                let id = ids[slot];
-                // As the single-ray traversal: accept exactly when t <= the current t_max.
-                if t <= t_max && Hit::closer_than(t, id, best) {
-                    t_max = t;
-                    *best = Some(Hit {
-                        t,
-                        triangle: id,
-                        b0,
-                        b1,
-                        b2,
-                    });
-                }
-                t_max
-            },
-        );
-    } else {
-        let range = first..first + count;
-        for (tri, &id) in bvh.triangles[range.clone()].iter().zip(&ids[range]) {
-            if let Some(h) = intersect_triangle(wt, tri, t_min, t_max) {
-                if Hit::closer_than(h.t, id, best) {
-                    t_max = h.t;
-                    *best = Some(Hit {
-                        t: h.t,
-                        triangle: id,
-                        b0: h.b0,
-                        b1: h.b1,
-                        b2: h.b2,
-                    });
-                }
-            }
-        }
-    }
+    let (first, count) = (leaf.child as usize, leaf.count as usize);
+    closest_in_leaf::<N, K>(bvh, wt, ray.t_min, first, count, &mut t_max, best);
 }
 
 /// Splits `rays` into packets: each run of [`LANES`] consecutive rays (the passes order a

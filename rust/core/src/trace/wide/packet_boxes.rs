@@ -151,6 +151,7 @@ pub use x86::{Avx2Packet, Avx512Packet};
 mod x86 {
     use std::arch::x86_64::*;
 
+    use super::super::boxes::slab_interval;
     use super::{PacketBoxTest, PacketRays, LANES};
     use crate::bvh::WideNode;
 
@@ -183,25 +184,7 @@ mod x86 {
                 };
             }
             let (tmin, tmax) = (row!(p.t_min), row!(p.t_reach));
-            if p.no_nan {
-                (
-                    $max($max(near!(0), near!(1)), $max(near!(2), tmin)),
-                    $min($min(far!(0), far!(1)), $min(far!(2), tmax)),
-                )
-            } else {
-                // A NaN distance (0 * inf) takes t_min or t_max: the second operand of max/min
-                // is returned when either is NaN.
-                (
-                    $max(
-                        $max($max(near!(0), tmin), $max(near!(1), tmin)),
-                        $max(near!(2), tmin),
-                    ),
-                    $min(
-                        $min($min(far!(0), tmax), $min(far!(1), tmax)),
-                        $min(far!(2), tmax),
-                    ),
-                )
-            }
+            slab_interval!(p.no_nan, near, far, tmin, tmax; $max, $min)
         }};
     }
 
