@@ -29,5 +29,6 @@ pub mod srdh;
 pub mod stats;
 pub mod trace;
 pub mod trade;
+pub mod two_level;
 
 pub use error::{Error, Result};

@@ -20,7 +20,7 @@ mod vsah;
 pub use collapse::{CollapseCost, CollapseMethod, CollapseSettings, MERGE_LIMIT};
 pub use coverage::check_references;
 pub(crate) use primref::{Box4, PrimRef};
-pub use sah::build_binned_sah;
+pub use sah::{build_binned_sah, build_over_boxes};
 pub(crate) use sah::{build_sah_nodes, MEDIAN_DEPTH};
 pub use settings::{BuildSettings, SpatialAxes, SpatialSettings, MAX_BINS};
 

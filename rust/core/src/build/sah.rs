@@ -16,6 +16,7 @@ use super::scratch::{
 };
 use super::settings::{BuildSettings, MAX_BINS};
 use crate::bvh::{zeroed_vec, Bvh, BvhNode, NodeArray, MAX_DEPTH};
+use crate::geometry::Aabb;
 
 /// Subtrees smaller than this are built on the current thread.
 pub(crate) const PARALLEL_SUBTREE: usize = 4096;
@@ -35,6 +36,27 @@ pub fn build_binned_sah(triangles: &[[Vec3; 3]], settings: &BuildSettings) -> Bv
         .par_iter()
         .map(|r| triangles[r.id() as usize])
         .collect();
+    bvh.triangle_ids = refs.par_iter().map(|r| r.id()).collect();
+    bvh.build_ms = start.elapsed().as_secs_f64() * 1e3;
+    bvh
+}
+
+/// Binned SAH over boxes (a top level over instances): leaves index `boxes` through
+/// `triangle_ids`, in leaf order; `triangles` stays empty.
+pub fn build_over_boxes(boxes: &[Aabb], settings: &BuildSettings) -> Bvh {
+    let start = Instant::now();
+    let mut refs: Vec<PrimRef> = boxes
+        .par_iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let bounds = Box4 {
+                lo: b.min.extend(0.0),
+                hi: b.max.extend(0.0),
+            };
+            PrimRef::new(i as u32, bounds)
+        })
+        .collect();
+    let mut bvh = build_from_refs(&mut refs, settings);
     bvh.triangle_ids = refs.par_iter().map(|r| r.id()).collect();
     bvh.build_ms = start.elapsed().as_secs_f64() * 1e3;
     bvh

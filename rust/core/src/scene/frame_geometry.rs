@@ -240,7 +240,7 @@ fn collect(
 /// of similar magnitude are exact, so collinear vertices give exactly zero and the rounding of the
 /// object-to-render transform cannot turn them into a sliver. (A triangle that collapses only
 /// after the transform is caught separately, in render space.)
-fn is_degenerate(v: [Vec3; 3]) -> bool {
+pub(crate) fn is_degenerate(v: [Vec3; 3]) -> bool {
     let e1 = v[1].as_dvec3() - v[0].as_dvec3();
     let e2 = v[2].as_dvec3() - v[0].as_dvec3();
     e1.cross(e2) == DVec3::ZERO

@@ -14,6 +14,7 @@ pub fn brute_closest_hit(triangles: &[[Vec3; 3]], ray: &Ray) -> Option<Hit> {
                 best = Some(Hit {
                     t: h.t,
                     triangle: id as u32,
+                    instance: 0,
                     b0: h.b0,
                     b1: h.b1,
                     b2: h.b2,

@@ -34,6 +34,7 @@ pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<H
                         best = Some(Hit {
                             t: h.t,
                             triangle: id,
+                            instance: 0,
                             b0: h.b0,
                             b1: h.b1,
                             b2: h.b2,

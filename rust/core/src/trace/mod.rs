@@ -18,11 +18,14 @@ pub(crate) use query::forward_ray_query;
 pub use query::{OrderedBinary, OrderedWide, RayMode, RayQuery};
 
 /// A closest hit: the ray parameter, the triangle id (in the `TriangleSet` the BVH was built
-/// from) and the barycentric weights of its vertices.
+/// from, or in the hit instance's mesh tree) and the barycentric weights of its vertices.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,
     pub triangle: u32,
+    /// The object hit in a two-level scene (its index in the frame's objects,
+    /// [`crate::two_level`]); 0 on a flat tree, whose `triangle` alone names the triangle.
+    pub instance: u32,
     pub b0: f32,
     pub b1: f32,
     pub b2: f32,

@@ -166,6 +166,7 @@ pub(crate) fn closest_in_leaf<const N: usize, K: ChildBoxTest<N>>(
                     *best = Some(Hit {
                         t,
                         triangle: id,
+                        instance: 0,
                         b0,
                         b1,
                         b2,
@@ -182,6 +183,7 @@ pub(crate) fn closest_in_leaf<const N: usize, K: ChildBoxTest<N>>(
                     *best = Some(Hit {
                         t: h.t,
                         triangle: id,
+                        instance: 0,
                         b0: h.b0,
                         b1: h.b1,
                         b2: h.b2,

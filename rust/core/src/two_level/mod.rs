@@ -1,0 +1,17 @@
+//! Two-level scenes: one tree per unique mesh, in the mesh's own space ([`MeshTree`]), shared by
+//! every object that places the mesh, under a top-level tree over the objects' render-space
+//! boxes ([`TopLevel`]). A ray crosses the top level in render space and enters a mesh tree
+//! through its instance's inverse transform ([`Instance::ray_to_mesh`]), whose parameter `t` is
+//! the render-space ray's; hits carry the object ([`crate::trace::Hit::instance`]).
+//!
+//! Answers are exact against [`brute`], which tests every triangle of every instance through
+//! the same ray transform: the closest hit is the least (t, object, triangle).
+
+pub mod brute;
+mod instance;
+mod mesh_tree;
+mod top_level;
+
+pub use instance::{instance_box, render_from_mesh, Instance};
+pub use mesh_tree::MeshTree;
+pub use top_level::{TopLevel, TwoLevel};

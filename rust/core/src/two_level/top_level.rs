@@ -1,0 +1,184 @@
+use crate::build::{build_over_boxes, BuildSettings};
+use crate::bvh::{Bvh, MAX_DEPTH};
+use crate::geometry::{Aabb, Ray, RayBoxPrecomp};
+use crate::trace::{Counters, Hit, RayQuery};
+
+use super::Instance;
+
+/// The top-level tree: a binary SAH tree over the instances' render-space boxes, with the
+/// instances stored in its leaf order (a leaf's instances are adjacent in memory).
+#[derive(Clone, Debug, Default)]
+pub struct TopLevel {
+    pub bvh: Bvh,
+    /// In leaf order: a leaf's range indexes this array.
+    pub instances: Vec<Instance>,
+}
+
+impl TopLevel {
+    /// `boxes[i]` is the render-space box of `instances[i]` ([`super::instance_box`]).
+    pub fn build(instances: &[Instance], boxes: &[Aabb], settings: &BuildSettings) -> Self {
+        debug_assert_eq!(instances.len(), boxes.len());
+        let bvh = build_over_boxes(boxes, settings);
+        let instances = bvh
+            .triangle_ids
+            .iter()
+            .map(|&i| instances[i as usize])
+            .collect();
+        TopLevel { bvh, instances }
+    }
+
+    pub fn len(&self) -> usize {
+        self.instances.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.instances.is_empty()
+    }
+
+    /// Bytes held: nodes, the leaf-order ids and the instances.
+    pub fn bytes(&self) -> usize {
+        self.bvh.bytes() + self.instances.len() * std::mem::size_of::<Instance>()
+    }
+}
+
+/// The two levels as one query: the top level, and the mesh trees its instances name, each
+/// traced by its own query `Q` (any layout, order and kernel). A mesh tree's work counts into
+/// the ray's counters as its own traversal counts it; the top level's nodes count as interior
+/// nodes and leaves, its box tests as box tests.
+#[derive(Clone, Copy)]
+pub struct TwoLevel<'a, Q> {
+    pub top: &'a TopLevel,
+    /// By mesh index ([`Instance::mesh`]).
+    pub meshes: &'a [Q],
+}
+
+impl<Q: RayQuery> TwoLevel<'_, Q> {
+    /// Walks the top level near child first, handing each instance of an entered leaf to
+    /// `visit` with its mesh query and the ray's current `t_max`; `visit` returns the new
+    /// `t_max` (lowered by a closest hit), or `None` to stop (an any-hit query answered).
+    /// Nodes whose entry lies past `t_max` (plus the box margin) are culled off the stack.
+    #[inline]
+    fn walk<C: Counters>(
+        &self,
+        ray: &Ray,
+        stats: &mut C,
+        mut visit: impl FnMut(&Instance, &Q, f32, &mut C) -> Option<f32>,
+    ) {
+        let nodes = &self.top.bvh.nodes;
+        let Some(root) = nodes.first() else {
+            return;
+        };
+        let pre = RayBoxPrecomp::new(ray);
+        let t_min = ray.t_min;
+        let mut t_max = ray.t_max;
+        stats.boxes(1);
+        if pre
+            .hit_packed(root.packed(), t_min, t_max + pre.t_margin)
+            .is_none()
+        {
+            return;
+        }
+        let mut stack = [(0u32, 0f32); MAX_DEPTH];
+        let mut sp = 0usize;
+        let mut node = root;
+        loop {
+            if node.is_leaf() {
+                stats.leaf();
+                let first = node.first as usize;
+                for instance in &self.top.instances[first..first + node.count as usize] {
+                    let mesh = &self.meshes[instance.mesh as usize];
+                    match visit(instance, mesh, t_max, stats) {
+                        Some(t) => t_max = t,
+                        None => return,
+                    }
+                }
+            } else {
+                stats.inner();
+                stats.boxes(2);
+                let l = node.first as usize;
+                let (a, b) = (&nodes[l], &nodes[l + 1]);
+                let box_max = t_max + pre.t_margin;
+                let da = pre.hit_packed(a.packed(), t_min, box_max);
+                let db = pre.hit_packed(b.packed(), t_min, box_max);
+                match (da, db) {
+                    (Some(ta), Some(tb)) => {
+                        let (near, far, t_far) = if tb < ta {
+                            (l + 1, l, ta)
+                        } else {
+                            (l, l + 1, tb)
+                        };
+                        stack[sp] = (far as u32, t_far);
+                        sp += 1;
+                        node = &nodes[near];
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        node = a;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        node = b;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            loop {
+                if sp == 0 {
+                    return;
+                }
+                sp -= 1;
+                let (i, t_entry) = stack[sp];
+                if t_entry <= t_max + pre.t_margin {
+                    node = &nodes[i as usize];
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// The closest of two hits by (t, object, triangle): the order the brute-force reference
+/// keeps, whatever order the top level visits instances in.
+#[inline(always)]
+pub(super) fn closer(h: &Hit, best: &Option<Hit>) -> bool {
+    match best {
+        None => true,
+        Some(b) => h.t < b.t || (h.t == b.t && (h.instance, h.triangle) < (b.instance, b.triangle)),
+    }
+}
+
+impl<Q: RayQuery> RayQuery for TwoLevel<'_, Q> {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        let mut hit = false;
+        self.walk(ray, stats, |instance, mesh, t_max, stats| {
+            if mesh.occluded(&instance.ray_to_mesh(ray), stats) {
+                hit = true;
+                None
+            } else {
+                Some(t_max)
+            }
+        });
+        hit
+    }
+
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        self.walk(ray, stats, |instance, mesh, t_max, stats| {
+            let local = Ray {
+                t_max,
+                ..instance.ray_to_mesh(ray)
+            };
+            if let Some(mut h) = mesh.closest_hit(&local, stats) {
+                h.instance = instance.object;
+                if closer(&h, &best) {
+                    best = Some(h);
+                }
+            }
+            Some(best.map_or(t_max, |b| b.t))
+        });
+        best
+    }
+}
