@@ -72,7 +72,7 @@ fn auto_answers_equal_every_fixed_method_on_every_builtin_scene() {
             let results = render_all(name, &scenes, spec, 0);
             for (r, base) in results.iter().zip(&reference) {
                 let at = format!("{name} frame {} {spec}", r.frame);
-                assert_eq!(r.primary_ids, base.primary_ids, "{at}");
+                assert_eq!(r.primary_hits, base.primary_hits, "{at}");
                 assert_eq!(r.masks.len(), base.masks.len(), "{at}");
                 for (m, b) in r.masks.iter().zip(&base.masks) {
                     let bits = |p: &[f32]| p.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
@@ -110,7 +110,7 @@ fn build_choices(name: &str, scenes: &[Scene]) -> Vec<String> {
     let results = render_all(name, scenes, "auto8=build=auto,width=8,order=auto", 0);
     let base = render_all(name, scenes, METHODS[0], 0);
     for (r, b) in results.iter().zip(&base) {
-        assert_eq!(r.primary_ids, b.primary_ids, "frame {}", r.frame);
+        assert_eq!(r.primary_hits, b.primary_hits, "frame {}", r.frame);
     }
     let primary = results.iter().flat_map(|r| &r.stats);
     primary
@@ -140,7 +140,7 @@ fn auto_keeps_the_tree_of_unmoved_geometry() {
     assert_eq!(builds[0], "sah");
     assert!(builds[1..].contains(&"keep"), "{builds:?}");
     for (a, b) in auto.iter().zip(&base) {
-        assert_eq!(a.primary_ids, b.primary_ids);
+        assert_eq!(a.primary_hits, b.primary_hits);
         for (m, n) in a.masks.iter().zip(&b.masks) {
             assert!(m
                 .data

@@ -38,7 +38,7 @@ fn settings(build: &str, width: &str, order: &str) -> RenderSettings {
 fn assert_same(got: &FrameResult, want: &FrameResult, what: &str) {
     assert_eq!(got.masks, want.masks, "{what}: masks");
     assert_eq!(got.combined, want.combined, "{what}: combined");
-    assert_eq!(got.primary_ids, want.primary_ids, "{what}: primary ids");
+    assert_eq!(got.primary_hits, want.primary_hits, "{what}: primary ids");
     assert_eq!(got.visible, want.visible, "{what}: visible set");
     assert_eq!(
         got.heat

@@ -5,7 +5,9 @@
 use std::sync::Arc;
 
 use antumbra_core::render::{Facing, RenderSettings, Renderer};
-use antumbra_core::scene::{Camera, Light, LightKind, Mesh, Object, Resolution, Scene};
+use antumbra_core::scene::{
+    Camera, Light, LightKind, Mesh, Object, Resolution, Scene, TriangleRef,
+};
 use glam::{DMat4, DVec3, Vec3};
 
 /// A square in z = 0 facing +Z; with `normals`, every corner's normal leans far towards +X.
@@ -60,7 +62,7 @@ fn masks(scene: &Scene, facing: Facing) -> Vec<Vec<f32>> {
         ..RenderSettings::baseline()
     };
     let result = Renderer::new().render("facing", scene, &settings).unwrap();
-    assert!(result.primary_ids.iter().all(|&id| id != u32::MAX));
+    assert!(result.primary_hits.iter().all(|h| *h != TriangleRef::MISS));
     result.masks.into_iter().map(|m| m.data).collect()
 }
 

@@ -6,7 +6,7 @@ mod common;
 use antumbra_core::build::BuildSettings;
 use antumbra_core::order::AnyHitOrder;
 use antumbra_core::render::{Pick, RenderSettings, Renderer, StatsMode};
-use antumbra_core::scene::LightKind;
+use antumbra_core::scene::{LightKind, TriangleRef};
 use glam::{DMat4, DVec3};
 
 fn soft_scene() -> antumbra_core::scene::Scene {
@@ -38,7 +38,7 @@ fn masks_do_not_depend_on_order_leaf_size_or_counting() {
         };
         let r = Renderer::new().render("t", &scene, &settings).unwrap();
         assert_eq!(r.masks, base.masks);
-        assert_eq!(r.primary_ids, base.primary_ids);
+        assert_eq!(r.primary_hits, base.primary_hits);
         assert_eq!(r.visible, base.visible);
     }
 }
@@ -67,7 +67,7 @@ fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
                 };
                 let r = Renderer::new().render("t", &scene, &settings).unwrap();
                 assert_eq!(r.masks, base.masks, "{width} {order}");
-                assert_eq!(r.primary_ids, base.primary_ids, "{width} {order}");
+                assert_eq!(r.primary_hits, base.primary_hits, "{width} {order}");
                 let shadow: Vec<_> = r.stats.iter().filter(|s| s.pass == "shadow").collect();
                 assert!(shadow.len() > 1);
                 let per_tree = settings
@@ -236,11 +236,13 @@ fn visible_set_is_what_the_camera_saw() {
         .render("t", &scene, &RenderSettings::baseline())
         .unwrap();
     let (geometry, _, _) = renderer.current().unwrap();
+    // Every pixel's hit is a triangle of the camera set, and the visible set is their union.
     let mut expected: Vec<_> = r
-        .primary_ids
+        .primary_hits
         .iter()
-        .filter(|id| **id != u32::MAX)
-        .map(|id| geometry.camera.refs[*id as usize])
+        .filter(|h| **h != TriangleRef::MISS)
+        .inspect(|h| assert!(geometry.camera.refs.binary_search(h).is_ok(), "{h:?}"))
+        .copied()
         .collect();
     expected.sort();
     expected.dedup();
@@ -262,7 +264,7 @@ fn objects_without_shadows_are_seen_but_cast_none() {
     let without = Renderer::new()
         .render("t", &no_shadow, &RenderSettings::baseline())
         .unwrap();
-    assert_eq!(with.primary_ids, without.primary_ids);
+    assert_eq!(with.primary_hits, without.primary_hits);
     let dark = |r: &antumbra_core::render::FrameResult| {
         r.masks[0].data.iter().filter(|v| **v == 0.0).count()
     };

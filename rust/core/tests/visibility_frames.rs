@@ -61,7 +61,7 @@ fn every_method_and_source_renders_what_sah_renders() {
             let (results, _) = render_all(&settings(build, source), frames);
             for (r, b) in results.iter().zip(&base) {
                 let what = format!("{build:?} {source:?} frame {}", r.frame);
-                assert_eq!(r.primary_ids, b.primary_ids, "{what}");
+                assert_eq!(r.primary_hits, b.primary_hits, "{what}");
                 assert_eq!(r.masks, b.masks, "{what}");
                 assert_eq!(r.visible, b.visible, "{what}");
             }
@@ -73,7 +73,7 @@ fn every_method_and_source_renders_what_sah_renders() {
         frames,
     );
     for (r, b) in results.iter().zip(&base) {
-        assert_eq!(r.primary_ids, b.primary_ids);
+        assert_eq!(r.primary_hits, b.primary_hits);
         assert_eq!(r.masks, b.masks);
     }
 }

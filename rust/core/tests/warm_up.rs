@@ -61,7 +61,7 @@ fn assert_same(a: &FrameResult, b: &FrameResult, what: &str) {
             .collect::<Vec<_>>()
     };
     assert_eq!(heat(a), heat(b), "{what} frame {f}: heat maps");
-    assert_eq!(a.primary_ids, b.primary_ids, "{what} frame {f}");
+    assert_eq!(a.primary_hits, b.primary_hits, "{what} frame {f}");
     assert_eq!(a.visible, b.visible, "{what} frame {f}");
     let rows = |r: &FrameResult| r.stats.iter().map(StatsRow::untimed).collect::<Vec<_>>();
     assert_eq!(rows(a), rows(b), "{what} frame {f}: statistics rows");

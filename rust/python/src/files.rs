@@ -93,7 +93,7 @@ fn result_from_planes(frame: i32, mut planes: Vec<ImagePlane>) -> ClientResult<F
         combined,
         heat,
         visible: Vec::new(),
-        primary_ids: Vec::new(),
+        primary_hits: Vec::new(),
         primary_objects: Vec::new(),
         stats: Vec::new(),
     })

@@ -112,12 +112,9 @@ fn check(name: &str, method: BuildMethod, width: BvhWidth, order: &str) {
     assert_round_trip(&space, &render_rays, &rays);
     let hits = public.intersect(&rays, &trace).unwrap();
     let expected: Vec<u32> = frame
-        .primary_ids
+        .primary_hits
         .iter()
-        .map(|&id| match geometry.camera.refs.get(id as usize) {
-            Some(r) => r.primitive,
-            None => u32::MAX,
-        })
+        .map(|r| r.primitive) // u32::MAX where the ray missed
         .collect();
     let got: Vec<u32> = hits
         .iter()

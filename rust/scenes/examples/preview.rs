@@ -48,8 +48,10 @@ fn run(name: &str, triangles: usize, frame: i32, out: &Path) -> antumbra_core::R
         .point(scene.camera.world_from_camera.w_axis.truncate())
         .as_vec3();
     let mut image = ImagePlane::new("preview", result.width, result.height);
-    for (i, &id) in result.primary_ids.iter().enumerate() {
-        let Some(tri) = geometry.camera.vertices.get(id as usize) else {
+    for (i, hit) in result.primary_hits.iter().enumerate() {
+        // The flat set's refs are in object, then primitive order.
+        let id = geometry.camera.refs.binary_search(hit).ok();
+        let Some(tri) = id.and_then(|id| geometry.camera.vertices.get(id)) else {
             image.data[i] = 0.15;
             continue;
         };

@@ -402,13 +402,13 @@ impl Comparison {
                 );
             }
             let ids = r
-                .primary_ids
+                .primary_hits
                 .iter()
-                .zip(&base.primary_ids)
+                .zip(&base.primary_hits)
                 .filter(|(a, b)| a != b)
                 .count()
-                + r.primary_ids.len().abs_diff(base.primary_ids.len());
-            differ("primary ids".into(), ids);
+                + r.primary_hits.len().abs_diff(base.primary_hits.len());
+            differ("primary hits".into(), ids);
         }
         out
     }

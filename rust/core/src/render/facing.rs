@@ -7,9 +7,9 @@ use std::str::FromStr;
 use glam::{DMat3, Vec3};
 use serde::{Deserialize, Serialize};
 
-use super::{PrimaryPass, PrimaryRays};
+use super::{HitGeometry, PrimaryPass, PrimaryRays};
 use crate::geometry::{intersect_triangle, triangle_normal, WatertightRay};
-use crate::scene::{Scene, TriangleSet};
+use crate::scene::Scene;
 use crate::{Error, Result};
 
 /// The back-facing convention of the shadow masks.
@@ -62,7 +62,7 @@ pub(crate) fn face_shading_normals(
     primary: &mut PrimaryPass,
     rays: &PrimaryRays,
     scene: &Scene,
-    triangles: &TriangleSet,
+    triangles: &HitGeometry,
 ) {
     // Normal matrices, and whether the object mirrors (which turns the winding's normal).
     let objects: Vec<(DMat3, bool)> = scene
@@ -76,14 +76,14 @@ pub(crate) fn face_shading_normals(
     let width = primary.width as usize;
     for (pixel, surface) in primary.surfaces.iter_mut().enumerate() {
         let Some(s) = surface else { continue };
-        let r = triangles.refs[s.triangle as usize];
+        let r = s.reference;
         let object = &scene.objects[r.object as usize];
         let Some(corners) = scene.meshes[object.mesh].normals.get(r.primitive as usize) else {
             continue;
         };
-        let v = &triangles.vertices[s.triangle as usize];
+        let (v, _) = triangles.triangle(r.object, s.triangle);
         let ray = rays.ray((pixel % width) as u32, (pixel / width) as u32);
-        let Some(hit) = intersect_triangle(&WatertightRay::new(&ray), v, ray.t_min, ray.t_max)
+        let Some(hit) = intersect_triangle(&WatertightRay::new(&ray), &v, ray.t_min, ray.t_max)
         else {
             continue;
         };
@@ -96,7 +96,7 @@ pub(crate) fn face_shading_normals(
             continue;
         }
         // The winding's normal in world terms; the surface's normal was turned to the camera.
-        let mut outward = triangle_normal(v);
+        let mut outward = triangle_normal(&v);
         if mirrors {
             outward = -outward;
         }

@@ -7,7 +7,10 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use xxhash_rust::xxh3::Xxh3;
+
 use super::light_tracer::{binary_order, light_tracing, LightRays, LightTracing, ShadowTrees};
+use super::two_level_trees::TwoLevelQuery;
 use super::wide_tree::{OrderedWideTree, WideTree};
 use super::RenderSettings;
 use crate::build::{BuildMethod, BuildSettings, CollapseSettings};
@@ -18,29 +21,29 @@ use crate::scene::{FrameGeometry, Mesh, Scene, TriangleRef};
 use crate::trace::{forward_ray_query, RayMode};
 use crate::Result;
 
-/// What identifies a frame's geometry: mesh identities, transforms and visibility flags. One key
-/// for the frame's flat triangle set: any change rebuilds both trees.
-#[derive(Clone, PartialEq)]
-pub(super) struct GeometryKey {
-    objects: Vec<(usize, [u64; 16], bool, bool)>,
-}
+/// What identifies a frame's geometry: mesh identities, transforms and visibility flags, as a
+/// 128-bit XXH3 of them (16 bytes whatever the object count, where a copy of the list took 144
+/// bytes an object). Any change rebuilds a flat frame's trees and a two-level frame's top levels.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) struct GeometryKey(u128);
 
 impl GeometryKey {
     pub(super) fn of(scene: &Scene) -> Self {
-        GeometryKey {
-            objects: scene
-                .objects
-                .iter()
-                .map(|o| {
-                    (
-                        Arc::as_ptr(&scene.meshes[o.mesh]) as usize,
-                        o.world_from_object.to_cols_array().map(f64::to_bits),
-                        o.visible_to_camera,
-                        o.casts_shadow,
-                    )
-                })
-                .collect(),
+        let mut h = Xxh3::new();
+        h.update(&(scene.objects.len() as u64).to_le_bytes());
+        // One update per object: the hasher's per-call cost dominates for small pieces.
+        let mut bytes = [0u8; 8 + 16 * 8 + 2];
+        for o in &scene.objects {
+            let mesh = Arc::as_ptr(&scene.meshes[o.mesh]) as usize as u64;
+            bytes[..8].copy_from_slice(&mesh.to_le_bytes());
+            for (i, v) in o.world_from_object.to_cols_array().iter().enumerate() {
+                bytes[8 + 8 * i..16 + 8 * i].copy_from_slice(&v.to_bits().to_le_bytes());
+            }
+            bytes[136] = o.visible_to_camera as u8;
+            bytes[137] = o.casts_shadow as u8;
+            h.update(&bytes);
         }
+        GeometryKey(h.digest128())
     }
 }
 
@@ -121,18 +124,6 @@ pub enum CameraTree<'a> {
     Wide(&'a WideTree),
 }
 
-/// Calls `$f` with the tree `$camera` holds.
-macro_rules! with_camera {
-    ($camera:expr, $q:ident => $f:expr) => {
-        match $camera {
-            CameraTree::Binary($q) => $f,
-            CameraTree::Wide($q) => $f,
-        }
-    };
-}
-// The camera tree answers rays like any tree: a batch reads its variant once.
-forward_ray_query!(CameraTree<'_>, with_camera);
-
 impl<'a> CameraTree<'a> {
     /// The tree as the primary pass traces it: the wide tree's batches as `rays` (closest hits
     /// read no order), the binary tree's one ray at a time.
@@ -146,11 +137,12 @@ impl<'a> CameraTree<'a> {
     }
 }
 
-/// The camera tree with how its batches are traced ([`CameraTree::traced_as`]).
-#[derive(Clone, Copy)]
+/// The camera tree with how its batches are traced ([`CameraTree::traced_as`], or a two-level
+/// frame's top level).
 pub enum CameraQuery<'a> {
     Binary(&'a Bvh),
     Wide(OrderedWideTree<'a>),
+    TwoLevel(TwoLevelQuery<'a>),
 }
 
 /// Calls `$f` with the query `$camera` holds.
@@ -159,6 +151,7 @@ macro_rules! with_camera_query {
         match $camera {
             CameraQuery::Binary($q) => $f,
             CameraQuery::Wide($q) => $f,
+            CameraQuery::TwoLevel($q) => $f,
         }
     };
 }

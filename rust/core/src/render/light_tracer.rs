@@ -9,6 +9,7 @@ use glam::Vec3;
 
 use super::shadow::{representative_rays, SamplePlan};
 use super::srdh_light::srdh_for_light;
+use super::two_level_trees::TwoLevelQuery;
 use super::wide_tree::{OrderedWideTree, WideTree};
 use super::{LightSampler, PrimaryPass};
 use crate::build::BuildSettings;
@@ -25,6 +26,8 @@ pub enum ShadowTracer<'a> {
     Wide(OrderedWideTree<'a>),
     /// A light's SRDH tree with its kernels.
     Srdh(&'a SrdhBvh),
+    /// A top level over instances of mesh trees.
+    TwoLevel(&'a TwoLevelQuery<'a>),
 }
 
 /// Calls `$f` with the query `$tracer` holds.
@@ -34,6 +37,7 @@ macro_rules! with_query {
             ShadowTracer::Binary($q) => $f,
             ShadowTracer::Wide($q) => $f,
             ShadowTracer::Srdh($q) => $f,
+            ShadowTracer::TwoLevel($q) => $f,
         }
     };
 }
@@ -74,9 +78,18 @@ enum Route<'a> {
         order: Cow<'a, PreparedOrder>,
     },
     Srdh(SrdhBvh),
+    TwoLevel(TwoLevelQuery<'a>),
 }
 
 impl<'a> LightTracing<'a> {
+    /// A two-level frame's query for the light (nothing prepared per light).
+    pub fn two_level(query: TwoLevelQuery<'a>) -> Self {
+        LightTracing {
+            route: Route::TwoLevel(query),
+            sort_ms: 0.0,
+        }
+    }
+
     /// What the light's pass traces, its batches as `rays` on a wide tree (the binary and
     /// SRDH trees trace single rays).
     pub fn tracer(&self, rays: RayMode) -> ShadowTracer<'_> {
@@ -86,6 +99,7 @@ impl<'a> LightTracing<'a> {
                 ShadowTracer::Wide(tree.ordered(order.view()).with_rays(rays))
             }
             Route::Srdh(t) => ShadowTracer::Srdh(t),
+            Route::TwoLevel(q) => ShadowTracer::TwoLevel(q),
         }
     }
 

@@ -15,10 +15,12 @@ mod policy;
 pub use policy::pass_rays;
 mod primary;
 mod renderer;
+mod scene_trees;
 mod settings;
 mod shadow;
 mod srdh_light;
 pub mod tiles;
+mod two_level_trees;
 mod visibility;
 mod wide_tree;
 
@@ -33,13 +35,15 @@ pub use memory::{
     all_output_planes, estimate_comparison_bytes, estimate_render_bytes, format_bytes, RenderMemory,
 };
 pub use pick::{Pick, AUTO};
-pub use primary::{PrimaryPass, SurfacePoint};
+pub use primary::{HitGeometry, PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, WarmUp, OBJECT_PLANE};
-pub use settings::{RenderSettings, StatsMode, MAX_SPP};
+pub use scene_trees::SceneTrees;
+pub use settings::{RenderSettings, SceneStructure, StatsMode, MAX_SPP};
 pub use shadow::{
     representative_rays, samples_for, shadow_ray_batches, shadow_rays, PointRays, SamplePlan,
     ShadowPass, ShadowRayOutcome,
 };
 pub use srdh_light::{srdh_for_light, srdh_rays, LightSrdh};
+pub use two_level_trees::{MeshQuery, TwoLevelQuery, TwoLevelTrees};
 pub use visibility::{visibility_flags, VisibilitySource};
 pub use wide_tree::{OrderedWideTree, WideTree};

@@ -3,21 +3,22 @@
 
 use super::auto;
 use super::facing::face_shading_normals;
-use super::frame_trees::{BvhInfo, CameraTree, FrameTrees, Prepared};
+use super::frame_trees::Prepared;
 use super::light_tracer::LightRays;
 use super::policy::{pass_rays, LightMeasurement, LightPlan};
 use super::primary::heat_planes;
 use super::renderer::{FrameResult, HeatMaps};
+use super::scene_trees::SceneTrees;
 use super::shadow::{samples_for, SamplePlan};
+use super::two_level_trees::TreeColumns;
 use super::visibility::visible_set;
-use super::wide_tree::WideTree;
 use super::{
-    Facing, LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass, StatsMode,
+    Facing, HitGeometry, LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass,
+    StatsMode,
 };
-use crate::bvh::Bvh;
 use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
-use crate::scene::Scene;
+use crate::scene::{Scene, TriangleRef};
 use crate::stats::StatsRow;
 use crate::trace::{NoStats, RayQuery, TraversalStats};
 use crate::Result;
@@ -32,29 +33,21 @@ pub(super) struct Rows<'a> {
 }
 
 impl Rows<'_> {
-    /// A row for `pass` over `bvh` (or its collapse `tree`), work and timing still unset.
-    fn row(
-        &self,
-        pass: &str,
-        light: &str,
-        bvh: &Bvh,
-        info: BvhInfo,
-        tree: Option<&WideTree>,
-    ) -> StatsRow {
-        let rebuilt = self.prepared.rebuilt;
+    /// A row for `pass` over the trees `columns` describe, work and timing still unset.
+    fn row(&self, pass: &str, light: &str, columns: TreeColumns) -> StatsRow {
         StatsRow {
             scene: self.scene_name.to_string(),
             frame: self.scene.frame,
             method: self.method.clone(),
             pass: pass.to_string(),
             light: light.to_string(),
-            rebuilt: rebuilt || self.collapse_ms > 0.0,
-            build_ms: if rebuilt { bvh.build_ms } else { 0.0 } + self.collapse_ms,
-            bvh_nodes: tree.map_or(bvh.nodes.len(), |t| t.node_count()) as u64,
-            bvh_bytes: tree.map_or(bvh.bytes(), |t| t.bytes()) as u64,
-            triangles: info.triangles,
-            references: bvh.triangles.len() as u64,
-            visible_input: info.visible,
+            rebuilt: columns.build_ms > 0.0 || self.prepared.rebuilt,
+            build_ms: columns.build_ms,
+            bvh_nodes: columns.nodes,
+            bvh_bytes: columns.bytes,
+            triangles: columns.triangles,
+            references: columns.references,
+            visible_input: columns.visible,
             visibility_ms: self.prepared.visibility_ms,
             ..StatsRow::default()
         }
@@ -64,7 +57,7 @@ impl Rows<'_> {
 /// The primary pass (on the wide tree for widths 4 and 8) and its statistics row; traced a
 /// second time without counters when the row wants both counts and timing.
 pub(super) fn primary_pass(
-    trees: &FrameTrees,
+    trees: &SceneTrees,
     scene: &Scene,
     settings: &RenderSettings,
     rows: &Rows,
@@ -73,11 +66,8 @@ pub(super) fn primary_pass(
     let (counted, timed) = counted_timed(settings);
     let trace = |counted: bool| trace_camera(trees, scene, settings, counted, cancel);
     let mut primary = trace(counted)?;
-    let wide = match trees.camera() {
-        CameraTree::Wide(t) => Some(t),
-        CameraTree::Binary(_) => None,
-    };
-    let mut row = rows.row("primary", "", trees.camera_bvh(), trees.camera_info, wide);
+    let columns = trees.camera_columns(rows.prepared.rebuilt, rows.collapse_ms);
+    let mut row = rows.row("primary", "", columns);
     row.rays = primary.ray_count();
     row.occluded_fraction =
         primary.surfaces.iter().filter(|s| s.is_some()).count() as f64 / row.rays.max(1) as f64;
@@ -91,25 +81,23 @@ pub(super) fn primary_pass(
     }
     // After the timed pass's check: that pass's surfaces keep their geometric facing.
     if settings.facing == Facing::Shading {
-        let geometry = trees.geometry();
-        let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
-        face_shading_normals(&mut primary, &rays, scene, &geometry.camera);
+        let rays = PrimaryRays::new(&scene.camera, &scene.resolution, trees.space());
+        face_shading_normals(&mut primary, &rays, scene, &trees.hit_geometry(scene));
     }
     Ok((primary, row))
 }
 
 /// The camera rays of a frame on the tree its primary pass reads, counted or timed.
 pub(super) fn trace_camera(
-    trees: &FrameTrees,
+    trees: &SceneTrees,
     scene: &Scene,
     settings: &RenderSettings,
     counted: bool,
     cancel: &CancelToken,
 ) -> Result<PrimaryPass> {
-    let geometry = trees.geometry();
-    let rays = PrimaryRays::new(&scene.camera, &scene.resolution, &geometry.space);
-    let tree = trees.camera().traced_as(pass_rays(settings));
-    trace_primary(counted, &rays, &tree, &geometry.camera, cancel)
+    let rays = PrimaryRays::new(&scene.camera, &scene.resolution, trees.space());
+    let tree = trees.camera_query(pass_rays(settings));
+    trace_primary(counted, &rays, &tree, trees.hit_geometry(scene), cancel)
 }
 
 /// Whether a frame's passes count work, and whether they are timed without counters.
@@ -135,7 +123,7 @@ pub(super) struct ShadowPasses {
 /// Each shadow-casting light in turn: its tree and order ([`FrameTrees::for_light`]), its
 /// shadow pass and its row.
 pub(super) fn shadow_passes(
-    trees: &FrameTrees,
+    trees: &SceneTrees,
     primary: &PrimaryPass,
     scene: &Scene,
     settings: &RenderSettings,
@@ -143,9 +131,6 @@ pub(super) fn shadow_passes(
     rows: &Rows,
     cancel: &CancelToken,
 ) -> Result<ShadowPasses> {
-    let geometry = trees.geometry();
-    let shadow_bvh = trees.shadow_bvh();
-    let shadow_info = trees.shadow_info();
     let (counted, timed) = counted_timed(settings);
     let mut out = ShadowPasses {
         masks: Vec::new(),
@@ -163,7 +148,7 @@ pub(super) fn shadow_passes(
     let mut per_tree_unreported = true;
     for ((index, light), order) in shadow_lights.zip(plans) {
         cancel.check()?;
-        let sampler = LightSampler::new(light, &geometry.space);
+        let sampler = LightSampler::new(light, trees.space());
         let plan = SamplePlan {
             light_index: index as u32,
             samples: samples_for(&sampler, settings.spp),
@@ -189,23 +174,14 @@ pub(super) fn shadow_passes(
         };
         let pass = pass_of(counted)?;
         out.rays += pass.outcome.rays;
-        let mut r = rows.row(
-            "shadow",
-            &light.name,
-            shadow_bvh,
-            shadow_info,
-            tracing.wide_tree(),
-        );
+        let columns = trees.shadow_columns(&tracing, rows.prepared.rebuilt, rows.collapse_ms);
+        let mut r = rows.row("shadow", &light.name, columns);
         r.sort_ms = tracing.sort_ms;
         if let Some(c) = &order.auto {
             auto::mark_row(&mut r, c, |o| o.name());
             if let Some(o) = order.sample {
                 r.auto_choice += &format!(";sample={}", o.name());
             }
-        }
-        if let Some(t) = tracing.own_tree() {
-            r.bvh_nodes = t.bvh.nodes.len() as u64;
-            r.bvh_bytes = t.bytes() as u64;
         }
         r.rays = pass.outcome.rays;
         r.occluded_fraction = pass.outcome.occluded as f64 / r.rays.max(1) as f64;
@@ -245,7 +221,7 @@ pub(super) fn shadow_passes(
 /// and the visible set.
 pub(super) fn combine(
     scene: &Scene,
-    trees: &FrameTrees,
+    trees: &SceneTrees,
     primary: PrimaryPass,
     primary_row: StatsRow,
     shadows: ShadowPasses,
@@ -269,12 +245,15 @@ pub(super) fn combine(
         primary: primary.heat_maps("primary"),
         shadow: heat_planes("shadow", w, h, &shadows.work),
     });
-    let primary_ids: Vec<u32> = primary
+    let visible = visible_set(
+        &primary.surfaces,
+        trees.flat().map(|t| &t.geometry().camera),
+    );
+    let primary_hits: Vec<TriangleRef> = primary
         .surfaces
         .iter()
-        .map(|s| s.map_or(u32::MAX, |s| s.triangle))
+        .map(|s| s.map_or(TriangleRef::MISS, |s| s.reference))
         .collect();
-    let camera = &trees.geometry().camera;
     let mut stats = vec![primary_row];
     stats.extend(shadows.rows);
     FrameResult {
@@ -284,9 +263,9 @@ pub(super) fn combine(
         masks,
         combined,
         heat,
-        visible: visible_set(&primary_ids, camera),
-        primary_objects: camera.objects_of(&primary_ids),
-        primary_ids,
+        visible,
+        primary_objects: primary_hits.iter().map(|r| r.object).collect(),
+        primary_hits,
         stats,
     }
 }
@@ -296,7 +275,7 @@ fn trace_primary(
     counted: bool,
     rays: &PrimaryRays,
     tree: &impl RayQuery,
-    triangles: &crate::scene::TriangleSet,
+    triangles: HitGeometry,
     cancel: &CancelToken,
 ) -> Result<PrimaryPass> {
     if counted {

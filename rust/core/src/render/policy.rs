@@ -6,8 +6,9 @@
 
 use super::auto::{self, BuildChoice, Choice, History, OrderChoice};
 use super::frame_trees::{FrameTrees, GeometryKey};
+use super::scene_trees::SceneTrees;
 use super::shadow::samples_for;
-use super::{LightSampler, Pick, PrimaryPass, RenderSettings, VisibilitySource};
+use super::{LightSampler, Pick, PrimaryPass, RenderSettings, SceneStructure, VisibilitySource};
 use crate::build::BuildMethod;
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
@@ -32,6 +33,17 @@ pub(super) struct LightPlan {
     pub(super) auto: Option<Choice<OrderChoice>>,
     /// An order `auto` measures on a sample of the light's rays.
     pub(super) sample: Option<OrderChoice>,
+}
+
+impl BuildPlan {
+    /// A fixed build, nothing kept, no `auto` choice behind it.
+    pub(super) fn fixed(method: BuildMethod) -> Self {
+        BuildPlan {
+            method,
+            keep: false,
+            auto: None,
+        }
+    }
 }
 
 impl LightPlan {
@@ -62,6 +74,18 @@ pub(super) struct Policy {
 }
 
 impl Policy {
+    /// The frame's structure: the setting, or `auto`'s rule ([`auto_structure`]).
+    pub(super) fn plan_structure(
+        &self,
+        scene: &Scene,
+        settings: &RenderSettings,
+    ) -> SceneStructure {
+        match settings.structure {
+            Pick::Fixed(s) => s,
+            Pick::Auto => auto_structure(scene, settings),
+        }
+    }
+
     /// The frame's build: the settings' own, or `auto`'s choice from what earlier frames
     /// measured (`frames_rendered` of them, on `trees`).
     pub(super) fn plan_build(
@@ -72,13 +96,7 @@ impl Policy {
         frames_rendered: u64,
     ) -> BuildPlan {
         let method = match settings.build {
-            Pick::Fixed(method) => {
-                return BuildPlan {
-                    method,
-                    keep: false,
-                    auto: None,
-                }
-            }
+            Pick::Fixed(method) => return BuildPlan::fixed(method),
             Pick::Auto => self.choose_build(scene, settings, trees, frames_rendered),
         };
         BuildPlan {
@@ -125,7 +143,7 @@ impl Policy {
         scene: &Scene,
         primary: &PrimaryPass,
         settings: &RenderSettings,
-        trees: &FrameTrees,
+        trees: &SceneTrees,
         frames_rendered: u64,
     ) -> Vec<LightPlan> {
         let lights = scene
@@ -133,16 +151,21 @@ impl Policy {
             .iter()
             .enumerate()
             .filter(|(_, l)| l.casts_shadow);
-        let Pick::Auto = settings.shadow_order else {
-            let order = *settings.shadow_order.fixed().expect("not auto");
-            return lights
-                .map(|_| LightPlan {
-                    order,
-                    rays: pass_rays(settings),
-                    auto: None,
-                    sample: None,
-                })
-                .collect();
+        // Two levels trace one order for every light: the fixed one, or front to back (`auto`
+        // has no per-light choice there yet).
+        let trees = match (settings.shadow_order, trees) {
+            (Pick::Auto, SceneTrees::Flat(t)) => t,
+            (order, _) => {
+                let order = order.fixed().copied().unwrap_or(ShadowOrder::Fbto);
+                return lights
+                    .map(|_| LightPlan {
+                        order,
+                        rays: pass_rays(settings),
+                        auto: None,
+                        sample: None,
+                    })
+                    .collect();
+            }
         };
         let at = moment(settings, frames_rendered);
         let geometry = trees.geometry();
@@ -216,6 +239,34 @@ impl Policy {
                 }
             }
         }
+    }
+}
+
+/// `auto`'s structure (docs/auto.md): two levels where instancing holds at least half the
+/// frame's triangles (the world triangles are at least twice the unique meshes' ones, so the
+/// mesh trees hold at most half of what the flat tree would) and the settings leave them
+/// possible; else the flat tree, which traces faster over objects whose boxes overlap.
+pub(super) fn auto_structure(scene: &Scene, settings: &RenderSettings) -> SceneStructure {
+    if settings.two_level_conflict().is_some() {
+        return SceneStructure::Flat;
+    }
+    let mut used = vec![false; scene.meshes.len()];
+    let mut world = 0u64;
+    for o in &scene.objects {
+        used[o.mesh] = true;
+        world += scene.meshes[o.mesh].triangles.len() as u64;
+    }
+    let unique: u64 = scene
+        .meshes
+        .iter()
+        .zip(&used)
+        .filter(|(_, u)| **u)
+        .map(|(m, _)| m.triangles.len() as u64)
+        .sum();
+    if world >= 2 * unique && world > 0 {
+        SceneStructure::TwoLevel
+    } else {
+        SceneStructure::Flat
     }
 }
 

@@ -7,10 +7,11 @@ use rayon::prelude::*;
 
 use super::tiles::{band_pixels, band_tiles, Tile, TILE_SIDE};
 use super::PrimaryRays;
+use super::TwoLevelTrees;
 use crate::cancel::CancelToken;
 use crate::geometry::{triangle_normal, Ray};
 use crate::image::ImagePlane;
-use crate::scene::TriangleSet;
+use crate::scene::{Object, TriangleRef, TriangleSet};
 #[cfg(doc)]
 use crate::trace::NoStats;
 use crate::trace::{Counters, Hit, RayQuery, TraversalStats};
@@ -25,7 +26,44 @@ pub struct SurfacePoint {
     /// The unit normal whose side light samples must be on ([`super::Facing`]): `normal`, or
     /// the shading normal turned with it.
     pub facing: Vec3,
+    /// The hit's id in the tree traced: in the flat frame's `TriangleSet`, or in the hit
+    /// object's mesh tree on two levels.
     pub triangle: u32,
+    /// The object and the triangle of its mesh that was hit: the same on every tree.
+    pub reference: TriangleRef,
+}
+
+/// Where the passes find a hit's triangle: the flat frame's render-space set, or a two-level
+/// frame's mesh trees placed by the hit object's transform.
+#[derive(Clone, Copy)]
+pub enum HitGeometry<'a> {
+    Flat(&'a TriangleSet),
+    TwoLevel {
+        trees: &'a TwoLevelTrees,
+        objects: &'a [Object],
+    },
+}
+
+impl<'a> From<&'a TriangleSet> for HitGeometry<'a> {
+    fn from(set: &'a TriangleSet) -> Self {
+        HitGeometry::Flat(set)
+    }
+}
+
+impl HitGeometry<'_> {
+    /// The render-space vertices and the reference of triangle `triangle` of the traced tree
+    /// (of object `instance`'s mesh tree on two levels; a flat tree's ids need no object).
+    #[inline]
+    pub fn triangle(&self, instance: u32, triangle: u32) -> ([Vec3; 3], TriangleRef) {
+        match self {
+            HitGeometry::Flat(set) => {
+                (set.vertices[triangle as usize], set.refs[triangle as usize])
+            }
+            HitGeometry::TwoLevel { trees, objects } => {
+                trees.hit_triangle(objects, instance, triangle)
+            }
+        }
+    }
 }
 
 /// The result of the primary pass.
@@ -45,12 +83,13 @@ impl PrimaryPass {
     /// Traces `tree` tile by tile, one batch of camera rays per tile, counting each pixel's work
     /// in `C` ([`TraversalStats`], or [`NoStats`] timed: `work` is then empty); stops with
     /// [`crate::Error::Cancelled`] once `cancel` is set (read once per tile: [`super::tiles`]).
-    pub fn trace<C: Counters>(
+    pub fn trace<'g, C: Counters>(
         rays: &PrimaryRays,
         tree: &impl RayQuery,
-        triangles: &TriangleSet,
+        geometry: impl Into<HitGeometry<'g>>,
         cancel: &CancelToken,
     ) -> Result<Self> {
+        let triangles = geometry.into();
         let start = Instant::now();
         let pixels = (rays.width * rays.height) as usize;
         let mut surfaces = vec![None; pixels];
@@ -66,7 +105,7 @@ impl PrimaryPass {
                     if cancel.is_cancelled() {
                         return;
                     }
-                    buffers.trace(rays, tile, tree, triangles, surfaces, work);
+                    buffers.trace(rays, tile, tree, &triangles, surfaces, work);
                 }
             });
         cancel.check()?;
@@ -139,7 +178,7 @@ impl<C: Counters> TileHits<C> {
         rays: &PrimaryRays,
         tile: Tile,
         tree: &impl RayQuery,
-        triangles: &TriangleSet,
+        triangles: &HitGeometry,
         surfaces: &mut [Option<SurfacePoint>],
         work: &mut [C],
     ) {
@@ -160,12 +199,12 @@ impl<C: Counters> TileHits<C> {
 
 /// The surface point of a camera ray's hit.
 #[inline]
-fn surface_point(ray: &Ray, hit: &Hit, triangles: &TriangleSet) -> SurfacePoint {
-    let v = &triangles.vertices[hit.triangle as usize];
+fn surface_point(ray: &Ray, hit: &Hit, triangles: &HitGeometry) -> SurfacePoint {
+    let (v, reference) = triangles.triangle(hit.instance, hit.triangle);
     // The barycentric point is what Wächter & Binder's offset assumes: its error is bounded by
     // the vertices' magnitude, not by the ray's length.
     let position = v[0] * hit.b0 + v[1] * hit.b1 + v[2] * hit.b2;
-    let mut normal = triangle_normal(v).normalize();
+    let mut normal = triangle_normal(&v).normalize();
     if normal.dot(ray.direction) > 0.0 {
         normal = -normal;
     }
@@ -174,5 +213,6 @@ fn surface_point(ray: &Ray, hit: &Hit, triangles: &TriangleSet) -> SurfacePoint 
         normal,
         facing: normal,
         triangle: hit.triangle,
+        reference,
     }
 }

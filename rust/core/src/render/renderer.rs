@@ -9,10 +9,12 @@ use std::time::Instant;
 use super::frame_trees::{BvhInfo, FrameTrees, GeometryKey, Prepared};
 use super::passes::{combine, counted_timed, primary_pass, shadow_passes, trace_camera, Rows};
 use super::policy::{mark_build_row, planned_orders, BuildPlan, Policy};
+use super::scene_trees::SceneTrees;
+use super::two_level_trees::TwoLevelTrees;
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
-use super::RenderSettings;
 use super::VisibilitySource;
-use crate::build::{build_binned_sah, build_with_visibility};
+use super::{RenderSettings, SceneStructure};
+use crate::build::{build_binned_sah, build_with_visibility, BuildMethod};
 use crate::bvh::Bvh;
 use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
@@ -42,8 +44,9 @@ pub struct FrameResult {
     pub heat: Option<HeatMaps>,
     /// Camera-set triangles seen by a primary ray, sorted: V(t), which OSAH builds consume.
     pub visible: Vec<TriangleRef>,
-    /// Closest-hit triangle id per pixel (u32::MAX where the ray missed).
-    pub primary_ids: Vec<u32>,
+    /// The object and mesh triangle each pixel's primary ray hit ([`TriangleRef::MISS`] where it
+    /// missed): the same on every tree and structure.
+    pub primary_hits: Vec<TriangleRef>,
     /// Index of the object hit per pixel, in the frame's object list (`Scene::objects`, the
     /// order of a frame update); u32::MAX where the ray missed. See [`FrameResult::object_plane`].
     pub primary_objects: Vec<u32>,
@@ -85,7 +88,7 @@ impl FrameResult {
 /// a copy of each method's state before it.
 #[derive(Clone, Default)]
 pub struct Renderer {
-    trees: Option<FrameTrees>,
+    trees: Option<SceneTrees>,
     /// How many times a BVH was built.
     pub builds: u64,
     /// The visible set of the last rendered frame.
@@ -129,27 +132,25 @@ impl Renderer {
         scene.validate()?;
         cancel.check()?;
         let frame = self.frames_rendered;
-        let build = self
-            .policy
-            .plan_build(scene, settings, self.trees.as_ref(), frame);
-        let prepared = self.prepare(scene, settings, &build, cancel)?;
+        let (build, prepared) = self.prepare_trees(scene, settings, cancel)?;
         let trees = self
             .trees
             .as_mut()
             .expect("prepare leaves the frame's trees");
-        trees.collapse(settings, cancel)?;
         let rows = Rows {
             scene_name,
             scene,
             method: settings.method_name(),
             prepared,
-            collapse_ms: trees.collapse_ms(),
+            collapse_ms: trees.flat().map_or(0.0, FrameTrees::collapse_ms),
         };
         let (primary, mut primary_row) = primary_pass(trees, scene, settings, &rows, cancel)?;
         let lights = self
             .policy
             .plan_lights(scene, &primary, settings, trees, frame);
-        trees.prepare_orders(&planned_orders(&lights), cancel)?;
+        if let SceneTrees::Flat(t) = trees {
+            t.prepare_orders(&planned_orders(&lights), cancel)?;
+        }
         let shadows = shadow_passes(trees, &primary, scene, settings, &lights, &rows, cancel)?;
         mark_build_row(&mut primary_row, &build);
         if counted_timed(settings).0 {
@@ -160,6 +161,41 @@ impl Renderer {
         let result = combine(scene, trees, primary, primary_row, shadows, settings);
         self.finish_frame(result.visible.clone());
         Ok(result)
+    }
+
+    /// The frame's trees in the structure the policy picks: a flat frame's built with the
+    /// planned method (or kept), collapsed and with its per-tree orders; a two-level frame's
+    /// mesh trees kept or built and its top levels.
+    fn prepare_trees(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        cancel: &CancelToken,
+    ) -> Result<(BuildPlan, Prepared)> {
+        match self.policy.plan_structure(scene, settings) {
+            SceneStructure::Flat => {
+                let flat = self.trees.as_ref().and_then(SceneTrees::flat);
+                let build = (self.policy).plan_build(scene, settings, flat, self.frames_rendered);
+                let prepared = self.prepare(scene, settings, &build, cancel)?;
+                if let Some(SceneTrees::Flat(t)) = self.trees.as_mut() {
+                    t.collapse(settings, cancel)?;
+                }
+                Ok((build, prepared))
+            }
+            SceneStructure::TwoLevel => {
+                let previous = self.trees.as_ref().and_then(SceneTrees::two_level);
+                let trees = TwoLevelTrees::prepare(previous, scene, settings, cancel)?;
+                if trees.meshes_built > 0 || previous.is_none_or(|p| !p.same_tops(&trees)) {
+                    self.builds += 1;
+                }
+                let prepared = Prepared {
+                    rebuilt: !trees.reported,
+                    visibility_ms: 0.0,
+                };
+                self.trees = Some(SceneTrees::TwoLevel(trees));
+                Ok((BuildPlan::fixed(BuildMethod::Sah), prepared))
+            }
+        }
     }
 
     /// Advances the state as [`render`](Self::render) would for this frame, for the frames
@@ -182,21 +218,16 @@ impl Renderer {
         scene.validate()?;
         cancel.check()?;
         // `auto` chooses as a render would from what it learned; a warm-up teaches it nothing.
-        let build =
-            (self.policy).plan_build(scene, settings, self.trees.as_ref(), self.frames_rendered);
-        self.prepare(scene, settings, &build, cancel)?;
+        self.prepare_trees(scene, settings, cancel)?;
         let trees = self
             .trees
-            .as_mut()
+            .as_ref()
             .expect("prepare leaves the frame's trees");
-        trees.collapse(settings, cancel)?;
         let primary = trace_camera(trees, scene, settings, false, cancel)?;
-        let ids: Vec<u32> = primary
-            .surfaces
-            .iter()
-            .map(|s| s.map_or(u32::MAX, |s| s.triangle))
-            .collect();
-        let visible = visible_set(&ids, &trees.geometry.camera);
+        let visible = visible_set(
+            &primary.surfaces,
+            trees.flat().map(|t| &t.geometry().camera),
+        );
         self.finish_frame(visible.clone());
         Ok(WarmUp {
             frame: scene.frame,
@@ -228,7 +259,8 @@ impl Renderer {
         cancel: &CancelToken,
     ) -> Result<Prepared> {
         let key = GeometryKey::of(scene);
-        if let Some(t) = self.trees.as_ref().filter(|t| build.keep && t.key == key) {
+        let flat = self.trees.as_ref().and_then(SceneTrees::flat);
+        if let Some(t) = flat.filter(|t| build.keep && t.key == key) {
             return Ok(Prepared {
                 rebuilt: !t.reported,
                 visibility_ms: 0.0,
@@ -236,7 +268,7 @@ impl Renderer {
         }
         let method = build.method;
         let build_key = (method, settings.build_settings);
-        let reusable = self.trees.as_ref().filter(|t| t.key == key);
+        let reusable = flat.filter(|t| t.key == key);
         // `render` validated the scene already.
         let geometry = match reusable {
             Some(t) => t.geometry.clone(),
@@ -250,7 +282,7 @@ impl Renderer {
             Some(_) => started.elapsed().as_secs_f64() * 1e3,
             None => 0.0,
         };
-        if let Some(t) = &self.trees {
+        if let Some(t) = self.trees.as_ref().and_then(SceneTrees::flat) {
             if t.key == key && t.build == build_key && t.visible_input == visible_input {
                 return Ok(Prepared {
                     rebuilt: !t.reported,
@@ -297,7 +329,7 @@ impl Renderer {
             (None, false) => Some(complete(&geometry.camera)),
         };
         self.builds += 1;
-        self.trees = Some(FrameTrees::new(
+        self.trees = Some(SceneTrees::Flat(FrameTrees::new(
             scene,
             key,
             build_key,
@@ -305,7 +337,7 @@ impl Renderer {
             camera,
             shadow,
             visible_input,
-        ));
+        )));
         Ok(Prepared {
             rebuilt: true,
             visibility_ms,
@@ -325,6 +357,7 @@ impl Renderer {
             let kept = self
                 .trees
                 .as_ref()
+                .and_then(SceneTrees::flat)
                 .filter(|t| std::ptr::eq(&*t.geometry, geometry) && t.build.0.is_complete());
             match kept {
                 Some(t) => trace_visible_set(scene, resolution, geometry, &t.camera_bvh),
@@ -344,15 +377,21 @@ impl Renderer {
         }
     }
 
-    /// The trees of the last frame (for tests and tools that trace their own rays).
+    /// The flat trees of the last frame, if it was flat (for tests and tools that trace
+    /// their own rays).
     pub fn trees(&self) -> Option<&FrameTrees> {
+        self.trees.as_ref().and_then(SceneTrees::flat)
+    }
+
+    /// The last frame's trees, flat or two-level.
+    pub fn scene_trees(&self) -> Option<&SceneTrees> {
         self.trees.as_ref()
     }
 
-    /// The geometry and BVHs of the last frame (for tests and tools that trace their own rays).
+    /// The geometry and BVHs of the last frame, if it was flat (for tests and tools that trace
+    /// their own rays).
     pub fn current(&self) -> Option<(&FrameGeometry, &Bvh, &Bvh)> {
-        self.trees
-            .as_ref()
+        self.trees()
             .map(|t| (t.geometry(), t.camera_bvh(), t.shadow_bvh()))
     }
 }

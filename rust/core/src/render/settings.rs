@@ -18,6 +18,50 @@ pub enum StatsMode {
     TimingOnly,
 }
 
+/// How a frame's objects become trees.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SceneStructure {
+    /// Every object's triangles in one render-space set under one tree: the papers' form.
+    #[default]
+    Flat,
+    /// One tree per unique mesh, shared by the objects that place it and kept across frames
+    /// while the mesh is unchanged, under a top level over the objects (`crate::two_level`).
+    TwoLevel,
+}
+
+impl SceneStructure {
+    pub const ALL: [SceneStructure; 2] = [SceneStructure::Flat, SceneStructure::TwoLevel];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SceneStructure::Flat => "flat",
+            SceneStructure::TwoLevel => "two-level",
+        }
+    }
+}
+
+impl std::fmt::Display for SceneStructure {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for SceneStructure {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> crate::Result<Self> {
+        SceneStructure::ALL
+            .into_iter()
+            .find(|m| m.name() == s.trim())
+            .ok_or_else(|| {
+                crate::Error::invalid(
+                    "scene_structure",
+                    format!("must be flat, two-level or auto, got '{s}'"),
+                )
+            })
+    }
+}
+
 /// Settings of one frame's render.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RenderSettings {
@@ -49,9 +93,17 @@ pub struct RenderSettings {
     /// or `auto` (the policy's rule per pass, docs/auto.md). Same answers either way.
     #[serde(default = "auto_rays")]
     pub rays: Pick<RayMode>,
+    /// One flat tree, two levels (a tree per unique mesh under a top level over the objects),
+    /// or `auto` (the policy's rule per frame, docs/auto.md).
+    #[serde(default = "auto_structure")]
+    pub structure: Pick<SceneStructure>,
 }
 
 fn auto_rays() -> Pick<RayMode> {
+    Pick::Auto
+}
+
+fn auto_structure() -> Pick<SceneStructure> {
     Pick::Auto
 }
 
@@ -66,6 +118,7 @@ impl Default for RenderSettings {
             shadow_order: Pick::Auto,
             width: BvhWidth::Eight,
             rays: Pick::Auto,
+            structure: Pick::Auto,
             ..Self::baseline()
         }
     }
@@ -90,7 +143,31 @@ impl RenderSettings {
             visibility: VisibilitySource::Previous,
             facing: Facing::Geometric,
             rays: Pick::Fixed(RayMode::Single),
+            structure: Pick::Fixed(SceneStructure::Flat),
         }
+    }
+
+    /// Why two levels cannot render with these settings, naming the setting: they build each
+    /// mesh's tree with SAH (no visible set or spatial splits across objects) and trace orders
+    /// made from a tree alone (no per-light sorting or SRDH tree yet).
+    pub fn two_level_conflict(&self) -> Option<crate::Error> {
+        if let Pick::Fixed(b) = self.build {
+            if b != BuildMethod::Sah {
+                return Some(crate::Error::invalid(
+                    "scene_structure",
+                    format!("two-level builds every mesh tree with sah, not '{b}' (set build to sah or auto, or scene_structure to flat)"),
+                ));
+            }
+        }
+        if let Pick::Fixed(o) = &self.shadow_order {
+            if matches!(o, ShadowOrder::Sorted(_) | ShadowOrder::Srdh(_)) {
+                return Some(crate::Error::invalid(
+                    "scene_structure",
+                    format!("two-level traces the fbto, stored, sato, rtsah and random orders, not '{o}' (set order to one of them or auto, or scene_structure to flat)"),
+                ));
+            }
+        }
+        None
     }
 
     /// Whether `auto` chooses the build or the shadow order as the frames go (else the method
@@ -125,8 +202,13 @@ impl RenderSettings {
             Pick::Fixed(RayMode::Packet) => "/packet",
             _ => "",
         };
+        // Two levels are named when fixed, as packets are.
+        let structure = match self.structure {
+            Pick::Fixed(SceneStructure::TwoLevel) => "/two-level",
+            _ => "",
+        };
         format!(
-            "{build}/bin{}{collapse}/{}{rays}",
+            "{build}/bin{}{collapse}/{}{rays}{structure}",
             self.width, self.shadow_order
         )
     }

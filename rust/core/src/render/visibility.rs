@@ -5,7 +5,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{PrimaryPass, PrimaryRays};
+use super::{PrimaryPass, PrimaryRays, SurfacePoint};
 use crate::bvh::Bvh;
 use crate::cancel::CancelToken;
 use crate::scene::{FrameGeometry, ImageSize, Resolution, Scene, TriangleRef, TriangleSet};
@@ -76,19 +76,30 @@ impl std::str::FromStr for VisibilitySource {
     }
 }
 
-/// The sorted set of camera-set triangles that primary rays hit, by id per pixel.
-pub(super) fn visible_set(primary_ids: &[u32], camera: &TriangleSet) -> Vec<TriangleRef> {
-    let mut seen = vec![false; camera.len()];
-    for &id in primary_ids.iter().filter(|&&id| id != u32::MAX) {
-        seen[id as usize] = true;
-    }
-    let mut visible: Vec<TriangleRef> = seen
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| **s)
-        .map(|(i, _)| camera.refs[i])
-        .collect();
+/// The sorted set of triangles that primary rays hit. On a flat frame (`camera`, the set the
+/// camera tree was built over) one flag per triangle id gives it without a sort; on two levels
+/// the surfaces' references are sorted and deduplicated.
+pub(super) fn visible_set(
+    surfaces: &[Option<SurfacePoint>],
+    camera: Option<&TriangleSet>,
+) -> Vec<TriangleRef> {
+    let hits = surfaces.iter().flatten();
+    let mut visible: Vec<TriangleRef> = match camera {
+        Some(camera) => {
+            let mut seen = vec![false; camera.len()];
+            for s in hits {
+                seen[s.triangle as usize] = true;
+            }
+            seen.iter()
+                .enumerate()
+                .filter(|(_, s)| **s)
+                .map(|(i, _)| camera.refs[i])
+                .collect()
+        }
+        None => hits.map(|s| s.reference).collect(),
+    };
     visible.sort_unstable();
+    visible.dedup();
     visible
 }
 
@@ -103,12 +114,7 @@ pub(super) fn trace_visible_set(
     let rays = PrimaryRays::new(&scene.camera, resolution, &geometry.space);
     let pass = PrimaryPass::trace::<NoStats>(&rays, bvh, &geometry.camera, &CancelToken::new())
         .expect("a new token is never cancelled");
-    let ids: Vec<u32> = pass
-        .surfaces
-        .iter()
-        .map(|s| s.map_or(u32::MAX, |s| s.triangle))
-        .collect();
-    visible_set(&ids, &geometry.camera)
+    visible_set(&pass.surfaces, Some(&geometry.camera))
 }
 
 /// Per-triangle flags of `set` for the sorted `visible` refs. Refs of triangles this frame does

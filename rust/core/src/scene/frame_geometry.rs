@@ -65,6 +65,14 @@ pub struct TriangleRef {
     pub primitive: u32,
 }
 
+impl TriangleRef {
+    /// What a pixel whose ray hit nothing holds.
+    pub const MISS: TriangleRef = TriangleRef {
+        object: u32::MAX,
+        primitive: u32::MAX,
+    };
+}
+
 /// Render-space triangles of one ray class (camera or shadow). Triangle ids used by the tracers
 /// are indices into these arrays.
 #[derive(Clone, Debug, Default)]
@@ -148,7 +156,7 @@ impl FrameGeometry {
     }
 }
 
-fn scene_render_space(scene: &Scene) -> RenderSpace {
+pub(crate) fn scene_render_space(scene: &Scene) -> RenderSpace {
     let mut min = DVec3::splat(f64::INFINITY);
     let mut max = DVec3::splat(f64::NEG_INFINITY);
     for object in &scene.objects {

@@ -4,7 +4,7 @@ use super::{Group, Kind, NamedSettings, Setting, SettingValue as V};
 use crate::build::{BuildMethod, CollapseMethod, SpatialAxes};
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
-use crate::render::{Facing, Pick, RenderSettings, StatsMode, VisibilitySource};
+use crate::render::{Facing, Pick, RenderSettings, SceneStructure, StatsMode, VisibilitySource};
 use crate::trace::RayMode;
 use crate::{Error, Result};
 
@@ -381,6 +381,21 @@ pub static SCHEMA: &[Setting] = &[
             Ok(())
         },
     },
+    Setting {
+        name: "scene_structure",
+        kind: Kind::Choice(&["flat", "two-level", "auto"]),
+        group: Group::Build,
+        help: "One tree over every object's triangles (flat), a tree per unique mesh shared by \
+               the objects that place it under a top level over the objects (two-level: \
+               instances are held once, unchanged meshes keep their trees across frames), or \
+               auto (docs/auto.md). Two levels build with sah and trace the fbto, stored, \
+               sato, rtsah and random orders.",
+        get: |s| s.structure.to_string().into(),
+        set: |s, v| {
+            s.structure = parsed::<Pick<SceneStructure>>("scene_structure", v)?;
+            Ok(())
+        },
+    },
     // Shadow order: after `build`, which it may complete.
     Setting {
         name: "order",
@@ -439,6 +454,11 @@ pub(super) fn check_relations(s: &RenderSettings) -> Result<()> {
     }
     if let Some(o) = s.shadow_order.fixed() {
         o.validate()?;
+    }
+    if s.structure == Pick::Fixed(SceneStructure::TwoLevel) {
+        if let Some(e) = s.two_level_conflict() {
+            return Err(e);
+        }
     }
     s.visibility.validate()
 }

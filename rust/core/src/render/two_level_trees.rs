@@ -1,0 +1,404 @@
+//! [`TwoLevelTrees`]: a two-level frame's trees as named state: a tree per unique mesh (kept
+//! across frames while the mesh is the same `Arc` and the tree settings hold; a mesh no object
+//! uses any more is dropped), and the frame's top levels over the camera's objects and over the
+//! shadow casters (kept while no object moved, changed mesh or changed flags).
+
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::frame_trees::GeometryKey;
+use super::wide_tree::{OrderedWideTree, WideTree};
+use super::RenderSettings;
+use crate::build::{BuildSettings, CollapseSettings};
+use crate::bvh::BvhWidth;
+use crate::cancel::CancelToken;
+use crate::geometry::Aabb;
+use crate::order::{AnyHitOrder, OrderView, PreparedOrder, ShadowOrder};
+use crate::scene::{scene_render_space, Mesh, Object, RenderSpace, Scene, TriangleRef};
+use crate::trace::{forward_ray_query, Counters, Hit, OrderedBinary, RayQuery};
+use crate::two_level::{instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel};
+use crate::Result;
+
+/// What a mesh tree is made with: it is kept while these hold.
+#[derive(Clone, PartialEq)]
+struct TreeSettings {
+    build: BuildSettings,
+    /// The collapse's width and settings, when passes read a wide tree.
+    wide: Option<(BvhWidth, CollapseSettings)>,
+    /// A per-tree order (SATO, RTSAH, random) prepared on the wide tree.
+    per_tree: Option<ShadowOrder>,
+}
+
+impl TreeSettings {
+    fn of(settings: &RenderSettings) -> Self {
+        let per_tree = settings
+            .shadow_order
+            .fixed()
+            .filter(|o| o.is_per_tree())
+            .copied();
+        let wide = (settings.width != BvhWidth::Two || per_tree.is_some())
+            .then_some((settings.width, settings.collapse));
+        TreeSettings {
+            build: settings.build_settings,
+            wide,
+            per_tree,
+        }
+    }
+}
+
+/// One unique mesh's trees.
+pub(super) struct MeshEntry {
+    /// Keeps the mesh alive, so its address (the cache's key) is not reused.
+    mesh: Arc<Mesh>,
+    settings: TreeSettings,
+    pub(super) tree: MeshTree,
+    /// The collapse, when passes read a wide tree.
+    wide: Option<WideTree>,
+    /// The per-tree order prepared on `wide`.
+    per_tree: Option<PreparedOrder>,
+    /// Build, collapse and order preparation, ms.
+    build_ms: f64,
+}
+
+impl MeshEntry {
+    fn build(mesh: &Arc<Mesh>, settings: &TreeSettings) -> Self {
+        let start = Instant::now();
+        let tree = MeshTree::build(mesh, &settings.build);
+        let wide = settings
+            .wide
+            .map(|(width, collapse)| WideTree::collapse(&tree.bvh, width, &collapse));
+        let per_tree = settings
+            .per_tree
+            .zip(wide.as_ref())
+            .map(|(order, wide)| wide.prepare(&order, None, &[]));
+        MeshEntry {
+            mesh: mesh.clone(),
+            settings: settings.clone(),
+            tree,
+            wide,
+            per_tree,
+            build_ms: start.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+
+    /// Nodes and bytes of the tree passes trace (the collapse where there is one).
+    fn nodes_and_bytes(&self) -> (u64, u64) {
+        match &self.wide {
+            Some(w) => (w.node_count() as u64, w.bytes() as u64),
+            None => (
+                self.tree.bvh.nodes.len() as u64,
+                self.tree.bvh.bytes() as u64,
+            ),
+        }
+    }
+
+    /// The mesh tree as a pass traces it: the collapse with the prepared per-tree order (or
+    /// front to back), else the binary tree with its own order for `order`.
+    fn query(&self, order: &ShadowOrder) -> MeshQuery<'_> {
+        match &self.wide {
+            Some(w) => MeshQuery::Wide(w.ordered(match &self.per_tree {
+                Some(p) if Some(*order) == self.settings.per_tree => p.view(),
+                _ if *order == ShadowOrder::Stored => OrderView::Stored,
+                _ => OrderView::FrontToBack,
+            })),
+            None => MeshQuery::Binary(OrderedBinary {
+                bvh: &self.tree.bvh,
+                order: order.binary().unwrap_or(AnyHitOrder::NearFirst),
+            }),
+        }
+    }
+}
+
+/// One mesh tree as a pass traces it.
+#[derive(Clone, Copy)]
+pub enum MeshQuery<'a> {
+    Binary(OrderedBinary<'a>),
+    Wide(OrderedWideTree<'a>),
+}
+
+macro_rules! with_mesh_query {
+    ($q:expr, $m:ident => $f:expr) => {
+        match $q {
+            MeshQuery::Binary($m) => $f,
+            MeshQuery::Wide($m) => $f,
+        }
+    };
+}
+forward_ray_query!(MeshQuery<'_>, with_mesh_query);
+
+/// A top level with the frame's mesh trees as one order traces them: what a two-level pass
+/// traces (batches go one ray at a time: packets stop at the top level for now).
+pub struct TwoLevelQuery<'a> {
+    top: &'a TopLevel,
+    meshes: Vec<MeshQuery<'a>>,
+}
+
+impl RayQuery for TwoLevelQuery<'_> {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &crate::geometry::Ray, stats: &mut C) -> bool {
+        let q = TwoLevel {
+            top: self.top,
+            meshes: &self.meshes,
+        };
+        q.occluded(ray, stats)
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &crate::geometry::Ray, stats: &mut C) -> Option<Hit> {
+        let q = TwoLevel {
+            top: self.top,
+            meshes: &self.meshes,
+        };
+        q.closest_hit(ray, stats)
+    }
+}
+
+/// The statistics columns of the trees a pass traces.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct TreeColumns {
+    pub(super) build_ms: f64,
+    pub(super) nodes: u64,
+    pub(super) bytes: u64,
+    /// Distinct triangles held (unique mesh triangles on two levels).
+    pub(super) triangles: u64,
+    pub(super) references: u64,
+    pub(super) visible: u64,
+}
+
+/// A two-level frame's trees. Cloning shares them (reference counted), as `compare` needs.
+#[derive(Clone)]
+pub struct TwoLevelTrees {
+    /// This frame's mesh trees, by their index in the top levels' instances.
+    meshes: Vec<Arc<MeshEntry>>,
+    /// The index in `meshes` of each of the scene's meshes (`u32::MAX`: no object uses it).
+    by_scene_mesh: Vec<u32>,
+    pub(super) space: RenderSpace,
+    camera: Arc<TopLevel>,
+    /// `None`: the camera's top level serves shadow rays too.
+    shadow: Option<Arc<TopLevel>>,
+    key: GeometryKey,
+    /// What the top levels were built with.
+    top_settings: BuildSettings,
+    /// Whether a finished frame reported these trees' build.
+    pub(super) reported: bool,
+    /// The build of this frame's new mesh trees and its top levels, ms.
+    build_ms: f64,
+    /// Mesh trees built this frame.
+    pub(super) meshes_built: usize,
+}
+
+impl TwoLevelTrees {
+    /// The frame's trees: last frame's mesh trees where the mesh and the tree settings are
+    /// unchanged, new ones for the rest; the top levels kept when no object changed.
+    pub(super) fn prepare(
+        previous: Option<&TwoLevelTrees>,
+        scene: &Scene,
+        settings: &RenderSettings,
+        cancel: &CancelToken,
+    ) -> Result<Self> {
+        let key = GeometryKey::of(scene);
+        let tree_settings = TreeSettings::of(settings);
+        if let Some(p) = previous.filter(|p| {
+            p.key == key
+                && p.top_settings == settings.build_settings
+                && p.meshes.iter().all(|m| m.settings == tree_settings)
+        }) {
+            return Ok(p.clone());
+        }
+        let start = Instant::now();
+        let kept: HashMap<usize, &Arc<MeshEntry>> = previous
+            .map(|p| {
+                p.meshes
+                    .iter()
+                    .filter(|m| m.settings == tree_settings)
+                    .map(|m| (Arc::as_ptr(&m.mesh) as usize, m))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let mut used = vec![false; scene.meshes.len()];
+        for o in &scene.objects {
+            used[o.mesh] = true;
+        }
+        // New mesh trees in parallel (many small meshes), each build parallel inside.
+        let built: Vec<Option<Arc<MeshEntry>>> = scene
+            .meshes
+            .par_iter()
+            .zip(&used)
+            .map(|(mesh, &used)| {
+                if !used || kept.contains_key(&(Arc::as_ptr(mesh) as usize)) {
+                    None
+                } else {
+                    Some(Arc::new(MeshEntry::build(mesh, &tree_settings)))
+                }
+            })
+            .collect();
+        cancel.check()?;
+        let mut meshes = Vec::new();
+        let mut by_scene_mesh = vec![u32::MAX; scene.meshes.len()];
+        let mut meshes_built = 0;
+        for (i, (mesh, new)) in scene.meshes.iter().zip(built).enumerate() {
+            if !used[i] {
+                continue;
+            }
+            let entry = match new {
+                Some(e) => {
+                    meshes_built += 1;
+                    e
+                }
+                None => kept[&(Arc::as_ptr(mesh) as usize)].clone(),
+            };
+            by_scene_mesh[i] = meshes.len() as u32;
+            meshes.push(entry);
+        }
+        let space = scene_render_space(scene);
+        let same = scene
+            .objects
+            .iter()
+            .all(|o| o.visible_to_camera == o.casts_shadow);
+        let top = |include: fn(&Object) -> bool| {
+            top_level(scene, &space, &meshes, &by_scene_mesh, include, settings)
+        };
+        let camera = Arc::new(top(|o| o.visible_to_camera));
+        let shadow = (!same).then(|| Arc::new(top(|o| o.casts_shadow)));
+        cancel.check()?;
+        Ok(TwoLevelTrees {
+            meshes,
+            by_scene_mesh,
+            space,
+            camera,
+            shadow,
+            key,
+            top_settings: settings.build_settings,
+            reported: false,
+            build_ms: start.elapsed().as_secs_f64() * 1e3,
+            meshes_built,
+        })
+    }
+
+    /// Whether `other` kept these top levels (no object changed).
+    pub(super) fn same_tops(&self, other: &TwoLevelTrees) -> bool {
+        Arc::ptr_eq(&self.camera, &other.camera)
+    }
+
+    fn shadow_top(&self) -> &TopLevel {
+        self.shadow.as_deref().unwrap_or(&self.camera)
+    }
+
+    fn query<'a>(&'a self, top: &'a TopLevel, order: &ShadowOrder) -> TwoLevelQuery<'a> {
+        TwoLevelQuery {
+            top,
+            meshes: self.meshes.iter().map(|m| m.query(order)).collect(),
+        }
+    }
+
+    /// What camera rays trace (closest hits read no order).
+    pub fn camera_query(&self) -> TwoLevelQuery<'_> {
+        self.query(&self.camera, &ShadowOrder::Fbto)
+    }
+
+    /// What a light's shadow rays trace with `order` (fbto, stored or the per-tree order).
+    pub fn shadow_query(&self, order: &ShadowOrder) -> TwoLevelQuery<'_> {
+        self.query(self.shadow_top(), order)
+    }
+
+    /// The render-space vertices and the reference of a hit's triangle.
+    pub(super) fn hit_triangle(
+        &self,
+        objects: &[Object],
+        instance: u32,
+        triangle: u32,
+    ) -> ([Vec3; 3], TriangleRef) {
+        let object = &objects[instance as usize];
+        let tree = &self.meshes[self.by_scene_mesh[object.mesh] as usize].tree;
+        let m = render_from_mesh(&self.space, &object.world_from_object, &tree.space);
+        let vertices =
+            tree.triangles[triangle as usize].map(|v| m.transform_point3(v.as_dvec3()).as_vec3());
+        let reference = TriangleRef {
+            object: instance,
+            primitive: tree.primitives[triangle as usize],
+        };
+        (vertices, reference)
+    }
+
+    /// Instances in the top levels (camera and shadow) and unique triangles held.
+    pub fn counts(&self) -> (usize, usize) {
+        let instances = self.camera.len() + self.shadow.as_ref().map_or(0, |s| s.len());
+        let triangles = self.meshes.iter().map(|m| m.tree.triangles.len()).sum();
+        (instances, triangles)
+    }
+
+    /// Bytes held by the trees: the mesh trees (and their collapses), the top levels.
+    pub fn bytes(&self) -> usize {
+        let meshes: u64 = self
+            .meshes
+            .iter()
+            .map(|m| m.tree.bytes() as u64 + m.wide.as_ref().map_or(0, |w| w.bytes() as u64))
+            .sum();
+        meshes as usize + self.camera.bytes() + self.shadow.as_ref().map_or(0, |s| s.bytes())
+    }
+
+    /// The statistics columns of the trees `top` heads.
+    fn columns(&self, top: &TopLevel) -> TreeColumns {
+        let (mut nodes, mut bytes) = (top.bvh.nodes.len() as u64, top.bytes() as u64);
+        for m in &self.meshes {
+            let (n, b) = m.nodes_and_bytes();
+            nodes += n;
+            bytes += b;
+        }
+        let triangles = self.counts().1 as u64;
+        TreeColumns {
+            build_ms: if self.reported { 0.0 } else { self.build_ms },
+            nodes,
+            bytes,
+            triangles,
+            references: triangles,
+            visible: 0,
+        }
+    }
+
+    pub(super) fn camera_columns(&self) -> TreeColumns {
+        self.columns(&self.camera)
+    }
+
+    pub(super) fn shadow_columns(&self) -> TreeColumns {
+        self.columns(self.shadow_top())
+    }
+
+    /// The mesh trees' own build, collapse and order times, summed (ms), for reports.
+    pub fn mesh_build_ms(&self) -> f64 {
+        self.meshes.iter().map(|m| m.build_ms).sum()
+    }
+}
+
+/// The top level over `scene`'s objects that `include` picks: an instance per object placing
+/// a mesh tree (objects scaled to nothing are left out), built over their render-space boxes.
+fn top_level(
+    scene: &Scene,
+    space: &RenderSpace,
+    meshes: &[Arc<MeshEntry>],
+    by_scene_mesh: &[u32],
+    include: fn(&Object) -> bool,
+    settings: &RenderSettings,
+) -> TopLevel {
+    let placed: Vec<(Instance, Aabb)> = scene
+        .objects
+        .par_iter()
+        .enumerate()
+        .filter(|(_, o)| include(o))
+        .filter_map(|(i, o)| {
+            let index = by_scene_mesh[o.mesh];
+            let tree = &meshes[index as usize].tree;
+            if tree.triangles.is_empty() {
+                return None;
+            }
+            let m = render_from_mesh(space, &o.world_from_object, &tree.space);
+            let instance = Instance::new(&m, index, i as u32)?;
+            Some((instance, instance_box(&m, &tree.bounds)))
+        })
+        .collect();
+    let (instances, boxes): (Vec<Instance>, Vec<Aabb>) = placed.into_iter().unzip();
+    TopLevel::build(&instances, &boxes, &settings.build_settings)
+}
