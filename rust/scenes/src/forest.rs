@@ -48,8 +48,8 @@ impl TreeDetail {
         }
     }
 
-    /// The detail whose tree comes closest to `triangles` (never below the smallest tree, about
-    /// 60): as many branch levels as fit half the budget, then leaves fill the rest.
+    /// The detail whose tree comes closest to `triangles` (never below the smallest tree, 60):
+    /// as many branch levels as fit with two leaves per tip, then more leaves fill the rest.
     pub(crate) fn for_tree(triangles: usize) -> Self {
         let sides = match triangles {
             0..=1_999 => 4,
