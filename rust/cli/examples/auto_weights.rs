@@ -134,6 +134,7 @@ fn main() {
             triangles,
             frames: 4,
             rotated: false,
+            instances: None,
         };
         let anim = builtin(name, &params).unwrap();
         let frames: Vec<_> = anim

@@ -44,6 +44,7 @@ impl FrameArgs {
             triangles: self.triangles.unwrap_or(defaults.triangles),
             frames: 1,
             rotated: name.ends_with("-rot45"),
+            instances: None,
         };
         let anim = antumbra_scenes::builtin(name.trim_end_matches("-rot45"), &params)?;
         let mut scene = anim.frame(*anim.frame_range().start());

@@ -11,8 +11,9 @@ use crate::scene_source::open_scene;
 
 #[derive(Args, Debug)]
 pub struct SceneArgs {
-    /// A built-in scene (bedroom, colonnade, city, forest, hairball, indoors; "-rot45" for the rotated
-    /// variant), an OBJ/glTF file, or a recording (.antrec).
+    /// A built-in scene (bedroom, colonnade, city, forest, hairball, indoors, instanced-forest,
+    /// character-room; "-rot45" for the rotated variant), an OBJ/glTF file, or a recording
+    /// (.antrec).
     #[arg(long)]
     pub scene: String,
     /// Frames, "A-B" or "N" (default: the scene's whole range).
@@ -21,9 +22,14 @@ pub struct SceneArgs {
     /// Image size WxH (default: the scene's resolution).
     #[arg(long, value_name = "WxH", value_parser = ImageSize::parse_image)]
     pub size: Option<ImageSize>,
-    /// Triangle budget of a built-in scene.
+    /// Triangle budget of a built-in scene: world triangles, or unique triangles with
+    /// --instances.
     #[arg(long, default_value_t = 100_000)]
     pub triangles: usize,
+    /// Exactly N instances sharing a few meshes (instanced-forest only, at most 10,000,000);
+    /// --triangles then budgets the unique triangles, not the world's.
+    #[arg(long, value_name = "N")]
+    pub instances: Option<usize>,
 }
 
 /// An opened scene with the frames and image size asked for.
@@ -37,7 +43,12 @@ impl SceneArgs {
     pub fn open(&self) -> Result<OpenScene> {
         let frames = self.frames.as_deref().map(parse_frames).transpose()?;
         let frame_count = frames.as_ref().map_or(24, |r| *r.end());
-        let animation = open_scene(&self.scene, self.triangles, frame_count.max(1))?;
+        let animation = open_scene(
+            &self.scene,
+            self.triangles,
+            self.instances,
+            frame_count.max(1),
+        )?;
         let frames = frames.unwrap_or_else(|| animation.frame_range());
         Ok(OpenScene {
             animation,

@@ -6,7 +6,7 @@ use std::path::Path;
 use antumbra_core::scene::Animation;
 use antumbra_protocol::RecordedAnimation;
 use antumbra_scenes::{builtin, load_file, SceneParams};
-use anyhow::Result;
+use anyhow::{bail, Result};
 
 /// What a scene argument names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -31,14 +31,26 @@ impl SceneKind {
     }
 }
 
-pub fn open_scene(name_or_path: &str, triangles: usize, frames: i32) -> Result<Box<dyn Animation>> {
+/// Opens a scene; `triangles`, `instances` and `frames` size a built-in one (see
+/// [`SceneParams`]), and `instances` is refused for files and recordings.
+pub fn open_scene(
+    name_or_path: &str,
+    triangles: usize,
+    instances: Option<usize>,
+    frames: i32,
+) -> Result<Box<dyn Animation>> {
     let path = Path::new(name_or_path);
     let params = SceneParams {
         triangles,
         frames,
+        instances,
         ..SceneParams::default()
     };
-    Ok(match SceneKind::of(name_or_path) {
+    let kind = SceneKind::of(name_or_path);
+    if instances.is_some() && kind != SceneKind::Builtin {
+        bail!("--instances applies to built-in scenes only, not to '{name_or_path}'");
+    }
+    Ok(match kind {
         // The recording's own frames; --frames picks among them.
         SceneKind::Recording => Box::new(RecordedAnimation::open(path)?),
         SceneKind::File => load_file(path, frames)?,

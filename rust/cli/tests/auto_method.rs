@@ -35,6 +35,7 @@ fn frames_at(name: &str, resolution: Resolution) -> Vec<Scene> {
         triangles: 3000,
         frames: FRAMES,
         rotated: false,
+        instances: None,
     };
     let anim = builtin(name, &params).unwrap();
     anim.frame_range()

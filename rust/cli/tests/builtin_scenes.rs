@@ -48,6 +48,7 @@ fn every_builtin_scene_matches_brute_force() {
                 triangles: 10_000,
                 frames: 2,
                 rotated,
+                instances: None,
             };
             let anim = builtin(name, &params).unwrap();
             let mut scene = anim.frame(*anim.frame_range().start() + 1);
@@ -128,6 +129,7 @@ fn every_width_order_and_kernel_matches_brute_force_on_every_builtin_scene() {
                 triangles: 4_000,
                 frames: 1,
                 rotated,
+                instances: None,
             };
             let anim = builtin(name, &params).unwrap();
             let mut scene = anim.frame(*anim.frame_range().start());
@@ -266,6 +268,7 @@ fn srdh_trees_match_brute_force_on_every_builtin_scene() {
                 triangles: 4_000,
                 frames: 1,
                 rotated,
+                instances: None,
             };
             let anim = builtin(name, &params).unwrap();
             let mut scene = anim.frame(*anim.frame_range().start());

@@ -131,6 +131,32 @@ fn bad_arguments_fail_with_a_clear_message() {
             ],
             "min_leaf_size: must be at most leaf_size (4), got 6",
         ),
+        (
+            vec!["render", "--scene", "forest", "--instances", "5", "--out"],
+            "scene 'forest' does not take an instance count",
+        ),
+        (
+            vec![
+                "render",
+                "--scene",
+                "instanced-forest",
+                "--instances",
+                "10000001",
+                "--out",
+            ],
+            "instances: must be between 1 and 10000000",
+        ),
+        (
+            vec![
+                "render",
+                "--scene",
+                "/does/not/exist.obj",
+                "--instances",
+                "5",
+                "--out",
+            ],
+            "--instances applies to built-in scenes only",
+        ),
     ] {
         let o = antumbra().args(&args).arg(out).output().unwrap();
         assert!(!o.status.success(), "{args:?} succeeded");

@@ -28,6 +28,7 @@ fn occlusion_agrees_with_embree_on_every_builtin_scene() {
             triangles: 30_000,
             frames: 1,
             rotated: false,
+            instances: None,
         };
         let anim = builtin(name, &params).unwrap();
         let mut scene = anim.frame(*anim.frame_range().start());

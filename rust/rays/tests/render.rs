@@ -23,6 +23,7 @@ fn flattened(name: &str) -> (CoreScene, Vec<[f32; 3]>, Vec<[u32; 3]>) {
         triangles: 20_000,
         frames: 4,
         rotated: false,
+        instances: None,
     };
     let mut scene = antumbra_scenes::builtin(name, &params).unwrap().frame(3);
     scene.resolution = Resolution::new(96, 64);

@@ -41,6 +41,7 @@ fn compare(frames: std::ops::RangeInclusive<i32>) -> Vec<ComparedFrame> {
         triangles: 3000,
         frames: 4,
         rotated: false,
+        instances: None,
     };
     let anim = builtin("bedroom", &params).unwrap();
     let common = NamedSettings::new().with("spp", 2_i64);

@@ -26,7 +26,7 @@ const SWAY_RATE: f64 = TAU * 0.5;
 /// How detailed each tree is; chosen from the budget so that small scenes still hold a dozen
 /// trees and large ones get finer trees rather than only more of them.
 #[derive(Clone, Copy, Debug)]
-struct TreeDetail {
+pub(crate) struct TreeDetail {
     depth: u32,
     sides: u32,
     leaves_per_tip: u32,
@@ -48,7 +48,41 @@ impl TreeDetail {
         }
     }
 
-    fn triangles(&self) -> usize {
+    /// The detail whose tree comes closest to `triangles` (never below the smallest tree, 60):
+    /// as many branch levels as fit with two leaves per tip, then more leaves fill the rest.
+    pub(crate) fn for_tree(triangles: usize) -> Self {
+        let sides = match triangles {
+            0..=1_999 => 4,
+            2_000..=19_999 => 5,
+            _ => 6,
+        };
+        let mut detail = TreeDetail {
+            depth: 1,
+            sides,
+            leaves_per_tip: 2,
+            leaf_half_size: 0.0,
+        };
+        while detail.depth < 12 {
+            let deeper = TreeDetail {
+                depth: detail.depth + 1,
+                ..detail
+            };
+            if deeper.triangles() > triangles {
+                break;
+            }
+            detail = deeper;
+        }
+        let tips = CHILDREN.pow(detail.depth) as usize;
+        let wood = detail.triangles() - tips * detail.leaves_per_tip as usize * 2;
+        let per_tip = (triangles.saturating_sub(wood) as f64 / (2 * tips) as f64).round();
+        detail.leaves_per_tip = per_tip.clamp(2.0, 64.0) as u32;
+        // About 100 square metres of leaves whatever their number.
+        let leaves = (tips * detail.leaves_per_tip as usize) as f64;
+        detail.leaf_half_size = (6.0 / leaves.sqrt()).clamp(0.03, 0.6);
+        detail
+    }
+
+    pub(crate) fn triangles(&self) -> usize {
         let trunk = cylinder_triangles(self.sides, TRUNK_RINGS, false);
         let branches: usize = (1..=self.depth)
             .map(|d| CHILDREN.pow(d) as usize * cylinder_triangles(self.sides, 1, false))
@@ -75,20 +109,7 @@ struct Tree {
 impl Tree {
     fn grow(index: u64, base: DVec3, detail: &TreeDetail) -> Self {
         let mut rng = Pcg32::new(SEED, 1000 + index);
-        let mut mb = MeshBuilder::new();
-        let mut leaves = Vec::new();
-        let trunk_length = rng.range(3.5, 5.0);
-        let trunk_radius = rng.range(0.18, 0.28);
-        let lean = DVec3::new(rng.range(-0.08, 0.08), rng.range(-0.08, 0.08), 1.0).normalize();
-        let branch = Branch {
-            start: DVec3::ZERO,
-            dir: lean,
-            length: trunk_length,
-            radius: trunk_radius,
-            level: 0,
-        };
-        grow_branch(&mut mb, &mut leaves, &mut rng, branch, detail);
-
+        let (mb, leaves) = grow_tree(&mut rng, detail);
         let height = mb
             .positions
             .iter()
@@ -143,6 +164,32 @@ impl Tree {
             .collect();
         Mesh::new(self.name.clone(), positions, self.triangles.clone())
     }
+}
+
+/// A tree's wood and leaves in its rest pose, base at the origin; also the first vertex of each
+/// leaf quad.
+fn grow_tree(rng: &mut Pcg32, detail: &TreeDetail) -> (MeshBuilder, Vec<u32>) {
+    let mut mb = MeshBuilder::new();
+    let mut leaves = Vec::new();
+    let trunk_length = rng.range(3.5, 5.0);
+    let trunk_radius = rng.range(0.18, 0.28);
+    let lean = DVec3::new(rng.range(-0.08, 0.08), rng.range(-0.08, 0.08), 1.0).normalize();
+    let branch = Branch {
+        start: DVec3::ZERO,
+        dir: lean,
+        length: trunk_length,
+        radius: trunk_radius,
+        level: 0,
+    };
+    grow_branch(&mut mb, &mut leaves, rng, branch, detail);
+    (mb, leaves)
+}
+
+/// A still tree (the forest's branching tree in its rest pose) as one mesh, for scenes that
+/// instance it; `seed` and `stream` pick its shape.
+pub(crate) fn still_tree(seed: u64, stream: u64, detail: &TreeDetail, name: &str) -> Mesh {
+    let (mb, _) = grow_tree(&mut Pcg32::new(seed, stream), detail);
+    mb.build(name)
 }
 
 #[derive(Clone, Copy)]

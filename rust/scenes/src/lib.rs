@@ -8,6 +8,7 @@
 
 mod bedroom;
 mod builder;
+mod character_room;
 mod city;
 mod colonnade;
 mod forest;
@@ -15,6 +16,7 @@ pub mod fuzzing;
 mod hairball;
 mod import;
 mod indoors;
+mod instanced_forest;
 mod params;
 mod primitives;
 mod rng;
@@ -27,7 +29,7 @@ use antumbra_core::scene::Animation;
 use antumbra_core::{Error, Result};
 
 pub use import::{load_file, load_file_with, load_gltf, load_obj, ImportLimits};
-pub use params::SceneParams;
+pub use params::{SceneParams, MAX_INSTANCES, MAX_TRIANGLES};
 pub use rotate::{rotate_scene, Rotated, ROTATED_SUFFIX};
 pub use viewpoints::viewpoints;
 
@@ -39,7 +41,12 @@ pub const BUILTIN_SCENES: &[&str] = &[
     "forest",
     "hairball",
     "indoors",
+    "instanced-forest",
+    "character-room",
 ];
+
+/// The built-in scenes that take [`SceneParams::instances`].
+pub const INSTANCED_SCENES: &[&str] = &["instanced-forest"];
 
 /// A built-in animated scene by name. A name ending in "-rot45" (e.g. "city-rot45") is the
 /// variant rotated by 45 degrees about the vertical axis, as is `params.rotated`.
@@ -55,6 +62,8 @@ pub fn builtin(name: &str, params: &SceneParams) -> Result<Box<dyn Animation>> {
         "forest" => |p| Box::new(forest::Forest::new(p)),
         "hairball" => |p| Box::new(hairball::Hairball::new(p)),
         "indoors" => |p| Box::new(indoors::Indoors::new(p)),
+        "instanced-forest" => |p| Box::new(instanced_forest::InstancedForest::new(p)),
+        "character-room" => |p| Box::new(character_room::CharacterRoom::new(p)),
         _ => {
             let known = BUILTIN_SCENES.join(", ");
             return Err(Error::invalid(
@@ -65,6 +74,15 @@ pub fn builtin(name: &str, params: &SceneParams) -> Result<Box<dyn Animation>> {
             ));
         }
     };
+    if params.instances.is_some() && !INSTANCED_SCENES.contains(&base) {
+        return Err(Error::invalid(
+            "instances",
+            format!(
+                "scene '{name}' does not take an instance count (only {} do)",
+                INSTANCED_SCENES.join(", ")
+            ),
+        ));
+    }
     let anim = make(params.validated()?);
     Ok(if rotated {
         Box::new(Rotated::new(anim))

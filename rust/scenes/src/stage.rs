@@ -40,6 +40,17 @@ impl Stage {
         index
     }
 
+    /// Places the stage's mesh `mesh` at `xf` in every frame (an instance when several objects
+    /// share a mesh).
+    pub fn place(&mut self, name: String, mesh: usize, xf: DMat4) {
+        self.objects.push(Object::new(name, mesh, xf));
+    }
+
+    /// Room for `additional` more placed objects.
+    pub fn reserve_objects(&mut self, additional: usize) {
+        self.objects.reserve(additional);
+    }
+
     /// A frame holding the static part (the same `Arc`s every time); callers add what moves.
     pub fn scene(&self, frame: i32, camera: Camera, lights: Vec<Light>) -> Scene {
         Scene {

@@ -30,7 +30,7 @@ pub struct DemoArgs {
 
 pub fn run(args: DemoArgs) -> Result<()> {
     let frames = args.frames.max(1);
-    let scene = open_scene(&args.scene, args.triangles, frames)?;
+    let scene = open_scene(&args.scene, args.triangles, None, frames)?;
     let mut settings = args.method.settings()?;
     settings.stats = antumbra_core::render::StatsMode::CountsAndTiming;
     let rows = render_frames(

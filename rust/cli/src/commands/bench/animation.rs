@@ -26,7 +26,7 @@ pub(super) fn animation_curve(
     out: &Path,
 ) -> Result<()> {
     std::fs::create_dir_all(out)?;
-    let anim = open_scene(scene_name, triangles, frames)?;
+    let anim = open_scene(scene_name, triangles, None, frames)?;
     let configs = [
         ("SAH", BuildMethod::Sah, VisibilitySource::Previous),
         ("SBVH", BuildMethod::Sbvh, VisibilitySource::Previous),

@@ -28,7 +28,7 @@ impl BenchScene {
     ) -> Result<BenchScene> {
         let asked = frames.map(parse_frames).transpose()?;
         let length = asked.as_ref().map_or(length, |r| *r.end()).max(1);
-        let animation = open_scene(name, triangles, length)?;
+        let animation = open_scene(name, triangles, None, length)?;
         let kind = SceneKind::of(name);
         let range = animation.frame_range();
         let frames: RangeInclusive<i32> = match (&asked, kind) {
