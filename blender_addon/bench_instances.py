@@ -54,15 +54,15 @@ def mesh_object(collection, name: str, vertices, faces, location=(0, 0, 0)):
 
 
 def _random(tree, kind: str, low, high, seed: int):
-    """A Random Value node of KIND and its output. Its sockets share names across types, so
-    they are taken by position (vector 0-1, float 2-3, int 4-5)."""
+    """A Random Value node of KIND and its output. Before Blender 5.3 it has sockets of every
+    type under the same names, so the enabled ones of KIND's socket type are taken."""
     node = tree.nodes.new("FunctionNodeRandomValue")
     node.data_type = kind
-    first = {"FLOAT_VECTOR": 0, "FLOAT": 2, "INT": 4}[kind]
-    node.inputs[first].default_value = low
-    node.inputs[first + 1].default_value = high
+    socket_type = {"FLOAT_VECTOR": "VECTOR", "FLOAT": "VALUE", "INT": "INT"}[kind]
+    low_in, high_in = (s for s in node.inputs if s.name in ("Min", "Max") and s.type == socket_type)
+    low_in.default_value, high_in.default_value = low, high
     node.inputs["Seed"].default_value = seed
-    return node.outputs[first // 2]
+    return next(s for s in node.outputs if s.type == socket_type)
 
 
 def meshes_from(source) -> bool:
@@ -238,6 +238,7 @@ def main():
         if hasattr(read_instances_auto, "last"):
             found = read_instances_auto.last
             print(f"read_instances route: {found.route} {found.reason}; {found.count()} placements")
+            del read_instances_auto.last, found  # its geometry sets, before Blender frees
         del scene
 
 
