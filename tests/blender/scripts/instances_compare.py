@@ -3,7 +3,8 @@ this Blender) and its depsgraph loop with the exporter's ``depsgraph.object_inst
 Runs in Debian's Blender (``blender -b -P instances_compare.py -- ARGS``) and with the bpy
 module (``python instances_compare.py -- ARGS``).
 
-Writes OUT (JSON), per scene: ``route`` (and ``reason``) taken, ``placements``, ``groups``,
+Writes OUT (JSON): ``geometry_set_api`` (this Blender has ``bpy.types.GeometrySet``) and per
+scene: ``route`` (and ``reason``) taken, ``placements``, ``groups``,
 ``same`` (both routes give the groups of a plain per-instance walk, matrices equal to the bit,
 same ids), ``diff`` and ``loop_diff`` (what differed), ``exporter`` (the placements the exporter
 sends) beside ``loop_shown`` (the loop's placements the exporter would send).
@@ -83,9 +84,35 @@ def collection_instances(b):
     return scene
 
 
+def distribute(b, collection, name: str, lib):
+    """A quad whose node tree scatters the meshes of LIB on it with Distribute Points on
+    Faces, which gives the instances an ``id`` attribute (their persistent ids)."""
+    ground = b.mesh_object(
+        collection, name, [(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [(0, 1, 2, 3)]
+    )
+    tree = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    b._socket(tree, "Geometry", "INPUT", "NodeSocketGeometry")
+    b._socket(tree, "Geometry", "OUTPUT", "NodeSocketGeometry")
+    points = tree.nodes.new("GeometryNodeDistributePointsOnFaces")
+    points.inputs["Density"].default_value = 20.0
+    on_points = tree.nodes.new("GeometryNodeInstanceOnPoints")
+    on_points.inputs["Pick Instance"].default_value = True
+    info = tree.nodes.new("GeometryNodeCollectionInfo")
+    info.inputs["Collection"].default_value = lib
+    info.inputs["Separate Children"].default_value = True
+    link = tree.links.new
+    link(tree.nodes.new("NodeGroupInput").outputs[0], points.inputs[0])
+    link(points.outputs[0], on_points.inputs["Points"])
+    link(info.outputs[0], on_points.inputs["Instance"])
+    link(on_points.outputs[0], tree.nodes.new("NodeGroupOutput").inputs[0])
+    ground.modifiers.new(name, "NODES").node_group = tree
+    return ground
+
+
 def scatter_three(b):
     scene = empty_scene()
     lib = b.library("Lib", 3)
+    distribute(b, scene.collection, "Distributed", lib).location = (0, 0, -3)
     obj = b.scatter(scene.collection, "Scatter", 3000, lib, seed=3, size=20.0)
     obj.location = (0.3, -1.7, 0.2)
     obj.rotation_euler = (0.2, 0.1, 0.7)
@@ -209,7 +236,7 @@ def compare(found, expected: dict) -> list[str]:
 def main():
     a = args()
     instances, exporter, bench, client = load(Path(a.addon))
-    result = {}
+    result = {"geometry_set_api": hasattr(bpy.types, "GeometrySet"), "scenes": {}}
     for name, build in SCENES.items():
         scene = build(bench)
         depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -222,7 +249,7 @@ def main():
             for g in loop.groups.values()
             if (g.visible_camera or g.visible_shadow) and len(g.mesh.polygons)
         )
-        result[name] = {
+        result["scenes"][name] = entry = {
             "route": fast.route,
             "reason": fast.reason,
             "placements": fast.count(),
@@ -232,7 +259,7 @@ def main():
             "exporter": len(sent.objects),
             "loop_shown": shown,
         }
-        result[name]["same"] = not result[name]["diff"] and not result[name]["loop_diff"]
+        entry["same"] = not entry["diff"] and not entry["loop_diff"]
     Path(a.out).write_text(json.dumps(result, indent=1))
 
 
