@@ -69,10 +69,13 @@ def meshes_from(source) -> bool:
     return isinstance(source, bpy.types.Collection)
 
 
-def scatter(collection, name: str, count: int, source, seed: int = 0, size: float = 50.0):
+def scatter(
+    collection, name: str, count: int, source, seed: int = 0, size: float = 50.0, with_points=False
+):
     """A one-vertex mesh object whose geometry-nodes modifier puts COUNT instances of SOURCE at
     random points, rotations and scales: an object (Object Info: one mesh) or a collection
-    (Collection Info, separate children, one picked per point)."""
+    (Collection Info, separate children, one picked per point). WITH_POINTS outputs the point cloud
+    too."""
     points = mesh_object(collection, name, [(0, 0, 0)], [])
     tree = bpy.data.node_groups.new(name, "GeometryNodeTree")
     _socket(tree, "Geometry", "INPUT", "NodeSocketGeometry")
@@ -99,7 +102,13 @@ def scatter(collection, name: str, count: int, source, seed: int = 0, size: floa
         info = tree.nodes.new("GeometryNodeObjectInfo")
         info.inputs["Object"].default_value = source
     link(info.outputs[0 if meshes_from(source) else "Geometry"], on_points.inputs["Instance"])
-    link(on_points.outputs[0], tree.nodes.new("NodeGroupOutput").inputs[0])
+    output = on_points.outputs[0]
+    if with_points:
+        join = tree.nodes.new("GeometryNodeJoinGeometry")
+        link(cloud.outputs[0], join.inputs[0])
+        link(on_points.outputs[0], join.inputs[0])
+        output = join.outputs[0]
+    link(output, tree.nodes.new("NodeGroupOutput").inputs[0])
     points.modifiers.new("Scatter", "NODES").node_group = tree
     return points
 

@@ -2,9 +2,9 @@
 ``depsgraph.object_instances`` walk, in Debian's Blender 3.4 (``blender -b``) and in the bpy
 module of this Python (the GeometrySet route from Blender 4.3; 3.4 and 4.2 have the loop only):
 linked duplicates, collection instances, geometry-nodes scatters of three meshes (one with
-``id`` attributes), a collection holding a scatter instanced twice, and objects hidden from
-render, camera or shadow rays. The same placements, ids and matrices to the bit, whichever
-route ran."""
+``id`` attributes), a collection holding a scatter instanced twice, objects hidden from render,
+camera or shadow rays, and a scatter that outputs its points too. The same placements, ids and
+matrices to the bit, whichever route ran."""
 
 from __future__ import annotations
 
@@ -24,6 +24,7 @@ def test_read_instances_equals_the_depsgraph_loop(kind, addon_zips, short_tmp):
         assert scene["exporter"] == scene["loop_shown"], (name, scene)
     assert scenes["scatter_three"]["placements"] > 3000 + 1000 + 3  # and the distributed ones
     assert scenes["nested"]["placements"] == 2 * (500 + 1)  # and the instancers
+    assert scenes["beside_points"]["placements"] == 700 + 1
     routes = {name: scene["route"] for name, scene in scenes.items()}
     fast = {name for name, route in routes.items() if route == "geometry_set"}
     if kind == "blender" or not found["geometry_set_api"]:  # Blender 3.4 and 4.2

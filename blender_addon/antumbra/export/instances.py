@@ -33,6 +33,8 @@ ID_LENGTH = 8
 _NO_GEOMETRY = {"EMPTY", "LIGHT", "CAMERA", "ARMATURE", "LATTICE", "SPEAKER", "LIGHT_PROBE"}
 _NO_GEOMETRY |= {"LIGHTPROBE"}
 _NOT_INSTANCED = (0,) * ID_LENGTH
+#: Components a mesh object's evaluated geometry may carry besides its mesh and instances.
+_OTHER_COMPONENTS = ("volume", "curves", "pointcloud", "grease_pencil")
 
 
 @dataclass
@@ -160,6 +162,9 @@ def _geometry_nodes_instances(bpy, obj, collector: _Collector, keep: list) -> No
     cloud = geometry.instances_pointcloud()
     if cloud is None or len(cloud.points) == 0:
         return
+    if any(getattr(geometry, kind, None) is not None for kind in _OTHER_COMPONENTS):
+        # Blender then lists those first and numbers the instances one level deeper.
+        raise _Unsupported(f"'{obj.name}': instances beside non-mesh geometry")
     keep.append(geometry)
     n = len(cloud.points)
     transforms = _read_attribute(cloud, "instance_transform", np.float32, 16)

@@ -154,12 +154,22 @@ def visibility_flags(b):
     return scene
 
 
+def beside_points(b):
+    """A scatter that outputs its point cloud beside the instances."""
+    scene = empty_scene()
+    b.scatter(
+        scene.collection, "Both", 700, b.library("Lib", 3), seed=6, size=8.0, with_points=True
+    )
+    return scene
+
+
 SCENES = {
     "linked_duplicates": linked_duplicates,
     "collection_instances": collection_instances,
     "scatter_three": scatter_three,
     "nested": nested,
     "visibility_flags": visibility_flags,
+    "beside_points": beside_points,
 }
 
 
