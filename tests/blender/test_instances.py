@@ -12,7 +12,13 @@ import pytest
 from test_export_count import KINDS, run_script
 
 #: Scenes the GeometrySet route reads itself; the rest fall back to the loop as a whole.
-GEOMETRY_SET_SCENES = {"linked_duplicates", "scatter_three", "visibility_flags"}
+GEOMETRY_SET_SCENES = {
+    "linked_duplicates",
+    "collection_instances",
+    "scatter_three",
+    "nested",
+    "visibility_flags",
+}
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -23,7 +29,9 @@ def test_read_instances_equals_the_depsgraph_loop(kind, addon_zips, short_tmp):
         assert scene["same"], (name, scene["diff"], scene["loop_diff"])
         assert scene["exporter"] == scene["loop_shown"], (name, scene)
     assert scenes["scatter_three"]["placements"] > 3000 + 1000 + 3  # and the distributed ones
-    assert scenes["nested"]["placements"] == 2 * (500 + 1)  # and the instancers
+    # Two shown empties, each: the scatters with their instancers (the exporter, like the
+    # depsgraph's viewport mode, keeps the hidden scatter's instances of shown objects).
+    assert scenes["nested"]["placements"] == 2 * (501 + 41 + 50)
     assert scenes["beside_points"]["placements"] == 700 + 1
     routes = {name: scene["route"] for name, scene in scenes.items()}
     fast = {name for name, route in routes.items() if route == "geometry_set"}

@@ -156,8 +156,12 @@ def _hidden(original) -> bool:
     return bool(original.hide_render)
 
 
-def _geometry_nodes_instances(bpy, obj, collector: _Collector, keep: list) -> None:
-    """The instances a geometry-nodes modifier put on OBJ (evaluated), in bulk."""
+def _geometry_nodes_instances(
+    bpy, obj, collector: _Collector, keep: list, space=None, outer: tuple = ()
+) -> None:
+    """The instances a geometry-nodes modifier put on OBJ (evaluated), in bulk. Inside a
+    collection instance, SPACE is the collection's matrix (applied last, as Blender's
+    ``space_mat``) and OUTER the collection's ids, appended to each persistent id."""
     geometry = bpy.types.GeometrySet.from_evaluated_object(obj)
     cloud = geometry.instances_pointcloud()
     if cloud is None or len(cloud.points) == 0:
@@ -177,6 +181,8 @@ def _geometry_nodes_instances(bpy, obj, collector: _Collector, keep: list) -> No
     elif len(np.unique(stable)) != n:
         raise _Unsupported(f"'{obj.name}': an id attribute with repeated values")
     world = _mul(np.array(obj.matrix_world, dtype=np.float32), transforms.reshape(n, 4, 4))
+    if space is not None:
+        world = _mul(space, world.transpose(0, 2, 1))
     instancer = obj.original
     references_list = geometry.instance_references()
     keep.append(references_list)  # each GeometrySet frees its mesh with itself
@@ -189,12 +195,14 @@ def _geometry_nodes_instances(bpy, obj, collector: _Collector, keep: list) -> No
                 raise _Unsupported(f"'{obj.name}' instances object '{reference.name}'")
             if _hidden(reference.original):
                 continue
-            collector.add(reference.data, reference.original, world[rows], _ids(stable[rows]), True)
+            ids = _ids(stable[rows], *outer)
+            collector.add(reference.data, reference.original, world[rows], ids, True)
         elif isinstance(reference, bpy.types.GeometrySet):
             if reference.instances_pointcloud() is not None:
                 raise _Unsupported(f"'{obj.name}' instances nested instances")
-            if reference.mesh is not None:
-                collector.add(reference.mesh, instancer, world[rows], _ids(0, stable[rows]), True)
+            if reference.mesh is not None and not _hidden(instancer):
+                ids = _ids(0, stable[rows], *outer)
+                collector.add(reference.mesh, instancer, world[rows], ids, True)
         else:
             raise _Unsupported(f"'{obj.name}' instances a {type(reference).__name__}")
 
@@ -210,10 +218,63 @@ def _plain_mesh(obj) -> bool:
     )
 
 
+def _collection_objects(collection, mode: str):
+    """(index, object) for each object a collection instance shows, indexed as Blender's
+    collection object cache counts them (the collection's own objects, then its children's,
+    each object once) and shown as that cache's flags and the object's say."""
+    hide = "hide_viewport" if mode == "VIEWPORT" else "hide_render"
+    order: dict[int, list] = {}
+
+    def fill(c, hidden: bool):
+        hidden = hidden or getattr(c, hide)
+        for obj in c.objects:
+            entry = order.setdefault(obj.as_pointer(), [obj, False])
+            entry[1] = entry[1] or not hidden
+        for child in c.children:
+            fill(child, hidden)
+
+    fill(collection, False)
+    for index, (obj, enabled) in enumerate(order.values()):
+        if enabled and not getattr(obj, hide):
+            yield index, obj
+
+
+def _collection_instance(bpy, depsgraph, empty, collector: _Collector, keep: list) -> None:
+    """The placements of an empty instancing a collection: ``C = world @ translate(-offset)``,
+    each shown object at ``C @ its world`` (id ``[n]``), its node-tree instances at
+    ``C @ (its world @ transform)`` (ids ``[id, n]``, ``[0, id, n]``)."""
+    collection = empty.original.instance_collection
+    if collection is None:
+        return
+    offset = np.identity(4, dtype=np.float32)
+    offset[:3, 3] = -np.array(collection.instance_offset, dtype=np.float32)
+    space = _mul(np.array(empty.matrix_world, dtype=np.float32), offset.T[None])[0]
+    hidden = _hidden(empty.original)
+    for index, original in _collection_objects(collection, depsgraph.mode):
+        if original == empty.original:
+            continue
+        obj = original.evaluated_get(depsgraph)
+        if obj.type in _NO_GEOMETRY and original.instance_type == "NONE":
+            continue
+        if obj.type != "MESH" or original.instance_type != "NONE" or original.particle_systems:
+            raise _Unsupported(f"'{empty.name}' instances '{obj.name}' ({obj.type})")
+        if not (hidden or _hidden(original)):
+            world = np.array(obj.matrix_world, dtype=np.float32)
+            placed = _mul(space, world.T[None])
+            collector.add(obj.data, original, placed, _ids(np.array([index])), True)
+        if any(m.type == "NODES" for m in original.modifiers):
+            # The instances' own hide flags are checked where they are read; the empty's here.
+            if not hidden:
+                _geometry_nodes_instances(bpy, obj, collector, keep, space, (index,))
+
+
 def _geometry_set_route(bpy, depsgraph) -> Instances:
     collector, keep = _Collector(), []
     for obj in depsgraph.objects:
         original = obj.original
+        if obj.type == "EMPTY" and original.instance_type == "COLLECTION":
+            _collection_instance(bpy, depsgraph, obj, collector, keep)
+            continue
         if obj.type in _NO_GEOMETRY and original.instance_type == "NONE":
             continue
         if obj.type != "MESH" or original.instance_type != "NONE" or original.particle_systems:

@@ -70,9 +70,22 @@ def linked_duplicates(b):
 
 
 def collection_instances(b):
+    """Empties instancing a collection with an offset, some of whose objects are hidden (from
+    render, which the exporter skips, or from the viewport, which Blender skips but counts),
+    one in a child collection hidden from the viewport."""
     scene = empty_scene()
-    lib = b.library("Lib", 3)
+    lib = b.library("Lib", 5)
     lib.instance_offset = (0.5, 0.25, 0)
+    lib.objects[1].hide_render = True
+    lib.objects[2].hide_viewport = True
+    child = bpy.data.collections.new("Child")
+    lib.children.link(child)
+    b.mesh_object(child, "InChild", b.CUBE_V, b.CUBE_F, (0, 3, 0))
+    hidden_child = bpy.data.collections.new("HiddenChild")
+    hidden_child.hide_viewport = True
+    lib.children.link(hidden_child)
+    b.mesh_object(hidden_child, "InHiddenChild", b.CUBE_V, b.CUBE_F, (0, 4, 0))
+    b.mesh_object(child, "AfterHidden", b.CUBE_V, b.CUBE_F, (0, 5, 0))
     for i in range(4):
         empty = bpy.data.objects.new(f"Put{i}", None)
         empty.instance_type = "COLLECTION"
@@ -123,16 +136,21 @@ def scatter_three(b):
 
 
 def nested(b):
-    """A collection holding a geometry-nodes scatter, instanced twice by empties."""
+    """A collection holding geometry-nodes scatters (one hidden from render), instanced by
+    three empties (one hidden from render)."""
     scene = empty_scene()
     lib = b.library("Lib", 2)
     inner = bpy.data.collections.new("Inner")
     b.scatter(inner, "InnerScatter", 500, lib, seed=4, size=5.0)
-    for i in range(2):
+    b.scatter(inner, "HiddenScatter", 50, lib, seed=5, size=5.0).hide_render = True
+    b.scatter(inner, "Beside", 40, lib.objects[0], seed=6, size=2.0).location = (0, 8, 0)
+    for i in range(3):
         empty = bpy.data.objects.new(f"Put{i}", None)
         empty.instance_type = "COLLECTION"
         empty.instance_collection = inner
         empty.location = (12 * i, 0, 0)
+        empty.rotation_euler = (0.1 * i, 0, 0.3 * i)
+        empty.hide_render = i == 2
         scene.collection.objects.link(empty)
     return scene
 
