@@ -5,14 +5,16 @@ instance where Blender allows it.
 Two routes give the same instances and bit-for-bit the same matrices:
 
 - ``geometry_set`` (Blender 4.3 and later, ``bpy.types.GeometrySet``): one step per object of
-  the view layer; a geometry-nodes instancer's transforms and reference indices are read with
-  ``foreach_get`` and multiplied by the instancer's matrix in numpy, in float32 and in the order
-  Blender's ``mul_m4_m4m4`` adds (pairwise), so the product is Blender's own to the bit.
+  the view layer and per object of an instanced collection; a geometry-nodes instancer's
+  transforms and reference indices are read with ``foreach_get`` and multiplied by the
+  instancer's matrix in numpy, in float32 and in the order Blender's ``mul_m4_m4m4`` adds
+  (pairwise), so the product is Blender's own to the bit.
 - ``depsgraph`` (every Blender): the ``depsgraph.object_instances`` loop, the exporter's
   reference. Taken as a whole whenever the scene holds something the first route does not read
-  yet (collection instances, vertex/face instancing, particles, curve/text/surface/metaball
-  objects, instancers nested inside instances, non-unique ``id`` attributes), so the result is
-  never a mix of the two.
+  yet (collections instanced inside instanced collections or by node trees, vertex/face
+  instancing, particles, curve/text/surface/metaball objects, node-tree geometry holding
+  instances itself, instancers outputting other components beside instances, non-unique ``id``
+  attributes), so the result is never a mix of the two.
 
 ``read_instances`` does not decide what the exporter sends; it is the bulk read the instanced
 protocol (issue 37) will use. See docs/instances_export.md for the measurements.
