@@ -13,13 +13,12 @@ use antumbra_core::bvh::BvhWidth;
 use antumbra_core::geometry::{Aabb, Ray};
 use antumbra_core::order::OrderView;
 use antumbra_core::render::WideTree;
-use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::scene::{FrameGeometry, Mesh, Object, RenderSpace, Scene};
 use antumbra_core::trace::{brute_occluded, NoStats, RayQuery, TraversalStats};
 use antumbra_core::two_level::{
     brute, instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel,
 };
-use glam::{DMat4, DQuat, DVec3, Vec3};
+use glam::{DMat4, DVec3, Vec3};
 
 struct Built {
     space: RenderSpace,
@@ -56,60 +55,13 @@ fn two_level(scene: &Scene) -> Built {
     }
 }
 
-fn rand(seed: u32) -> f64 {
-    unit_float(hash_u32(seed)) as f64
-}
-
-fn rand3(seed: u32) -> DVec3 {
-    DVec3::new(
-        rand(seed),
-        rand(seed ^ 0x1234_5678),
-        rand(seed ^ 0x0bad_cafe),
-    )
-}
-
-/// `count` objects over three shared meshes, rotated, scaled, some mirrored and some sheared.
-fn instanced_scene(count: u32) -> Scene {
-    let meshes = vec![
-        Arc::new(common::sphere("sphere", 12, 24)),
-        Arc::new(common::cube("cube")),
-        Arc::new(common::grid("grid", 6)),
-    ];
-    let objects = (0..count)
-        .map(|i| {
-            let s = i * 7919;
-            let at = (rand3(s) - 0.5) * 20.0;
-            let rotation = DQuat::from_axis_angle(
-                (rand3(s + 1) - 0.5).normalize_or(DVec3::Z),
-                rand(s + 2) * 6.0,
-            );
-            let mut scale = DVec3::splat(0.3 + rand(s + 3) * 1.5);
-            if i % 5 == 0 {
-                scale.x = -scale.x; // mirrored
-            }
-            let mut m = DMat4::from_scale_rotation_translation(scale, rotation, at);
-            if i % 7 == 0 {
-                // Sheared: x gains a share of y.
-                let mut shear = DMat4::IDENTITY;
-                shear.y_axis.x = 0.6;
-                m *= shear;
-            }
-            Object::new(format!("o{i}"), (i % 3) as usize, m)
-        })
-        .collect();
-    let mut scene = common::boxes_scene(32);
-    scene.meshes = meshes;
-    scene.objects = objects;
-    scene
-}
-
 /// Rays between random points of render space (segments, t in (0, 1]) and unbounded rays.
 fn rays(n: u32, seed: u32) -> Vec<Ray> {
     (0..n)
         .map(|i| {
             let s = seed.wrapping_add(i * 104_729);
-            let a = ((rand3(s) - 0.5) * 2.4).as_vec3();
-            let b = ((rand3(s + 5) - 0.5) * 2.4).as_vec3();
+            let a = ((common::rand3(s) - 0.5) * 2.4).as_vec3();
+            let b = ((common::rand3(s + 5) - 0.5) * 2.4).as_vec3();
             if i % 2 == 0 {
                 Ray::new(a, b - a, 0.0, 1.0)
             } else {
@@ -184,7 +136,7 @@ fn assert_exact(b: &Built, rays: &[Ray], label: &str) -> TraversalStats {
 
 #[test]
 fn two_level_answers_equal_brute_force_through_mirrored_and_sheared_instances() {
-    let scene = instanced_scene(300);
+    let scene = common::instanced_scene(300);
     let b = two_level(&scene);
     assert_eq!(b.instances.len(), 300);
     assert_eq!(b.meshes.len(), 3, "three meshes, one tree each");
@@ -194,7 +146,7 @@ fn two_level_answers_equal_brute_force_through_mirrored_and_sheared_instances() 
 
 #[test]
 fn hits_name_the_object_and_the_mesh_triangle() {
-    let scene = instanced_scene(50);
+    let scene = common::instanced_scene(50);
     let b = two_level(&scene);
     let q = TwoLevel {
         top: &b.top,
@@ -232,7 +184,7 @@ fn hits_name_the_object_and_the_mesh_triangle() {
 
 #[test]
 fn two_level_agrees_with_the_flat_tree_of_the_same_objects() {
-    let scene = instanced_scene(200);
+    let scene = common::instanced_scene(200);
     let b = two_level(&scene);
     let flat = FrameGeometry::from_scene(&scene).unwrap();
     let q = TwoLevel {
@@ -251,7 +203,7 @@ fn two_level_agrees_with_the_flat_tree_of_the_same_objects() {
 
 #[test]
 fn extreme_instance_transforms_stay_exact_and_keep_their_answers() {
-    let scene = instanced_scene(120);
+    let scene = common::instanced_scene(120);
     let reference = two_level(&scene);
     let rays = rays(1500, 29);
     let q = |b: &Built, r: &Ray| {
@@ -331,9 +283,10 @@ fn closed_sphere_is_watertight_through_a_sheared_mirrored_instance() {
     let r = render_from_mesh(&b.space, &m, &b.meshes[0].space);
     let mut escaped = 0;
     for i in 0..20_000u32 {
-        let inside =
-            r.transform_point3((rand3(i) - 0.5) * 0.4 + b.meshes[0].space.point(DVec3::ZERO));
-        let d = (rand3(i ^ 0x55) - 0.5).as_vec3();
+        let inside = r.transform_point3(
+            (common::rand3(i) - 0.5) * 0.4 + b.meshes[0].space.point(DVec3::ZERO),
+        );
+        let d = (common::rand3(i ^ 0x55) - 0.5).as_vec3();
         let ray = Ray::new(inside.as_vec3(), d, 0.0, f32::INFINITY);
         if q.closest_hit(&ray, &mut NoStats).is_none() || !q.occluded(&ray, &mut NoStats) {
             escaped += 1;

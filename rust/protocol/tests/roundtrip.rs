@@ -345,14 +345,15 @@ fn compare_row() -> impl Strategy<Value = CompareRowState> {
 }
 
 fn mismatch() -> impl Strategy<Value = MismatchState> {
-    (any::<i32>(), name(), name(), any::<u32>()).prop_map(|(frame, label, what, pixels)| {
-        MismatchState {
+    (any::<i32>(), name(), name(), any::<u32>(), any::<bool>()).prop_map(
+        |(frame, label, what, pixels, across_structures)| MismatchState {
             frame,
             label,
             what,
             pixels: pixels as usize,
-        }
-    })
+            across_structures,
+        },
+    )
 }
 
 fn reply() -> impl Strategy<Value = Reply> {

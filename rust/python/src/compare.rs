@@ -142,8 +142,9 @@ pub fn compare_reply_to_py<'py>(
         }
         rows.append(d)?;
     }
+    // Wrong answers only; edge differences across scene structures are not errors.
     let mismatches = PyList::empty(py);
-    for m in &r.mismatches {
+    for m in r.mismatches.iter().filter(|m| m.is_wrong()) {
         let d = PyDict::new(py);
         d.set_item("frame", m.frame)?;
         d.set_item("label", &m.label)?;

@@ -94,6 +94,7 @@ fn result_from_planes(frame: i32, mut planes: Vec<ImagePlane>) -> ClientResult<F
         heat,
         visible: Vec::new(),
         primary_hits: Vec::new(),
+        structure: Default::default(),
         primary_objects: Vec::new(),
         stats: Vec::new(),
     })

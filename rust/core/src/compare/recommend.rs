@@ -109,7 +109,11 @@ pub fn recommend(
     mismatches: &[Mismatch],
     hindsight: Option<&Hindsight>,
 ) -> Option<Recommendation> {
-    let wrong: BTreeSet<&str> = mismatches.iter().map(|m| m.label.as_str()).collect();
+    let wrong: BTreeSet<&str> = mismatches
+        .iter()
+        .filter(|m| m.is_wrong())
+        .map(|m| m.label.as_str())
+        .collect();
     let candidates: Vec<&str> = labels
         .iter()
         .copied()
@@ -299,7 +303,15 @@ mod tests {
             label: "broken".into(),
             what: "light 'Sun'".into(),
             pixels: 3,
+            across_structures: false,
         };
+        // The same difference across scene structures is an edge difference, not an error.
+        let edge = Mismatch {
+            across_structures: true,
+            ..broken.clone()
+        };
+        let r = recommend(&rows, &["a", "b", "c", "broken"], "a", &[edge], None).unwrap();
+        assert_eq!(r.label, "broken");
         let r = recommend(&rows, &["a", "b", "c", "broken"], "a", &[broken], None).unwrap();
         assert_eq!(r.label, "a");
         assert_eq!(r.ties, vec!["b".to_string()]);

@@ -6,7 +6,11 @@
 use std::fmt;
 use std::mem::size_of;
 
-use super::{Pick, RenderSettings, ShadowRayOutcome, StatsMode, SurfacePoint, VisibilitySource};
+use super::policy::auto_structure;
+use super::{
+    Pick, RenderSettings, SceneStructure, ShadowRayOutcome, StatsMode, SurfacePoint,
+    VisibilitySource,
+};
 use crate::build::BuildMethod;
 use crate::bvh::BvhWidth;
 use crate::geometry::Ray;
@@ -25,6 +29,11 @@ const BUILD_BYTES_PER_REF: u64 = 224;
 const TREE_BYTES_PER_REF: u64 = 128;
 /// A collapsed wide tree, its triangle rows and per-light sorting tables, per reference.
 const WIDE_BYTES_PER_REF: u64 = 128;
+/// An instance of a two-level frame as its top level keeps it: the instance (56 bytes), its
+/// share of the top level's nodes and leaf-order ids.
+const INSTANCE_BYTES: u64 = 128;
+/// An instance while its top level is built: its box and reference, the placed list.
+const INSTANCE_BUILD_BYTES: u64 = 160;
 /// The process itself: code, thread stacks, allocator caches.
 const PROCESS_BYTES: u64 = 32 << 20;
 /// A representative ray of a light's preparation (SRDH, sorting): the ray, its hit list and
@@ -44,6 +53,11 @@ pub struct RenderMemory {
     pub lights: u64,
     /// Triangles in the frame's camera and shadow sets (every object times its mesh).
     pub world_triangles: u64,
+    /// Triangles the trees hold: the world triangles of a flat frame, the unique meshes'
+    /// triangles of a two-level one.
+    pub held_triangles: u64,
+    /// Objects placed as instances of mesh trees (two-level frames; 0 for flat ones).
+    pub instances: u64,
     /// Planes the caller copies out after the render (a reply, image files).
     pub output_planes: u64,
     /// The planes of the result, the planes copied out and the process itself: what a render
@@ -87,8 +101,8 @@ impl fmt::Display for RenderMemory {
         write!(
             f,
             "about {} ({}x{} pixels with {} shadow light(s) and {} output plane(s): {}, and {} \
-             for the passes' buffers; {} world triangles: {} of geometry and trees, and {} while \
-             building them; {} for one light's preparation)",
+             for the passes' buffers; {} world triangles held as {}: {} of geometry and trees, \
+             and {} while building them; {} for one light's preparation)",
             format_bytes(self.total()),
             self.width,
             self.height,
@@ -97,6 +111,14 @@ impl fmt::Display for RenderMemory {
             format_bytes(self.image_bytes),
             format_bytes(self.pass_bytes),
             self.world_triangles,
+            if self.instances > 0 {
+                format!(
+                    "{} unique triangles and {} instances",
+                    self.held_triangles, self.instances
+                )
+            } else {
+                "a flat set".to_string()
+            },
             format_bytes(self.geometry_bytes),
             format_bytes(self.build_bytes),
             format_bytes(self.light_bytes),
@@ -195,6 +217,33 @@ pub fn estimate_render_bytes(
         0
     };
     let world_triangles = camera + shadow;
+    // Two levels hold each used mesh once (its tree shared by both sets) and an instance per
+    // object of each set; a flat frame holds every world triangle.
+    let two_level = match settings.structure {
+        Pick::Fixed(s) => s,
+        Pick::Auto => auto_structure(scene, settings),
+    } == SceneStructure::TwoLevel;
+    let (held_triangles, instances) = if two_level {
+        let mut used = vec![false; scene.meshes.len()];
+        let mut instances = 0u64;
+        for o in &scene.objects {
+            if let Some(u) = used.get_mut(o.mesh) {
+                *u = true;
+            }
+            instances += o.visible_to_camera as u64;
+            instances += (separate_shadow_set && o.casts_shadow) as u64;
+        }
+        let held = scene
+            .meshes
+            .iter()
+            .zip(&used)
+            .filter(|(_, u)| **u)
+            .map(|(m, _)| m.triangles.len() as u64)
+            .sum();
+        (held, instances)
+    } else {
+        (world_triangles, 0)
+    };
     // Per triangle of a set: its render-space vertices and reference, gathered per object and
     // then joined (twice at the peak, once kept).
     let set_bytes = (size_of::<[glam::Vec3; 3]>() + size_of::<TriangleRef>()) as u64;
@@ -227,14 +276,16 @@ pub fn estimate_render_bytes(
     } else {
         0
     };
-    let geometry_bytes = world_triangles
+    let geometry_bytes = held_triangles
         .saturating_mul(set_bytes)
-        .saturating_add(refs(world_triangles).saturating_mul(kept_per_ref));
-    let build_bytes = world_triangles
+        .saturating_add(refs(held_triangles).saturating_mul(kept_per_ref))
+        .saturating_add(instances.saturating_mul(INSTANCE_BYTES));
+    let build_bytes = held_triangles
         .saturating_mul(set_bytes)
         .saturating_add(
-            refs(world_triangles).saturating_mul(BUILD_BYTES_PER_REF - TREE_BYTES_PER_REF),
+            refs(held_triangles).saturating_mul(BUILD_BYTES_PER_REF - TREE_BYTES_PER_REF),
         )
+        .saturating_add(instances.saturating_mul(INSTANCE_BUILD_BYTES))
         .saturating_add(extra_tree);
 
     let rays = prep_rays(settings, pixels);
@@ -243,7 +294,7 @@ pub fn estimate_render_bytes(
     } else {
         let per_ray = size_of::<Ray>() as u64 + PREP_BYTES_PER_RAY;
         // A light's own SRDH tree is built over the shadow set.
-        let own_tree = if settings.shadow_order.may_trace_srdh() {
+        let own_tree = if settings.shadow_order.may_trace_srdh() && !two_level {
             (if separate_shadow_set { shadow } else { camera }).saturating_mul(BUILD_BYTES_PER_REF)
         } else {
             0
@@ -255,6 +306,8 @@ pub fn estimate_render_bytes(
         height,
         lights,
         world_triangles,
+        held_triangles,
+        instances,
         output_planes,
         image_bytes,
         pass_bytes,

@@ -13,8 +13,8 @@ use super::shadow::{samples_for, SamplePlan};
 use super::two_level_trees::TreeColumns;
 use super::visibility::visible_set;
 use super::{
-    Facing, HitGeometry, LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass,
-    StatsMode,
+    Facing, HitGeometry, LightSampler, PrimaryPass, PrimaryRays, RenderSettings, SceneStructure,
+    ShadowPass, StatsMode,
 };
 use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
@@ -266,6 +266,10 @@ pub(super) fn combine(
         visible,
         primary_objects: primary_hits.iter().map(|r| r.object).collect(),
         primary_hits,
+        structure: match trees {
+            SceneTrees::Flat(_) => SceneStructure::Flat,
+            SceneTrees::TwoLevel(_) => SceneStructure::TwoLevel,
+        },
         stats,
     }
 }

@@ -47,6 +47,8 @@ pub struct FrameResult {
     /// The object and mesh triangle each pixel's primary ray hit ([`TriangleRef::MISS`] where it
     /// missed): the same on every tree and structure.
     pub primary_hits: Vec<TriangleRef>,
+    /// The scene structure the frame traced.
+    pub structure: SceneStructure,
     /// Index of the object hit per pixel, in the frame's object list (`Scene::objects`, the
     /// order of a frame update); u32::MAX where the ray missed. See [`FrameResult::object_plane`].
     pub primary_objects: Vec<u32>,
@@ -185,7 +187,7 @@ impl Renderer {
             SceneStructure::TwoLevel => {
                 let previous = self.trees.as_ref().and_then(SceneTrees::two_level);
                 let trees = TwoLevelTrees::prepare(previous, scene, settings, cancel)?;
-                if trees.meshes_built > 0 || previous.is_none_or(|p| !p.same_tops(&trees)) {
+                if trees.meshes_built() > 0 || previous.is_none_or(|p| !p.same_tops(&trees)) {
                     self.builds += 1;
                 }
                 let prepared = Prepared {

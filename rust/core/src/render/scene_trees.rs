@@ -12,8 +12,10 @@ use crate::order::ShadowOrder;
 use crate::scene::{RenderSpace, Scene};
 use crate::trace::RayMode;
 
-/// The frame's trees in the structure the policy chose.
+/// The frame's trees in the structure the policy chose (one per renderer: the size
+/// difference of the variants costs nothing worth a box).
 #[derive(Clone)]
+#[allow(clippy::large_enum_variant)]
 pub enum SceneTrees {
     Flat(FrameTrees),
     TwoLevel(TwoLevelTrees),

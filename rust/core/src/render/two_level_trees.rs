@@ -187,7 +187,7 @@ pub struct TwoLevelTrees {
     /// The build of this frame's new mesh trees and its top levels, ms.
     build_ms: f64,
     /// Mesh trees built this frame.
-    pub(super) meshes_built: usize,
+    meshes_built: usize,
 }
 
 impl TwoLevelTrees {
@@ -206,7 +206,10 @@ impl TwoLevelTrees {
                 && p.top_settings == settings.build_settings
                 && p.meshes.iter().all(|m| m.settings == tree_settings)
         }) {
-            return Ok(p.clone());
+            return Ok(TwoLevelTrees {
+                meshes_built: 0,
+                ..p.clone()
+            });
         }
         let start = Instant::now();
         let kept: HashMap<usize, &Arc<MeshEntry>> = previous
@@ -276,6 +279,11 @@ impl TwoLevelTrees {
             build_ms: start.elapsed().as_secs_f64() * 1e3,
             meshes_built,
         })
+    }
+
+    /// Mesh trees this frame built (the others were kept from the frame before).
+    pub fn meshes_built(&self) -> usize {
+        self.meshes_built
     }
 
     /// Whether `other` kept these top levels (no object changed).

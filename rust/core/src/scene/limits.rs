@@ -5,8 +5,10 @@
 pub const MAX_TRIANGLES_PER_MESH: u64 = 50_000_000;
 /// Most distinct meshes in one frame (the daemon's default `max_meshes`).
 pub const MAX_MESHES: u64 = 100_000;
-/// Most objects in one frame (the daemon's default `max_objects`).
-pub const MAX_OBJECTS: u64 = 1_000_000;
+/// Most objects in one frame (the daemon's default `max_objects`): 2^24, the most the object-id
+/// pass tells apart in f32. Instances of shared meshes cost memory per object, not per triangle
+/// (two levels), and the memory estimate counts them.
+pub const MAX_OBJECTS: u64 = 1 << 24;
 /// Most bytes an import reads: the scene file and every external buffer it names together.
 /// Checked against a file's size before it is read, so a wrong file is refused at once.
 pub const MAX_FILE_BYTES: u64 = 2 << 30;

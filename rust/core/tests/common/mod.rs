@@ -3,8 +3,9 @@
 
 use std::sync::Arc;
 
+use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::scene::{Camera, Light, LightKind, Mesh, Object, Resolution, Scene};
-use glam::{DMat4, DVec3, Vec3};
+use glam::{DMat4, DQuat, DVec3, Vec3};
 
 /// An n x n grid of quads (2n^2 triangles) over [-1,1]^2 in the XY plane, shared vertices.
 pub fn grid(name: &str, n: u32) -> Mesh {
@@ -143,4 +144,51 @@ pub fn transform_scene(scene: &Scene, m: DMat4) -> Scene {
         l.world_from_light = m * l.world_from_light;
     }
     s
+}
+
+pub fn rand(seed: u32) -> f64 {
+    unit_float(hash_u32(seed)) as f64
+}
+
+pub fn rand3(seed: u32) -> DVec3 {
+    DVec3::new(
+        rand(seed),
+        rand(seed ^ 0x1234_5678),
+        rand(seed ^ 0x0bad_cafe),
+    )
+}
+
+/// `count` objects over three shared meshes, rotated, scaled, some mirrored and some sheared.
+pub fn instanced_scene(count: u32) -> Scene {
+    let meshes = vec![
+        Arc::new(sphere("sphere", 12, 24)),
+        Arc::new(cube("cube")),
+        Arc::new(grid("grid", 6)),
+    ];
+    let objects = (0..count)
+        .map(|i| {
+            let s = i * 7919;
+            let at = (rand3(s) - 0.5) * 20.0;
+            let rotation = DQuat::from_axis_angle(
+                (rand3(s + 1) - 0.5).normalize_or(DVec3::Z),
+                rand(s + 2) * 6.0,
+            );
+            let mut scale = DVec3::splat(0.3 + rand(s + 3) * 1.5);
+            if i % 5 == 0 {
+                scale.x = -scale.x; // mirrored
+            }
+            let mut m = DMat4::from_scale_rotation_translation(scale, rotation, at);
+            if i % 7 == 0 {
+                // Sheared: x gains a share of y.
+                let mut shear = DMat4::IDENTITY;
+                shear.y_axis.x = 0.6;
+                m *= shear;
+            }
+            Object::new(format!("o{i}"), (i % 3) as usize, m)
+        })
+        .collect();
+    let mut scene = boxes_scene(32);
+    scene.meshes = meshes;
+    scene.objects = objects;
+    scene
 }

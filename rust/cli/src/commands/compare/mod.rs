@@ -102,7 +102,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
     folder.write()?;
     println!("{}", folder.terminal_table()?);
     println!("wrote {}", args.out.display());
-    let mismatches: Vec<_> = folder.mismatches().collect();
+    let mismatches: Vec<_> = folder.mismatches().filter(|m| m.is_wrong()).collect();
     if !mismatches.is_empty() {
         let lines: Vec<String> = mismatches.iter().take(20).map(|m| m.to_string()).collect();
         bail!(

@@ -1,0 +1,241 @@
+//! Two-level frames through the renderer: the same shadows as the flat tree but at triangle
+//! edges, the same answers for every width and order on two levels, mesh trees kept across
+//! frames, positions far from the origin, `auto`'s structure and the memory estimate.
+
+mod common;
+
+use std::sync::Arc;
+
+use antumbra_core::bvh::BvhWidth;
+use antumbra_core::order::ShadowOrder;
+use antumbra_core::render::{
+    estimate_render_bytes, FrameResult, Pick, RenderSettings, Renderer, SceneStructure,
+};
+use antumbra_core::scene::{Mesh, Object, Resolution, Scene, TriangleRef};
+use glam::{DMat4, DVec3, Vec3};
+
+fn scene(count: u32) -> Scene {
+    let mut s = common::instanced_scene(count);
+    s.resolution = Resolution::new(160, 120);
+    s
+}
+
+fn settings(structure: SceneStructure, width: BvhWidth, order: ShadowOrder) -> RenderSettings {
+    RenderSettings {
+        width,
+        shadow_order: Pick::Fixed(order),
+        structure: Pick::Fixed(structure),
+        ..RenderSettings::baseline()
+    }
+}
+
+fn render(scene: &Scene, s: &RenderSettings) -> FrameResult {
+    Renderer::new().render("two-level", scene, s).unwrap()
+}
+
+fn differing(a: &FrameResult, b: &FrameResult) -> (usize, usize) {
+    let masks = a
+        .masks
+        .iter()
+        .zip(&b.masks)
+        .map(|(x, y)| x.data.iter().zip(&y.data).filter(|(p, q)| p != q).count())
+        .sum();
+    let hits = a
+        .primary_hits
+        .iter()
+        .zip(&b.primary_hits)
+        .filter(|(p, q)| p != q)
+        .count();
+    (masks, hits)
+}
+
+#[test]
+fn two_levels_cast_the_flat_trees_shadows_but_at_triangle_edges() {
+    let scene = scene(300);
+    let flat = render(&scene, &RenderSettings::baseline());
+    let shadowed: usize = flat
+        .masks
+        .iter()
+        .map(|m| m.data.iter().filter(|v| **v < 1.0).count())
+        .sum();
+    assert!(shadowed > 2000, "the scene must cast shadows: {shadowed}");
+    let two = render(
+        &scene,
+        &settings(SceneStructure::TwoLevel, BvhWidth::Two, ShadowOrder::Fbto),
+    );
+    assert_eq!(two.structure, SceneStructure::TwoLevel);
+    assert_eq!(flat.structure, SceneStructure::Flat);
+    let (masks, hits) = differing(&flat, &two);
+    let pixels = 160 * 120;
+    // Instance transforms round differently from the flat set's: only rays through an edge.
+    assert!(
+        masks * 1000 <= pixels * flat.masks.len(),
+        "{masks} mask pixels differ"
+    );
+    assert!(hits * 1000 <= pixels, "{hits} primary hits differ");
+    assert!(two.visible.len() > 100);
+}
+
+#[test]
+fn every_width_order_and_count_mode_on_two_levels_gives_the_same_answers() {
+    let scene = scene(200);
+    let base = render(
+        &scene,
+        &settings(SceneStructure::TwoLevel, BvhWidth::Two, ShadowOrder::Fbto),
+    );
+    let mut checked = 0;
+    for width in [BvhWidth::Two, BvhWidth::Four, BvhWidth::Eight] {
+        for order in [
+            ShadowOrder::Fbto,
+            ShadowOrder::Stored,
+            ShadowOrder::Sato,
+            ShadowOrder::Rtsah,
+            ShadowOrder::Random { seed: 3 },
+        ] {
+            let mut s = settings(SceneStructure::TwoLevel, width, order);
+            s.stats = antumbra_core::render::StatsMode::CountsAndTiming;
+            let r = render(&scene, &s);
+            assert_eq!(differing(&base, &r), (0, 0), "{width} {order}");
+            assert_eq!(r.visible, base.visible, "{width} {order}");
+            let shadow_rows = r.stats.iter().filter(|row| row.pass == "shadow");
+            assert!(shadow_rows.clone().count() == 2);
+            for row in shadow_rows {
+                assert!(
+                    row.nb_per_ray > 0.0 && row.nt_per_ray > 0.0,
+                    "{width} {order}: {row:?}"
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 15);
+}
+
+#[test]
+fn mesh_trees_are_kept_while_their_mesh_is_and_rebuilt_when_it_changes() {
+    let first = scene(120);
+    let s = settings(SceneStructure::TwoLevel, BvhWidth::Eight, ShadowOrder::Fbto);
+    let mut renderer = Renderer::new();
+    let r1 = renderer.render("frames", &first, &s).unwrap();
+    let trees = renderer.scene_trees().unwrap().two_level().unwrap();
+    assert_eq!(trees.meshes_built(), 3);
+    let builds = renderer.builds;
+    // Frame 2: one object moves, one mesh deforms (a new Arc with other positions).
+    let mut second = first.clone();
+    second.frame = 2;
+    second.objects[5].world_from_object =
+        DMat4::from_translation(DVec3::new(0.5, 0.0, 0.0)) * second.objects[5].world_from_object;
+    let mut grid = (*second.meshes[2]).clone();
+    for p in &mut grid.positions {
+        p.z += 0.1 * p.x;
+    }
+    second.meshes[2] = Arc::new(grid);
+    let r2 = renderer.render("frames", &second, &s).unwrap();
+    let trees = renderer.scene_trees().unwrap().two_level().unwrap();
+    assert_eq!(
+        trees.meshes_built(),
+        1,
+        "only the deformed mesh's tree is built"
+    );
+    assert_eq!(renderer.builds, builds + 1);
+    let primary = |r: &FrameResult| r.stats.iter().find(|row| row.pass == "primary").cloned();
+    assert!(primary(&r1).unwrap().rebuilt && primary(&r2).unwrap().rebuilt);
+    // Frame 3: nothing changes, nothing is built and the frame reports no build.
+    let mut third = second.clone();
+    third.frame = 3;
+    let r3 = renderer.render("frames", &third, &s).unwrap();
+    assert_eq!(renderer.builds, builds + 1);
+    let row = primary(&r3).unwrap();
+    assert!(!row.rebuilt && row.build_ms == 0.0, "{row:?}");
+    assert_eq!(differing(&r2, &r3), (0, 0));
+    // A fresh renderer on frame 2 gives what the kept trees gave.
+    let fresh = Renderer::new().render("frames", &second, &s).unwrap();
+    assert_eq!(differing(&r2, &fresh), (0, 0));
+}
+
+#[test]
+fn two_level_shadows_hold_a_million_units_from_the_origin_and_at_any_power_of_two() {
+    let scene = scene(150);
+    let s = settings(SceneStructure::TwoLevel, BvhWidth::Eight, ShadowOrder::Fbto);
+    let reference = render(&scene, &s);
+    let moved = |m: DMat4, clip: f64| {
+        let mut moved = common::transform_scene(&scene, m);
+        moved.camera.clip_start *= clip;
+        moved.camera.clip_end *= clip;
+        moved
+    };
+    for (m, clip) in [
+        (DMat4::from_translation(DVec3::splat(1e6)), 1.0),
+        (DMat4::from_translation(DVec3::new(-1e6, 3e5, 1e6)), 1.0),
+        (DMat4::from_scale(DVec3::splat(1e-4)), 1e-4),
+        (DMat4::from_scale(DVec3::splat(1e4)), 1e4),
+    ] {
+        let r = render(&moved(m, clip), &s);
+        let (masks, hits) = differing(&reference, &r);
+        assert!(
+            masks <= 2 && hits <= 2,
+            "{m}: {masks} mask and {hits} hit pixels differ"
+        );
+    }
+}
+
+#[test]
+fn auto_takes_two_levels_where_instancing_at_least_halves_the_triangles() {
+    let instanced = scene(100);
+    let r = render(&instanced, &RenderSettings::default());
+    assert_eq!(r.structure, SceneStructure::TwoLevel);
+    assert!(
+        r.stats[0].method.starts_with("auto/bin8/auto"),
+        "{}",
+        r.stats[0].method
+    );
+    let boxes = common::boxes_scene(64);
+    assert_eq!(
+        render(&boxes, &RenderSettings::default()).structure,
+        SceneStructure::Flat
+    );
+    // Settings two levels lack keep the flat tree.
+    let sorted = RenderSettings {
+        shadow_order: Pick::Fixed("sorted".parse().unwrap()),
+        ..RenderSettings::default()
+    };
+    assert_eq!(render(&instanced, &sorted).structure, SceneStructure::Flat);
+    let e = RenderSettings {
+        structure: Pick::Fixed(SceneStructure::TwoLevel),
+        ..sorted
+    }
+    .validate()
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("scene_structure") && e.contains("sorted"), "{e}");
+}
+
+#[test]
+fn the_memory_estimate_counts_instances_and_unique_triangles_apart() {
+    // A million instances of a 100k-triangle mesh: 1e11 world triangles.
+    let mut scene = common::boxes_scene(64);
+    scene.resolution = Resolution::new(1920, 1080);
+    let n = 316u32; // 316 x 316 grid of quads ~ 200k triangles
+    let big = common::grid("big", n / 2);
+    let triangles = big.triangles.len() as u64;
+    scene.meshes = vec![Arc::new(big)];
+    scene.objects = (0..1_000_000)
+        .map(|i| {
+            let at = DVec3::new((i % 1000) as f64 * 3.0, (i / 1000) as f64 * 3.0, 0.0);
+            Object::new(format!("tree{i}"), 0, DMat4::from_translation(at))
+        })
+        .collect();
+    let auto = estimate_render_bytes(&scene, &RenderSettings::default(), 4);
+    assert_eq!(auto.world_triangles, 1_000_000 * triangles);
+    assert_eq!(auto.instances, 1_000_000);
+    assert_eq!(auto.held_triangles, triangles);
+    assert!(auto.total() < 2 << 30, "{auto}");
+    assert!(auto.to_string().contains("1000000 instances"), "{auto}");
+    let flat = estimate_render_bytes(&scene, &RenderSettings::baseline(), 4);
+    assert_eq!(flat.instances, 0);
+    assert!(flat.total() > 1 << 40, "{flat}");
+    let _ = (
+        Mesh::new("unused", vec![Vec3::ZERO], vec![]),
+        TriangleRef::MISS,
+    );
+}
