@@ -295,8 +295,9 @@ fn node_trees_that_place_too_many_nodes_are_refused() {
     let dir = TempDir::new().unwrap();
     let bytes = buffer(&[0, 2, 1, 0, 3, 2]);
     let index = r#""bufferView": 1, "componentType": 5121, "count": 6, "type": "SCALAR""#;
-    // Node k lists node k + 1 twice: 2^22 placements of the quad from 23 nodes.
-    let nodes: Vec<String> = (0..22)
+    // Node k lists node k + 1 twice: 2^25 placements of the quad from 26 nodes, past the
+    // 2^24 objects a frame may hold.
+    let nodes: Vec<String> = (0..25)
         .map(|k| format!(r#"{{"children": [{0}, {0}]}}"#, k + 1))
         .chain([r#"{"mesh": 0}"#.to_owned()])
         .collect();
