@@ -239,3 +239,54 @@ fn the_memory_estimate_counts_instances_and_unique_triangles_apart() {
         TriangleRef::MISS,
     );
 }
+
+/// A room of meshes used once (walls, furniture) and one character that deforms and moves.
+fn room_with_character(frame: i32, character: &Arc<Mesh>) -> Scene {
+    let mut s = common::boxes_scene(96);
+    s.frame = frame;
+    // Ground and four boxes as single-use meshes: each object its own mesh.
+    let ground = s.meshes[0].clone();
+    let cube = (*s.meshes[1]).clone();
+    s.meshes = vec![ground];
+    for i in 1..s.objects.len() {
+        s.meshes.push(Arc::new(cube.clone()));
+        s.objects[i].mesh = i;
+    }
+    let t = frame as f64 * 0.7;
+    s.meshes.push(character.clone());
+    s.objects.push(Object::new(
+        "character",
+        s.meshes.len() - 1,
+        DMat4::from_translation(DVec3::new(t - 3.0, 1.0, 0.8)),
+    ));
+    s
+}
+
+fn character(frame: i32) -> Arc<Mesh> {
+    let mut m = common::sphere("character", 10, 20);
+    for p in &mut m.positions {
+        p.z *= 1.0 + 0.1 * frame as f32;
+    }
+    Arc::new(m)
+}
+
+#[test]
+fn a_moving_character_rebuilds_its_own_tree_not_the_rooms() {
+    let s = settings(SceneStructure::TwoLevel, BvhWidth::Eight, ShadowOrder::Fbto);
+    let mut renderer = Renderer::new();
+    let mut built = Vec::new();
+    for frame in 1..=4 {
+        let scene = room_with_character(frame, &character(frame));
+        let r = renderer.render("room", &scene, &s).unwrap();
+        let trees = renderer.scene_trees().unwrap().two_level().unwrap();
+        built.push(trees.meshes_built());
+        // The room is the group tree: the flat tree's triangles, so the same shadows but at
+        // the character's edges.
+        let flat = render(&scene, &RenderSettings::baseline());
+        let (masks, hits) = differing(&flat, &r);
+        assert!(masks <= 20 && hits <= 10, "frame {frame}: {masks} {hits}");
+    }
+    // Frame 1: all in the group. Frame 2: the character changed, so it gets its own tree and
+    // the group is rebuilt without it. Then only the character's tree.
+    assert_eq!(built, vec![1, 2, 1, 1]);
+}

@@ -81,7 +81,7 @@ pub(crate) fn face_shading_normals(
         let Some(corners) = scene.meshes[object.mesh].normals.get(r.primitive as usize) else {
             continue;
         };
-        let (v, _) = triangles.triangle(r.object, s.triangle);
+        let (v, _) = triangles.triangle(s.instance, s.triangle);
         let ray = rays.ray((pixel % width) as u32, (pixel / width) as u32);
         let Some(hit) = intersect_triangle(&WatertightRay::new(&ray), &v, ray.t_min, ray.t_max)
         else {

@@ -9,6 +9,7 @@ mod frame_trees;
 mod light_tracer;
 mod lights;
 mod memory;
+mod object_changes;
 mod passes;
 mod pick;
 mod policy;
@@ -31,6 +32,7 @@ pub use light_tracer::{
     binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
 };
 pub use lights::{LightFrom, LightSample, LightSampler};
+pub use object_changes::ObjectChanges;
 pub use memory::{
     all_output_planes, estimate_comparison_bytes, estimate_render_bytes, format_bytes, RenderMemory,
 };

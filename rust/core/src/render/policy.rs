@@ -6,6 +6,7 @@
 
 use super::auto::{self, BuildChoice, Choice, History, OrderChoice};
 use super::frame_trees::{FrameTrees, GeometryKey};
+use super::object_changes::ObjectChanges;
 use super::scene_trees::SceneTrees;
 use super::shadow::samples_for;
 use super::{LightSampler, Pick, PrimaryPass, RenderSettings, SceneStructure, VisibilitySource};
@@ -71,6 +72,8 @@ pub(super) struct LightMeasurement {
 #[derive(Clone, Default)]
 pub(super) struct Policy {
     history: History,
+    /// Which objects have changed so far (two levels and `auto`'s structure read it).
+    pub(super) changes: ObjectChanges,
 }
 
 impl Policy {
@@ -242,11 +245,17 @@ impl Policy {
     }
 }
 
-/// `auto`'s structure (docs/auto.md): two levels where instancing holds at least half the
-/// frame's triangles (the world triangles are at least twice the unique meshes' ones, so the
-/// mesh trees hold at most half of what the flat tree would) and the settings leave them
-/// possible; else the flat tree, which traces faster over objects whose boxes overlap.
-pub(super) fn auto_structure(scene: &Scene, settings: &RenderSettings) -> SceneStructure {
+/// `auto`'s structure (docs/auto.md), where the settings leave two levels possible: two levels
+/// where instancing holds at least half the frame's triangles (the world triangles are at
+/// least twice the unique meshes' ones, so the mesh trees hold at most half of what the flat
+/// tree would), or where the objects that change (`changes`, when known) hold at most a
+/// quarter of the world triangles (a flat frame would rebuild four times what two levels
+/// rebuild); else the flat tree, which traces faster over objects whose boxes overlap.
+pub(super) fn auto_structure(
+    scene: &Scene,
+    settings: &RenderSettings,
+    changes: Option<&ObjectChanges>,
+) -> SceneStructure {
     if settings.two_level_conflict().is_some() {
         return SceneStructure::Flat;
     }
@@ -263,7 +272,8 @@ pub(super) fn auto_structure(scene: &Scene, settings: &RenderSettings) -> SceneS
         .filter(|(_, u)| **u)
         .map(|(m, _)| m.triangles.len() as u64)
         .sum();
-    if world >= 2 * unique && world > 0 {
+    let dynamic = changes.map_or(0, |c| c.dynamic_triangles(scene));
+    if (world >= 2 * unique || (dynamic > 0 && 4 * dynamic <= world)) && world > 0 {
         SceneStructure::TwoLevel
     } else {
         SceneStructure::Flat

@@ -29,6 +29,9 @@ pub struct SurfacePoint {
     /// The hit's id in the tree traced: in the flat frame's `TriangleSet`, or in the hit
     /// object's mesh tree on two levels.
     pub triangle: u32,
+    /// The hit's instance on two levels ([`Hit::instance`]): with `triangle`, what finds the
+    /// triangle again ([`HitGeometry::triangle`]).
+    pub instance: u32,
     /// The object and the triangle of its mesh that was hit: the same on every tree.
     pub reference: TriangleRef,
 }
@@ -213,6 +216,7 @@ fn surface_point(ray: &Ray, hit: &Hit, triangles: &HitGeometry) -> SurfacePoint 
         normal,
         facing: normal,
         triangle: hit.triangle,
+        instance: hit.instance,
         reference,
     }
 }

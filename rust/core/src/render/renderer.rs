@@ -186,7 +186,8 @@ impl Renderer {
             }
             SceneStructure::TwoLevel => {
                 let previous = self.trees.as_ref().and_then(SceneTrees::two_level);
-                let trees = TwoLevelTrees::prepare(previous, scene, settings, cancel)?;
+                let changes = &self.policy.changes;
+                let trees = TwoLevelTrees::prepare(previous, scene, settings, changes, cancel)?;
                 if trees.meshes_built() > 0 || previous.is_none_or(|p| !p.same_tops(&trees)) {
                     self.builds += 1;
                 }

@@ -1,16 +1,24 @@
-//! [`TwoLevelTrees`]: a two-level frame's trees as named state: a tree per unique mesh (kept
-//! across frames while the mesh is the same `Arc` and the tree settings hold; a mesh no object
-//! uses any more is dropped), and the frame's top levels over the camera's objects and over the
-//! shadow casters (kept while no object moved, changed mesh or changed flags).
+//! [`TwoLevelTrees`]: a two-level frame's trees as named state: a tree per mesh that several
+//! objects share or that changes (kept across frames while the mesh is the same `Arc` and the
+//! tree settings hold; a mesh no object uses any more is dropped), one group tree over the
+//! static objects of meshes used once (as Cycles flattens single-user meshes into its top
+//! level; kept while those objects stay as they are), and the frame's top levels over the
+//! camera's objects and over the shadow casters (kept while no object changed).
+//!
+//! An object is dynamic from the first frame it changes (mesh, matrix or flags) on: its mesh
+//! gets a tree of its own, so a character moving in a room rebuilds its own tree and the top
+//! level, not the room's.
 
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{DAffine3, Vec3};
+use xxhash_rust::xxh3::Xxh3;
 use rayon::prelude::*;
 
 use super::frame_trees::GeometryKey;
+use super::object_changes::ObjectChanges;
 use super::wide_tree::{OrderedWideTree, WideTree};
 use super::RenderSettings;
 use crate::build::{BuildSettings, CollapseSettings};
@@ -18,9 +26,13 @@ use crate::bvh::BvhWidth;
 use crate::cancel::CancelToken;
 use crate::geometry::Aabb;
 use crate::order::{AnyHitOrder, OrderView, PreparedOrder, ShadowOrder};
-use crate::scene::{scene_render_space, Mesh, Object, RenderSpace, Scene, TriangleRef};
+use crate::scene::{
+    collect, scene_render_space, Mesh, Object, RenderSpace, Scene, TriangleRef, TriangleSet,
+};
 use crate::trace::{forward_ray_query, Counters, Hit, OrderedBinary, RayQuery};
-use crate::two_level::{instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel};
+use crate::two_level::{
+    instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel, GROUP,
+};
 use crate::Result;
 
 /// What a mesh tree is made with: it is kept while these hold.
@@ -50,10 +62,13 @@ impl TreeSettings {
     }
 }
 
-/// One unique mesh's trees.
+/// One mesh's trees, or the static group's.
 pub(super) struct MeshEntry {
-    /// Keeps the mesh alive, so its address (the cache's key) is not reused.
-    mesh: Arc<Mesh>,
+    /// Keeps the mesh alive, so its address (the cache's key) is not reused; `None` for the
+    /// group.
+    mesh: Option<Arc<Mesh>>,
+    /// The group's members and their state (hashed), for the group.
+    group_key: Option<u128>,
     settings: TreeSettings,
     pub(super) tree: MeshTree,
     /// The collapse, when passes read a wide tree.
@@ -68,6 +83,24 @@ impl MeshEntry {
     fn build(mesh: &Arc<Mesh>, settings: &TreeSettings) -> Self {
         let start = Instant::now();
         let tree = MeshTree::build(mesh, &settings.build);
+        MeshEntry {
+            mesh: Some(mesh.clone()),
+            ..Self::of_tree(tree, settings, start)
+        }
+    }
+
+    /// The static group's tree over `set` (render space).
+    fn group(set: TriangleSet, key: u128, settings: &TreeSettings) -> Self {
+        let start = Instant::now();
+        let tree = MeshTree::of_set(set, &settings.build);
+        MeshEntry {
+            group_key: Some(key),
+            ..Self::of_tree(tree, settings, start)
+        }
+    }
+
+    /// `tree` with its collapse and per-tree order; `start` is when its build began.
+    fn of_tree(tree: MeshTree, settings: &TreeSettings, start: Instant) -> Self {
         let wide = settings
             .wide
             .map(|(width, collapse)| WideTree::collapse(&tree.bvh, width, &collapse));
@@ -76,7 +109,8 @@ impl MeshEntry {
             .zip(wide.as_ref())
             .map(|(order, wide)| wide.prepare(&order, None, &[]));
         MeshEntry {
-            mesh: mesh.clone(),
+            mesh: None,
+            group_key: None,
             settings: settings.clone(),
             tree,
             wide,
@@ -171,8 +205,11 @@ pub(super) struct TreeColumns {
 /// A two-level frame's trees. Cloning shares them (reference counted), as `compare` needs.
 #[derive(Clone)]
 pub struct TwoLevelTrees {
-    /// This frame's mesh trees, by their index in the top levels' instances.
+    /// This frame's mesh trees, by their index in the top levels' instances (the group's
+    /// last).
     meshes: Vec<Arc<MeshEntry>>,
+    /// The index in `meshes` of the static group's tree, if there is one.
+    group: Option<u32>,
     /// The index in `meshes` of each of the scene's meshes (`u32::MAX`: no object uses it).
     by_scene_mesh: Vec<u32>,
     pub(super) space: RenderSpace,
@@ -197,6 +234,7 @@ impl TwoLevelTrees {
         previous: Option<&TwoLevelTrees>,
         scene: &Scene,
         settings: &RenderSettings,
+        changes: &ObjectChanges,
         cancel: &CancelToken,
     ) -> Result<Self> {
         let key = GeometryKey::of(scene);
@@ -217,27 +255,52 @@ impl TwoLevelTrees {
                 p.meshes
                     .iter()
                     .filter(|m| m.settings == tree_settings)
-                    .map(|m| (Arc::as_ptr(&m.mesh) as usize, m))
+                    .filter_map(|m| Some((Arc::as_ptr(m.mesh.as_ref()?) as usize, m)))
                     .collect()
             })
             .unwrap_or_default();
-        let mut used = vec![false; scene.meshes.len()];
+        let mut uses = vec![0u32; scene.meshes.len()];
         for o in &scene.objects {
-            used[o.mesh] = true;
+            uses[o.mesh] = uses[o.mesh].saturating_add(1);
         }
-        // New mesh trees in parallel (many small meshes), each build parallel inside.
-        let built: Vec<Option<Arc<MeshEntry>>> = scene
-            .meshes
-            .par_iter()
-            .zip(&used)
-            .map(|(mesh, &used)| {
-                if !used || kept.contains_key(&(Arc::as_ptr(mesh) as usize)) {
-                    None
-                } else {
-                    Some(Arc::new(MeshEntry::build(mesh, &tree_settings)))
-                }
+        // The group: static objects of meshes used once, in both sets.
+        let grouped: Vec<bool> = (scene.objects.iter().enumerate())
+            .map(|(i, o)| {
+                uses[o.mesh] == 1 && !changes.is_dynamic(i) && o.visible_to_camera && o.casts_shadow
             })
             .collect();
+        let space = scene_render_space(scene);
+        let group_key = group_key(&space, changes, &grouped);
+        let kept_group = previous
+            .and_then(|p| p.group.map(|g| &p.meshes[g as usize]))
+            .filter(|g| g.group_key == Some(group_key) && g.settings == tree_settings);
+        let mut used = vec![false; scene.meshes.len()];
+        for (o, g) in scene.objects.iter().zip(&grouped) {
+            used[o.mesh] |= !g;
+        }
+        // New mesh trees in parallel (many small meshes), each build parallel inside.
+        let (built, group) = rayon::join(
+            || -> Vec<Option<Arc<MeshEntry>>> {
+                (scene.meshes.par_iter().zip(&used))
+                    .map(|(mesh, &used)| {
+                        if !used || kept.contains_key(&(Arc::as_ptr(mesh) as usize)) {
+                            None
+                        } else {
+                            Some(Arc::new(MeshEntry::build(mesh, &tree_settings)))
+                        }
+                    })
+                    .collect()
+            },
+            || match kept_group {
+                _ if !grouped.contains(&true) => None,
+                Some(g) => Some((g.clone(), false)),
+                None => {
+                    let set = collect(scene, &space, |i, _| grouped[i]);
+                    let entry = MeshEntry::group(set, group_key, &tree_settings);
+                    Some((Arc::new(entry), true))
+                }
+            },
+        );
         cancel.check()?;
         let mut meshes = Vec::new();
         let mut by_scene_mesh = vec![u32::MAX; scene.meshes.len()];
@@ -256,19 +319,30 @@ impl TwoLevelTrees {
             by_scene_mesh[i] = meshes.len() as u32;
             meshes.push(entry);
         }
-        let space = scene_render_space(scene);
+        let group = group.map(|(entry, built)| {
+            meshes_built += built as usize;
+            meshes.push(entry);
+            meshes.len() as u32 - 1
+        });
         let same = scene
             .objects
             .iter()
             .all(|o| o.visible_to_camera == o.casts_shadow);
-        let top = |include: fn(&Object) -> bool| {
-            top_level(scene, &space, &meshes, &by_scene_mesh, include, settings)
+        let placing = Placing {
+            scene,
+            space: &space,
+            meshes: &meshes,
+            by_scene_mesh: &by_scene_mesh,
+            grouped: &grouped,
+            group,
+            settings: &settings.build_settings,
         };
-        let camera = Arc::new(top(|o| o.visible_to_camera));
-        let shadow = (!same).then(|| Arc::new(top(|o| o.casts_shadow)));
+        let camera = Arc::new(placing.top_level(|o| o.visible_to_camera));
+        let shadow = (!same).then(|| Arc::new(placing.top_level(|o| o.casts_shadow)));
         cancel.check()?;
         Ok(TwoLevelTrees {
             meshes,
+            group,
             by_scene_mesh,
             space,
             camera,
@@ -319,6 +393,15 @@ impl TwoLevelTrees {
         instance: u32,
         triangle: u32,
     ) -> ([Vec3; 3], TriangleRef) {
+        if instance == GROUP {
+            let tree = &self.meshes[self.group.expect("a group hit has a group") as usize].tree;
+            let t = triangle as usize;
+            let reference = TriangleRef {
+                object: tree.objects[t],
+                primitive: tree.primitives[t],
+            };
+            return (tree.triangles[t], reference);
+        }
         let object = &objects[instance as usize];
         let tree = &self.meshes[self.by_scene_mesh[object.mesh] as usize].tree;
         let m = render_from_mesh(&self.space, &object.world_from_object, &tree.space);
@@ -381,32 +464,59 @@ impl TwoLevelTrees {
     }
 }
 
-/// The top level over `scene`'s objects that `include` picks: an instance per object placing
-/// a mesh tree (objects scaled to nothing are left out), built over their render-space boxes.
-fn top_level(
-    scene: &Scene,
-    space: &RenderSpace,
-    meshes: &[Arc<MeshEntry>],
-    by_scene_mesh: &[u32],
-    include: fn(&Object) -> bool,
-    settings: &RenderSettings,
-) -> TopLevel {
-    let placed: Vec<(Instance, Aabb)> = scene
-        .objects
-        .par_iter()
-        .enumerate()
-        .filter(|(_, o)| include(o))
-        .filter_map(|(i, o)| {
-            let index = by_scene_mesh[o.mesh];
-            let tree = &meshes[index as usize].tree;
-            if tree.triangles.is_empty() {
-                return None;
+/// What the top levels are made of.
+struct Placing<'a> {
+    scene: &'a Scene,
+    space: &'a RenderSpace,
+    meshes: &'a [Arc<MeshEntry>],
+    by_scene_mesh: &'a [u32],
+    /// Objects in the group (placed by its one instance).
+    grouped: &'a [bool],
+    group: Option<u32>,
+    settings: &'a BuildSettings,
+}
+
+impl Placing<'_> {
+    /// The top level over the objects `include` picks: an instance per object outside the
+    /// group placing its mesh tree (objects scaled to nothing are left out), and the group's
+    /// one instance (render space as it is), built over their render-space boxes.
+    fn top_level(&self, include: fn(&Object) -> bool) -> TopLevel {
+        let mut placed: Vec<(Instance, Aabb)> = (self.scene.objects.par_iter().enumerate())
+            .filter(|(i, o)| include(o) && !self.grouped[*i])
+            .filter_map(|(i, o)| {
+                let index = self.by_scene_mesh[o.mesh];
+                let tree = &self.meshes[index as usize].tree;
+                if tree.triangles.is_empty() {
+                    return None;
+                }
+                let m = render_from_mesh(self.space, &o.world_from_object, &tree.space);
+                let instance = Instance::new(&m, index, i as u32)?;
+                Some((instance, instance_box(&m, &tree.bounds)))
+            })
+            .collect();
+        if let Some(g) = self.group {
+            let tree = &self.meshes[g as usize].tree;
+            if !tree.triangles.is_empty() {
+                let identity = DAffine3::IDENTITY;
+                let instance = Instance::new(&identity, g, GROUP).expect("invertible");
+                placed.push((instance, instance_box(&identity, &tree.bounds)));
             }
-            let m = render_from_mesh(space, &o.world_from_object, &tree.space);
-            let instance = Instance::new(&m, index, i as u32)?;
-            Some((instance, instance_box(&m, &tree.bounds)))
-        })
-        .collect();
-    let (instances, boxes): (Vec<Instance>, Vec<Aabb>) = placed.into_iter().unzip();
-    TopLevel::build(&instances, &boxes, &settings.build_settings)
+        }
+        let (instances, boxes): (Vec<Instance>, Vec<Aabb>) = placed.into_iter().unzip();
+        TopLevel::build(&instances, &boxes, self.settings)
+    }
+}
+
+/// The group's members (indices and signatures) and the render space, hashed: the group's
+/// tree is kept while it holds.
+fn group_key(space: &RenderSpace, changes: &ObjectChanges, grouped: &[bool]) -> u128 {
+    let mut h = Xxh3::new();
+    for v in [space.origin.x, space.origin.y, space.origin.z, space.scale] {
+        h.update(&v.to_bits().to_le_bytes());
+    }
+    for (i, _) in grouped.iter().enumerate().filter(|(_, g)| **g) {
+        h.update(&(i as u64).to_le_bytes());
+        h.update(&changes.signature(i).to_le_bytes());
+    }
+    h.digest128()
 }

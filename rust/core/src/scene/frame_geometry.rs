@@ -138,11 +138,11 @@ impl FrameGeometry {
             .objects
             .iter()
             .all(|o| o.visible_to_camera == o.casts_shadow);
-        let camera = collect(scene, &space, |o| o.visible_to_camera);
+        let camera = collect(scene, &space, |_, o| o.visible_to_camera);
         let shadow = if same {
             None
         } else {
-            Some(collect(scene, &space, |o| o.casts_shadow))
+            Some(collect(scene, &space, |_, o| o.casts_shadow))
         };
         FrameGeometry {
             space,
@@ -194,16 +194,18 @@ pub(crate) fn scene_render_space(scene: &Scene) -> RenderSpace {
     RenderSpace::fit(min, max)
 }
 
-fn collect(
+/// The render-space triangles of the objects `include` picks (by index and object), in object
+/// order: a flat frame's sets, and a two-level frame's group of static objects.
+pub(crate) fn collect(
     scene: &Scene,
     space: &RenderSpace,
-    include: impl Fn(&super::Object) -> bool + Sync,
+    include: impl Fn(usize, &super::Object) -> bool + Sync,
 ) -> TriangleSet {
     let parts: Vec<TriangleSet> = scene
         .objects
         .par_iter()
         .enumerate()
-        .filter(|(_, o)| include(o))
+        .filter(|(i, o)| include(*i, o))
         .map(|(object_index, object)| {
             let mesh = &scene.meshes[object.mesh];
             let render_from_object = DMat4::from_scale(DVec3::splat(space.scale))

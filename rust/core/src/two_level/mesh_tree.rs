@@ -3,7 +3,7 @@ use glam::{DVec3, Vec3};
 use crate::build::{build_binned_sah, BuildSettings};
 use crate::bvh::Bvh;
 use crate::geometry::Aabb;
-use crate::scene::{is_degenerate, Mesh, RenderSpace};
+use crate::scene::{is_degenerate, Mesh, RenderSpace, TriangleSet};
 
 /// One mesh's triangles in mesh space (its object space re-centred and scaled by a power of two
 /// into about [-1, 1], as [`RenderSpace`] does for a flat frame, so every mesh traces at the
@@ -16,6 +16,9 @@ pub struct MeshTree {
     pub triangles: Vec<[Vec3; 3]>,
     /// The mesh's triangle index (`TriangleRef::primitive`) of each id.
     pub primitives: Vec<u32>,
+    /// The object of each id, for a tree over several objects' triangles ([`MeshTree::of_set`]);
+    /// empty for one mesh's tree (the instance names the object).
+    pub objects: Vec<u32>,
     pub bvh: Bvh,
     /// Bounds of `triangles` (mesh space).
     pub bounds: Aabb,
@@ -59,16 +62,33 @@ impl MeshTree {
             space,
             triangles,
             primitives,
+            objects: Vec::new(),
             bvh,
             bounds,
             degenerate,
         }
     }
 
+    /// A tree over render-space triangles of several objects (a flat set): its space is render
+    /// space itself, so an instance of it maps rays exactly and its answers are the flat
+    /// tree's over the same triangles.
+    pub fn of_set(set: TriangleSet, settings: &BuildSettings) -> Self {
+        let bvh = build_binned_sah(&set.vertices, settings);
+        MeshTree {
+            space: RenderSpace::IDENTITY,
+            bounds: set.bounds(),
+            primitives: set.refs.iter().map(|r| r.primitive).collect(),
+            objects: set.refs.iter().map(|r| r.object).collect(),
+            triangles: set.vertices,
+            bvh,
+            degenerate: set.degenerate,
+        }
+    }
+
     /// Bytes held: the triangles, their primitive indices and the tree.
     pub fn bytes(&self) -> usize {
         self.triangles.len() * std::mem::size_of::<[Vec3; 3]>()
-            + self.primitives.len() * 4
+            + (self.primitives.len() + self.objects.len()) * 4
             + self.bvh.bytes()
     }
 }

@@ -15,3 +15,7 @@ mod top_level;
 pub use instance::{instance_box, render_from_mesh, Instance};
 pub use mesh_tree::MeshTree;
 pub use top_level::{TopLevel, TwoLevel};
+
+/// The object an instance of a group tree names ([`MeshTree::of_set`]): each of the group's
+/// triangles names its own ([`MeshTree::objects`]), and hits in it carry this.
+pub const GROUP: u32 = u32::MAX;

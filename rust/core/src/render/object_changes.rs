@@ -1,0 +1,69 @@
+//! [`ObjectChanges`]: which of a frame's objects have changed (mesh, matrix or flags) in some
+//! frame so far. Two levels give a dynamic object's mesh a tree of its own and keep the static
+//! rest in one group tree; `auto` takes two levels when the dynamic objects are a small part of
+//! the frame.
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use xxhash_rust::xxh3::xxh3_64;
+
+use crate::scene::{Object, Scene};
+
+/// Per object (by its index in the frame's objects): its state hashed, and whether it has
+/// changed. A frame with another object count starts over: every object static.
+#[derive(Clone, Default)]
+pub struct ObjectChanges {
+    signatures: Arc<Vec<u64>>,
+    dynamic: Arc<Vec<bool>>,
+}
+
+impl ObjectChanges {
+    /// Advances to `scene`: an object is dynamic once its state differs from the last frame's.
+    pub fn advance(&mut self, scene: &Scene) {
+        let signatures: Vec<u64> = (scene.objects.par_iter())
+            .map(|o| signature(scene, o))
+            .collect();
+        let dynamic: Vec<bool> = if self.signatures.len() == signatures.len() {
+            (signatures.iter())
+                .zip(self.signatures.iter().zip(self.dynamic.iter()))
+                .map(|(s, (was, dynamic))| *dynamic || s != was)
+                .collect()
+        } else {
+            vec![false; signatures.len()]
+        };
+        self.signatures = Arc::new(signatures);
+        self.dynamic = Arc::new(dynamic);
+    }
+
+    /// Whether object `i` has changed in some frame so far.
+    pub fn is_dynamic(&self, i: usize) -> bool {
+        self.dynamic.get(i).copied().unwrap_or(false)
+    }
+
+    /// Object `i`'s state, hashed (0 for an object the last frame did not have).
+    pub fn signature(&self, i: usize) -> u64 {
+        self.signatures.get(i).copied().unwrap_or(0)
+    }
+
+    /// Triangles of the dynamic objects' meshes.
+    pub fn dynamic_triangles(&self, scene: &Scene) -> u64 {
+        (scene.objects.iter().enumerate())
+            .filter(|(i, _)| self.is_dynamic(*i))
+            .map(|(_, o)| scene.meshes[o.mesh].triangles.len() as u64)
+            .sum()
+    }
+}
+
+/// An object's mesh (by identity), matrix and flags, hashed: what makes it change.
+fn signature(scene: &Scene, o: &Object) -> u64 {
+    let mut bytes = [0u8; 8 + 16 * 8 + 2];
+    let mesh = Arc::as_ptr(&scene.meshes[o.mesh]) as usize as u64;
+    bytes[..8].copy_from_slice(&mesh.to_le_bytes());
+    for (i, v) in o.world_from_object.to_cols_array().iter().enumerate() {
+        bytes[8 + 8 * i..16 + 8 * i].copy_from_slice(&v.to_bits().to_le_bytes());
+    }
+    bytes[136] = o.visible_to_camera as u8;
+    bytes[137] = o.casts_shadow as u8;
+    xxh3_64(&bytes)
+}
