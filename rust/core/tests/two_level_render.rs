@@ -180,8 +180,16 @@ fn two_level_shadows_hold_a_million_units_from_the_origin_and_at_any_power_of_tw
 }
 
 #[test]
-fn auto_takes_two_levels_where_instancing_at_least_halves_the_triangles() {
-    let instanced = scene(100);
+fn auto_takes_two_levels_for_large_instanced_scenes_and_small_moving_parts() {
+    // 12 instances of a 204,800-triangle mesh: 2.5M world triangles.
+    let mut instanced = common::boxes_scene(48);
+    instanced.meshes = vec![Arc::new(common::grid("big", 320))];
+    instanced.objects = (0..12)
+        .map(|i| {
+            let at = DVec3::new((i % 4) as f64 * 2.5 - 4.0, (i / 4) as f64 * 2.5 - 2.5, 0.0);
+            Object::new(format!("o{i}"), 0, DMat4::from_translation(at))
+        })
+        .collect();
     let r = render(&instanced, &RenderSettings::default());
     assert_eq!(r.structure, SceneStructure::TwoLevel);
     assert!(
@@ -189,11 +197,30 @@ fn auto_takes_two_levels_where_instancing_at_least_halves_the_triangles() {
         "{}",
         r.stats[0].method
     );
-    let boxes = common::boxes_scene(64);
+    // The same instancing below two million world triangles stays flat.
     assert_eq!(
-        render(&boxes, &RenderSettings::default()).structure,
+        render(&scene(100), &RenderSettings::default()).structure,
         SceneStructure::Flat
     );
+    // A small part that moves: flat on the first frame, two levels once it has moved.
+    let room = Room::new();
+    let mut renderer = Renderer::new();
+    let structures: Vec<SceneStructure> = (1..=3)
+        .map(|f| {
+            let scene = room.with_character(f);
+            let r = renderer.render("room", &scene, &RenderSettings::default());
+            r.unwrap().structure
+        })
+        .collect();
+    assert_eq!(
+        structures,
+        [
+            SceneStructure::Flat,
+            SceneStructure::TwoLevel,
+            SceneStructure::TwoLevel
+        ]
+    );
+    let instanced = scene(100);
     // Settings two levels lack keep the flat tree.
     let sorted = RenderSettings {
         shadow_order: Pick::Fixed("sorted".parse().unwrap()),
@@ -240,43 +267,50 @@ fn the_memory_estimate_counts_instances_and_unique_triangles_apart() {
     );
 }
 
-/// A room of meshes used once (walls, furniture) and one character that deforms and moves.
-fn room_with_character(frame: i32, character: &Arc<Mesh>) -> Scene {
-    let mut s = common::boxes_scene(96);
-    s.frame = frame;
-    // Ground and four boxes as single-use meshes: each object its own mesh.
-    let ground = s.meshes[0].clone();
-    let cube = (*s.meshes[1]).clone();
-    s.meshes = vec![ground];
-    for i in 1..s.objects.len() {
-        s.meshes.push(Arc::new(cube.clone()));
-        s.objects[i].mesh = i;
-    }
-    let t = frame as f64 * 0.7;
-    s.meshes.push(character.clone());
-    s.objects.push(Object::new(
-        "character",
-        s.meshes.len() - 1,
-        DMat4::from_translation(DVec3::new(t - 3.0, 1.0, 0.8)),
-    ));
-    s
+/// A room of meshes used once (a floor, four boxes), the same `Arc`s every frame, and one
+/// character that deforms (a new mesh each frame) and moves.
+struct Room {
+    meshes: Vec<Arc<Mesh>>,
 }
 
-fn character(frame: i32) -> Arc<Mesh> {
-    let mut m = common::sphere("character", 10, 20);
-    for p in &mut m.positions {
-        p.z *= 1.0 + 0.1 * frame as f32;
+impl Room {
+    fn new() -> Self {
+        let cube = common::cube("cube");
+        let mut meshes = vec![Arc::new(common::grid("floor", 40))];
+        meshes.extend((0..4).map(|_| Arc::new(cube.clone())));
+        Room { meshes }
     }
-    Arc::new(m)
+
+    fn with_character(&self, frame: i32) -> Scene {
+        let mut s = common::boxes_scene(96);
+        s.frame = frame;
+        s.meshes = self.meshes.clone();
+        for (i, o) in s.objects.iter_mut().enumerate() {
+            o.mesh = i;
+        }
+        let mut m = common::sphere("character", 10, 20);
+        for p in &mut m.positions {
+            p.z *= 1.0 + 0.1 * frame as f32;
+        }
+        s.meshes.push(Arc::new(m));
+        let t = frame as f64 * 0.7;
+        s.objects.push(Object::new(
+            "character",
+            s.meshes.len() - 1,
+            DMat4::from_translation(DVec3::new(t - 3.0, 1.0, 0.8)),
+        ));
+        s
+    }
 }
 
 #[test]
 fn a_moving_character_rebuilds_its_own_tree_not_the_rooms() {
     let s = settings(SceneStructure::TwoLevel, BvhWidth::Eight, ShadowOrder::Fbto);
     let mut renderer = Renderer::new();
+    let room = Room::new();
     let mut built = Vec::new();
     for frame in 1..=4 {
-        let scene = room_with_character(frame, &character(frame));
+        let scene = room.with_character(frame);
         let r = renderer.render("room", &scene, &s).unwrap();
         let trees = renderer.scene_trees().unwrap().two_level().unwrap();
         built.push(trees.meshes_built());

@@ -32,10 +32,10 @@ pub use light_tracer::{
     binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
 };
 pub use lights::{LightFrom, LightSample, LightSampler};
-pub use object_changes::ObjectChanges;
 pub use memory::{
     all_output_planes, estimate_comparison_bytes, estimate_render_bytes, format_bytes, RenderMemory,
 };
+pub use object_changes::ObjectChanges;
 pub use pick::{Pick, AUTO};
 pub use primary::{HitGeometry, PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, WarmUp, OBJECT_PLANE};

@@ -77,15 +77,17 @@ pub(super) struct Policy {
 }
 
 impl Policy {
-    /// The frame's structure: the setting, or `auto`'s rule ([`auto_structure`]).
+    /// The frame's structure: the setting, or `auto`'s rule ([`auto_structure`]), after
+    /// noting which objects changed since the last frame.
     pub(super) fn plan_structure(
-        &self,
+        &mut self,
         scene: &Scene,
         settings: &RenderSettings,
     ) -> SceneStructure {
+        self.changes.advance(scene);
         match settings.structure {
             Pick::Fixed(s) => s,
-            Pick::Auto => auto_structure(scene, settings),
+            Pick::Auto => auto_structure(scene, settings, Some(&self.changes)),
         }
     }
 
@@ -245,12 +247,16 @@ impl Policy {
     }
 }
 
+/// World triangles past which `auto` holds an instanced scene on two levels: a flat tree of
+/// them takes about half a gigabyte (some 280 bytes a triangle, docs/daemon.md), while two
+/// levels trace slower where instances overlap (BENCHMARKS.md, "Flat and two levels").
+pub const TWO_LEVEL_WORLD_TRIANGLES: u64 = 2_000_000;
+
 /// `auto`'s structure (docs/auto.md), where the settings leave two levels possible: two levels
-/// where instancing holds at least half the frame's triangles (the world triangles are at
-/// least twice the unique meshes' ones, so the mesh trees hold at most half of what the flat
-/// tree would), or where the objects that change (`changes`, when known) hold at most a
-/// quarter of the world triangles (a flat frame would rebuild four times what two levels
-/// rebuild); else the flat tree, which traces faster over objects whose boxes overlap.
+/// where instancing holds at least half of more than [`TWO_LEVEL_WORLD_TRIANGLES`] world
+/// triangles (the used meshes hold at most half of what a flat tree would), or where the objects
+/// that changed (`changes`, when known) hold at most a quarter of the world triangles (a flat
+/// frame would rebuild four times what two levels rebuild); else the flat tree.
 pub(super) fn auto_structure(
     scene: &Scene,
     settings: &RenderSettings,
@@ -265,15 +271,13 @@ pub(super) fn auto_structure(
         used[o.mesh] = true;
         world += scene.meshes[o.mesh].triangles.len() as u64;
     }
-    let unique: u64 = scene
-        .meshes
-        .iter()
-        .zip(&used)
+    let unique: u64 = (scene.meshes.iter().zip(&used))
         .filter(|(_, u)| **u)
         .map(|(m, _)| m.triangles.len() as u64)
         .sum();
+    let instanced = world > TWO_LEVEL_WORLD_TRIANGLES && world >= 2 * unique;
     let dynamic = changes.map_or(0, |c| c.dynamic_triangles(scene));
-    if (world >= 2 * unique || (dynamic > 0 && 4 * dynamic <= world)) && world > 0 {
+    if instanced || (dynamic > 0 && 4 * dynamic <= world) {
         SceneStructure::TwoLevel
     } else {
         SceneStructure::Flat

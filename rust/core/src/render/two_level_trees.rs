@@ -14,8 +14,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use glam::{DAffine3, Vec3};
-use xxhash_rust::xxh3::Xxh3;
 use rayon::prelude::*;
+use xxhash_rust::xxh3::Xxh3;
 
 use super::frame_trees::GeometryKey;
 use super::object_changes::ObjectChanges;
@@ -27,7 +27,7 @@ use crate::cancel::CancelToken;
 use crate::geometry::Aabb;
 use crate::order::{AnyHitOrder, OrderView, PreparedOrder, ShadowOrder};
 use crate::scene::{
-    collect, scene_render_space, Mesh, Object, RenderSpace, Scene, TriangleRef, TriangleSet,
+    collect, scene_bounds, Mesh, Object, RenderSpace, Scene, TriangleRef, TriangleSet,
 };
 use crate::trace::{forward_ray_query, Counters, Hit, OrderedBinary, RayQuery};
 use crate::two_level::{
@@ -269,7 +269,18 @@ impl TwoLevelTrees {
                 uses[o.mesh] == 1 && !changes.is_dynamic(i) && o.visible_to_camera && o.casts_shadow
             })
             .collect();
-        let space = scene_render_space(scene);
+        // Last frame's render space while the scene still fits it at the same scale: an
+        // object moving a little past the others' bounds does not move every group triangle.
+        let (min, max) = scene_bounds(scene);
+        let fitted = RenderSpace::fit(min, max);
+        let fits = |s: &RenderSpace| {
+            let (a, b) = (s.point(min), s.point(max));
+            s.scale == fitted.scale && a.min_element() >= -1.0 && b.max_element() <= 1.0
+        };
+        let space = match previous {
+            Some(p) if fits(&p.space) => p.space,
+            _ => fitted,
+        };
         let group_key = group_key(&space, changes, &grouped);
         let kept_group = previous
             .and_then(|p| p.group.map(|g| &p.meshes[g as usize]))

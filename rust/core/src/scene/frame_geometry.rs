@@ -156,7 +156,13 @@ impl FrameGeometry {
     }
 }
 
-pub(crate) fn scene_render_space(scene: &Scene) -> RenderSpace {
+fn scene_render_space(scene: &Scene) -> RenderSpace {
+    let (min, max) = scene_bounds(scene);
+    RenderSpace::fit(min, max)
+}
+
+/// The world bounds of every object's mesh box (eight corners through its matrix, in f64).
+pub(crate) fn scene_bounds(scene: &Scene) -> (DVec3, DVec3) {
     let mut min = DVec3::splat(f64::INFINITY);
     let mut max = DVec3::splat(f64::NEG_INFINITY);
     for object in &scene.objects {
@@ -191,7 +197,7 @@ pub(crate) fn scene_render_space(scene: &Scene) -> RenderSpace {
             max = max.max(w);
         }
     }
-    RenderSpace::fit(min, max)
+    (min, max)
 }
 
 /// The render-space triangles of the objects `include` picks (by index and object), in object

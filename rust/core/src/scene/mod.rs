@@ -17,7 +17,7 @@ mod scene;
 
 pub use animation::{Animation, StaticAnimation};
 pub use camera::{Camera, Resolution, SensorFit, ViewPlane};
-pub(crate) use frame_geometry::{collect, is_degenerate, scene_render_space};
+pub(crate) use frame_geometry::{collect, is_degenerate, scene_bounds};
 pub use frame_geometry::{FrameGeometry, RenderSpace, TriangleRef, TriangleSet};
 pub use image_size::{ImageSize, ImageSizeError};
 pub use light::{AreaShape, Light, LightKind};
