@@ -282,7 +282,8 @@ impl Room {
     }
 
     fn with_character(&self, frame: i32) -> Scene {
-        let mut s = common::boxes_scene(96);
+        // 48x36 pixels: few rays for its triangles, so a flat rebuild outweighs the trace.
+        let mut s = common::boxes_scene(48);
         s.frame = frame;
         s.meshes = self.meshes.clone();
         for (i, o) in s.objects.iter_mut().enumerate() {

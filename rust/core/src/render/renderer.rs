@@ -161,6 +161,7 @@ impl Renderer {
         }
         self.shadow_rays += shadows.rays;
         let result = combine(scene, trees, primary, primary_row, shadows, settings);
+        self.policy.note_frame(&result.stats);
         self.finish_frame(result.visible.clone());
         Ok(result)
     }

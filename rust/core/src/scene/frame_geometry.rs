@@ -162,42 +162,36 @@ fn scene_render_space(scene: &Scene) -> RenderSpace {
 }
 
 /// The world bounds of every object's mesh box (eight corners through its matrix, in f64).
+/// Each mesh's box is found once, however many objects place it (a million instances of a
+/// 100k-triangle mesh must not read its vertices a million times).
 pub(crate) fn scene_bounds(scene: &Scene) -> (DVec3, DVec3) {
-    let mut min = DVec3::splat(f64::INFINITY);
-    let mut max = DVec3::splat(f64::NEG_INFINITY);
-    for object in &scene.objects {
-        let mesh = &scene.meshes[object.mesh];
-        if mesh.positions.is_empty() {
-            continue;
-        }
-        let mut local = Aabb::EMPTY;
-        for &p in &mesh.positions {
-            local.grow_point(p);
-        }
-        for corner in 0..8 {
-            let c = DVec3::new(
-                if corner & 1 == 0 {
-                    local.min.x
-                } else {
-                    local.max.x
-                } as f64,
-                if corner & 2 == 0 {
-                    local.min.y
-                } else {
-                    local.max.y
-                } as f64,
-                if corner & 4 == 0 {
-                    local.min.z
-                } else {
-                    local.max.z
-                } as f64,
-            );
-            let w = object.world_from_object.transform_point3(c);
-            min = min.min(w);
-            max = max.max(w);
-        }
-    }
-    (min, max)
+    let boxes: Vec<Option<Aabb>> = (scene.meshes.par_iter())
+        .map(|mesh| {
+            let mut local = Aabb::EMPTY;
+            for &p in &mesh.positions {
+                local.grow_point(p);
+            }
+            (!mesh.positions.is_empty()).then_some(local)
+        })
+        .collect();
+    let empty = || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    (scene.objects.par_iter())
+        .filter_map(|object| boxes[object.mesh].map(|b| (object, b)))
+        .fold(empty, |(mut min, mut max), (object, local)| {
+            for corner in 0..8 {
+                let pick = |bit: usize, lo: f32, hi: f32| if corner & bit == 0 { lo } else { hi };
+                let c = DVec3::new(
+                    pick(1, local.min.x, local.max.x) as f64,
+                    pick(2, local.min.y, local.max.y) as f64,
+                    pick(4, local.min.z, local.max.z) as f64,
+                );
+                let w = object.world_from_object.transform_point3(c);
+                min = min.min(w);
+                max = max.max(w);
+            }
+            (min, max)
+        })
+        .reduce(empty, |(a0, a1), (b0, b1)| (a0.min(b0), a1.max(b1)))
 }
 
 /// The render-space triangles of the objects `include` picks (by index and object), in object
