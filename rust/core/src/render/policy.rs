@@ -324,6 +324,21 @@ pub(super) fn planned_orders(lights: &[LightPlan]) -> Vec<ShadowOrder> {
     lights.iter().flat_map(LightPlan::orders).collect()
 }
 
+/// Marks the rows of a frame `auto` put on two levels: the primary row with the structure, and
+/// each light's with the order two levels trace where the order was left to `auto`.
+pub(super) fn mark_two_level_rows(rows: &mut [StatsRow], settings: &RenderSettings) {
+    if !settings.structure.is_auto() {
+        return;
+    }
+    for row in rows.iter_mut().filter(|r| r.auto_choice.is_empty()) {
+        if row.pass == "primary" {
+            row.auto_choice = SceneStructure::TwoLevel.name().to_string();
+        } else if settings.shadow_order.is_auto() {
+            row.auto_choice = ShadowOrder::Fbto.to_string();
+        }
+    }
+}
+
 /// Marks a statistics row with `auto`'s choice behind it.
 pub(super) fn mark_build_row(row: &mut StatsRow, build: &BuildPlan) {
     if let Some(c) = &build.auto {

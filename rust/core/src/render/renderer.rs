@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use super::frame_trees::{BvhInfo, FrameTrees, GeometryKey, Prepared};
 use super::passes::{combine, counted_timed, primary_pass, shadow_passes, trace_camera, Rows};
-use super::policy::{mark_build_row, planned_orders, BuildPlan, Policy};
+use super::policy::{mark_build_row, mark_two_level_rows, planned_orders, BuildPlan, Policy};
 use super::scene_trees::SceneTrees;
 use super::two_level_trees::TwoLevelTrees;
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
@@ -160,7 +160,10 @@ impl Renderer {
             (self.policy).learn(&build, &primary, &lights, measured, settings, frame);
         }
         self.shadow_rays += shadows.rays;
-        let result = combine(scene, trees, primary, primary_row, shadows, settings);
+        let mut result = combine(scene, trees, primary, primary_row, shadows, settings);
+        if result.structure == SceneStructure::TwoLevel {
+            mark_two_level_rows(&mut result.stats, settings);
+        }
         self.policy.note_frame(&result.stats);
         self.finish_frame(result.visible.clone());
         Ok(result)
