@@ -221,7 +221,7 @@ pub fn estimate_render_bytes(
     // object of each set; a flat frame holds every world triangle.
     let two_level = match settings.structure {
         Pick::Fixed(s) => s,
-        Pick::Auto => auto_structure(scene, settings, None),
+        Pick::Auto => auto_structure(scene, settings),
     } == SceneStructure::TwoLevel;
     let (held_triangles, instances) = if two_level {
         let mut used = vec![false; scene.meshes.len()];

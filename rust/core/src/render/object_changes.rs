@@ -1,7 +1,6 @@
 //! [`ObjectChanges`]: which of a frame's objects have changed (mesh, matrix or flags) in some
 //! frame so far. Two levels give a dynamic object's mesh a tree of its own and keep the static
-//! rest in one group tree; `auto` takes two levels when the dynamic objects are a small part of
-//! the frame.
+//! rest in one group tree.
 
 use std::sync::Arc;
 
@@ -44,14 +43,6 @@ impl ObjectChanges {
     /// Object `i`'s state, hashed (0 for an object the last frame did not have).
     pub fn signature(&self, i: usize) -> u64 {
         self.signatures.get(i).copied().unwrap_or(0)
-    }
-
-    /// Triangles of the dynamic objects' meshes.
-    pub fn dynamic_triangles(&self, scene: &Scene) -> u64 {
-        (scene.objects.iter().enumerate())
-            .filter(|(i, _)| self.is_dynamic(*i))
-            .map(|(_, o)| scene.meshes[o.mesh].triangles.len() as u64)
-            .sum()
     }
 }
 

@@ -74,8 +74,6 @@ pub(super) struct Policy {
     history: History,
     /// Which objects have changed so far (two levels and `auto`'s structure read it).
     pub(super) changes: ObjectChanges,
-    /// Rays the last finished frame traced (camera and shadow rays).
-    last_rays: Option<u64>,
 }
 
 impl Policy {
@@ -89,19 +87,8 @@ impl Policy {
         self.changes.advance(scene);
         match settings.structure {
             Pick::Fixed(s) => s,
-            Pick::Auto => {
-                let moving = Moving {
-                    changes: &self.changes,
-                    last_rays: self.last_rays,
-                };
-                auto_structure(scene, settings, Some(moving))
-            }
+            Pick::Auto => auto_structure(scene, settings),
         }
-    }
-
-    /// Notes the rays a finished frame traced (a count, so `auto` chooses the same every run).
-    pub(super) fn note_frame(&mut self, rows: &[StatsRow]) {
-        self.last_rays = Some(rows.iter().map(|r| r.rays).sum());
     }
 
     /// The frame's build: the settings' own, or `auto`'s choice from what earlier frames
@@ -265,32 +252,13 @@ impl Policy {
 /// levels trace slower where instances overlap (BENCHMARKS.md, "Flat and two levels").
 pub const TWO_LEVEL_WORLD_TRIANGLES: u64 = 2_000_000;
 
-/// A flat build of one triangle takes as long as tracing about this many rays (one thread,
-/// 8-wide: some 250 ns a triangle built against 60 ns a packet-traced ray on `character-room`,
-/// BENCHMARKS.md "Flat and two levels").
-pub const RAYS_PER_TRIANGLE_BUILT: u64 = 4;
-
-/// What `auto` knows of an animation's motion.
-#[derive(Clone, Copy)]
-pub(super) struct Moving<'a> {
-    pub(super) changes: &'a ObjectChanges,
-    /// Rays the last frame traced.
-    pub(super) last_rays: Option<u64>,
-}
-
 /// `auto`'s structure (docs/auto.md), where the settings leave two levels possible: two levels
 /// where instancing holds at least half of more than [`TWO_LEVEL_WORLD_TRIANGLES`] world
-/// triangles (the used meshes hold at most half of what a flat tree would), or where the objects
-/// that changed hold at most an eighth of the world triangles and a flat rebuild would outweigh
-/// the frame's trace: at least one world triangle for every [`RAYS_PER_TRIANGLE_BUILT`] rays the
-/// last frame traced (two levels rebuild only the moving part and trace at most about twice as
-/// long: BENCHMARKS.md, "Flat and two levels"); else the flat tree. Counts, not times, so a run
-/// chooses the same on every machine.
-pub(super) fn auto_structure(
-    scene: &Scene,
-    settings: &RenderSettings,
-    moving: Option<Moving>,
-) -> SceneStructure {
+/// triangles (the used meshes hold at most half of what a flat tree would); else the flat
+/// tree. A small moving part (a character in a room) renders faster on two levels only where a
+/// flat rebuild outweighs the frame's trace, which frames' counts did not tell reliably
+/// (BENCHMARKS.md, "Flat and two levels"): name `scene_structure=two-level` for it.
+pub(super) fn auto_structure(scene: &Scene, settings: &RenderSettings) -> SceneStructure {
     if settings.two_level_conflict().is_some() {
         return SceneStructure::Flat;
     }
@@ -305,14 +273,7 @@ pub(super) fn auto_structure(
         .map(|(m, _)| m.triangles.len() as u64)
         .sum();
     let instanced = world > TWO_LEVEL_WORLD_TRIANGLES && world >= 2 * unique;
-    let small_motion = moving.is_some_and(|m| {
-        let dynamic = m.changes.dynamic_triangles(scene);
-        let rebuild_outweighs = m
-            .last_rays
-            .is_some_and(|rays| RAYS_PER_TRIANGLE_BUILT * world >= rays);
-        rebuild_outweighs && dynamic > 0 && 8 * dynamic <= world
-    });
-    if instanced || small_motion {
+    if instanced {
         SceneStructure::TwoLevel
     } else {
         SceneStructure::Flat

@@ -164,7 +164,6 @@ impl Renderer {
         if result.structure == SceneStructure::TwoLevel {
             mark_two_level_rows(&mut result.stats, settings);
         }
-        self.policy.note_frame(&result.stats);
         self.finish_frame(result.visible.clone());
         Ok(result)
     }
