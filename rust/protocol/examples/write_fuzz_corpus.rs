@@ -83,6 +83,29 @@ fn recording(dir: &Path) -> Res {
             warm_up: false,
         }))?;
     }
+    // Instances: an array of the mesh, then the same array again, sent as unchanged.
+    let ring = |frame: i32, unchanged: bool| -> Result<Request, ProtocolError> {
+        let mut update = frame_update_from_scene(&scene_at(frame))?;
+        let rows: Vec<[f32; 12]> = (0..3)
+            .map(|i| {
+                [
+                    1.0, 0.0, 0.0, i as f32, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+                ]
+            })
+            .collect();
+        update.instances.push(InstanceArrayState {
+            name: "ring".into(),
+            mesh_hash: update.objects[0].mesh_hash,
+            matrices: instances::matrices_to_bytes(if unchanged { &[] } else { &rows }),
+            ids: Default::default(),
+            visible_to_camera: true,
+            casts_shadow: true,
+            unchanged,
+        });
+        Ok(Request::FrameUpdate(update))
+    };
+    w.append(&ring(7, false)?)?;
+    w.append(&ring(8, true)?)?;
     w.append(&Request::Close)?;
     std::fs::write(dir.join("session.antrec"), w.finish()?)?;
     Ok(())

@@ -8,7 +8,7 @@ use antumbra_core::scene::Scene;
 
 use crate::error::ProtocolError;
 use crate::limits::Limits;
-use crate::messages::{Passes, Request};
+use crate::messages::{FrameUpdate, Passes, Request};
 
 fn check(
     what: impl FnOnce() -> String,
@@ -45,42 +45,7 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
             limits.max_triangles_per_mesh,
             "max_triangles_per_mesh",
         ),
-        Request::FrameUpdate(update) => {
-            let frame = update.frame;
-            check(
-                || format!("frame {frame}: objects"),
-                update.objects.len() as u64,
-                limits.max_objects,
-                "max_objects",
-            )?;
-            check(
-                || format!("frame {frame}: lights"),
-                update.lights.len() as u64,
-                limits.max_lights as u64,
-                "max_lights",
-            )?;
-            let distinct: HashSet<u64> = update.objects.iter().map(|o| o.mesh_hash).collect();
-            check(
-                || format!("frame {frame}: distinct meshes"),
-                distinct.len() as u64,
-                limits.max_meshes,
-                "max_meshes",
-            )?;
-            let r = &update.resolution;
-            // As Resolution::pixels, in u64 so that no input overflows.
-            let scale = |v: u32| (v as u64 * r.percentage as u64 / 100).max(1);
-            check(
-                || {
-                    format!(
-                        "frame {frame}: resolution {}x{} at {}% (pixels)",
-                        r.x, r.y, r.percentage
-                    )
-                },
-                scale(r.x).saturating_mul(scale(r.y)),
-                limits.max_image_pixels,
-                "max_image_pixels",
-            )
-        }
+        Request::FrameUpdate(update) => check_frame_limits(update, limits),
         Request::Render(render) => check_spp(
             || format!("Render frame {}: settings.spp", render.frame),
             &render.settings,
@@ -121,6 +86,45 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
         | Request::Close
         | Request::Shutdown => Ok(()),
     }
+}
+
+/// A frame's counts against the limits: objects (instances included), lights, distinct meshes,
+/// pixels. The daemon checks a frame again once its unchanged arrays are filled in.
+pub fn check_frame_limits(update: &FrameUpdate, limits: &Limits) -> Result<(), ProtocolError> {
+    let frame = update.frame;
+    check(
+        || format!("frame {frame}: objects"),
+        crate::instances::object_count(update),
+        limits.max_objects,
+        "max_objects",
+    )?;
+    check(
+        || format!("frame {frame}: lights"),
+        update.lights.len() as u64,
+        limits.max_lights as u64,
+        "max_lights",
+    )?;
+    let distinct: HashSet<u64> = crate::convert::frame_mesh_hashes(update).collect();
+    check(
+        || format!("frame {frame}: distinct meshes"),
+        distinct.len() as u64,
+        limits.max_meshes,
+        "max_meshes",
+    )?;
+    let r = &update.resolution;
+    // As Resolution::pixels, in u64 so that no input overflows.
+    let scale = |v: u32| (v as u64 * r.percentage as u64 / 100).max(1);
+    check(
+        || {
+            format!(
+                "frame {frame}: resolution {}x{} at {}% (pixels)",
+                r.x, r.y, r.percentage
+            )
+        },
+        scale(r.x).saturating_mul(scale(r.y)),
+        limits.max_image_pixels,
+        "max_image_pixels",
+    )
 }
 
 /// Timed passes a `Compare` (or `Trade`) may ask for per method (a fixed bound, not a configurable limit).

@@ -22,6 +22,7 @@ use crate::bytes::{
     bytes_to_vec3s, f32s_to_bytes, triangle_refs_to_bytes, triangles_to_bytes, vec3s_to_bytes,
 };
 use crate::error::ProtocolError;
+use crate::instances;
 use crate::limits::Limits;
 use crate::messages::*;
 
@@ -259,13 +260,17 @@ impl From<&ResolutionState> for Resolution {
 // ---------------------------------------------------------------------------------------------
 // Frames
 
+/// The mesh hash of every object and every instance array of a frame, in frame order (with
+/// repeats).
+pub fn frame_mesh_hashes(update: &FrameUpdate) -> impl Iterator<Item = u64> + '_ {
+    let objects = update.objects.iter().map(|o| o.mesh_hash);
+    objects.chain(update.instances.iter().map(|a| a.mesh_hash))
+}
+
 /// The distinct mesh hashes of a frame that `store` lacks, in order of first use.
 pub fn missing_meshes(update: &FrameUpdate, store: &impl MeshStore) -> Vec<u64> {
     let mut seen = std::collections::HashSet::new();
-    update
-        .objects
-        .iter()
-        .map(|o| o.mesh_hash)
+    frame_mesh_hashes(update)
         .filter(|&h| seen.insert(h) && store.mesh(h).is_none())
         .collect()
 }
@@ -281,23 +286,22 @@ pub fn scene_from_frame(
     let frame = update.frame;
     let mut index_of: HashMap<u64, usize> = HashMap::new();
     let mut meshes: Vec<Arc<Mesh>> = Vec::new();
-    let mut objects = Vec::with_capacity(update.objects.len());
+    let mut objects = Vec::with_capacity(instances::object_count(update) as usize);
+    let mut mesh_index = |hash: u64, object: &str| -> Result<usize, ProtocolError> {
+        if let Some(&i) = index_of.get(&hash) {
+            return Ok(i);
+        }
+        let m = store.mesh(hash).ok_or_else(|| ProtocolError::UnknownMesh {
+            frame,
+            object: object.to_string(),
+            hash,
+        })?;
+        meshes.push(m);
+        index_of.insert(hash, meshes.len() - 1);
+        Ok(meshes.len() - 1)
+    };
     for o in &update.objects {
-        let mesh = match index_of.get(&o.mesh_hash) {
-            Some(&i) => i,
-            None => {
-                let m = store
-                    .mesh(o.mesh_hash)
-                    .ok_or_else(|| ProtocolError::UnknownMesh {
-                        frame,
-                        object: o.name.clone(),
-                        hash: o.mesh_hash,
-                    })?;
-                meshes.push(m);
-                index_of.insert(o.mesh_hash, meshes.len() - 1);
-                meshes.len() - 1
-            }
-        };
+        let mesh = mesh_index(o.mesh_hash, &o.name)?;
         if let Some(i) = o.world_from_object.iter().position(|v| !v.is_finite()) {
             return Err(antumbra_core::Error::NonFinite {
                 owner: format!("object '{}' (frame {frame})", o.name),
@@ -314,6 +318,10 @@ pub fn scene_from_frame(
             visible_to_camera: o.visible_to_camera,
             casts_shadow: o.casts_shadow,
         });
+    }
+    for array in &update.instances {
+        let mesh = mesh_index(array.mesh_hash, &format!("{}[]", array.name))?;
+        objects.extend(instances::instance_objects(frame, array, mesh)?);
     }
     let in_frame = |error| ProtocolError::InFrame { frame, error };
     let camera = Camera::from(&update.camera);
@@ -360,6 +368,7 @@ pub fn frame_update_from_scene(scene: &Scene) -> Result<FrameUpdate, ProtocolErr
     Ok(FrameUpdate {
         frame: scene.frame,
         objects,
+        instances: Vec::new(),
         camera: (&scene.camera).into(),
         lights: scene.lights.iter().map(LightState::from).collect(),
         resolution: (&scene.resolution).into(),

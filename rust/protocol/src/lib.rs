@@ -18,6 +18,7 @@ pub mod error;
 pub mod frame;
 #[doc(hidden)]
 pub mod fuzzing;
+pub mod instances;
 mod light_kind;
 pub mod limits;
 pub mod messages;
@@ -25,15 +26,15 @@ pub mod recording;
 pub mod trade;
 
 pub use admission::{admit_compare, admit_render, admit_trade, Asked};
-pub use check::{check_limits, check_repeat, reply_planes, MAX_COMPARE_REPEAT};
+pub use check::{check_frame_limits, check_limits, check_repeat, reply_planes, MAX_COMPARE_REPEAT};
 pub use compare::{
     compare_result_reply, heat_from_reply, CompareMethod, CompareRequest, CompareResultReply,
     CompareRowState, MismatchState, COMPARE_STAGE, DEFAULT_REPEAT,
 };
 pub use convert::{
-    frame_result_reply, frame_update_from_scene, mesh_from_upload, missing_meshes,
-    planes_from_reply, render_settings, scene_from_frame, scene_to_messages, stats_from_reply,
-    upload_from_mesh, visible_from_reply, warm_up_reply, MeshStore,
+    frame_mesh_hashes, frame_result_reply, frame_update_from_scene, mesh_from_upload,
+    missing_meshes, planes_from_reply, render_settings, scene_from_frame, scene_to_messages,
+    stats_from_reply, upload_from_mesh, visible_from_reply, warm_up_reply, MeshStore,
 };
 pub use error::{FrameError, ProtocolError};
 pub use frame::{

@@ -20,11 +20,13 @@ use crate::compare::{CompareRequest, CompareResultReply};
 use crate::limits::Limits;
 use crate::trade::{TradeRequest, TradeResultReply};
 
-/// The protocol version this crate speaks; `Hello` must carry it. Version 3: no `CameraPath`
+/// The protocol version this crate speaks; `Hello` must carry it. Version 4: `FrameUpdate`
+/// carries `instances` (a daemon that skipped the unknown field would drop them unseen).
+/// Version 3: no `CameraPath`
 /// (an older client would send it and fail mid-session; the version refuses it at `Hello`).
 /// Version 2: mesh hashes are XXH3 and render settings a map by name (version 1: FNV-1a,
 /// nested settings structs).
-pub const PROTOCOL_VERSION: u32 = 3;
+pub const PROTOCOL_VERSION: u32 = 4;
 
 /// A message from the client to the daemon.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -133,6 +135,10 @@ fn no_bytes(b: &ByteBuf) -> bool {
 pub struct FrameUpdate {
     pub frame: i32,
     pub objects: Vec<ObjectState>,
+    /// Placements of shared meshes as arrays (Blender's instances); their objects follow
+    /// `objects`, array by array, in the frame's object order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub instances: Vec<InstanceArrayState>,
     pub camera: CameraState,
     pub lights: Vec<LightState>,
     pub resolution: ResolutionState,
@@ -146,6 +152,29 @@ pub struct ObjectState {
     pub world_from_object: [f64; 16],
     pub visible_to_camera: bool,
     pub casts_shadow: bool,
+}
+
+/// Every placement of one mesh with one pair of visibility flags: instance `i` is the object
+/// `name[id]` (`ids[i]`, or `i` without ids) at world matrix `i`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InstanceArrayState {
+    pub name: String,
+    pub mesh_hash: u64,
+    /// f32 little-endian world matrices without their last row (0, 0, 0, 1): rows 0, 1 and 2
+    /// of four values each, 48 bytes an instance. Blender's matrices are f32, so none is lost.
+    /// Empty when `unchanged`.
+    #[serde(default, skip_serializing_if = "no_bytes")]
+    pub matrices: ByteBuf,
+    /// u32 little-endian ids naming the instances (Blender's persistent ids), 4 bytes an
+    /// instance, or empty (instances are named by index). Empty when `unchanged`.
+    #[serde(default, skip_serializing_if = "no_bytes")]
+    pub ids: ByteBuf,
+    pub visible_to_camera: bool,
+    pub casts_shadow: bool,
+    /// The matrices and ids are those of the array of this name in the last frame the session
+    /// accepted: only what changed travels.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub unchanged: bool,
 }
 
 /// Mirrors [`antumbra_core::scene::Camera`].

@@ -364,7 +364,18 @@ impl Replay {
                 })?;
                 self.meshes.insert(upload.hash, Arc::new(mesh));
             }
-            Request::FrameUpdate(update) => self.frames.push((index, update)),
+            Request::FrameUpdate(mut update) => {
+                // Arrays recorded as unchanged repeat the frame before, as the daemon read them.
+                let previous = self.frames.last().map(|(_, f)| f);
+                crate::instances::resolve_unchanged(&mut update, previous)
+                    .and_then(|()| crate::check::check_frame_limits(&update, &self.limits))
+                    .map_err(|error| RecordingError::Protocol {
+                        index,
+                        kind: "FrameUpdate",
+                        error,
+                    })?;
+                self.frames.push((index, update))
+            }
             _ => {}
         }
         Ok(())

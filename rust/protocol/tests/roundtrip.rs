@@ -102,6 +102,27 @@ fn object() -> impl Strategy<Value = ObjectState> {
     )
 }
 
+fn instance_array() -> impl Strategy<Value = InstanceArrayState> {
+    (
+        name(),
+        any::<u64>(),
+        vec(any::<u8>(), 0..200),
+        vec(any::<u8>(), 0..20),
+        any::<[bool; 3]>(),
+    )
+        .prop_map(
+            |(name, mesh_hash, matrices, ids, [camera, shadow, unchanged])| InstanceArrayState {
+                name,
+                mesh_hash,
+                matrices: ByteBuf::from(matrices),
+                ids: ByteBuf::from(ids),
+                visible_to_camera: camera,
+                casts_shadow: shadow,
+                unchanged,
+            },
+        )
+}
+
 fn resolution() -> impl Strategy<Value = ResolutionState> {
     (any::<u32>(), any::<u32>(), any::<u32>(), f64s(), f64s()).prop_map(|(x, y, p, ax, ay)| {
         ResolutionState {
@@ -231,14 +252,16 @@ fn request() -> impl Strategy<Value = Request> {
         (
             any::<i32>(),
             vec(object(), 0..4),
+            vec(instance_array(), 0..3),
             camera(),
             vec(light(), 0..4),
             resolution()
         )
-            .prop_map(|(frame, objects, camera, lights, resolution)| {
+            .prop_map(|(frame, objects, instances, camera, lights, resolution)| {
                 Request::FrameUpdate(FrameUpdate {
                     frame,
                     objects,
+                    instances,
                     camera,
                     lights,
                     resolution,

@@ -260,6 +260,16 @@ impl Connection {
         PROTOCOL_VERSION
     }
 
+    /// Bytes sent to the daemon so far (every request, framing included).
+    #[getter]
+    fn bytes_sent(&self, py: Python<'_>) -> PyResult<u64> {
+        (|| {
+            let mut guard = self.lock()?;
+            Ok(Self::state(&mut guard)?.client.bytes_sent())
+        })()
+        .py_result(py)
+    }
+
     /// The daemon's limits, from its Welcome.
     #[getter]
     fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -368,6 +378,8 @@ impl Connection {
 
     /// Sends a frame's scene state; returns the hashes of the meshes it uses that the daemon
     /// lacks (upload them before rendering).
+    #[pyo3(signature = (frame, objects, camera, lights, resolution, instances = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's arguments
     fn frame_update(
         &self,
         py: Python<'_>,
@@ -376,10 +388,12 @@ impl Connection {
         camera: &Bound<'_, PyAny>,
         lights: &Bound<'_, PyAny>,
         resolution: &Bound<'_, PyAny>,
+        instances: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Vec<u64>> {
         let mut wait = PyWait::new(py);
         (|| {
-            let update = scene::frame_update(frame, objects, camera, lights, resolution)?;
+            let update =
+                scene::frame_update(frame, objects, camera, lights, resolution, instances)?;
             scene::check_frame(&update, &self.limits)?;
             let mut guard = self.lock()?;
             let state = Self::state(&mut guard)?;
@@ -388,11 +402,11 @@ impl Connection {
                 .frame_update(&mut wait, update)
                 .map_err(|e| wait.error(e))?;
             let m: HashSet<u64> = meshes_missing.iter().copied().collect();
-            for o in &update.objects {
-                if m.contains(&o.mesh_hash) {
-                    state.known.remove(&o.mesh_hash);
+            for h in antumbra_protocol::frame_mesh_hashes(&update) {
+                if m.contains(&h) {
+                    state.known.remove(&h);
                 } else {
-                    state.known.insert(o.mesh_hash);
+                    state.known.insert(h);
                 }
             }
             let mut out = meshes_missing;

@@ -309,6 +309,8 @@ impl LocalSession {
         .py_result(py)
     }
 
+    #[pyo3(signature = (frame, objects, camera, lights, resolution, instances = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's arguments
     fn frame_update(
         &self,
         py: Python<'_>,
@@ -317,9 +319,11 @@ impl LocalSession {
         camera: &Bound<'_, PyAny>,
         lights: &Bound<'_, PyAny>,
         resolution: &Bound<'_, PyAny>,
+        instances: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Vec<u64>> {
         (|| {
-            let update = scene::frame_update(frame, objects, camera, lights, resolution)?;
+            let update =
+                scene::frame_update(frame, objects, camera, lights, resolution, instances)?;
             scene::check_frame(&update, &self.limits)?;
             let mut state = self.lock()?;
             let Reply::FrameAccepted {

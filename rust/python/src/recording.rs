@@ -61,10 +61,7 @@ impl Recorder {
     /// Meshes a frame uses that the file lacks (distinct, in order of first use).
     pub fn missing(&self, update: &FrameUpdate) -> Vec<u64> {
         let mut seen = HashSet::new();
-        update
-            .objects
-            .iter()
-            .map(|o| o.mesh_hash)
+        antumbra_protocol::frame_mesh_hashes(update)
             .filter(|h| seen.insert(*h) && !self.meshes.contains(h))
             .collect()
     }

@@ -3,8 +3,9 @@
 //! uses it to turn a recorded or built-in animation into a `.blend`.
 
 use antumbra_protocol::{
-    mesh_from_upload, AreaShapeState, CameraState, FrameUpdate, LightKindState, LightState,
-    ObjectState, RecordingReader, Request, ResolutionState, SensorFitState,
+    instances::{resolve_unchanged, MATRIX_BYTES},
+    mesh_from_upload, AreaShapeState, CameraState, FrameUpdate, InstanceArrayState, LightKindState,
+    LightState, ObjectState, RecordingReader, Request, ResolutionState, SensorFitState,
 };
 use numpy::ndarray::Array2;
 use numpy::IntoPyArray;
@@ -25,6 +26,35 @@ fn object_dict<'py>(py: Python<'py>, o: &ObjectState) -> PyResult<Bound<'py, PyD
     d.set_item("matrix_world", rows(&o.world_from_object))?;
     d.set_item("visible_camera", o.visible_to_camera)?;
     d.set_item("visible_shadow", o.casts_shadow)?;
+    Ok(d)
+}
+
+/// An instance array as `frame_update` takes it: matrices float32 (n, 4, 4), ids uint32 (n,)
+/// when the array names its instances.
+fn instance_dict<'py>(py: Python<'py>, a: &InstanceArrayState) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("name", &a.name)?;
+    d.set_item("mesh_hash", a.mesh_hash)?;
+    let count = a.matrices.len() / MATRIX_BYTES;
+    let f32s = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    let mut matrices = Vec::with_capacity(count * 16);
+    for m in a.matrices.chunks_exact(MATRIX_BYTES) {
+        matrices.extend(m.chunks_exact(4).map(f32s));
+        matrices.extend([0.0, 0.0, 0.0, 1.0]);
+    }
+    let matrices = numpy::ndarray::Array3::from_shape_vec((count, 4, 4), matrices)
+        .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))?;
+    d.set_item("matrices", matrices.into_pyarray(py))?;
+    if !a.ids.is_empty() {
+        let ids: Vec<u32> = a
+            .ids
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        d.set_item("ids", ids.into_pyarray(py))?;
+    }
+    d.set_item("visible_camera", a.visible_to_camera)?;
+    d.set_item("visible_shadow", a.casts_shadow)?;
     Ok(d)
 }
 
@@ -109,6 +139,13 @@ fn frame_dict<'py>(py: Python<'py>, f: &FrameUpdate) -> PyResult<Bound<'py, PyDi
         objects.append(object_dict(py, o)?)?;
     }
     d.set_item("objects", objects)?;
+    if !f.instances.is_empty() {
+        let instances = PyList::empty(py);
+        for a in &f.instances {
+            instances.append(instance_dict(py, a)?)?;
+        }
+        d.set_item("instances", instances)?;
+    }
     d.set_item("camera", camera_dict(py, &f.camera)?)?;
     let lights = PyList::empty(py);
     for l in &f.lights {
@@ -129,6 +166,7 @@ pub fn read_recording<'py>(py: Python<'py>, path: &str) -> ClientResult<Bound<'p
     let limits = reader.limits().clone();
     let meshes = PyDict::new(py);
     let frames = PyList::empty(py);
+    let mut previous: Option<FrameUpdate> = None;
     while let Some(request) = py.detach(|| reader.next_request()).map_err(|e| fail(&e))? {
         match request {
             Request::UploadMesh(upload) => {
@@ -154,7 +192,12 @@ pub fn read_recording<'py>(py: Python<'py>, path: &str) -> ClientResult<Bound<'p
                 }
                 meshes.set_item(upload.hash, entry)?;
             }
-            Request::FrameUpdate(update) => frames.append(frame_dict(py, &update)?)?,
+            Request::FrameUpdate(mut update) => {
+                // A daemon's recording holds arrays as sent: unchanged ones repeat the last frame.
+                resolve_unchanged(&mut update, previous.as_ref()).map_err(|e| fail(&e))?;
+                frames.append(frame_dict(py, &update)?)?;
+                previous = Some(update);
+            }
             // Hello, renders and the rest carry no scene state.
             _ => {}
         }

@@ -4,14 +4,15 @@
 
 use antumbra_core::scene::{Camera, Light, Resolution};
 use antumbra_protocol::{
-    check_limits, AreaShapeState, CameraState, FrameUpdate, LightKindState, LightState, Limits,
-    ObjectState, Passes, Request, ResolutionState, SensorFitState, DEFAULT_REPEAT,
-    MAX_COMPARE_REPEAT,
+    check_limits, instances::MATRIX_BYTES, AreaShapeState, CameraState, FrameUpdate,
+    InstanceArrayState, LightKindState, LightState, Limits, ObjectState, Passes, Request,
+    ResolutionState, SensorFitState, DEFAULT_REPEAT, MAX_COMPARE_REPEAT,
 };
-use numpy::{PyArray2, PyArrayMethods};
+use numpy::{PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyOverflowError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyInt, PyString, PyTuple};
+use serde_bytes::ByteBuf;
 
 use crate::arrays::describe;
 use crate::error::{ClientError, ClientResult};
@@ -306,6 +307,127 @@ fn object(v: &Bound<'_, PyAny>, index: usize) -> ClientResult<ObjectState> {
     })
 }
 
+const INSTANCE_FIELDS: &[&str] = &[
+    "name",
+    "mesh_hash",
+    "matrices",
+    "ids",
+    "visible_camera",
+    "visible_shadow",
+];
+
+/// `instances[i]`: every placement of one mesh as arrays; matrices travel as Blender's f32.
+fn instance_array(v: &Bound<'_, PyAny>, index: usize) -> ClientResult<InstanceArrayState> {
+    let label = v
+        .cast::<PyDict>()
+        .ok()
+        .and_then(|d| d.get_item("name").ok().flatten())
+        .and_then(|n| n.cast::<PyString>().ok().map(|s| s.to_string()))
+        .map_or_else(
+            || format!("instances[{index}]"),
+            |n| format!("instances[{index}] '{n}'"),
+        );
+    let f = Fields::new(v, label, INSTANCE_FIELDS)?;
+    let matrices = instance_matrices(&f.required("matrices")?, &f.field("matrices"))?;
+    let count = matrices.len() / MATRIX_BYTES;
+    let ids = match f.get("ids")? {
+        None => ByteBuf::new(),
+        Some(ids) => instance_ids(&ids, &f.field("ids"), count)?,
+    };
+    Ok(InstanceArrayState {
+        name: f.string("name")?,
+        mesh_hash: mesh_hash(&f.required("mesh_hash")?, &f.field("mesh_hash"))?,
+        matrices,
+        ids,
+        visible_to_camera: f.bool_or("visible_camera", true)?,
+        casts_shadow: f.bool_or("visible_shadow", true)?,
+        unchanged: false,
+    })
+}
+
+fn contiguous<'py>(v: &Bound<'py, PyAny>, dtype: &str) -> PyResult<Bound<'py, PyAny>> {
+    let numpy = v.py().import("numpy")?;
+    let kwargs = PyDict::new(v.py());
+    kwargs.set_item("dtype", dtype)?;
+    numpy.call_method("ascontiguousarray", (v,), Some(&kwargs))
+}
+
+/// (n, 4, 4) or (n, 3, 4) world matrices indexed [instance][row][column], as the wire's rows
+/// 0..3 of f32; the last row of a 4x4 must be (0, 0, 0, 1) and every value finite.
+fn instance_matrices(v: &Bound<'_, PyAny>, field: &str) -> ClientResult<ByteBuf> {
+    let bad = || {
+        ClientError::invalid(format!(
+            "{field}: expected an array of world matrices with shape (n, 4, 4) or (n, 3, 4), \
+             got {}",
+            describe(v)
+        ))
+    };
+    let array = contiguous(v, "float32").map_err(|_| bad())?;
+    let array = array.cast::<PyArrayDyn<f32>>().map_err(|_| bad())?;
+    let shape = array.shape().to_vec();
+    let rows = match shape.as_slice() {
+        [_, 4, 4] => 4,
+        [_, 3, 4] => 3,
+        _ => return Err(bad()),
+    };
+    let ro = array.readonly();
+    let values = ro.as_slice().map_err(|_| bad())?;
+    let mut bytes = Vec::with_capacity(values.len() / rows * 3 * 4);
+    for (i, m) in values.chunks_exact(rows * 4).enumerate() {
+        if let Some(k) = m.iter().position(|x| !x.is_finite()) {
+            return Err(ClientError::invalid(format!(
+                "{field}[{i}][{}][{}]: must be finite, got {}",
+                k / 4,
+                k % 4,
+                m[k]
+            )));
+        }
+        if rows == 4 && m[12..] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(ClientError::invalid(format!(
+                "{field}[{i}][3]: the last row must be (0, 0, 0, 1), got {:?}",
+                &m[12..]
+            )));
+        }
+        bytes.extend(m[..12].iter().flat_map(|x| x.to_le_bytes()));
+    }
+    Ok(ByteBuf::from(bytes))
+}
+
+/// One unsigned 32-bit id per instance (Blender's persistent id of the instance).
+fn instance_ids(v: &Bound<'_, PyAny>, field: &str, count: usize) -> ClientResult<ByteBuf> {
+    let bad = || {
+        ClientError::invalid(format!(
+            "{field}: expected {count} integer ids, shape ({count},), got {}",
+            describe(v)
+        ))
+    };
+    let kind: String = (|| {
+        let array = v.py().import("numpy")?.call_method1("asarray", (v,))?;
+        array.getattr("dtype")?.getattr("kind")?.extract()
+    })()
+    .map_err(|_: PyErr| bad())?;
+    if !matches!(kind.as_str(), "i" | "u") {
+        return Err(bad());
+    }
+    let array = contiguous(v, "int64").map_err(|_| bad())?;
+    let array = array.cast::<PyArrayDyn<i64>>().map_err(|_| bad())?;
+    if array.shape() != [count] {
+        return Err(bad());
+    }
+    let ro = array.readonly();
+    let values = ro.as_slice().map_err(|_| bad())?;
+    let mut bytes = Vec::with_capacity(count * 4);
+    for (i, &id) in values.iter().enumerate() {
+        let id = u32::try_from(id).map_err(|_| {
+            ClientError::invalid(format!(
+                "{field}[{i}]: {id} is out of range (0 to 2^32 - 1)"
+            ))
+        })?;
+        bytes.extend(id.to_le_bytes());
+    }
+    Ok(ByteBuf::from(bytes))
+}
+
 const CAMERA_FIELDS: &[&str] = &[
     "matrix_world",
     "lens",
@@ -503,6 +625,7 @@ pub fn frame_update(
     camera_v: &Bound<'_, PyAny>,
     lights: &Bound<'_, PyAny>,
     resolution_v: &Bound<'_, PyAny>,
+    instances: Option<&Bound<'_, PyAny>>,
 ) -> ClientResult<FrameUpdate> {
     let frame = frame_number(frame, "frame")?;
     let objects = items(objects, "objects")?
@@ -515,9 +638,18 @@ pub fn frame_update(
         .enumerate()
         .map(|(i, l)| light(l, i))
         .collect::<ClientResult<Vec<_>>>()?;
+    let instances = match instances.filter(|v| !v.is_none()) {
+        None => Vec::new(),
+        Some(v) => items(v, "instances")?
+            .iter()
+            .enumerate()
+            .map(|(i, a)| instance_array(a, i))
+            .collect::<ClientResult<Vec<_>>>()?,
+    };
     let update = FrameUpdate {
         frame,
         objects,
+        instances,
         camera: camera(camera_v, "camera")?,
         lights,
         resolution: resolution(resolution_v)?,

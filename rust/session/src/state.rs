@@ -7,9 +7,10 @@ use std::sync::{Arc, OnceLock};
 
 use antumbra_core::scene::{Mesh, Scene};
 use antumbra_protocol::{
-    admit_compare, admit_render, admit_trade, check_limits, mesh_from_upload, render_settings,
-    reply_planes, scene_from_frame, Asked, CompareRequest, ErrorCode, FrameUpdate, Limits,
-    ProtocolError, RenderRequest, Reply, Request, TradeRequest, UploadMesh,
+    admit_compare, admit_render, admit_trade, check_frame_limits, check_limits, frame_mesh_hashes,
+    instances::resolve_unchanged, mesh_from_upload, render_settings, reply_planes,
+    scene_from_frame, Asked, CompareRequest, ErrorCode, FrameUpdate, Limits, ProtocolError,
+    RenderRequest, Reply, Request, TradeRequest, UploadMesh,
 };
 
 use crate::cache::MeshCache;
@@ -163,8 +164,7 @@ impl SessionState {
     fn frame_meshes(&mut self, update: &FrameUpdate) -> (HashMap<u64, Arc<Mesh>>, Vec<u64>) {
         let mut found = HashMap::new();
         let mut missing = Vec::new();
-        for o in &update.objects {
-            let h = o.mesh_hash;
+        for h in frame_mesh_hashes(update) {
             if found.contains_key(&h) || missing.contains(&h) {
                 continue;
             }
@@ -178,7 +178,14 @@ impl SessionState {
         (found, missing)
     }
 
-    fn frame_update(&mut self, update: FrameUpdate) -> Reply {
+    fn frame_update(&mut self, mut update: FrameUpdate) -> Reply {
+        // Arrays sent as unchanged repeat the last frame accepted; the kept frame is whole.
+        let resolved = resolve_unchanged(&mut update, self.frames.back().map(|f| &**f))
+            .and_then(|()| check_frame_limits(&update, &self.limits));
+        if let Err(e) = resolved {
+            tracing::warn!(frame = update.frame, error = %e, "frame refused");
+            return e.to_reply();
+        }
         self.generation += 1;
         let (mut meshes, missing) = self.frame_meshes(&update);
         // Check everything but the missing meshes now, so the client hears of a bad camera or

@@ -36,7 +36,7 @@ impl Session<'_> {
             }),
             Request::UploadMesh(u) => return Some(u.hash),
             Request::FrameUpdate(update) => {
-                self.record_meshes(update.objects.iter().map(|o| o.mesh_hash));
+                self.record_meshes(antumbra_protocol::frame_mesh_hashes(update));
                 self.append(request)
             }
             other => self.append(other),

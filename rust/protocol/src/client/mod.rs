@@ -18,7 +18,9 @@ pub use conn::Conn;
 pub use error::ClientError;
 pub use requests::{Rendered, SceneSent};
 
-use crate::{encode_message, FrameDecoder, FrameError, Limits, Reply, Request, PROTOCOL_VERSION};
+use crate::{
+    encode_message, FrameDecoder, FrameError, FrameUpdate, Limits, Reply, Request, PROTOCOL_VERSION,
+};
 
 const READ_CHUNK: usize = 1 << 20;
 
@@ -128,6 +130,9 @@ pub struct Client {
     timeout: Cell<Option<Duration>>,
     /// Why the session cannot go on, once it cannot.
     broken: Option<String>,
+    /// The instance arrays of the last frame the daemon accepted: arrays equal to them travel
+    /// as `unchanged`.
+    accepted: Option<FrameUpdate>,
 }
 
 impl Client {
@@ -146,6 +151,7 @@ impl Client {
             server: String::new(),
             timeout: Cell::new(None),
             broken: None,
+            accepted: None,
         })
     }
 

@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 use antumbra_core::scene::Scene;
 
 use super::{Blocking, Client, ClientError, Interrupt, Wait};
+use crate::instances::changed_since;
 use crate::{
     frame_update_from_scene, upload_from_mesh, CompareRequest, CompareResultReply, DaemonStats,
     FrameResultReply, FrameUpdate, NamedSettings, Passes, RenderRequest, Reply, Request,
@@ -63,23 +64,29 @@ impl Client {
         }
     }
 
-    /// Sends a frame's state; returns the update (for a recording) and the meshes it uses that
-    /// the daemon lacks.
+    /// Sends a frame's state, its instance arrays that equal the last accepted frame's as
+    /// `unchanged`; returns the whole update (for a recording) and the meshes it uses that the
+    /// daemon lacks.
     pub fn frame_update(
         &mut self,
         wait: &mut impl Wait,
         update: FrameUpdate,
     ) -> Result<(FrameUpdate, Vec<u64>), ClientError> {
-        let request = Request::FrameUpdate(update);
+        let request = Request::FrameUpdate(changed_since(&update, self.accepted.as_ref()));
         let reply = self.request(wait, &request)?;
-        let Request::FrameUpdate(update) = request else {
-            unreachable!("built above")
-        };
         match reply {
             Reply::FrameAccepted {
                 meshes_missing,
                 frame,
-            } if frame == update.frame => Ok((update, meshes_missing)),
+            } if frame == update.frame => {
+                // Only the arrays are compared later; the rest is not kept.
+                self.accepted = Some(FrameUpdate {
+                    objects: Vec::new(),
+                    lights: Vec::new(),
+                    ..update.clone()
+                });
+                Ok((update, meshes_missing))
+            }
             other => Err(self.unexpected("FrameUpdate", &other)),
         }
     }

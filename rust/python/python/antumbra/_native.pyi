@@ -184,6 +184,7 @@ class _SessionMethods:
         camera: Mapping[str, Any],
         lights: Iterable[Mapping[str, Any]],
         resolution: Mapping[str, Any] | tuple[int, int],
+        instances: Iterable[Mapping[str, Any]] | None = None,
     ) -> list[int]: ...
     def render(
         self,
@@ -239,6 +240,8 @@ class Connection(_SessionMethods):
     def server(self) -> str: ...
     @property
     def protocol_version(self) -> int: ...
+    @property
+    def bytes_sent(self) -> int: ...
     @property
     def timeout(self) -> float | None: ...
 

@@ -236,6 +236,11 @@ class Client(_Session):
         return self._native.protocol_version
 
     @property
+    def bytes_sent(self) -> int:
+        """Bytes sent to the daemon so far (every request, framing included)."""
+        return self._native.bytes_sent
+
+    @property
     def process(self) -> subprocess.Popen[str] | None:
         """The daemon process this client started (:meth:`spawn`), else None."""
         return self._daemon.process if self._daemon else None

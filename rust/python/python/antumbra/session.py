@@ -110,6 +110,7 @@ class _Session:
         camera: Mapping[str, Any],
         lights: Iterable[Mapping[str, Any]] = (),
         resolution: Mapping[str, Any] | tuple[int, int] = (1920, 1080),
+        instances: Iterable[Mapping[str, Any]] = (),
     ) -> list[int]:
         """Sends the whole scene state of one frame, with Blender's field names; returns the
         hashes of the meshes it uses that the session lacks (upload them before rendering).
@@ -117,6 +118,15 @@ class _Session:
         ``objects``: dicts ``name``, ``mesh_hash``, ``matrix_world`` (4x4, indexed
         [row][column] as Blender's ``Matrix`` and numpy), ``visible_camera`` (True),
         ``visible_shadow`` (True; ``cast_shadow`` is accepted as its alias).
+
+        ``instances``: every placement of a shared mesh as arrays, one dict per mesh and pair
+        of visibility flags: ``name``, ``mesh_hash``, ``matrices`` (numpy (n, 4, 4) or
+        (n, 3, 4) world matrices, [instance][row][column]; sent as float32, Blender's own
+        precision), ``ids`` (n unsigned 32-bit integers naming the instances ``name[id]``;
+        default: their index), ``visible_camera``, ``visible_shadow`` (True). Their objects
+        follow ``objects`` in the frame's object order (the ``object_ids`` pass counts them
+        so). An array equal to the one of its name in the last frame the session accepted
+        travels as "unchanged", without its matrices.
 
         ``camera``: ``matrix_world``, ``lens`` (50), ``sensor_width`` (36),
         ``sensor_height`` (24), ``sensor_fit`` ('AUTO' | 'HORIZONTAL' | 'VERTICAL'),
@@ -134,7 +144,7 @@ class _Session:
         A field of the wrong type, a missing or unknown field raises :class:`InvalidInput`
         naming it.
         """
-        return self._native.frame_update(frame, objects, camera, lights, resolution)
+        return self._native.frame_update(frame, objects, camera, lights, resolution, instances)
 
     # -- rendering ------------------------------------------------------------------------
 
