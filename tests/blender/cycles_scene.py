@@ -31,7 +31,7 @@ import bpy
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
-EXPORT_PY = REPO / "blender_addon" / "antumbra" / "export" / "exporter.py"
+ADDON = REPO / "blender_addon" / "antumbra"
 
 WIDTH, HEIGHT = 240, 135
 
@@ -49,13 +49,17 @@ def script_args(argv: list[str]) -> list[str]:
 
 
 def load_exporter():
-    """The add-on's ``export`` module, loaded from its file: the add-on package is also called
-    ``antumbra`` and must not shadow the client package."""
-    spec = importlib.util.spec_from_file_location("antumbra_addon_export", EXPORT_PY)
+    """The add-on's ``export.exporter`` module, loaded from its folder as the package
+    ``antumbra_addon``: the add-on package is also called ``antumbra`` and must not shadow the
+    client package."""
+    init = ADDON / "__init__.py"
+    spec = importlib.util.spec_from_file_location(
+        "antumbra_addon", init, submodule_search_locations=[str(ADDON)]
+    )
     module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
+    sys.modules["antumbra_addon"] = module
     spec.loader.exec_module(module)
-    return module
+    return importlib.import_module("antumbra_addon.export.exporter")
 
 
 def build_scene(width: int, height: int):
@@ -156,7 +160,12 @@ def render_antumbra(scene, client):
     session = client.LocalSession()
     exported = export.Exporter(client).frame(depsgraph, scene, scene.frame_current, 100)
     missing = session.frame_update(
-        exported.frame, exported.objects, exported.camera, exported.lights, exported.resolution
+        exported.frame,
+        exported.objects,
+        exported.camera,
+        exported.lights,
+        exported.resolution,
+        exported.instances,
     )
     for h in missing:
         m = exported.meshes[h]

@@ -39,15 +39,17 @@ def run_script(kind: str, script: str, tmp: Path) -> dict:
 def test_text_curve_surface_and_metaball_are_sent_once(kind, addon_zips, short_tmp):
     sent = run_script(kind, "export_count.py", short_tmp)
     assert sent["triangles"] == sent["blender"], sent
+    # The two collection instances of Word's evaluated mesh travel as one array, named after
+    # the object whose mesh they place, their instances by their order.
     assert sent["names"] == [
         "Circle",
         "Cube",
-        "Letters.0/Word[0.0]",
-        "Letters.1/Word[0.0]",
         "Mball",
         "SurfSphere",
         "Text",
         "Word",
+        "Word[0]",
+        "Word[1]",
     ], sent
 
 

@@ -117,7 +117,7 @@ def test_modifiers_and_shape_keys_are_evaluated():
 
 
 @pytest.mark.bpy
-def test_geometry_node_instances_are_objects():
+def test_geometry_node_instances_are_one_array():
     scene = empty_scene()
     cube = add_mesh(scene, "Cube", CUBE_V, CUBE_F)
     points = add_mesh(scene, "Points", [(x, 3.0, 0.0) for x in (-3, -1, 1, 3)], [])
@@ -134,13 +134,15 @@ def test_geometry_node_instances_are_objects():
     tree.links.new(on_points.outputs["Instances"], group_out.inputs[0])
     points.modifiers.new("Scatter", "NODES").node_group = tree
     e, _ = export_now(scene)
-    instances = [o for o in e.objects if o["name"].startswith("Points/")]
-    assert len(instances) == 4, [o["name"] for o in e.objects]
-    cube_hash = by_name(e)["Cube"]["mesh_hash"]
-    assert {o["mesh_hash"] for o in instances} == {cube_hash}
-    xs = sorted(round(o["matrix_world"][0][3], 4) for o in instances)
-    assert xs == [-3.0, -1.0, 1.0, 3.0]
-    assert len({o["name"] for o in e.objects}) == len(e.objects)
+    # The cube itself is an object; its four instances one array.
+    assert [o["name"] for o in e.objects] == ["Cube"], [o["name"] for o in e.objects]
+    (array,) = e.instances
+    assert array["name"] == "Points"  # the instancer's: Object Info hands over geometry
+    assert array["mesh_hash"] == by_name(e)["Cube"]["mesh_hash"]
+    assert array["matrices"].shape == (4, 4, 4)
+    assert sorted(np.round(array["matrices"][:, 0, 3], 4)) == [-3.0, -1.0, 1.0, 3.0]
+    assert sorted(array["ids"].tolist()) == [0, 1, 2, 3]
+    assert e.placements() == 5
 
 
 @pytest.mark.bpy
@@ -220,7 +222,9 @@ def test_unchanged_meshes_are_neither_read_nor_sent_again():
         for frame in (1, 2):
             scene.frame_set(frame)
             e, _ = export_now(scene, exporter)
-            missing = session.frame_update(frame, e.objects, e.camera, e.lights, e.resolution)
+            missing = session.frame_update(
+                frame, e.objects, e.camera, e.lights, e.resolution, e.instances
+            )
             for h in missing:
                 session.upload_mesh(e.meshes[h].name, e.meshes[h].positions, e.meshes[h].triangles)
             sent.append(sorted(e.meshes[h].name for h in missing))

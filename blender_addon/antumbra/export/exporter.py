@@ -11,10 +11,13 @@ listed once as itself and once as the instance of its evaluated mesh, and only t
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from .instances import read_instances
 
 #: The depsgraph's "no index" in an instance's persistent id.
 NO_INDEX = 0x7FFFFFFF
@@ -47,6 +50,13 @@ class FrameExport:
     triangles: int = 0
     #: Meshes read from Blender this frame (the rest came from the static cache).
     extracted: int = 0
+    #: Instance arrays (``frame_update``'s ``instances``): every instance of a mesh placed
+    #: more than once through instancing, as one array.
+    instances: list[dict] = field(default_factory=list)
+
+    def placements(self) -> int:
+        """Objects and instances: what the frame places."""
+        return len(self.objects) + sum(len(a["matrices"]) for a in self.instances)
 
 
 def mesh_arrays(positions, triangles, normals) -> tuple:
@@ -208,17 +218,6 @@ def _ray_visibility(original) -> tuple[bool, bool]:
     return bool(camera), bool(shadow)
 
 
-def _instance_name(instance, obj) -> str:
-    if not instance.is_instance:
-        return obj.name
-    parent = instance.parent.name if instance.parent else ""
-    ids = [i for i in instance.persistent_id if i != NO_INDEX]
-    if ids == [0] and instance.parent and instance.parent.original == obj.original:
-        # The evaluated mesh of a text, curve, surface or metaball object: the object itself.
-        return parent
-    return f"{parent}/{obj.name}[{'.'.join(map(str, ids))}]"
-
-
 def camera_dict(camera_object, frame: int) -> dict:
     data = camera_object.data
     if data.type != "PERSP":
@@ -289,46 +288,39 @@ class Exporter:
         if scene.camera is None:
             raise ExportError(f"frame {frame}: scene '{scene.name}' has no camera")
         camera = camera_dict(scene.camera.evaluated_get(depsgraph), frame)
+        found = read_instances(depsgraph)
+        lights = [light_dict(name, obj, matrix) for name, obj, matrix in found.lights]
         objects: list[dict] = []
-        lights: list[dict] = []
+        arrays: list[dict] = []
         meshes: dict[int, MeshData] = {}
-        # Evaluated meshes shared by several instances are read once per frame.
+        # Evaluated meshes shared by several groups are read once per frame.
         by_data: dict[int, MeshData] = {}
         self._extracted = 0
         triangles = 0
-        for instance in depsgraph.object_instances:
-            obj = instance.object
-            original = obj.original
-            hidden = original.hide_render or (
-                instance.is_instance and instance.parent and instance.parent.original.hide_render
-            )
-            if hidden:
+        for group in found.groups.values():
+            if not (group.visible_camera or group.visible_shadow):
                 continue
-            name = _instance_name(instance, obj)
-            if obj.type == "LIGHT":
-                lights.append(light_dict(name, obj, instance.matrix_world))
-                continue
-            if obj.type != "MESH":
-                # Other geometry arrives as the instance of its evaluated mesh.
-                continue
-            visible_camera, visible_shadow = _ray_visibility(original)
-            if not (visible_camera or visible_shadow):
-                continue
-            mesh = self._mesh(instance, obj, original, frame, by_data)
+            itself = group.as_itself()
+            placed, own = np.flatnonzero(~itself), np.flatnonzero(itself)
+            mesh = self._mesh(group.mesh, group.source, len(own) == 0, frame, by_data)
             if mesh is None:
                 continue
-            if mesh.hash not in meshes:
-                meshes[mesh.hash] = mesh
-            triangles += len(mesh.triangles)
-            objects.append(
-                {
-                    "name": name,
-                    "mesh_hash": mesh.hash,
-                    "matrix_world": _matrix(instance.matrix_world),
-                    "visible_camera": visible_camera,
-                    "visible_shadow": visible_shadow,
-                }
-            )
+            meshes.setdefault(mesh.hash, mesh)
+            triangles += len(mesh.triangles) * len(group.matrices)
+            # One instance travels as an object, under its own name.
+            as_objects = own if len(placed) > 1 else np.arange(len(group.matrices))
+            for row in as_objects:
+                objects.append(
+                    {
+                        "name": group.name_of(row),
+                        "mesh_hash": mesh.hash,
+                        "matrix_world": group.matrices[row],
+                        "visible_camera": group.visible_camera,
+                        "visible_shadow": group.visible_shadow,
+                    }
+                )
+            if len(placed) > 1:
+                arrays.append(self._array(group, placed, mesh.hash, arrays))
         return FrameExport(
             frame=frame,
             objects=objects,
@@ -339,17 +331,45 @@ class Exporter:
             seconds=time.perf_counter() - start,
             triangles=triangles,
             extracted=self._extracted,
+            instances=arrays,
         )
 
-    def _mesh(self, instance, obj, original, frame, by_data) -> MeshData | None:
-        static = not instance.is_instance and _is_static(original)
+    @staticmethod
+    def _array(group, rows: np.ndarray, mesh_hash: int, arrays: list[dict]) -> dict:
+        """The group's instances as one array named after the mesh's object (a second array
+        of that name in the frame gets a number). Its instances are named by the first level
+        of their persistent ids that tells them all apart (their index or ``id`` attribute),
+        else by their order; names are for people, nothing relies on them."""
+        taken = {a["name"] for a in arrays}
+        base = group.source.name
+        name = next(
+            n
+            for n in itertools.chain([base], (f"{base}#{k}" for k in itertools.count(2)))
+            if n not in taken
+        )
+        array = {
+            "name": name,
+            "mesh_hash": mesh_hash,
+            "matrices": group.matrices[rows],
+            "visible_camera": group.visible_camera,
+            "visible_shadow": group.visible_shadow,
+        }
+        ids = group.ids[rows]
+        for level in range(ids.shape[1]):
+            if len(np.unique(ids[:, level])) == len(rows):
+                array["ids"] = ids[:, level].astype(np.uint32)
+                break
+        return array
+
+    def _mesh(self, data, original, instanced: bool, frame, by_data) -> MeshData | None:
+        static = not instanced and _is_static(original)
         key = original.name
         if static and key in self.static:
             return self.static[key]
-        data_key = obj.data.as_pointer()
+        data_key = data.as_pointer()
         if data_key in by_data:
             return by_data[data_key]
-        positions, triangles = self._arrays(obj.data, key, instance.is_instance)
+        positions, triangles = self._arrays(data, key, instanced)
         self._extracted += 1
         if len(triangles) == 0:
             return None
@@ -359,7 +379,7 @@ class Exporter:
                 f"frame {frame}: object '{original.name}' has a non-finite vertex "
                 f"(index {bad}: {positions[bad].tolist()})"
             )
-        normals = _corner_normals(obj.data) if self.normals else None
+        normals = _corner_normals(data) if self.normals else None
         mesh = MeshData(
             name=original.name,
             positions=positions,

@@ -16,8 +16,9 @@ Two routes give the same instances and bit-for-bit the same matrices:
   instances itself, instancers outputting other components beside instances, non-unique ``id``
   attributes), so the result is never a mix of the two.
 
-``read_instances`` does not decide what the exporter sends; it is the bulk read the instanced
-protocol (issue 37) will use. See docs/instances_export.md for the measurements.
+The exporter sends what ``read_instances`` finds: each group's objects placed as themselves as
+objects, its instances as one instance array (protocol 4). See docs/instances_export.md for the
+measurements.
 """
 
 from __future__ import annotations
@@ -58,6 +59,39 @@ class InstanceGroup:
     ids: np.ndarray
     #: True for placements through instancing (``is_instance``), per row.
     is_instance: np.ndarray
+    #: Who placed the rows, run-length: (rows, parent name, object name, parent is the object
+    #: itself), so a row's name is made only where one is needed (see ``name_of``).
+    labels: list[tuple[int, str, str, bool]] = field(default_factory=list)
+
+    def label_of(self, row: int) -> tuple[str, str, bool]:
+        start = 0
+        for count, parent, name, itself in self.labels:
+            if row < start + count:
+                return parent, name, itself
+            start += count
+        raise IndexError(f"row {row} of a group of {start}")
+
+    def as_itself(self) -> np.ndarray:
+        """Per row: placed as itself (not through instancing, or the evaluated mesh of a text,
+        curve, surface or metaball object placed by that object)."""
+        itself = np.repeat([label[3] for label in self.labels], [n for n, *_ in self.labels])
+        first_only = (self.ids[:, 0] == 0) & (self.ids[:, 1:] == NO_INDEX).all(axis=1)
+        return ~self.is_instance | (itself & first_only)
+
+    def name_of(self, row: int) -> str:
+        return placement_name(*self.label_of(row), self.ids[row], bool(self.is_instance[row]))
+
+
+def placement_name(parent: str, name: str, itself: bool, ids, is_instance: bool) -> str:
+    """A placement's object name as the exporter has always named them: the object's own
+    name, or ``parent/object[ids]`` for an instance (the parent's name for the evaluated mesh
+    of a text, curve, surface or metaball object, placed by itself)."""
+    if not is_instance:
+        return name
+    ids = [int(i) for i in ids if i != NO_INDEX]
+    if ids == [0] and itself:
+        return parent
+    return f"{parent}/{name}[{'.'.join(map(str, ids))}]"
 
 
 @dataclass
@@ -68,6 +102,9 @@ class Instances:
     groups: dict[tuple[int, bool, bool], InstanceGroup]
     #: "geometry_set" or "depsgraph".
     route: str
+    #: The lights shown: (name as the exporter names placements, evaluated light object,
+    #: world matrix as rows).
+    lights: list = field(default_factory=list)
     #: Why the depsgraph route was taken, when it was.
     reason: str = ""
     #: Geometry sets whose meshes the groups point into; freed with this object.
@@ -110,19 +147,21 @@ def _mul(parent: np.ndarray, columns: np.ndarray) -> np.ndarray:
 
 class _Collector:
     def __init__(self):
-        self.parts: dict[tuple, tuple[object, object, list, list, list]] = {}
+        self.parts: dict[tuple, tuple[object, object, list, list, list, list]] = {}
+        self.lights: list = []
 
-    def add(self, mesh, source, matrices, ids, is_instance):
+    def add(self, mesh, source, matrices, ids, is_instance, label: tuple[str, str, bool]):
         camera, shadow = _visibility(source)
         key = (mesh.as_pointer(), camera, shadow)
-        part = self.parts.setdefault(key, (mesh, source, [], [], []))
+        part = self.parts.setdefault(key, (mesh, source, [], [], [], []))
         part[2].append(matrices)
         part[3].append(ids)
         part[4].append(np.full(len(matrices), is_instance, dtype=bool))
+        part[5].append((len(matrices), *label))
 
     def groups(self) -> dict:
         out = {}
-        for key, (mesh, source, matrices, ids, flags) in self.parts.items():
+        for key, (mesh, source, matrices, ids, flags, labels) in self.parts.items():
             out[key] = InstanceGroup(
                 mesh=mesh,
                 source=source,
@@ -131,6 +170,7 @@ class _Collector:
                 matrices=np.concatenate(matrices).astype(np.float64),
                 ids=np.concatenate(ids),
                 is_instance=np.concatenate(flags),
+                labels=labels,
             )
         return out
 
@@ -159,7 +199,7 @@ def _hidden(original) -> bool:
 
 
 def _geometry_nodes_instances(
-    bpy, obj, collector: _Collector, keep: list, space=None, outer: tuple = ()
+    bpy, obj, collector: _Collector, keep: list, space=None, outer: tuple = (), parent=None
 ) -> None:
     """The instances a geometry-nodes modifier put on OBJ (evaluated), in bulk. Inside a
     collection instance, SPACE is the collection's matrix (applied last, as Blender's
@@ -186,6 +226,8 @@ def _geometry_nodes_instances(
     if space is not None:
         world = _mul(space, world.transpose(0, 2, 1))
     instancer = obj.original
+    # The depsgraph names an instance's parent by the outermost instancer.
+    parent = obj.name if parent is None else parent
     references_list = geometry.instance_references()
     keep.append(references_list)  # each GeometrySet frees its mesh with itself
     for index, reference in enumerate(references_list):
@@ -198,13 +240,15 @@ def _geometry_nodes_instances(
             if _hidden(reference.original):
                 continue
             ids = _ids(stable[rows], *outer)
-            collector.add(reference.data, reference.original, world[rows], ids, True)
+            label = (parent, reference.name, False)
+            collector.add(reference.data, reference.original, world[rows], ids, True, label)
         elif isinstance(reference, bpy.types.GeometrySet):
             if reference.instances_pointcloud() is not None:
                 raise _Unsupported(f"'{obj.name}' instances nested instances")
             if reference.mesh is not None and not _hidden(instancer):
                 ids = _ids(0, stable[rows], *outer)
-                collector.add(reference.mesh, instancer, world[rows], ids, True)
+                label = (parent, obj.name, False)
+                collector.add(reference.mesh, instancer, world[rows], ids, True, label)
         else:
             raise _Unsupported(f"'{obj.name}' instances a {type(reference).__name__}")
 
@@ -256,6 +300,12 @@ def _collection_instance(bpy, depsgraph, empty, collector: _Collector, keep: lis
         if original == empty.original:
             continue
         obj = original.evaluated_get(depsgraph)
+        if obj.type == "LIGHT" and original.instance_type == "NONE":
+            if not (hidden or _hidden(original)):
+                world = _mul(space, np.array(obj.matrix_world, dtype=np.float32).T[None])[0]
+                name = f"{empty.name}/{obj.name}[{index}]"
+                collector.lights.append((name, obj, world.astype(np.float64)))
+            continue
         if obj.type in _NO_GEOMETRY and original.instance_type == "NONE":
             continue
         if obj.type != "MESH" or original.instance_type != "NONE" or original.particle_systems:
@@ -263,11 +313,14 @@ def _collection_instance(bpy, depsgraph, empty, collector: _Collector, keep: lis
         if not (hidden or _hidden(original)):
             world = np.array(obj.matrix_world, dtype=np.float32)
             placed = _mul(space, world.T[None])
-            collector.add(obj.data, original, placed, _ids(np.array([index])), True)
+            label = (empty.name, obj.name, False)
+            collector.add(obj.data, original, placed, _ids(np.array([index])), True, label)
         if any(m.type == "NODES" for m in original.modifiers):
             # The instances' own hide flags are checked where they are read; the empty's here.
             if not hidden:
-                _geometry_nodes_instances(bpy, obj, collector, keep, space, (index,))
+                _geometry_nodes_instances(
+                    bpy, obj, collector, keep, space, (index,), parent=empty.name
+                )
 
 
 def _geometry_set_route(bpy, depsgraph) -> Instances:
@@ -277,6 +330,11 @@ def _geometry_set_route(bpy, depsgraph) -> Instances:
         if obj.type == "EMPTY" and original.instance_type == "COLLECTION":
             _collection_instance(bpy, depsgraph, obj, collector, keep)
             continue
+        if obj.type == "LIGHT" and original.instance_type == "NONE":
+            if not _hidden(original):
+                world = np.array(obj.matrix_world, dtype=np.float32).astype(np.float64)
+                collector.lights.append((obj.name, obj, world))
+            continue
         if obj.type in _NO_GEOMETRY and original.instance_type == "NONE":
             continue
         if obj.type != "MESH" or original.instance_type != "NONE" or original.particle_systems:
@@ -285,32 +343,40 @@ def _geometry_set_route(bpy, depsgraph) -> Instances:
             continue
         identity = np.zeros((1, ID_LENGTH), dtype=np.int32)
         world = np.array(obj.matrix_world, dtype=np.float32)[None]
-        collector.add(obj.data, original, world, identity, False)
+        collector.add(obj.data, original, world, identity, False, ("", obj.name, False))
         if any(m.type == "NODES" for m in original.modifiers):
             _geometry_nodes_instances(bpy, obj, collector, keep)
-    return Instances(collector.groups(), "geometry_set", keep=keep)
+    found = Instances(collector.groups(), "geometry_set", keep=keep)
+    found.lights = collector.lights
+    return found
 
 
 def _part(parts: dict, obj, parent) -> tuple | None:
-    """The group an instance of OBJ placed by PARENT (None: placed as itself) joins, or None
-    for one the exporter leaves out (hidden from render, not a mesh)."""
+    """The group an instance of OBJ placed by PARENT (None: placed as itself) joins ("LIGHT"
+    for a light) with its label, or None for one the exporter leaves out (hidden from render,
+    neither a mesh nor a light)."""
     original = obj.original
     if original.hide_render or (parent is not None and parent.original.hide_render):
         return None
-    if obj.type != "MESH":
+    if obj.type not in {"MESH", "LIGHT"}:
         return None
+    label = (parent.name if parent else "", obj.name)
+    label += (parent is not None and parent.original == original,)
+    if obj.type == "LIGHT":
+        return "LIGHT", label
     camera, shadow = _visibility(original)
     key = (obj.data.as_pointer(), camera, shadow)
     if key not in parts:
-        parts[key] = (obj.data, original, [], [], [])
-    return parts[key]
+        parts[key] = (obj.data, original, [], [], [], [])
+    return parts[key], label
 
 
 def read_instances_loop(depsgraph) -> Instances:
     """The reference: one step of ``depsgraph.object_instances`` per instance, keeping what the
-    exporter keeps (mesh objects not hidden from render; lights and other types left out).
+    exporter keeps (mesh objects and lights not hidden from render; other types left out).
     Matrices and ids stay Python objects until one ``np.fromiter`` per group at the end."""
     parts: dict[tuple, tuple] = {}
+    lights: list = []
     # What an (object, mesh, parent) triple contributes, decided once: its group or None. The
     # attribute reads behind it cost more than the matrix.
     decided: dict[tuple[int, int, int], tuple | None] = {}
@@ -323,10 +389,17 @@ def read_instances_loop(depsgraph) -> Instances:
             data.as_pointer() if data is not None else 0,
             parent.as_pointer() if parent is not None else 0,
         )
-        part = decided.get(triple, False)
-        if part is False:
-            part = decided[triple] = _part(parts, obj, parent)
-        if part is None:
+        decision = decided.get(triple, False)
+        if decision is False:
+            decision = decided[triple] = _part(parts, obj, parent)
+        if decision is None:
+            continue
+        part, label = decision
+        if part == "LIGHT":
+            # Lights are few: named and kept here as the exporter names placements.
+            name = placement_name(*label, instance.persistent_id, instance.is_instance)
+            matrix = np.array(instance.matrix_world, dtype=np.float32).astype(np.float64)
+            lights.append((name, obj, matrix))
             continue
         # Both read through the iterator's current instance: copied before it steps on.
         part[2].append(instance.matrix_world.copy())
@@ -336,9 +409,10 @@ def read_instances_loop(depsgraph) -> Instances:
         else:
             part[3].append(_NOT_INSTANCED)
             part[4].append(False)
+        part[5].append(label)
     chain = itertools.chain.from_iterable
     groups = {}
-    for key, (mesh, source, matrices, ids, flags) in parts.items():
+    for key, (mesh, source, matrices, ids, flags, labels) in parts.items():
         n = len(matrices)
         groups[key] = InstanceGroup(
             mesh=mesh,
@@ -350,8 +424,9 @@ def read_instances_loop(depsgraph) -> Instances:
             .astype(np.float64),
             ids=np.fromiter(chain(ids), np.int32, ID_LENGTH * n).reshape(n, ID_LENGTH),
             is_instance=np.array(flags, dtype=bool),
+            labels=[(len(list(run)), *label) for label, run in itertools.groupby(labels)],
         )
-    return Instances(groups, "depsgraph")
+    return Instances(groups, "depsgraph", lights=lights)
 
 
 def read_instances(depsgraph, route: str = "auto") -> Instances:
@@ -366,7 +441,9 @@ def read_instances(depsgraph, route: str = "auto") -> Instances:
     if not hasattr(bpy.types, "GeometrySet"):
         if route == "geometry_set":
             raise ValueError(f"Blender {bpy.app.version_string} has no bpy.types.GeometrySet")
-        return Instances(read_instances_loop(depsgraph).groups, "depsgraph", "no GeometrySet")
+        loop = read_instances_loop(depsgraph)
+        loop.reason = "no GeometrySet"
+        return loop
     try:
         return _geometry_set_route(bpy, depsgraph)
     except _Unsupported as why:

@@ -120,7 +120,7 @@ class CompareJob(RenderJob):
             stats_lines=self._frame_lines(compared),
             images=images,
             files=[],
-            objects=len(work.export.objects),
+            objects=work.export.placements(),
             triangles=work.export.triangles,
         )
         self.done.append(done)

@@ -84,7 +84,10 @@ class SceneFrames:
 def send_frame(session, export: FrameExport) -> None:
     """Sends a frame's scene state, then the meshes the session lacks (after a reconnect: all)."""
     e = export
-    for h in session.frame_update(e.frame, e.objects, e.camera, e.lights, e.resolution):
+    missing = session.frame_update(
+        e.frame, e.objects, e.camera, e.lights, e.resolution, e.instances
+    )
+    for h in missing:
         mesh = e.meshes[h]
         session.upload_mesh(mesh.name, *mesh_arrays(mesh.positions, mesh.triangles, mesh.normals))
 
@@ -334,7 +337,7 @@ class RenderJob:
             stats_lines=results.stats_summary(result.stats),
             images=images,
             files=files,
-            objects=len(work.export.objects),
+            objects=work.export.placements(),
             triangles=work.export.triangles,
         )
         if self.out_dir is not None:

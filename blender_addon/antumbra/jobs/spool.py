@@ -75,7 +75,9 @@ def submit(
                     f,
                     options.percentage(scene.render.resolution_percentage),
                 )
-                missing = recorder.frame_update(f, e.objects, e.camera, e.lights, e.resolution)
+                missing = recorder.frame_update(
+                    f, e.objects, e.camera, e.lights, e.resolution, e.instances
+                )
                 for h in missing:
                     m = e.meshes[h]
                     recorder.upload_mesh(m.name, *mesh_arrays(m.positions, m.triangles, m.normals))

@@ -106,7 +106,14 @@ def main():
     result = {
         "triangles": sent.triangles,
         "blender": blender_count(scene, depsgraph),
-        "names": sorted(o["name"] for o in sent.objects),
+        "names": sorted(
+            [o["name"] for o in sent.objects]
+            + [
+                f"{a['name']}[{i}]"
+                for a in sent.instances
+                for i in a.get("ids", range(len(a["matrices"])))
+            ]
+        ),
         "version": list(bpy.app.version),
     }
     Path(a.out).write_text(json.dumps(result, indent=1))

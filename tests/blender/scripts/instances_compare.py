@@ -284,7 +284,7 @@ def main():
             "groups": len(fast.groups),
             "diff": compare(fast, expected),
             "loop_diff": compare(loop, expected),
-            "exporter": len(sent.objects),
+            "exporter": sent.placements(),
             "loop_shown": shown,
         }
         entry["same"] = not entry["diff"] and not entry["loop_diff"]
