@@ -1,0 +1,245 @@
+"""Alpha from Blender's materials (issue 38, the Blender side): ``material_alpha``'s contract for
+every graph shape it reads and a warning naming material and node for those it cannot,
+``alpha_image``'s sizes, row order and values, ``mesh_alpha``'s slots and UVs against a
+per-element walk and in the exporter's triangle order, and the bad inputs (a missing image
+file, an image of 0 pixels, a UV map named but absent, NaN UVs). Also the leaf-card .blend
+builder, reopened from disk.
+
+Each runs in Debian's Blender 3.4 (``blender -b``) and in the bpy module of the Python running
+pytest (5.0 in ``.venv``; 4.2, 4.5, 5.3 with ``-m bpy`` in their venvs), one Blender process
+per variant; a missing Blender fails its variant.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import ADDON, blender_env, run_blender
+
+HERE = Path(__file__).resolve().parent
+SCRIPTS = HERE / "scripts"
+KINDS = ["blender", pytest.param("bpy", marks=pytest.mark.bpy)]
+
+TEXTURE = {
+    "kind": "texture",
+    "image": "Rows",
+    "channel": "alpha",
+    "uv_map": "",
+    "interpolation": "Linear",
+    "extension": "REPEAT",
+    "ops": [],
+}
+
+
+def run(kind: str, script: Path, folder: Path, *extra: str) -> subprocess.CompletedProcess:
+    args = [*extra]
+    if kind == "blender":
+        return run_blender(["-P", str(script), "--", *args], folder / "home", timeout=120)
+    return subprocess.run(
+        [sys.executable, str(script), "--", *args],
+        env=blender_env(folder / "home"),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+@pytest.fixture(scope="module", params=KINDS)
+def found(request, tmp_path_factory) -> dict:
+    """materials_check.py's findings in one Blender."""
+    folder = tmp_path_factory.mktemp(f"materials-{request.param}")
+    out = folder / "out.json"
+    done = run(
+        request.param,
+        SCRIPTS / "materials_check.py",
+        folder,
+        *("--addon", str(ADDON), "--out", str(out)),
+    )
+    assert out.is_file(), done.stdout[-3000:] + done.stderr[-3000:]
+    return json.loads(out.read_text())
+
+
+def contract(found, name):
+    return found["materials"][name]["contract"]
+
+
+def ops(found, name):
+    return contract(found, name)["ops"]
+
+
+def test_constants_and_opaque(found):
+    m = found["materials"]
+    assert contract(found, "Empty slot") == {"kind": "opaque"}
+    assert contract(found, "Default") == {"kind": "opaque"}, "Principled's alpha 1 is opaque"
+    assert contract(found, "Const") == {"kind": "constant", "alpha": 0.5}
+    assert contract(found, "HalfMix") == {"kind": "constant", "alpha": 0.5}, "Mix(0.5, T, D)"
+    assert contract(found, "TransparentOnly") == {"kind": "constant", "alpha": 0.0}
+    assert all(entry["json"] for entry in m.values()), "every contract survives JSON"
+    assert all(not m[n]["warnings"] for n in ("Default", "Const", "HalfMix", "TransparentOnly"))
+
+
+def test_texture_alpha_and_colour(found):
+    assert contract(found, "TexAlpha") == TEXTURE
+    assert found["materials"]["TexAlpha"]["node"] == "Leaf Image"
+    info = found["materials"]["TexAlpha"]["image_info"]
+    assert info["size"] == [4, 2] and info["alpha_mode"] == "STRAIGHT", info
+    assert info["colorspace"] == "sRGB" and not info["is_float"], info
+    assert contract(found, "TexColor") == {
+        **TEXTURE,
+        "channel": "luminance",
+        "interpolation": "Closest",
+        "extension": "EXTEND",
+    }
+    assert contract(found, "TexCoordUV") == TEXTURE, "a Texture Coordinate's UV: the render map"
+    assert contract(found, "UVNode") == {**TEXTURE, "uv_map": "Leaves"}
+
+
+def test_math_chains(found):
+    assert contract(found, "Clip") == {**TEXTURE, "ops": [["GREATER_THAN", 0.5]]}
+    # x * 2 clamped, then 1 - x through a reroute, then x ** 2.
+    assert ops(found, "Chain") == [["MULTIPLY", 2.0], ["CLAMP"], ["ONE_MINUS"], ["POWER", 2.0]]
+    # Invert, + 0.1, 0.3 < x (so x > 0.3), 0.8 - x (so (1 - x) - 0.2), x < 0.25; the
+    # constants are the sockets' float32 values.
+    chain = ops(found, "Chain2")
+    assert [op[0] for op in chain] == [
+        "ONE_MINUS",
+        "ADD",
+        "GREATER_THAN",
+        "ONE_MINUS",
+        "ADD",
+        "LESS_THAN",
+    ], chain
+    assert [op[1:] for op in chain] == [
+        [],
+        [pytest.approx(0.1)],
+        [pytest.approx(0.3)],
+        [],
+        [pytest.approx(-0.2)],
+        [0.25],
+    ], chain
+
+
+def test_transparent_mix_both_ways_and_nested(found):
+    assert contract(found, "MixFirst") == TEXTURE, "Transparent first: alpha = Fac"
+    assert contract(found, "MixSecond") == {**TEXTURE, "ops": [["ONE_MINUS"]]}, "1 - Fac"
+    # Mix(0.5, Transparent, Principled with the texture's alpha): half of it.
+    assert contract(found, "Nested") == {**TEXTURE, "ops": [["MULTIPLY", 0.5]]}
+
+
+@pytest.mark.parametrize(
+    ("name", "node", "why"),
+    [
+        ("Noise", "node 'Noise Texture' (ShaderNodeTexNoise)", "feeding Alpha is not supported"),
+        ("Mapped", "node 'Mapping' (ShaderNodeMapping)", "texture's Vector is not supported"),
+        ("Generated", "node 'Texture Coordinate' (ShaderNodeTexCoord)", "Vector is not"),
+        ("Sine", "node 'Sine' (ShaderNodeMath)", "operation SINE is not supported"),
+        ("TwoTextures", "node 'Both' (ShaderNodeMath)", "combines two textures"),
+        ("AddShader", "node 'Add Shader' (ShaderNodeAddShader)", "surface shader is not"),
+    ],
+)
+def test_unsupported_graphs_are_opaque_with_a_warning(found, name, node, why):
+    entry = found["materials"][name]
+    assert entry["contract"] == {"kind": "opaque"}
+    (warning,) = entry["warnings"]
+    assert warning.startswith(f"material '{name}': {node} "), warning
+    assert why in warning and warning.endswith("; exported opaque"), warning
+
+
+def test_noise_warning_reads_as_documented(found):
+    assert found["materials"]["Noise"]["warnings"] == [
+        "material 'Noise': node 'Noise Texture' (ShaderNodeTexNoise) feeding Alpha is not "
+        "supported; exported opaque"
+    ]
+
+
+def test_modes_as_each_blender_spells_them(found):
+    modes = found["materials"]["Const"]["modes"]
+    if tuple(found["blender"]) < (4, 2, 0):
+        assert set(modes) == {"blend_method", "shadow_method"}, modes
+    else:
+        assert {"surface_render_method", "use_transparent_shadow"} <= set(modes), modes
+    # Cycles ignores them, so the same contract whatever they say.
+    assert contract(found, "Const") == {"kind": "constant", "alpha": 0.5}
+
+
+def test_luminance_coefficients_are_scene_linear_y(found):
+    weights = found["luminance"]
+    assert sum(weights) == pytest.approx(1.0, abs=1e-6)
+    assert weights == pytest.approx([0.2126, 0.7152, 0.0722], abs=2e-4)
+
+
+def srgb_to_linear(c: float) -> float:
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+
+def test_image_size_row_order_and_values(found):
+    images = found["images"]
+    rows = images["png_rows"]  # the PNG's rows, top first
+    bottom_up = rows[::-1]
+    alpha = images["alpha"]
+    assert alpha["size"] == [4, 2] and alpha["dtype"] == "float32"
+    expected = [[px[3] / 255 for px in row] for row in bottom_up]
+    assert np.allclose(alpha["values"], expected, atol=1e-6), "row 0 is the file's bottom row"
+    assert np.allclose(images["packed_alpha"], expected, atol=1e-6), "packed: the same"
+    w = found["luminance"]
+    lum = [
+        [sum(wi * srgb_to_linear(px[i] / 255) for i, wi in enumerate(w)) for px in row]
+        for row in bottom_up
+    ]
+    assert np.allclose(images["luminance"]["values"], lum, atol=1e-5), "sRGB decoded, weighted"
+    raw = [[sum(wi * px[i] / 255 for i, wi in enumerate(w)) for px in row] for row in bottom_up]
+    assert np.allclose(images["luminance_non_color"], raw, atol=1e-5), "Non-Color: as stored"
+
+
+def test_bad_images_name_object_material_node_and_file(found):
+    images = found["images"]
+    where = "object 'Card', material 'Leaf', node 'Leaf Image': "
+    assert images["missing"].startswith(where + "image 'Gone': file '"), images["missing"]
+    assert images["missing"].endswith("no_such_file.png' is missing"), images["missing"]
+    assert images["empty"].startswith(where + "image 'Empty' has 0 pixels"), images["empty"]
+    assert found["source_image_error"] == (
+        "object 'Card', material 'TexAlpha', node 'Leaf Image': image 'No such image' is not "
+        "in this file"
+    )
+
+
+def test_mesh_alpha_slots_and_uvs_against_a_per_element_walk(found):
+    mixed = found["meshes"]["mixed"]
+    ref = mixed["reference"]
+    # Faces use slots 0, 1, 2 and 5 (past the last of 3 slots: clamped to 2).
+    assert mixed["material_index"] == ref["material_index"] == [0, 1, 1, 2, 2, 2, 2, 2]
+    assert mixed["dtype"] == ["uint32", "float32"]
+    assert mixed["loops"] == ref["loops"]
+    assert sorted(mixed["uv"]) == ["", "Leaves"], "one array per UV map a texture reads"
+    for key in ("", "Leaves"):
+        assert np.allclose(mixed["uv"][key], ref["uv"][key], atol=0), key
+    # "" is the active render map (u = corner index / 100, v = 0.5), not the first one.
+    assert np.allclose(mixed["uv"][""][0], [[0.0, 0.5], [0.01, 0.5], [0.02, 0.5]])
+    assert mixed["warnings"] == []
+    assert found["meshes"]["opaque_only"], "no alpha slot: no per-triangle data"
+
+
+def test_mesh_alpha_follows_the_exporters_triangle_order(found):
+    assert found["meshes"]["exporter_order"] == {"mixed": True, "quads": True, "triangles": True}
+
+
+def test_absent_uv_map_and_nan_uvs_warn_naming_object_material_node(found):
+    bad = found["meshes"]["bad"]
+    absent, nan = sorted(bad["warnings"], key=lambda w: "absent" not in w)
+    assert absent == (
+        "object 'BadCard', material 'UVNode', node 'Leaf Image': UV map 'Leaves' is absent; "
+        "read as UV (0, 0), as Cycles does"
+    )
+    assert nan.startswith("object 'BadCard', material 'TexAlpha', node 'Leaf Image': ")
+    assert "UV map 'UVMap' has non-finite UVs on 1 triangles" in nan, nan
+    assert np.all(np.asarray(bad["absent_uvs"]) == 0.0)
+    uvs = np.asarray(bad["nan_uvs"])
+    assert np.isfinite(uvs).all()
+    loops = np.asarray(bad["loops"])
+    at_nan = loops == 5  # corner 5 was NaN: now (0, 0); the rest keep (0.25, 0.75)
+    assert np.all(uvs[at_nan] == 0.0) and np.allclose(uvs[~at_nan], [0.25, 0.75])
