@@ -243,3 +243,66 @@ def test_absent_uv_map_and_nan_uvs_warn_naming_object_material_node(found):
     loops = np.asarray(bad["loops"])
     at_nan = loops == 5  # corner 5 was NaN: now (0, 0); the rest keep (0.25, 0.75)
     assert np.all(uvs[at_nan] == 0.0) and np.allclose(uvs[~at_nan], [0.25, 0.75])
+
+
+@pytest.fixture(scope="module", params=KINDS)
+def leaf_cards(request, tmp_path_factory) -> dict:
+    """leaf_cards_check.py's reading of the leaf-card .blend, both variants, in one Blender."""
+    folder = tmp_path_factory.mktemp(f"leaf-{request.param}")
+    out = folder / "out.json"
+    done = run(
+        request.param,
+        SCRIPTS / "leaf_cards_check.py",
+        folder,
+        *("--addon", str(ADDON), "--out", str(out)),
+    )
+    assert out.is_file(), done.stdout[-3000:] + done.stderr[-3000:]
+    return json.loads(out.read_text())
+
+
+@pytest.mark.parametrize("variant", ["clip", "fractional"])
+def test_leaf_card_blend_reads_back_as_built(leaf_cards, variant):
+    scene = leaf_cards[variant]
+    ops = [["GREATER_THAN", 0.5]] if variant == "clip" else []
+    for name in ("Leaf", "Picket"):
+        assert scene["materials"][name]["contract"] == {
+            **TEXTURE,
+            "image": name,
+            "ops": ops,
+        }, name
+    assert scene["materials"]["Glass"]["contract"] == {"kind": "constant", "alpha": 0.5}
+    assert scene["materials"]["Bark"]["contract"] == {"kind": "opaque"}
+    assert all(not m["warnings"] for m in scene["materials"].values())
+    assert scene["cycles"] == {
+        "engine": "CYCLES",
+        "transparent_max_bounces": 64,
+        "shadow_catcher": True,
+    }
+
+
+def test_leaf_card_images_are_packed_with_a_fractional_rim(leaf_cards):
+    images = leaf_cards["fractional"]["images"]
+    assert images["Leaf"]["size"] == [64, 64] and images["Picket"]["size"] == [32, 64]
+    for name, image in images.items():
+        assert image["packed"], name
+        assert image["corner"] == 0.0, name
+        assert 0.05 < image["fractional"] < 0.3 and image["opaque"] > 0.3, (name, image)
+        row = np.asarray(image["middle_row"])
+        assert row[0] == 0.0 and row[-1] == 0.0 and row[len(row) // 2] == 1.0, (name, row)
+        assert ((row > 0) & (row < 1)).sum() >= 4, (name, row)
+        assert np.allclose(row, row[::-1], atol=1 / 255), (name, "symmetric")
+
+
+def test_leaf_card_meshes_carry_uvs_only_where_alpha_is_needed(leaf_cards):
+    objects = leaf_cards["clip"]["objects"]
+    for name in ("Ground", "Trunk.0", "Trunk.1", "Trunk.2"):
+        assert objects[name] is None, name
+    for i in range(3):
+        crown = objects[f"Crown.{i}"]
+        assert crown["triangles"] == 2 * 60 and crown["uv_maps"] == [""], crown
+        assert crown["uv_min"] == [0.0, 0.0] and crown["uv_max"] == [1.0, 1.0], crown
+    fence = objects["Fence"]
+    assert fence["triangles"] == 2 * 12 and fence["uv_max"] == [2.0, 1.0], "two pickets a plank"
+    glass = objects["Glass"]
+    assert glass["triangles"] == 12 and glass["uv_maps"] == [], "a constant alpha needs no UVs"
+    assert all(not (o or {"warnings": []})["warnings"] for o in objects.values())
