@@ -172,6 +172,10 @@ class AlphaSource:
     interpolation: str = "Linear"
     extension: str = "REPEAT"
     ops: list = field(default_factory=list)
+    #: For ``luminance``: whether Cycles divides the colour by alpha (``alpha_image``'s
+    #: ``unassociate``: the node's Alpha output is linked too). Not in the contract: it shapes
+    #: the image's values, which travel by content.
+    unassociate: bool = False
     #: The Image Texture node read (for messages naming the node); "" without one.
     node: str = ""
     #: The image as Blender holds it: size, packed or file, colour space, alpha mode.
@@ -272,6 +276,8 @@ class _Walk:
         texture = {
             "image": image.name,
             "channel": channel,
+            # Cycles divides the colour by alpha only when the Alpha output is used too.
+            "unassociate": channel == "luminance" and node.outputs["Alpha"].is_linked,
             "uv_map": uv_map,
             "interpolation": node.interpolation,
             "extension": node.extension,
@@ -440,6 +446,16 @@ def material_alpha(material) -> AlphaSource:
             return AlphaSource(modes=modes)
         return AlphaSource(kind="constant", alpha=alpha, modes=modes)
     t = expr.texture
+    warnings = []
+    info = t["image_info"]
+    if t["channel"] == "luminance" and t["interpolation"] != "Closest":
+        if not info["is_float"] and info["colorspace"] == "sRGB":
+            warnings.append(
+                f"material '{material.name}': node '{t['node']}' (ShaderNodeTexImage) reads an "
+                f"sRGB image's colour as alpha with {t['interpolation']} interpolation; Cycles "
+                "decodes the colour after interpolating it, the export per texel, so alpha "
+                "between texels differs (Closest is exact)"
+            )
     ops = expr.ops
     while ops and ops[-1] == ["CLAMP"]:
         ops = ops[:-1]  # the contract clamps the result anyway
@@ -452,6 +468,8 @@ def material_alpha(material) -> AlphaSource:
         extension=t["extension"],
         ops=ops,
         node=t["node"],
+        unassociate=t["unassociate"],
         image_info=t["image_info"],
         modes=modes,
+        warnings=warnings,
     )
