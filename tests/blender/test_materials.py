@@ -140,6 +140,9 @@ def test_transparent_mix_both_ways_and_nested(found):
         ("Sine", "node 'Sine' (ShaderNodeMath)", "operation SINE is not supported"),
         ("TwoTextures", "node 'Both' (ShaderNodeMath)", "combines two textures"),
         ("AddShader", "node 'Add Shader' (ShaderNodeAddShader)", "surface shader is not"),
+        ("Tiled", "node 'UDIM' (ShaderNodeTexImage)", "reads a TILED image"),
+        ("Box", "node 'Box Image' (ShaderNodeTexImage)", "has projection BOX"),
+        ("Muted", "node 'Muted Math' (ShaderNodeMath)", "is muted"),
     ],
 )
 def test_unsupported_graphs_are_opaque_with_a_warning(found, name, node, why):
@@ -370,12 +373,19 @@ def test_contract_casts_the_shadows_cycles_casts(cycles_cards):
     1 - Fac, nesting, extension, Linear and Closest, row order, luminance premultiplied or not,
     file or packed)."""
     rows = card_comparison(*cycles_cards)
-    assert len(rows) == 14, rows
+    assert len(rows) == 16, rows
     for name, row in rows.items():
         if name != "Luminance Linear":
             assert row["max"] < 1e-3, (name, row)
     assert rows["Linear Repeat"]["fractional"] > 500, "the fractional alpha is exercised"
     assert rows["Clip 0.5"]["fractional"] == 0 and rows["Constant"]["fractional"] > 2000
+    cards = {card["name"]: card["contract"] for card in cycles_cards[0]["cards"]}
+    assert cards["Mix Overshoot"]["ops"] == [
+        ["MULTIPLY", 2.0],
+        ["SUBTRACT", 0.5],
+        ["CLAMP"],
+        ["ONE_MINUS"],
+    ], "the mix clamps its Fac before 1 - Fac"
     assert all(not r.get("warnings") for n, r in rows.items() if n != "Luminance Linear")
 
 

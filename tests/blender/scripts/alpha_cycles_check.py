@@ -108,6 +108,23 @@ def cards_materials(image, packed) -> list:
     p.inputs["Alpha"].default_value = 0.3
     made.append(m)
 
+    # Out of [0, 1] before the Principled BSDF (3x - 1) and before a Mix's Fac (2x - 0.5): both
+    # are clamped, by the contract's end and by the mix's CLAMP.
+    m, tree, p, _ = new_material("Overshoot")
+    tripled = math(tree, "MULTIPLY", texture(tree, image).outputs["Alpha"], 3.0)
+    tree.links.new(math(tree, "SUBTRACT", tripled.outputs[0], 1.0).outputs[0], p.inputs["Alpha"])
+    made.append(m)
+
+    m, tree, p, out = new_material("Mix Overshoot")
+    doubled = math(tree, "MULTIPLY", texture(tree, image).outputs["Alpha"], 2.0)
+    shifted = math(tree, "SUBTRACT", doubled.outputs[0], 0.5)
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    tree.links.new(shifted.outputs[0], mix.inputs[0])
+    tree.links.new(p.outputs[0], mix.inputs[1])
+    tree.links.new(tree.nodes.new("ShaderNodeBsdfTransparent").outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], out.inputs["Surface"])
+    made.append(m)
+
     m, tree, p, _ = new_material("Invert Add")
     invert = tree.nodes.new("ShaderNodeInvert")
     tree.links.new(texture(tree, image).outputs["Alpha"], invert.inputs["Color"])

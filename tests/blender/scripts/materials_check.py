@@ -293,6 +293,24 @@ def build_materials(image) -> dict:
     tree.links.new(both.outputs[0], p.inputs["Alpha"])
     made["TwoTextures"] = m
 
+    m, tree, p, _ = new_material("Tiled")
+    tiles = bpy.data.images.new("Tiles", 4, 4, alpha=True, tiled=True)
+    tree.links.new(texture(tree, tiles, "UDIM").outputs["Alpha"], p.inputs["Alpha"])
+    made["Tiled"] = m
+
+    m, tree, p, _ = new_material("Box")
+    tex = texture(tree, image, "Box Image")
+    tex.projection = "BOX"
+    tree.links.new(tex.outputs["Alpha"], p.inputs["Alpha"])
+    made["Box"] = m
+
+    m, tree, p, _ = new_material("Muted")
+    muted = math(tree, "MULTIPLY", texture(tree, image).outputs["Alpha"], 2.0)
+    muted.name = "Muted Math"
+    muted.mute = True
+    tree.links.new(muted.outputs[0], p.inputs["Alpha"])
+    made["Muted"] = m
+
     m, tree, p, out = new_material("AddShader")
     add = tree.nodes.new("ShaderNodeAddShader")
     add.name = "Add Shader"
