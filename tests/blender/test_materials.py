@@ -253,8 +253,9 @@ def test_absent_uv_map_and_nan_uvs_warn_naming_object_material_node(found):
 
 
 @pytest.fixture(scope="module", params=KINDS)
-def leaf_cards(request, tmp_path_factory) -> dict:
-    """leaf_cards_check.py's reading of the leaf-card .blend, both variants, in one Blender."""
+def leaf_cards_folder(request, tmp_path_factory) -> Path:
+    """leaf_cards_check.py's folder: its reading of the leaf-card .blend (both variants) as
+    ``out.json`` and Cycles' renders of it, in one Blender."""
     folder = tmp_path_factory.mktemp(f"leaf-{request.param}")
     out = folder / "out.json"
     done = run(
@@ -264,7 +265,12 @@ def leaf_cards(request, tmp_path_factory) -> dict:
         *("--addon", str(ADDON), "--out", str(out)),
     )
     assert out.is_file(), done.stdout[-3000:] + done.stderr[-3000:]
-    return json.loads(out.read_text())
+    return folder
+
+
+@pytest.fixture
+def leaf_cards(leaf_cards_folder) -> dict:
+    return json.loads((leaf_cards_folder / "out.json").read_text())
 
 
 @pytest.mark.parametrize("variant", ["clip", "fractional"])
@@ -397,3 +403,27 @@ def test_linear_luminance_of_an_srgb_image_is_approximate_and_says_so(cycles_car
     assert warning.startswith("material 'Luminance Linear': node 'Leaf Image'"), warning
     assert "Linear interpolation" in warning and "Closest is exact" in warning, warning
     assert 0.05 < row["max"] < 0.3, row
+
+
+def test_leaf_card_scene_casts_transparent_shadows_in_cycles(leaf_cards_folder):
+    """The builder's Cycles settings cast transparent shadows: the clip variant's shadows are
+    0, 1 or powers of the glass's 0.5 (cards cut out), the fractional variant's also take the
+    leaves' rim values in between; both lights cast some of each."""
+    import antumbra
+
+    glass = {0.0, 1.0, 0.5, 0.25, 0.125, 0.0625}
+    for light in ("sun", "lamp"):
+        found = {}
+        for variant in ("clip", "fractional"):
+            planes = antumbra.read_exr(str(leaf_cards_folder / variant / f"cycles_{light}.exr"))
+            catcher = next(
+                v for k, v in planes.items() if "Shadow Catcher" in k and k.endswith(".R")
+            )
+            found[variant] = np.clip(catcher, 0.0, 1.0)
+        clip, fractional = found["clip"], found["fractional"]
+        near = np.min([np.abs(clip - g) for g in glass], axis=0)
+        assert near.max() < 1e-3, (light, float(near.max()))
+        assert (np.abs(clip - 0.25) < 1e-3).sum() > 5, (light, "the glass box casts 0.25")
+        assert (clip < 1e-3).mean() > 0.005, (light, "the cards cast full shadow too")
+        rim = np.min([np.abs(fractional - g) for g in glass], axis=0) > 0.02
+        assert rim.sum() > 20, (light, "fractional alpha lets light partly through")

@@ -2,6 +2,8 @@
 reopens the .blend and reads it with the add-on's alpha export, as the exporter will. Runs in
 Debian's Blender (``blender -b -P leaf_cards_check.py -- ARGS``) and with the bpy module.
 
+Also renders each variant with Cycles at 96 x 96 (``clip/cycles_sun.exr`` ... beside OUT).
+
 Writes OUT (JSON), per variant: each material's contract and warnings, each image's packed
 state, size and alpha statistics, and per object ``mesh_alpha``'s triangle count, slots, UV
 range and warnings (None where no slot needs alpha).
@@ -20,6 +22,8 @@ import bpy
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from materials_check import load  # noqa: E402 - the same loader of the export package
+
+RENDER_SIZE = 96
 
 
 def args():
@@ -91,8 +95,10 @@ def main():
     result = {}
     for variant in ("clip", "fractional"):
         blend = folder / f"leaf_cards_{variant}.blend"
-        scene_builder.build(variant, 64)
+        scene = scene_builder.build(variant, RENDER_SIZE)
         bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+        # Cycles' shadow catcher per light, for the test to see transparent shadows at work.
+        scene_builder.render(scene, folder / variant)
         bpy.ops.wm.read_factory_settings(use_empty=True)
         bpy.ops.wm.open_mainfile(filepath=str(blend))
         result[variant] = read(materials, ai, am)
