@@ -232,7 +232,13 @@ def test_mesh_alpha_slots_and_uvs_against_a_per_element_walk(found):
 
 
 def test_mesh_alpha_follows_the_exporters_triangle_order(found):
-    assert found["meshes"]["exporter_order"] == {"mixed": True, "quads": True, "triangles": True}
+    same = {"exporter": True, "loop_triangles": True, "faces": True, "dtype": "int32"}
+    order = found["meshes"]["exporter_order"]
+    loops = {name: route.pop("loops") for name, route in order.items()}
+    assert order == {"mixed": same, "quads": same, "triangles": same}, order
+    # The dart (corners 12-15 of the quads) is split along its 1-3 diagonal, in both meshes.
+    assert loops["quads"][-2:] == [[12, 13, 15], [13, 14, 15]], loops["quads"]
+    assert loops["mixed"][3:5] == [[7, 8, 10], [8, 9, 10]], loops["mixed"]
 
 
 def test_absent_uv_map_and_nan_uvs_warn_naming_object_material_node(found):

@@ -338,18 +338,22 @@ def material_cases(materials, image) -> dict:
 
 # Meshes ------------------------------------------------------------------------------------
 
-#: A triangle, a convex quad, a quad whose diagonal 0-2 lies outside it (Blender splits it
+#: A triangle, a convex quad, a dart whose diagonal 0-2 lies outside it (Blender splits it
 #: along 1-3), a pentagon; and the slot each face uses (5 is past the last slot: clamped).
 MIXED_VERTS = [
     (0, 0, 0), (1, 0, 0), (0, 1, 0),
     (2, 0, 0), (3, 0, 0), (3, 1, 0), (2, 1, 0),
-    (4, 0, 0), (5, 0, 0), (4.2, 0.2, 0), (4, 1, 0),
+    (4, 0, 0), (4.5, 0.4, 0), (5, 0, 0), (4.5, 1, 0),
     (6, 0, 0), (7, 0, 0), (7.5, 0.8, 0), (6.5, 1.5, 0), (5.8, 0.8, 0),
 ]  # fmt: skip
 MIXED_FACES = [(0, 1, 2), (3, 4, 5, 6), (7, 8, 9, 10), (11, 12, 13, 14, 15)]
 MIXED_SLOTS = [0, 1, 2, 5]
-QUAD_VERTS = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (2.1, 0.1, 0), (2, 1, 0)]
-QUAD_FACES = [(0, 1, 2, 3), (1, 4, 5, 2), (2, 5, 6, 3)]
+QUAD_VERTS = [
+    (0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (2.1, 0.1, 0), (2, 1, 0),
+    (4, 0, 0), (4.5, 0.4, 0), (5, 0, 0), (4.5, 1, 0),
+]  # fmt: skip
+#: Three convex quads and a dart whose corner 1 is reflex (its 0-2 diagonal lies outside).
+QUAD_FACES = [(0, 1, 2, 3), (1, 4, 5, 2), (2, 5, 6, 3), (7, 8, 9, 10)]
 
 
 def make_mesh(name, verts, faces, slots=None):
@@ -385,17 +389,22 @@ def reference(mesh, obj, slots: int) -> dict:
     return rows
 
 
-def exporter_order(exporter, mesh) -> bool:
-    """The exporter's triangles are the vertices of mesh_alpha's corners, row for row."""
+def exporter_order(am, exporter, mesh) -> dict:
+    """mesh_alpha's corners against the exporter's triangles (their vertices, row for row) and
+    against ``loop_triangles`` (the same corners), and its faces against the loop triangles'."""
     positions = exporter._positions(mesh)
     triangles = exporter._triangles(mesh, None, positions)[0]
     corner_vert = np.empty(len(mesh.loops), dtype=np.int32)
     mesh.loops.foreach_get("vertex_index", corner_vert)
-    if not mesh.loop_triangles:
-        mesh.calc_loop_triangles()
-    loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    return bool(np.array_equal(triangles, corner_vert[loops.reshape(-1, 3)]))
+    loops, faces = am.triangle_loops(mesh)
+    blender = [list(t.loops) for t in mesh.loop_triangles]
+    return {
+        "exporter": bool(np.array_equal(triangles, corner_vert[loops])),
+        "loop_triangles": loops.tolist() == blender,
+        "faces": faces.tolist() == [t.polygon_index for t in mesh.loop_triangles],
+        "dtype": str(loops.dtype),
+        "loops": loops.tolist(),
+    }
 
 
 def mesh_cases(materials, am, exporter, made) -> dict:
@@ -430,12 +439,11 @@ def mesh_cases(materials, am, exporter, made) -> dict:
     out["opaque_only"] = am.mesh_alpha(evaluated, evaluated.data, sources[:1]) is None
 
     # The exporter's triangle order, on each of its three routes.
+    tris = [(0, 1, 2), (0, 2, 3), (1, 4, 5), (5, 6, 3)]
     out["exporter_order"] = {
-        "mixed": exporter_order(exporter, mesh),
-        "quads": exporter_order(exporter, make_mesh("Quads", QUAD_VERTS, QUAD_FACES)),
-        "triangles": exporter_order(
-            exporter, make_mesh("Tris", QUAD_VERTS, [(0, 1, 2), (0, 2, 3), (1, 4, 5), (5, 6, 3)])
-        ),
+        "mixed": exporter_order(am, exporter, mesh),
+        "quads": exporter_order(am, exporter, make_mesh("Quads", QUAD_VERTS, QUAD_FACES)),
+        "triangles": exporter_order(am, exporter, make_mesh("Tris", QUAD_VERTS, tris)),
     }
 
     # Bad input: a UV map named but absent, non-finite UVs.
