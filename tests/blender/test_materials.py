@@ -83,6 +83,10 @@ def test_constants_and_opaque(found):
     assert all(not m[n]["warnings"] for n in ("Default", "Const", "HalfMix", "TransparentOnly"))
 
 
+def test_driven_alpha_is_read_at_the_frames_value(found):
+    assert found["driven"] == {"kind": "constant", "alpha": pytest.approx(0.3)}
+
+
 def test_texture_alpha_and_colour(found):
     assert contract(found, "TexAlpha") == TEXTURE
     assert found["materials"]["TexAlpha"]["node"] == "Leaf Image"

@@ -64,9 +64,7 @@ _OPAQUE_SHADERS = {
     "ShaderNodeBsdfMetallic",
     "ShaderNodeSubsurfaceScattering",
     "ShaderNodeEmission",
-    "ShaderNodeEeveeSpecular",
     "ShaderNodeHoldout",
-    "ShaderNodeBsdfRayPortal",
 }
 
 

@@ -465,6 +465,21 @@ def mesh_cases(materials, am, exporter, made) -> dict:
     return out
 
 
+def driven_case(materials) -> dict:
+    """A Principled Alpha driven by the frame (frame / 100), read from the evaluated object's
+    slot at frame 30: the driver's value, 0.3."""
+    mesh = make_mesh("Driven", QUAD_VERTS[:4], [(0, 1, 2, 3)])
+    material, _, p, _ = new_material("Driven")
+    mesh.materials.append(material)
+    obj = bpy.data.objects.new("Driven", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    curve = p.inputs["Alpha"].driver_add("default_value")
+    curve.driver.expression = "frame / 100"  # a simple expression: no Python auto-run needed
+    bpy.context.scene.frame_set(30)
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    return materials.material_alpha(evaluated.material_slots[0].material).contract()
+
+
 def main():
     a = args()
     materials, ai, am, exporter = load(Path(a.addon))
@@ -481,6 +496,7 @@ def main():
     built = {m.name: m for m in bpy.data.materials}
     built["Empty slot"] = None
     result["meshes"] = mesh_cases(materials, am, exporter, built)
+    result["driven"] = driven_case(materials)
     # Errors of a texture source named as the exporter would name them.
     leaf = materials.material_alpha(built["TexAlpha"])
     leaf.image = "No such image"
