@@ -36,8 +36,8 @@ IMAGE_ROWS = [
 ]
 SIZE = 240
 SPAN = 12.0
-GRID = (4, 4)
-CARD = 2.4
+GRID = (5, 4)
+CARD = 2.0
 UV_RANGE = (-0.5, 1.5)
 
 
@@ -55,7 +55,7 @@ def cards_materials(image, packed) -> list:
 
     def simple(material, channel="Alpha", source=None, **tex):
         m, tree, p, _ = new_material(material)
-        read = texture(tree, source or image, **tex)
+        read = texture(tree, image if source is None else (source or None), **tex)
         tree.links.new(read.outputs[channel], p.inputs["Alpha"])
         made.append(m)
 
@@ -124,6 +124,10 @@ def cards_materials(image, packed) -> list:
     tree.links.new(tree.nodes.new("ShaderNodeBsdfTransparent").outputs[0], mix.inputs[2])
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
     made.append(m)
+
+    # An Image Texture without an image: Cycles reads magenta, alpha 1.
+    simple("No Image Color", channel="Color", source=False)
+    simple("No Image Alpha", source=False)
 
     m, tree, p, _ = new_material("Invert Add")
     invert = tree.nodes.new("ShaderNodeInvert")
