@@ -367,6 +367,8 @@ def card_comparison(found: dict, catcher: np.ndarray) -> dict:
         inside = (x > x0) & (x < x1) & (y > y0) & (y < y1)
         u, v = a + (x - x0) / (x1 - x0) * (b - a), a + (y - y0) / (y1 - y0) * (b - a)
         contract = card["contract"]
+        if contract.get("uv_map") == "Mirrored":
+            u = 1.0 - u
         values = None
         if contract["kind"] == "texture":
             image = found["images"][contract["image"]]
@@ -387,10 +389,12 @@ def card_comparison(found: dict, catcher: np.ndarray) -> dict:
 def test_contract_casts_the_shadows_cycles_casts(cycles_cards):
     """Every card but one: Cycles' shadow equals 1 - the contract's alpha at every pixel (ops,
     1 - Fac, nesting, extension, Linear and Closest, row order, luminance premultiplied or not,
-    file or packed)."""
+    file or packed, "" as the render UV map and a UV Map node's map, no image)."""
     rows = card_comparison(*cycles_cards)
-    assert len(rows) == 18, rows
+    assert len(rows) == 19, rows
     magenta = {card["name"]: card["contract"] for card in cycles_cards[0]["cards"]}
+    assert magenta["UV Map Node"]["uv_map"] == "Mirrored"
+    assert magenta["Linear Repeat"]["uv_map"] == "", "the render map, not the active one"
     assert magenta["No Image Alpha"] == {"kind": "opaque"}
     assert magenta["No Image Color"]["kind"] == "constant", "magenta's luminance, about 0.285"
     for name, row in rows.items():

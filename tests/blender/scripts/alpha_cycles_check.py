@@ -5,7 +5,8 @@ ARGS``) and with the bpy module.
 
 The scene: a ground plane (the shadow catcher) seen straight down by an orthographic camera; a
 sun straight down (angle 0); a grid of horizontal cards 1 above the ground, hidden from the
-camera, each with one material and UVs from -0.5 to 1.5 across it (so extension matters). Under
+camera, each with one material and UVs from -0.5 to 1.5 across it (so extension matters) in
+its render UV map, mirrored (u -> 1 - u) in another, the active one. Under
 a card the catcher pass is the card's transmission, 1 - alpha(u, v); elsewhere 1.
 
 Writes in OUT's folder ``cycles.exr`` (the render) and OUT (JSON): the camera's span, the
@@ -125,6 +126,15 @@ def cards_materials(image, packed) -> list:
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
     made.append(m)
 
+    # A UV Map node naming the mirrored map.
+    m, tree, p, _ = new_material("UV Map Node")
+    tex = texture(tree, image, interpolation="Closest")
+    node = tree.nodes.new("ShaderNodeUVMap")
+    node.uv_map = "Mirrored"
+    tree.links.new(node.outputs["UV"], tex.inputs["Vector"])
+    tree.links.new(tex.outputs["Alpha"], p.inputs["Alpha"])
+    made.append(m)
+
     # An Image Texture without an image: Cycles reads magenta, alpha 1.
     simple("No Image Color", channel="Color", source=False)
     simple("No Image Alpha", source=False)
@@ -139,14 +149,19 @@ def cards_materials(image, packed) -> list:
 
 
 def card(name: str, x0: float, y0: float, material):
-    """A horizontal quad at z = 1 from (x0, y0), UVs UV_RANGE across it both ways."""
+    """A horizontal quad at z = 1 from (x0, y0), UVs UV_RANGE across it both ways in
+    ``UVMap``, the render map; ``Mirrored`` (u -> 1 - u) comes first, so it is the active
+    (edit) map but not the one Cycles renders with."""
     a, b = UV_RANGE
     mesh = bpy.data.meshes.new(name)
     verts = [(x0, y0, 1), (x0 + CARD, y0, 1), (x0 + CARD, y0 + CARD, 1), (x0, y0 + CARD, 1)]
     mesh.from_pydata(verts, [], [(0, 1, 2, 3)])
+    mirrored = mesh.uv_layers.new(name="Mirrored")
     uv = mesh.uv_layers.new(name="UVMap")
     for i, (u, v) in enumerate([(a, a), (b, a), (b, b), (a, b)]):
         uv.data[i].uv = (u, v)
+        mirrored.data[i].uv = (1.0 - u, v)
+    uv.active_render = True
     mesh.materials.append(material)
     obj = bpy.data.objects.new(name, mesh)
     obj.visible_camera = False
