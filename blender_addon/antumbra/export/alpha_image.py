@@ -33,8 +33,8 @@ from .materials import luminance_coefficients
 
 
 class AlphaError(ValueError):
-    """An image or mesh the alpha export cannot read; the message names object, material, node
-    and image as far as they are known."""
+    """An image the alpha export cannot read; the message names the object, material and node
+    as far as the caller knows them, and the image."""
 
 
 def _packed(image) -> bool:

@@ -126,14 +126,19 @@ def cards_materials(image, packed) -> list:
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
     made.append(m)
 
-    # A UV Map node naming the mirrored map.
-    m, tree, p, _ = new_material("UV Map Node")
-    tex = texture(tree, image, interpolation="Closest")
-    node = tree.nodes.new("ShaderNodeUVMap")
-    node.uv_map = "Mirrored"
-    tree.links.new(node.outputs["UV"], tex.inputs["Vector"])
-    tree.links.new(tex.outputs["Alpha"], p.inputs["Alpha"])
-    made.append(m)
+    # A UV Map node naming the mirrored map, and one naming a map no card has (Cycles reads
+    # UV (0, 0) there; Closest would sit on a texel edge, so Linear).
+    for material, uv_map, interpolation in (
+        ("UV Map Node", "Mirrored", "Closest"),
+        ("Absent UV Map", "Absent", "Linear"),
+    ):
+        m, tree, p, _ = new_material(material)
+        tex = texture(tree, image, interpolation=interpolation)
+        node = tree.nodes.new("ShaderNodeUVMap")
+        node.uv_map = uv_map
+        tree.links.new(node.outputs["UV"], tex.inputs["Vector"])
+        tree.links.new(tex.outputs["Alpha"], p.inputs["Alpha"])
+        made.append(m)
 
     # An Image Texture without an image: Cycles reads magenta, alpha 1.
     simple("No Image Color", channel="Color", source=False)
