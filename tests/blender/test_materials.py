@@ -450,3 +450,23 @@ def test_leaf_card_scene_casts_transparent_shadows_in_cycles(leaf_cards_folder):
         assert (clip < 1e-3).mean() > 0.005, (light, "the cards cast full shadow too")
         rim = np.min([np.abs(fractional - g) for g in glass], axis=0) > 0.02
         assert rim.sum() > 20, (light, "fractional alpha lets light partly through")
+
+
+def test_object_alpha_turns_an_unreadable_image_into_an_opaque_slot(found):
+    """object_alpha: per slot contracts, an image read once for every object, a missing image
+    an opaque slot with a warning naming object, material, node and file; nothing raises."""
+    objects = found["object"]
+    card = objects["Card"]
+    assert [slot["kind"] for slot in card["slots"]] == ["texture", "opaque", "constant"]
+    assert card["mesh"] == [0, 0]
+    (warning,) = card["warnings"]
+    assert warning.startswith(
+        "object 'Card', material 'MissingImage', node 'Gone Node': image 'Gone Leaf': file '"
+    ), warning
+    assert warning.endswith("no_such_leaf.png' is missing; exported opaque"), warning
+    only = objects["OnlyMissing"]
+    assert only["slots"] == [{"kind": "opaque"}] and only["mesh"] is None, only
+    assert only["warnings"][0].startswith("object 'OnlyMissing', material 'MissingImage'")
+    assert objects["SecondCard"]["warnings"] == []
+    # Rows read once as alpha (Card's TexAlpha and SecondCard's Clip share it).
+    assert objects["images"] == {"Rows|alpha|0": [4, 2, [2, 4]]}

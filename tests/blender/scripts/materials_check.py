@@ -54,6 +54,14 @@ def load(addon: Path):
     return materials, alpha_image, alpha_mesh, exporter
 
 
+def load_object_alpha(addon: Path):
+    """``alpha_object``, from the package ``load`` made."""
+    load(addon)
+    import alpha_export.alpha_object as alpha_object
+
+    return alpha_object
+
+
 # Images ------------------------------------------------------------------------------------
 
 #: A 4 x 2 RGBA PNG, rows top first as PNG stores them: (r, g, b, a) bytes.
@@ -480,6 +488,38 @@ def driven_case(materials) -> dict:
     return materials.material_alpha(evaluated.material_slots[0].material).contract()
 
 
+def object_case(alpha_object, made) -> dict:
+    """object_alpha on a card with a textured, a missing-image and a constant slot, and on one
+    whose only alpha slot's image is missing; a shared image cache."""
+    gone = bpy.data.images.new("Gone Leaf", 4, 4)
+    gone.source = "FILE"
+    gone.filepath = "//no_such_leaf.png"
+    material, tree, p, _ = new_material("MissingImage")
+    tree.links.new(texture(tree, gone, "Gone Node").outputs["Alpha"], p.inputs["Alpha"])
+    out = {}
+    images = {}
+    for name, slots in (
+        ("Card", [made["TexAlpha"], material, made["Const"]]),
+        ("OnlyMissing", [material]),
+        ("SecondCard", [made["Clip"]]),
+    ):
+        mesh = make_mesh(name, QUAD_VERTS[:4], [(0, 1, 2, 3)])
+        set_uvs(mesh, "UVMap", np.zeros((4, 2)), True)
+        for slot in slots:
+            mesh.materials.append(slot)
+        obj = bpy.data.objects.new(name, mesh)
+        bpy.context.scene.collection.objects.link(obj)
+        evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        found = alpha_object.object_alpha(evaluated, evaluated.data, images)
+        out[name] = {
+            "slots": found.slots,
+            "mesh": None if found.mesh is None else found.mesh.material_index.tolist(),
+            "warnings": found.warnings,
+        }
+    out["images"] = {key: [w, h, list(v.shape)] for key, (w, h, v) in images.items()}
+    return out
+
+
 def main():
     a = args()
     materials, ai, am, exporter = load(Path(a.addon))
@@ -497,6 +537,7 @@ def main():
     built["Empty slot"] = None
     result["meshes"] = mesh_cases(materials, am, exporter, built)
     result["driven"] = driven_case(materials)
+    result["object"] = object_case(load_object_alpha(Path(a.addon)), built)
     # Errors of a texture source named as the exporter would name them.
     leaf = materials.material_alpha(built["TexAlpha"])
     leaf.image = "No such image"
