@@ -18,12 +18,15 @@ impl TopLevel {
     /// `boxes[i]` is the render-space box of `instances[i]` ([`super::instance_box`]).
     pub fn build(instances: &[Instance], boxes: &[Aabb], settings: &BuildSettings) -> Self {
         debug_assert_eq!(instances.len(), boxes.len());
-        let bvh = build_over_boxes(boxes, settings);
+        let mut bvh = build_over_boxes(boxes, settings);
         let instances = bvh
             .triangle_ids
             .iter()
             .map(|&i| instances[i as usize])
             .collect();
+        // The instances are in leaf order and name their object: the ids would be 4 bytes an
+        // instance of nothing.
+        bvh.triangle_ids = Vec::new();
         TopLevel { bvh, instances }
     }
 
