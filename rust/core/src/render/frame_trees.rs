@@ -10,6 +10,7 @@ use std::time::Instant;
 use xxhash_rust::xxh3::Xxh3;
 
 use super::light_tracer::{binary_order, light_tracing, LightRays, LightTracing, ShadowTrees};
+use super::object_changes::object_state;
 use super::two_level_trees::TwoLevelQuery;
 use super::wide_tree::{OrderedWideTree, WideTree};
 use super::RenderSettings;
@@ -32,16 +33,8 @@ impl GeometryKey {
         let mut h = Xxh3::new();
         h.update(&(scene.objects.len() as u64).to_le_bytes());
         // One update per object: the hasher's per-call cost dominates for small pieces.
-        let mut bytes = [0u8; 8 + 16 * 8 + 2];
         for o in &scene.objects {
-            let mesh = Arc::as_ptr(&scene.meshes[o.mesh]) as usize as u64;
-            bytes[..8].copy_from_slice(&mesh.to_le_bytes());
-            for (i, v) in o.world_from_object.to_cols_array().iter().enumerate() {
-                bytes[8 + 8 * i..16 + 8 * i].copy_from_slice(&v.to_bits().to_le_bytes());
-            }
-            bytes[136] = o.visible_to_camera as u8;
-            bytes[137] = o.casts_shadow as u8;
-            h.update(&bytes);
+            h.update(&object_state(scene, o));
         }
         GeometryKey(h.digest128())
     }

@@ -48,6 +48,12 @@ impl ObjectChanges {
 
 /// An object's mesh (by identity), matrix and flags, hashed: what makes it change.
 fn signature(scene: &Scene, o: &Object) -> u64 {
+    xxh3_64(&object_state(scene, o))
+}
+
+/// An object's mesh (by identity), matrix and flags as bytes: what makes it change, for the
+/// per-object signatures and the frame's geometry key alike.
+pub(super) fn object_state(scene: &Scene, o: &Object) -> [u8; 8 + 16 * 8 + 2] {
     let mut bytes = [0u8; 8 + 16 * 8 + 2];
     let mesh = Arc::as_ptr(&scene.meshes[o.mesh]) as usize as u64;
     bytes[..8].copy_from_slice(&mesh.to_le_bytes());
@@ -56,5 +62,5 @@ fn signature(scene: &Scene, o: &Object) -> u64 {
     }
     bytes[136] = o.visible_to_camera as u8;
     bytes[137] = o.casts_shadow as u8;
-    xxh3_64(&bytes)
+    bytes
 }
