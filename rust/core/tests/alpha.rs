@@ -411,9 +411,18 @@ fn a_triangle_in_two_leaves_counts_once() {
         let mut calls = CountCalls(vec![0; tris.len()]);
         bvh.stopped(ray, &mut calls, &mut NoStats);
         twice += calls.0.iter().any(|&c| c > 1) as u32;
+        // One alpha lookup per distinct triangle, however often the traversal meets it.
+        let distinct = calls.0.iter().filter(|&&c| c > 0).count() as u64;
+        let mut stats = AlphaStats::default();
+        bvh.transmission(ray, &alpha, MAX_HITS, &mut stats);
+        assert_eq!(stats.alpha_lookups, distinct);
         let mut calls = CountCalls(vec![0; tris.len()]);
         wide.stopped(ray, &mut calls, &mut NoStats);
         twice += calls.0.iter().any(|&c| c > 1) as u32;
+        let distinct = calls.0.iter().filter(|&&c| c > 0).count() as u64;
+        let mut stats = AlphaStats::default();
+        wide.transmission(ray, &alpha, MAX_HITS, &mut stats);
+        assert_eq!(stats.alpha_lookups, distinct);
     }
     assert!(twice >= 3, "only {twice} rays met a triangle twice");
     for (i, ray) in rays.iter().enumerate() {

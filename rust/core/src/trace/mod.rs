@@ -1,7 +1,10 @@
 //! Ray queries: closest hit and any hit on the binary BVH (any hit generic over the child
 //! order, see [`crate::order`]), the wide trees' queries, [`RayQuery`] (the one face over all of
-//! them, for one ray and a batch), and the brute-force reference they are tested against. Work counters are a generic parameter: with [`NoStats`] every counting call
-//! is an empty inline function, so the timed path pays nothing for them.
+//! them, for one ray and a batch), and the brute-force reference they are tested against. The
+//! traversals are generic over a [`HitFilter`] too: [`Opaque`] is today's code; the alpha
+//! filters and [`AlphaQuery`] trace through alpha-textured materials (`docs/alpha.md`). Work
+//! counters are a generic parameter: with [`NoStats`] every counting call is an empty inline
+//! function, so the timed path pays nothing for them.
 
 mod alpha_query;
 mod any_hit;
