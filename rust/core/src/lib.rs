@@ -9,6 +9,7 @@
 //! shadow passes, combine) → [`render::FrameResult`] (images + [`stats::StatsRow`] per pass)
 //! → [`output::write_frame_files`]. [`settings::SCHEMA`] describes every [`render::RenderSettings`] field.
 
+pub mod alpha;
 #[cfg(feature = "files")]
 pub mod atomic_file;
 pub mod build;

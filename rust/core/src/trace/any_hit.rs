@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::Counters;
+use super::{Counters, HitFilter, Opaque};
 use crate::bvh::{Bvh, BvhNode, MAX_DEPTH};
 use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 use crate::order::{centre, AnyHitOrder, ChildOrder, Children, FrontToBack, OrderRay, Stored};
@@ -59,6 +59,21 @@ pub fn occluding_leaf<O: ChildOrder, C: Counters>(
     ray: &Ray,
     stats: &mut C,
 ) -> Option<usize> {
+    occluding_leaf_filtered(bvh, order, ray, &mut Opaque, stats)
+}
+
+/// [`occluding_leaf`] with a rule for hits: the leaf whose hit `filter` stopped the ray at.
+/// With [`Opaque`] this is today's traversal, instruction for instruction (the filter's
+/// `OPAQUE` constant removes the other branch); any other filter is handed every hit with its
+/// triangle id and barycentrics.
+#[inline(always)]
+pub fn occluding_leaf_filtered<O: ChildOrder, C: Counters, F: HitFilter>(
+    bvh: &Bvh,
+    order: &O,
+    ray: &Ray,
+    filter: &mut F,
+    stats: &mut C,
+) -> Option<usize> {
     let nodes = &bvh.nodes;
     let root = nodes.first()?;
     let pre = RayBoxPrecomp::new(ray);
@@ -81,8 +96,17 @@ pub fn occluding_leaf<O: ChildOrder, C: Counters>(
             let first = node.first as usize;
             for slot in first..first + node.count as usize {
                 stats.triangles(1);
-                if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
-                    return Some(index_of(nodes, node));
+                if F::OPAQUE {
+                    if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
+                        return Some(index_of(nodes, node));
+                    }
+                } else if let Some(h) =
+                    intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max)
+                {
+                    let id = bvh.triangle_ids[slot];
+                    if filter.stops(id, h.t, [h.b0, h.b1, h.b2], stats) {
+                        return Some(index_of(nodes, node));
+                    }
                 }
             }
         } else {

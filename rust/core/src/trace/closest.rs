@@ -1,4 +1,4 @@
-use super::{Counters, Hit};
+use super::{Counters, Hit, HitFilter, Opaque};
 use crate::bvh::{Bvh, MAX_DEPTH};
 use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 
@@ -9,6 +9,19 @@ use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 /// id is still found.
 #[inline]
 pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<Hit> {
+    closest_hit_filtered(bvh, ray, &mut Opaque, stats)
+}
+
+/// [`closest_hit`] over the hits `filter` accepts: a rejected hit neither ends the search nor
+/// shortens the ray. With [`Opaque`] this is today's traversal (the filter call is a constant
+/// true); the filter is asked only about hits closer than the best so far.
+#[inline(always)]
+pub fn closest_hit_filtered<C: Counters, F: HitFilter>(
+    bvh: &Bvh,
+    ray: &Ray,
+    filter: &mut F,
+    stats: &mut C,
+) -> Option<Hit> {
     let nodes = &bvh.nodes;
     let root = nodes.first()?;
     let pre = RayBoxPrecomp::new(ray);
@@ -29,7 +42,9 @@ pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<H
             for slot in first..first + node.count as usize {
                 if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
                     let id = bvh.triangle_ids[slot];
-                    if Hit::closer_than(h.t, id, &best) {
+                    if Hit::closer_than(h.t, id, &best)
+                        && filter.accepts(id, [h.b0, h.b1, h.b2], stats)
+                    {
                         t_max = h.t;
                         best = Some(Hit {
                             t: h.t,

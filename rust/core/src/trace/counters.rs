@@ -15,6 +15,10 @@ pub trait Counters: Copy + Default + Send + AddAssign + Into<TraversalStats> {
     fn triangles(&mut self, n: u32);
     /// Ray/box tests (N_box).
     fn boxes(&mut self, n: u32);
+    /// Alpha evaluations at hits on flagged triangles (see [`crate::alpha`]); counted by
+    /// [`AlphaStats`] only, so today's counters and their columns are unchanged.
+    #[inline(always)]
+    fn alpha_lookups(&mut self, _n: u32) {}
 }
 
 /// No counting.
@@ -85,5 +89,50 @@ impl AddAssign for TraversalStats {
         self.leaves += o.leaves;
         self.triangles += o.triangles;
         self.boxes += o.boxes;
+    }
+}
+
+/// [`TraversalStats`] and the alpha lookups of the alpha traversals (a type of its own rather
+/// than a field of `TraversalStats`, whose struct literals elsewhere stay as they are; the
+/// conversion into `TraversalStats` drops the lookups).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct AlphaStats {
+    pub traversal: TraversalStats,
+    pub alpha_lookups: u64,
+}
+
+impl Counters for AlphaStats {
+    #[inline(always)]
+    fn inner(&mut self) {
+        self.traversal.inner();
+    }
+    #[inline(always)]
+    fn leaf(&mut self) {
+        self.traversal.leaf();
+    }
+    #[inline(always)]
+    fn triangles(&mut self, n: u32) {
+        self.traversal.triangles(n);
+    }
+    #[inline(always)]
+    fn boxes(&mut self, n: u32) {
+        self.traversal.boxes(n);
+    }
+    #[inline(always)]
+    fn alpha_lookups(&mut self, n: u32) {
+        self.alpha_lookups += n as u64;
+    }
+}
+
+impl AddAssign for AlphaStats {
+    fn add_assign(&mut self, o: Self) {
+        self.traversal += o.traversal;
+        self.alpha_lookups += o.alpha_lookups;
+    }
+}
+
+impl From<AlphaStats> for TraversalStats {
+    fn from(s: AlphaStats) -> Self {
+        s.traversal
     }
 }

@@ -1,19 +1,26 @@
 //! Ray queries: closest hit and any hit on the binary BVH (any hit generic over the child
 //! order, see [`crate::order`]), the wide trees' queries, [`RayQuery`] (the one face over all of
-//! them, for one ray and a batch), and the brute-force reference they are tested against. Work counters are a generic parameter: with [`NoStats`] every counting call
-//! is an empty inline function, so the timed path pays nothing for them.
+//! them, for one ray and a batch), and the brute-force reference they are tested against. The
+//! traversals are generic over a [`HitFilter`] too: [`Opaque`] is today's code; the alpha
+//! filters and [`AlphaQuery`] trace through alpha-textured materials (`docs/alpha.md`). Work
+//! counters are a generic parameter: with [`NoStats`] every counting call is an empty inline
+//! function, so the timed path pays nothing for them.
 
+mod alpha_query;
 mod any_hit;
 mod brute;
 mod closest;
 mod counters;
+mod filter;
 mod query;
 pub mod wide;
 
-pub use any_hit::{occluded, occluded_with, occluding_leaf};
-pub use brute::{brute_closest_hit, brute_occluded};
-pub use closest::closest_hit;
-pub use counters::{Counters, NoStats, TraversalStats};
+pub use alpha_query::AlphaQuery;
+pub use any_hit::{occluded, occluded_with, occluding_leaf, occluding_leaf_filtered};
+pub use brute::{brute_closest_hit, brute_closest_hit_alpha, brute_occluded, brute_transmission};
+pub use closest::{closest_hit, closest_hit_filtered};
+pub use counters::{AlphaStats, Counters, NoStats, TraversalStats};
+pub use filter::{AlphaClip, HitFilter, Opaque, Transmission, TransparentHit};
 pub(crate) use query::forward_ray_query;
 pub use query::{OrderedBinary, OrderedWide, RayMode, RayQuery};
 

@@ -3,12 +3,12 @@
 use glam::Vec3;
 
 use super::boxes::{ChildBoxTest, WideRay};
-use super::leaf::{first_hit, LeafLanes};
+use super::leaf::{first_hit, hits_until, LeafLanes};
 use super::stack::Stack;
 use crate::bvh::{WideBvh, WideNode};
 use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 use crate::order::{ChildOrder, Children, FrontToBack, OrderRay};
-use crate::trace::Counters;
+use crate::trace::{Counters, HitFilter, Opaque};
 
 /// The children of a wide node as an order reads them.
 pub(crate) struct WideChildren<'a, const N: usize> {
@@ -57,6 +57,25 @@ pub(crate) fn any_hit<
     order: &O,
     stats: &mut C,
 ) -> Option<u32> {
+    any_hit_filtered::<N, K, O, C, Opaque, OCT>(bvh, ray, order, &mut Opaque, stats)
+}
+
+/// [`any_hit`] with a rule for hits (see [`HitFilter`]; [`Opaque`] is today's traversal).
+#[inline(always)]
+pub(crate) fn any_hit_filtered<
+    const N: usize,
+    K: ChildBoxTest<N>,
+    O: ChildOrder,
+    C: Counters,
+    F: HitFilter,
+    const OCT: usize,
+>(
+    bvh: &WideBvh<N>,
+    ray: &Ray,
+    order: &O,
+    filter: &mut F,
+    stats: &mut C,
+) -> Option<u32> {
     if bvh.nodes.is_empty() {
         return None;
     }
@@ -70,7 +89,7 @@ pub(crate) fn any_hit<
         let r = &bvh.root_bounds;
         pre.hit(r.min, r.max, ray.t_min, ray.t_max + pre.t_margin)?;
     }
-    any_hit_from::<N, K, O, C, OCT>(bvh, ray, ChildRef::ROOT, order, stats)
+    any_hit_from_filtered::<N, K, O, C, F, OCT>(bvh, ray, ChildRef::ROOT, order, filter, stats)
 }
 
 /// [`any_hit`] in the subtree of `start` (a node or a leaf), without the root box: where a
@@ -87,6 +106,26 @@ pub(crate) fn any_hit_from<
     ray: &Ray,
     start: ChildRef,
     order: &O,
+    stats: &mut C,
+) -> Option<u32> {
+    any_hit_from_filtered::<N, K, O, C, Opaque, OCT>(bvh, ray, start, order, &mut Opaque, stats)
+}
+
+/// [`any_hit_from`] with a rule for hits.
+#[inline(always)]
+pub(crate) fn any_hit_from_filtered<
+    const N: usize,
+    K: ChildBoxTest<N>,
+    O: ChildOrder,
+    C: Counters,
+    F: HitFilter,
+    const OCT: usize,
+>(
+    bvh: &WideBvh<N>,
+    ray: &Ray,
+    start: ChildRef,
+    order: &O,
+    filter: &mut F,
     stats: &mut C,
 ) -> Option<u32> {
     let wray = WideRay::<N>::for_octant::<OCT>(ray);
@@ -170,7 +209,12 @@ pub(crate) fn any_hit_from<
         stats.leaf();
         let wt = &*wt_slot.get_or_insert_with(|| WatertightRay::new(ray));
         let (first, count) = (current.child as usize, current.count as usize);
-        if leaf_occludes::<N, K, C>(bvh, wt, ray, first, count, stats) {
+        let stopped = if F::OPAQUE {
+            leaf_occludes::<N, K, C>(bvh, wt, ray, first, count, stats)
+        } else {
+            leaf_stops::<N, K, C, F>(bvh, wt, ray, first, count, filter, stats)
+        };
+        if stopped {
             return Some(current.child);
         }
         current = stack.pop()?;
@@ -210,6 +254,54 @@ pub(crate) fn leaf_occludes<const N: usize, K: ChildBoxTest<N>, C: Counters>(
                 false
             }
         }
+    }
+}
+
+/// [`leaf_occludes`] with a filter: every hit of the leaf, in slot order with its triangle id
+/// and barycentrics, until the filter stops the ray; triangles counted as the scalar loop
+/// tests them.
+#[inline(always)]
+pub(crate) fn leaf_stops<const N: usize, K: ChildBoxTest<N>, C: Counters, F: HitFilter>(
+    bvh: &WideBvh<N>,
+    wt: &WatertightRay,
+    ray: &Ray,
+    first: usize,
+    count: usize,
+    filter: &mut F,
+    stats: &mut C,
+) -> bool {
+    let (t_min, t_max) = (ray.t_min, ray.t_max);
+    let ids = &bvh.triangle_ids;
+    if K::LEAVES == LeafLanes::Scalar {
+        let range = first..first + count;
+        for (tri, &id) in bvh.triangles[range.clone()].iter().zip(&ids[range]) {
+            stats.triangles(1);
+            if let Some(h) = intersect_triangle(wt, tri, t_min, t_max) {
+                if filter.stops(id, h.t, [h.b0, h.b1, h.b2], stats) {
+                    return true;
+                }
+            }
+        }
+        false
+    } else {
+        let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+        // The filter counts its lookups into a counter of its own, added after the leaf
+        // (the closure cannot borrow `stats` while the count below needs it).
+        let mut lookups = C::default();
+        let (tested, stopped) = hits_until(
+            K::LEAVES,
+            rows,
+            tris,
+            wt,
+            first,
+            count,
+            t_min,
+            t_max,
+            |slot, t, b| filter.stops(ids[slot], t, b, &mut lookups),
+        );
+        stats.triangles(tested);
+        *stats += lookups;
+        stopped
     }
 }
 

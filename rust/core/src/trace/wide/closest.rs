@@ -8,7 +8,7 @@ use super::leaf::{each_hit, LeafLanes};
 use super::stack::Stack;
 use crate::bvh::WideBvh;
 use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
-use crate::trace::{Counters, Hit};
+use crate::trace::{Counters, Hit, HitFilter, Opaque};
 
 #[derive(Clone, Copy, Default)]
 struct Entry {
@@ -25,6 +25,23 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT
     ray: &Ray,
     stats: &mut C,
 ) -> Option<Hit> {
+    closest_filtered::<N, K, C, Opaque, OCT>(bvh, ray, &mut Opaque, stats)
+}
+
+/// [`closest`] over the hits `filter` accepts (see [`HitFilter`]; [`Opaque`] is today's).
+#[inline(always)]
+pub(crate) fn closest_filtered<
+    const N: usize,
+    K: ChildBoxTest<N>,
+    C: Counters,
+    F: HitFilter,
+    const OCT: usize,
+>(
+    bvh: &WideBvh<N>,
+    ray: &Ray,
+    filter: &mut F,
+    stats: &mut C,
+) -> Option<Hit> {
     if bvh.nodes.is_empty() {
         return None;
     }
@@ -36,7 +53,7 @@ pub(crate) fn closest<const N: usize, K: ChildBoxTest<N>, C: Counters, const OCT
         let r = &bvh.root_bounds;
         pre.hit(r.min, r.max, ray.t_min, ray.t_max + pre.t_margin)?;
     }
-    closest_from::<N, K, C, OCT>(bvh, ray, ChildRef::ROOT, None, stats)
+    closest_from_filtered::<N, K, C, F, OCT>(bvh, ray, ChildRef::ROOT, None, filter, stats)
 }
 
 /// [`closest`] in the subtree of `start` (a node or a leaf), without the root box, given the
@@ -47,7 +64,26 @@ pub(crate) fn closest_from<const N: usize, K: ChildBoxTest<N>, C: Counters, cons
     bvh: &WideBvh<N>,
     ray: &Ray,
     start: ChildRef,
+    best: Option<Hit>,
+    stats: &mut C,
+) -> Option<Hit> {
+    closest_from_filtered::<N, K, C, Opaque, OCT>(bvh, ray, start, best, &mut Opaque, stats)
+}
+
+/// [`closest_from`] over the hits `filter` accepts.
+#[inline(always)]
+pub(crate) fn closest_from_filtered<
+    const N: usize,
+    K: ChildBoxTest<N>,
+    C: Counters,
+    F: HitFilter,
+    const OCT: usize,
+>(
+    bvh: &WideBvh<N>,
+    ray: &Ray,
+    start: ChildRef,
     mut best: Option<Hit>,
+    filter: &mut F,
     stats: &mut C,
 ) -> Option<Hit> {
     let wray = WideRay::<N>::for_octant::<OCT>(ray);
@@ -67,7 +103,14 @@ pub(crate) fn closest_from<const N: usize, K: ChildBoxTest<N>, C: Counters, cons
             stats.leaf();
             stats.triangles(current.count);
             let (first, count) = (current.child as usize, current.count as usize);
-            closest_in_leaf::<N, K>(bvh, &wt, t_min, first, count, &mut t_max, &mut best);
+            if F::OPAQUE {
+                closest_in_leaf::<N, K>(bvh, &wt, t_min, first, count, &mut t_max, &mut best);
+            } else {
+                let leaf = (first, count);
+                closest_in_leaf_filtered::<N, K, C, F>(
+                    bvh, &wt, t_min, leaf, &mut t_max, &mut best, filter, stats,
+                );
+            }
         } else {
             stats.inner();
             let node = &bvh.nodes[current.child as usize];
@@ -189,6 +232,67 @@ pub(crate) fn closest_in_leaf<const N: usize, K: ChildBoxTest<N>>(
                         b2: h.b2,
                     });
                 }
+            }
+        }
+    }
+}
+
+/// [`closest_in_leaf`] over the hits `filter` accepts, asked only about hits closer than
+/// `best`; the scalar test's values in every lane, as there.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)] // closest_in_leaf's arguments plus the filter's
+pub(crate) fn closest_in_leaf_filtered<
+    const N: usize,
+    K: ChildBoxTest<N>,
+    C: Counters,
+    F: HitFilter,
+>(
+    bvh: &WideBvh<N>,
+    wt: &WatertightRay,
+    t_min: f32,
+    (first, count): (usize, usize),
+    t_max: &mut f32,
+    best: &mut Option<Hit>,
+    filter: &mut F,
+    stats: &mut C,
+) {
+    let ids = &bvh.triangle_ids;
+    let mut consider = |slot: usize, t: f32, b: [f32; 3], t_max: &mut f32| {
+        let id = ids[slot];
+        if t <= *t_max && Hit::closer_than(t, id, best) && filter.accepts(id, b, stats) {
+            *t_max = t;
+            *best = Some(Hit {
+                t,
+                triangle: id,
+                instance: 0,
+                b0: b[0],
+                b1: b[1],
+                b2: b[2],
+            });
+        }
+    };
+    if K::LEAVES != LeafLanes::Scalar {
+        let (rows, tris) = (&bvh.triangle_rows, &bvh.triangles[..]);
+        let mut current = *t_max;
+        each_hit(
+            K::LEAVES,
+            rows,
+            tris,
+            wt,
+            first,
+            count,
+            t_min,
+            current,
+            |slot, t, b| {
+                consider(slot, t, b, &mut current);
+                current
+            },
+        );
+        *t_max = current;
+    } else {
+        for slot in first..first + count {
+            if let Some(h) = intersect_triangle(wt, &bvh.triangles[slot], t_min, *t_max) {
+                consider(slot, h.t, [h.b0, h.b1, h.b2], t_max);
             }
         }
     }

@@ -13,7 +13,7 @@ use super::{any_hit, closest};
 use crate::bvh::WideBvh;
 use crate::geometry::Ray;
 use crate::order::OrderView;
-use crate::trace::{Counters, Hit};
+use crate::trace::{Counters, Hit, HitFilter};
 
 /// One query on one tree, run with a box kernel and a ray octant chosen by [`Dispatch`].
 pub(crate) trait Traversal<const N: usize> {
@@ -60,6 +60,55 @@ impl<const N: usize, C: Counters> Traversal<N> for Closest<'_, N, C> {
     #[inline(always)]
     fn run<K: ChildBoxTest<N>, const OCT: usize>(self) -> Option<Hit> {
         closest::closest::<N, K, C, OCT>(self.bvh, self.ray, self.stats)
+    }
+}
+
+/// [`AnyHit`] with a rule for hits (see [`HitFilter`]).
+pub(crate) struct AnyHitFiltered<'a, const N: usize, C, F> {
+    pub bvh: &'a WideBvh<N>,
+    pub ray: &'a Ray,
+    pub order: OrderView<'a>,
+    pub filter: &'a mut F,
+    pub stats: &'a mut C,
+}
+
+impl<const N: usize, C: Counters, F: HitFilter> Traversal<N> for AnyHitFiltered<'_, N, C, F> {
+    type Out = Option<u32>;
+    const COUNTING: bool = C::COUNTING;
+    #[inline(always)]
+    fn ray(&self) -> &Ray {
+        self.ray
+    }
+    #[inline(always)]
+    fn run<K: ChildBoxTest<N>, const OCT: usize>(self) -> Option<u32> {
+        any_hit::any_hit_filtered::<N, K, OrderView, C, F, OCT>(
+            self.bvh,
+            self.ray,
+            &self.order,
+            self.filter,
+            self.stats,
+        )
+    }
+}
+
+/// [`Closest`] over the hits a [`HitFilter`] accepts.
+pub(crate) struct ClosestFiltered<'a, const N: usize, C, F> {
+    pub bvh: &'a WideBvh<N>,
+    pub ray: &'a Ray,
+    pub filter: &'a mut F,
+    pub stats: &'a mut C,
+}
+
+impl<const N: usize, C: Counters, F: HitFilter> Traversal<N> for ClosestFiltered<'_, N, C, F> {
+    type Out = Option<Hit>;
+    const COUNTING: bool = C::COUNTING;
+    #[inline(always)]
+    fn ray(&self) -> &Ray {
+        self.ray
+    }
+    #[inline(always)]
+    fn run<K: ChildBoxTest<N>, const OCT: usize>(self) -> Option<Hit> {
+        closest::closest_filtered::<N, K, C, F, OCT>(self.bvh, self.ray, self.filter, self.stats)
     }
 }
 

@@ -150,6 +150,41 @@ pub(crate) fn each_hit(
     }
 }
 
+/// For traversals with a hit filter: calls `stop(slot, t, barycentrics)` for every slot of the
+/// leaf the ray hits in (`t_min`, `t_max`], in slot order, with the scalar test's values, until
+/// it returns true. Returns the number of slots the scalar loop would have tested (up to and
+/// including the stopping one) and whether one stopped.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)] // the scalar test's arguments plus the leaf's range
+pub(crate) fn hits_until(
+    lanes: LeafLanes,
+    rows: &TriangleRows,
+    triangles: &[[Vec3; 3]],
+    ray: &WatertightRay,
+    first: usize,
+    count: usize,
+    t_min: f32,
+    t_max: f32,
+    mut stop: impl FnMut(usize, f32, [f32; 3]) -> bool,
+) -> (u32, bool) {
+    let (mut t, mut bary) = ([0f32; 8], [[0f32; 8]; 3]);
+    for (block, valid) in windows(first, count, lanes.width()) {
+        let mut hits = test_window::<false>(
+            lanes, rows, triangles, ray, block, valid, t_min, t_max, &mut t, &mut bary,
+        );
+        while hits != 0 {
+            let lane = hits.trailing_zeros() as usize;
+            hits &= hits - 1;
+            let b = [bary[0][lane], bary[1][lane], bary[2][lane]];
+            let slot = 4 * block + lane;
+            if stop(slot, t[lane], b) {
+                return ((slot - first + 1) as u32, true);
+            }
+        }
+    }
+    (count as u32, false)
+}
+
 #[cfg(target_arch = "x86_64")]
 mod simd {
     use super::TriangleRows;

@@ -15,11 +15,14 @@ mod stack;
 pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay, ANY_OCTANT};
 pub use packet_boxes::LANES as PACKET_LANES;
 
-use super::{Counters, Hit, NoStats};
+use super::{Counters, Hit, HitFilter, NoStats};
 use crate::bvh::WideBvh;
 use crate::geometry::Ray;
 use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
-use dispatch::{AnyHit, AnyHitPacket, Closest, ClosestPacket, Dispatch, Kernels, PacketDispatch};
+use dispatch::{
+    AnyHit, AnyHitFiltered, AnyHitPacket, Closest, ClosestFiltered, ClosestPacket, Dispatch,
+    Kernels, PacketDispatch,
+};
 
 /// The queries of a wide BVH of one width, dispatched to a box kernel.
 pub trait WideQueries {
@@ -43,6 +46,26 @@ pub trait WideQueries {
     ) -> Option<u32>;
     /// The closest hit, ties broken by the smaller triangle id.
     fn closest_hit<C: Counters>(&self, ray: &Ray, kernel: BoxKernel, stats: &mut C) -> Option<Hit>;
+
+    /// [`WideQueries::occluder_leaf`] with a rule for hits: the first slot of the leaf where
+    /// `filter` stopped the ray (single rays: see `docs/alpha.md`).
+    fn occluder_leaf_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        kernel: BoxKernel,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<u32>;
+
+    /// [`WideQueries::closest_hit`] over the hits `filter` accepts.
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        kernel: BoxKernel,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit>;
 
     /// [`WideQueries::occluded`] of every ray, traced in packets of neighbouring rays.
     fn occluded_packets<C: Counters>(
@@ -124,6 +147,40 @@ where
             bvh: self,
             ray,
             order,
+            stats,
+        };
+        Kernels::dispatch(call, kernel)
+    }
+    #[inline]
+    fn occluder_leaf_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        order: OrderView,
+        kernel: BoxKernel,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<u32> {
+        let call = AnyHitFiltered {
+            bvh: self,
+            ray,
+            order,
+            filter,
+            stats,
+        };
+        Kernels::dispatch(call, kernel)
+    }
+    #[inline]
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        kernel: BoxKernel,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        let call = ClosestFiltered {
+            bvh: self,
+            ray,
+            filter,
             stats,
         };
         Kernels::dispatch(call, kernel)

@@ -1,0 +1,165 @@
+//! [`AlphaQuery`]: the face the passes trace alpha scenes through, beside [`super::RayQuery`]:
+//! a shadow ray's transmission (Cycles' transparent shadows) and a camera ray's closest hit
+//! past transparent hits. Implemented by the binary and wide trees and their ordered forms;
+//! single rays only (a batch is a loop; packets are not used with alpha).
+
+use super::wide::{BoxKernel, WideQueries};
+use super::{
+    closest_hit_filtered, occluding_leaf_filtered, AlphaClip, Counters, Hit, HitFilter,
+    OrderedBinary, OrderedWide, Transmission,
+};
+use crate::alpha::AlphaScene;
+use crate::bvh::{Bvh, WideBvh};
+use crate::geometry::Ray;
+use crate::order::{AnyHitOrder, FrontToBack, OrderView, Stored};
+
+/// Queries with a rule for hits ([`HitFilter`]), and the two alpha queries built on them.
+pub trait AlphaQuery: Sync {
+    /// Any hit under `filter`: true when the filter stopped the ray.
+    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool;
+
+    /// The closest hit in (t_min, t_max] that `filter` accepts, ties by the smaller triangle id.
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit>;
+
+    /// The fraction of light the segment (t_min, t_max] lets through, in [0, 1]: 0 when an
+    /// opaque triangle (unflagged, or alpha 1) is hit or more than `max_hits` distinct
+    /// transparent triangles are; otherwise the product of (1 - alpha) over the distinct
+    /// transparent hits in (t, triangle) order (see [`Transmission`]).
+    #[inline]
+    fn transmission<C: Counters>(
+        &self,
+        ray: &Ray,
+        alpha: &AlphaScene,
+        max_hits: u32,
+        stats: &mut C,
+    ) -> f32 {
+        let mut filter = Transmission::new(alpha, max_hits);
+        if self.stopped(ray, &mut filter, stats) {
+            0.0
+        } else {
+            filter.value()
+        }
+    }
+
+    /// `out[i] = transmission(&rays[i])`, counted into `counters[i]`; one hit list reused.
+    fn transmission_batch<C: Counters>(
+        &self,
+        rays: &[Ray],
+        alpha: &AlphaScene,
+        max_hits: u32,
+        out: &mut [f32],
+        counters: &mut [C],
+    ) {
+        assert!(out.len() == rays.len() && counters.len() == rays.len());
+        let mut filter = Transmission::new(alpha, max_hits);
+        for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+            filter.hits.clear();
+            *o = if self.stopped(ray, &mut filter, c) {
+                0.0
+            } else {
+                filter.value()
+            };
+        }
+    }
+
+    /// The closest hit that is not transparent: an unflagged triangle, or a flagged one whose
+    /// alpha is at least `clip` (see [`AlphaClip`]).
+    #[inline]
+    fn closest_hit_alpha<C: Counters>(
+        &self,
+        ray: &Ray,
+        alpha: &AlphaScene,
+        clip: f32,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        self.closest_hit_filtered(ray, &mut AlphaClip { alpha, clip }, stats)
+    }
+}
+
+/// The binary tree alone: front to back, as its [`super::RayQuery`].
+impl AlphaQuery for Bvh {
+    #[inline]
+    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
+        occluding_leaf_filtered(self, &FrontToBack, ray, filter, stats).is_some()
+    }
+    #[inline]
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        closest_hit_filtered(self, ray, filter, stats)
+    }
+}
+
+impl AlphaQuery for OrderedBinary<'_> {
+    #[inline]
+    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
+        match self.order {
+            AnyHitOrder::Stored => occluding_leaf_filtered(self.bvh, &Stored, ray, filter, stats),
+            AnyHitOrder::NearFirst => {
+                occluding_leaf_filtered(self.bvh, &FrontToBack, ray, filter, stats)
+            }
+        }
+        .is_some()
+    }
+    #[inline]
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        closest_hit_filtered(self.bvh, ray, filter, stats)
+    }
+}
+
+/// A wide tree alone: front to back, the box kernel chosen at run time.
+impl<const N: usize> AlphaQuery for WideBvh<N>
+where
+    WideBvh<N>: WideQueries,
+{
+    #[inline]
+    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
+        let (order, kernel) = (OrderView::FrontToBack, BoxKernel::Auto);
+        self.occluder_leaf_filtered(ray, order, kernel, filter, stats)
+            .is_some()
+    }
+    #[inline]
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        WideQueries::closest_hit_filtered(self, ray, BoxKernel::Auto, filter, stats)
+    }
+}
+
+/// A wide tree with its order and kernel; single rays whatever its `rays` mode.
+impl<const N: usize> AlphaQuery for OrderedWide<'_, N>
+where
+    WideBvh<N>: WideQueries,
+{
+    #[inline]
+    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
+        self.bvh
+            .occluder_leaf_filtered(ray, self.order, self.kernel, filter, stats)
+            .is_some()
+    }
+    #[inline]
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        WideQueries::closest_hit_filtered(self.bvh, ray, self.kernel, filter, stats)
+    }
+}
