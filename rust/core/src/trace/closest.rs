@@ -1,5 +1,5 @@
 use super::{Counters, Hit, HitFilter, Opaque};
-use crate::bvh::{Bvh, MAX_DEPTH};
+use crate::bvh::{Bvh, BvhNode, MAX_DEPTH};
 use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 
 /// The closest hit along the ray in (t_min, t_max], ties broken by the smaller triangle id.
@@ -22,40 +22,67 @@ pub fn closest_hit_filtered<C: Counters, F: HitFilter>(
     filter: &mut F,
     stats: &mut C,
 ) -> Option<Hit> {
-    let nodes = &bvh.nodes;
-    let root = nodes.first()?;
-    let pre = RayBoxPrecomp::new(ray);
     let wt = WatertightRay::new(ray);
     let t_min = ray.t_min;
     let mut best: Option<Hit> = None;
+    walk_near_first(&bvh.nodes, ray, stats, |first, count, mut t_max, stats| {
+        stats.triangles(count as u32);
+        for slot in first..first + count {
+            if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
+                let id = bvh.triangle_ids[slot];
+                if Hit::closer_than(h.t, id, &best) && filter.accepts(id, [h.b0, h.b1, h.b2], stats)
+                {
+                    t_max = h.t;
+                    best = Some(Hit {
+                        t: h.t,
+                        triangle: id,
+                        instance: 0,
+                        b0: h.b0,
+                        b1: h.b1,
+                        b2: h.b2,
+                    });
+                }
+            }
+        }
+        Some(t_max)
+    });
+    best
+}
+
+/// Walks a binary tree near child first from its root, handing each entered leaf's range
+/// (`first`, `count`) to `leaf` with the ray's current `t_max`; `leaf` returns the new `t_max`
+/// (lowered by a closer hit), or `None` to stop. A node whose entry lies past `t_max` (plus the
+/// box margin, see `RayBoxPrecomp::t_margin`) is culled when it comes off the stack. The one
+/// loop of the binary closest hit and of the top level over instances.
+#[inline(always)]
+pub fn walk_near_first<C: Counters>(
+    nodes: &[BvhNode],
+    ray: &Ray,
+    stats: &mut C,
+    mut leaf: impl FnMut(usize, usize, f32, &mut C) -> Option<f32>,
+) {
+    let Some(root) = nodes.first() else {
+        return;
+    };
+    let pre = RayBoxPrecomp::new(ray);
+    let t_min = ray.t_min;
     let mut t_max = ray.t_max;
     stats.boxes(1);
-    pre.hit_packed(root.packed(), t_min, t_max + pre.t_margin)?;
+    if pre
+        .hit_packed(root.packed(), t_min, t_max + pre.t_margin)
+        .is_none()
+    {
+        return;
+    }
     let mut stack = [(0u32, 0f32); MAX_DEPTH];
     let mut sp = 0usize;
     let mut node = root;
     loop {
         if node.is_leaf() {
             stats.leaf();
-            stats.triangles(node.count);
-            let first = node.first as usize;
-            for slot in first..first + node.count as usize {
-                if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
-                    let id = bvh.triangle_ids[slot];
-                    if Hit::closer_than(h.t, id, &best)
-                        && filter.accepts(id, [h.b0, h.b1, h.b2], stats)
-                    {
-                        t_max = h.t;
-                        best = Some(Hit {
-                            t: h.t,
-                            triangle: id,
-                            instance: 0,
-                            b0: h.b0,
-                            b1: h.b1,
-                            b2: h.b2,
-                        });
-                    }
-                }
+            match leaf(node.first as usize, node.count as usize, t_max, stats) {
+                Some(t) => t_max = t,
+                None => return,
             }
         } else {
             stats.inner();
@@ -88,10 +115,10 @@ pub fn closest_hit_filtered<C: Counters, F: HitFilter>(
                 (None, None) => {}
             }
         }
-        // Take the next node that can still hold a closer (or equally close) triangle.
+        // Take the next node that can still hold a closer (or equally close) hit.
         loop {
             if sp == 0 {
-                return best;
+                return;
             }
             sp -= 1;
             let (i, t_entry) = stack[sp];

@@ -18,7 +18,7 @@ pub mod wide;
 pub use alpha_query::AlphaQuery;
 pub use any_hit::{occluded, occluded_with, occluding_leaf, occluding_leaf_filtered};
 pub use brute::{brute_closest_hit, brute_closest_hit_alpha, brute_occluded, brute_transmission};
-pub use closest::{closest_hit, closest_hit_filtered};
+pub use closest::{closest_hit, closest_hit_filtered, walk_near_first};
 pub use counters::{AlphaStats, Counters, NoStats, TraversalStats};
 pub use filter::{AlphaClip, HitFilter, Opaque, Transmission, TransparentHit};
 pub(crate) use query::forward_ray_query;

@@ -1,7 +1,7 @@
 use crate::build::{build_over_boxes, BuildSettings};
-use crate::bvh::{Bvh, MAX_DEPTH};
-use crate::geometry::{Aabb, Ray, RayBoxPrecomp};
-use crate::trace::{Counters, Hit, RayQuery};
+use crate::bvh::Bvh;
+use crate::geometry::{Aabb, Ray};
+use crate::trace::{walk_near_first, Counters, Hit, RayQuery};
 
 use super::Instance;
 
@@ -56,10 +56,10 @@ pub struct TwoLevel<'a, Q> {
 }
 
 impl<Q: RayQuery> TwoLevel<'_, Q> {
-    /// Walks the top level near child first, handing each instance of an entered leaf to
-    /// `visit` with its mesh query and the ray's current `t_max`; `visit` returns the new
-    /// `t_max` (lowered by a closest hit), or `None` to stop (an any-hit query answered).
-    /// Nodes whose entry lies past `t_max` (plus the box margin) are culled off the stack.
+    /// Walks the top level near child first ([`walk_near_first`]), handing each instance of
+    /// an entered leaf to `visit` with its mesh query and the ray's current `t_max`; `visit`
+    /// returns the new `t_max` (lowered by a closest hit), or `None` to stop (an any-hit query
+    /// answered).
     #[inline]
     fn walk<C: Counters>(
         &self,
@@ -67,77 +67,17 @@ impl<Q: RayQuery> TwoLevel<'_, Q> {
         stats: &mut C,
         mut visit: impl FnMut(&Instance, &Q, f32, &mut C) -> Option<f32>,
     ) {
-        let nodes = &self.top.bvh.nodes;
-        let Some(root) = nodes.first() else {
-            return;
-        };
-        let pre = RayBoxPrecomp::new(ray);
-        let t_min = ray.t_min;
-        let mut t_max = ray.t_max;
-        stats.boxes(1);
-        if pre
-            .hit_packed(root.packed(), t_min, t_max + pre.t_margin)
-            .is_none()
-        {
-            return;
-        }
-        let mut stack = [(0u32, 0f32); MAX_DEPTH];
-        let mut sp = 0usize;
-        let mut node = root;
-        loop {
-            if node.is_leaf() {
-                stats.leaf();
-                let first = node.first as usize;
-                for instance in &self.top.instances[first..first + node.count as usize] {
-                    let mesh = &self.meshes[instance.mesh as usize];
-                    match visit(instance, mesh, t_max, stats) {
-                        Some(t) => t_max = t,
-                        None => return,
-                    }
+        walk_near_first(
+            &self.top.bvh.nodes,
+            ray,
+            stats,
+            |first, count, mut t_max, stats| {
+                for instance in &self.top.instances[first..first + count] {
+                    t_max = visit(instance, &self.meshes[instance.mesh as usize], t_max, stats)?;
                 }
-            } else {
-                stats.inner();
-                stats.boxes(2);
-                let l = node.first as usize;
-                let (a, b) = (&nodes[l], &nodes[l + 1]);
-                let box_max = t_max + pre.t_margin;
-                let da = pre.hit_packed(a.packed(), t_min, box_max);
-                let db = pre.hit_packed(b.packed(), t_min, box_max);
-                match (da, db) {
-                    (Some(ta), Some(tb)) => {
-                        let (near, far, t_far) = if tb < ta {
-                            (l + 1, l, ta)
-                        } else {
-                            (l, l + 1, tb)
-                        };
-                        stack[sp] = (far as u32, t_far);
-                        sp += 1;
-                        node = &nodes[near];
-                        continue;
-                    }
-                    (Some(_), None) => {
-                        node = a;
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = b;
-                        continue;
-                    }
-                    (None, None) => {}
-                }
-            }
-            loop {
-                if sp == 0 {
-                    return;
-                }
-                sp -= 1;
-                let (i, t_entry) = stack[sp];
-                if t_entry <= t_max + pre.t_margin {
-                    node = &nodes[i as usize];
-                    break;
-                }
-            }
-        }
+                Some(t_max)
+            },
+        );
     }
 }
 
