@@ -263,6 +263,19 @@ fn items<'py>(v: &Bound<'py, PyAny>, field: &str) -> ClientResult<Vec<Bound<'py,
 // ---------------------------------------------------------------------------------------------
 // Scene parts
 
+/// How messages name item `index` of list `list`: by its name too when it has a readable one
+/// (`objects[2] 'Cube'`).
+fn item_label(v: &Bound<'_, PyAny>, list: &str, index: usize) -> String {
+    v.cast::<PyDict>()
+        .ok()
+        .and_then(|d| d.get_item("name").ok().flatten())
+        .and_then(|n| n.cast::<PyString>().ok().map(|s| s.to_string()))
+        .map_or_else(
+            || format!("{list}[{index}]"),
+            |n| format!("{list}[{index}] '{n}'"),
+        )
+}
+
 const OBJECT_FIELDS: &[&str] = &[
     "name",
     "mesh_hash",
@@ -273,17 +286,7 @@ const OBJECT_FIELDS: &[&str] = &[
 ];
 
 fn object(v: &Bound<'_, PyAny>, index: usize) -> ClientResult<ObjectState> {
-    // Name the object by its name when it has a readable one.
-    let label = v
-        .cast::<PyDict>()
-        .ok()
-        .and_then(|d| d.get_item("name").ok().flatten())
-        .and_then(|n| n.cast::<PyString>().ok().map(|s| s.to_string()))
-        .map_or_else(
-            || format!("objects[{index}]"),
-            |n| format!("objects[{index}] '{n}'"),
-        );
-    let f = Fields::new(v, label, OBJECT_FIELDS)?;
+    let f = Fields::new(v, item_label(v, "objects", index), OBJECT_FIELDS)?;
     let name = f.string("name")?;
     let mesh_hash = mesh_hash(&f.required("mesh_hash")?, &f.field("mesh_hash"))?;
     let world_from_object = f.matrix("matrix_world")?;
@@ -318,16 +321,7 @@ const INSTANCE_FIELDS: &[&str] = &[
 
 /// `instances[i]`: every placement of one mesh as arrays; matrices travel as Blender's f32.
 fn instance_array(v: &Bound<'_, PyAny>, index: usize) -> ClientResult<InstanceArrayState> {
-    let label = v
-        .cast::<PyDict>()
-        .ok()
-        .and_then(|d| d.get_item("name").ok().flatten())
-        .and_then(|n| n.cast::<PyString>().ok().map(|s| s.to_string()))
-        .map_or_else(
-            || format!("instances[{index}]"),
-            |n| format!("instances[{index}] '{n}'"),
-        );
-    let f = Fields::new(v, label, INSTANCE_FIELDS)?;
+    let f = Fields::new(v, item_label(v, "instances", index), INSTANCE_FIELDS)?;
     let matrices = instance_matrices(&f.required("matrices")?, &f.field("matrices"))?;
     let count = matrices.len() / MATRIX_BYTES;
     let ids = match f.get("ids")? {
@@ -484,16 +478,7 @@ const LIGHT_FIELDS: &[&str] = &[
 const DEFAULT_SUN_ANGLE: f64 = 0.526 * std::f64::consts::PI / 180.0;
 
 fn light(v: &Bound<'_, PyAny>, index: usize) -> ClientResult<LightState> {
-    let label = v
-        .cast::<PyDict>()
-        .ok()
-        .and_then(|d| d.get_item("name").ok().flatten())
-        .and_then(|n| n.cast::<PyString>().ok().map(|s| s.to_string()))
-        .map_or_else(
-            || format!("lights[{index}]"),
-            |n| format!("lights[{index}] '{n}'"),
-        );
-    let f = Fields::new(v, label, LIGHT_FIELDS)?;
+    let f = Fields::new(v, item_label(v, "lights", index), LIGHT_FIELDS)?;
     let name = f.string("name")?;
     let world_from_light = f.matrix("matrix_world")?;
     let kind_name = f.string("type")?;
