@@ -53,6 +53,7 @@ fn scene(normals: bool, mirror: bool) -> Scene {
             sun("Under", DVec3::new(flip * e.cos(), 0.0, -e.sin())),
         ],
         resolution: Resolution::new(64, 48),
+        alpha: Default::default(),
     }
 }
 

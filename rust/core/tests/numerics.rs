@@ -150,6 +150,7 @@ fn no_shadow_acne_at_grazing_light() {
                 ),
                 lights: vec![sun, lamp],
                 resolution: antumbra_core::scene::Resolution::new(200, 150),
+                alpha: Default::default(),
             },
             DMat4::from_translation(offset),
         );

@@ -31,6 +31,7 @@ fn scene() -> Scene {
             },
         )],
         resolution: Resolution::new(4, 3),
+        alpha: Default::default(),
     }
 }
 

@@ -317,6 +317,7 @@ pub fn scene_from_frame(
             world_from_object: DMat4::from_cols_array(&o.world_from_object),
             visible_to_camera: o.visible_to_camera,
             casts_shadow: o.casts_shadow,
+            materials: Vec::new(),
         });
     }
     for array in &update.instances {
@@ -339,6 +340,7 @@ pub fn scene_from_frame(
         camera,
         lights,
         resolution,
+        alpha: Default::default(),
     })
 }
 

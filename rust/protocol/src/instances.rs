@@ -105,6 +105,7 @@ pub fn instance_objects(
             world_from_object,
             visible_to_camera: array.visible_to_camera,
             casts_shadow: array.casts_shadow,
+            materials: Vec::new(),
         });
     }
     Ok(objects)

@@ -495,6 +495,7 @@ impl Animation for RecordedAnimation {
             ),
             lights: Vec::new(),
             resolution: antumbra_core::scene::Resolution::new(1, 1),
+            alpha: Default::default(),
         });
         scene.frame = frame;
         scene

@@ -60,6 +60,7 @@ impl Stage {
             camera,
             lights,
             resolution: default_resolution(),
+            alpha: Default::default(),
         }
     }
 }

@@ -5,10 +5,12 @@
 //! order. The UV reaches it unchanged (`svm_node_tex_image` with flat projection: no V flip), so
 //! row 0 of the texels is the image's bottom row (v in [0, 1/height)), as Blender stores images.
 
+use serde::{Deserialize, Serialize};
+
 use crate::{Error, Result};
 
 /// The Image Texture node's interpolation (Cycles' `InterpolationType`; Smart is Cubic).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Interpolation {
     Closest,
     Linear,
@@ -16,7 +18,7 @@ pub enum Interpolation {
 }
 
 /// The Image Texture node's extension (Cycles' `ExtensionType`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Extension {
     Repeat,
     Extend,
@@ -25,7 +27,7 @@ pub enum Extension {
 }
 
 /// One alpha value per texel, rows of `width` from the bottom row up (Blender's order).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AlphaImage {
     pub width: u32,
     pub height: u32,

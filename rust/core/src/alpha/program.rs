@@ -1,11 +1,13 @@
 //! A material's alpha as a short program: a source, then Math-node operations in order, in f32
 //! (Cycles' `svm_math` for each operation: `intern/cycles/kernel/svm/math_util.h`).
 
+use serde::{Deserialize, Serialize};
+
 use super::{AlphaImage, Extension, Interpolation};
 use crate::{Error, Result};
 
 /// Where a material's alpha starts.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum AlphaSource {
     /// The same alpha everywhere (a Principled BSDF's Alpha value, a mix factor).
     Constant(f32),
@@ -21,7 +23,7 @@ pub enum AlphaSource {
 }
 
 /// One Math node, the other input a constant.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum AlphaOp {
     Multiply(f32),
     Add(f32),
@@ -87,7 +89,7 @@ fn saturate(a: f32) -> f32 {
 }
 
 /// One material's alpha: 1 opaque, 0 fully transparent.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AlphaProgram {
     pub source: AlphaSource,
     pub ops: Vec<AlphaOp>,

@@ -421,6 +421,7 @@ mod tests {
                 LightKind::Sun { angle: 0.0 },
             )],
             resolution: Resolution::new(width, height),
+            alpha: Default::default(),
         }
     }
 

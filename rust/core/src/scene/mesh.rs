@@ -2,6 +2,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use xxhash_rust::xxh3::Xxh3;
 
+use super::material::{validate_mesh_alpha, UvMap};
 use crate::{Error, Result};
 
 /// A triangle mesh in object space, as Blender's evaluated mesh gives it after triangulation.
@@ -15,6 +16,13 @@ pub struct Mesh {
     /// facing convention reads them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub normals: Vec<[Vec3; 3]>,
+    /// Each triangle's material slot (Blender's `material_index`), parallel to `triangles`;
+    /// empty when the mesh's objects give none of its slots an alpha material (all slot 0).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub material_slots: Vec<u32>,
+    /// The UV maps its alpha materials read, each per triangle corner; empty without alpha.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub uv_maps: Vec<UvMap>,
 }
 
 impl Mesh {
@@ -24,6 +32,8 @@ impl Mesh {
             positions,
             triangles,
             normals: Vec::new(),
+            material_slots: Vec::new(),
+            uv_maps: Vec::new(),
         }
     }
 
@@ -31,6 +41,24 @@ impl Mesh {
     pub fn with_normals(mut self, normals: Vec<[Vec3; 3]>) -> Self {
         self.normals = normals;
         self
+    }
+
+    /// The mesh with per-triangle material slots and the UV maps its alpha materials read.
+    pub fn with_alpha(mut self, material_slots: Vec<u32>, uv_maps: Vec<UvMap>) -> Self {
+        self.material_slots = material_slots;
+        self.uv_maps = uv_maps;
+        self
+    }
+
+    /// The material slot of triangle `t` (0 without slots).
+    #[inline]
+    pub fn material_slot(&self, t: usize) -> u32 {
+        self.material_slots.get(t).copied().unwrap_or(0)
+    }
+
+    /// The UV map named `name`, if the mesh has it.
+    pub fn uv_map(&self, name: &str) -> Option<&UvMap> {
+        self.uv_maps.iter().find(|m| m.name == name)
     }
 
     /// Rejects non-finite positions and out-of-range indices, naming the mesh and the first bad index.
@@ -71,6 +99,12 @@ impl Mesh {
                 });
             }
         }
+        validate_mesh_alpha(
+            &self.name,
+            self.triangles.len(),
+            &self.material_slots,
+            &self.uv_maps,
+        )?;
         let vertex_count = self.positions.len();
         for (triangle, tri) in self.triangles.iter().enumerate() {
             if let Some(&vertex) = tri.iter().find(|&&v| v as usize >= vertex_count) {
@@ -91,7 +125,9 @@ impl Mesh {
     /// hash (`docs/protocol.md`). XXH3, not BLAKE3: the hash only recognises a client's own
     /// meshes, so speed matters and collision resistance against an attacker does not. Corner
     /// normals, when there are any, follow (their count, then nine floats per triangle), so a
-    /// mesh without them keeps the hash it always had.
+    /// mesh without them keeps the hash it always had; so do material slots (their count, then
+    /// one u32 each) and UV maps (their count, then per map its name's length and UTF-8 bytes
+    /// and six floats per triangle).
     pub fn content_hash(&self) -> u64 {
         let mut h = Xxh3::new();
         h.update(&(self.positions.len() as u64).to_le_bytes());
@@ -104,6 +140,27 @@ impl Mesh {
             h.update(&(self.normals.len() as u64).to_le_bytes());
             let corners = self.normals.as_flattened();
             hash_in_chunks(&mut h, corners, |n| n.to_array().map(f32::to_le_bytes));
+        }
+        if !self.material_slots.is_empty() {
+            h.update(&(self.material_slots.len() as u64).to_le_bytes());
+            for chunk in self.material_slots.chunks(1024) {
+                let bytes: Vec<u8> = chunk.iter().flat_map(|s| s.to_le_bytes()).collect();
+                h.update(&bytes);
+            }
+        }
+        if !self.uv_maps.is_empty() {
+            h.update(&(self.uv_maps.len() as u64).to_le_bytes());
+            for map in &self.uv_maps {
+                h.update(&(map.name.len() as u64).to_le_bytes());
+                h.update(map.name.as_bytes());
+                for chunk in map.corners.chunks(512) {
+                    let bytes: Vec<u8> = chunk
+                        .iter()
+                        .flat_map(|c| c.as_flattened().iter().flat_map(|v| v.to_le_bytes()))
+                        .collect();
+                    h.update(&bytes);
+                }
+            }
         }
         h.digest()
     }

@@ -10,6 +10,7 @@ mod frame_geometry;
 mod image_size;
 mod light;
 pub mod limits;
+mod material;
 mod mesh;
 mod object;
 #[allow(clippy::module_inception)]
@@ -21,6 +22,7 @@ pub(crate) use frame_geometry::{collect, is_degenerate, scene_bounds};
 pub use frame_geometry::{FrameGeometry, RenderSpace, TriangleRef, TriangleSet};
 pub use image_size::{ImageSize, ImageSizeError};
 pub use light::{AreaShape, Light, LightKind};
+pub use material::{AlphaMaterial, SceneAlpha, UvMap};
 pub use mesh::Mesh;
 pub use object::Object;
 pub use scene::Scene;

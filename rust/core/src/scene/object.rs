@@ -15,9 +15,19 @@ pub struct Object {
     pub visible_to_camera: bool,
     /// Blocks shadow rays (Blender's `visible_shadow`).
     pub casts_shadow: bool,
+    /// Per material slot, the index of its material in [`crate::scene::SceneAlpha::materials`],
+    /// or `None` for an opaque one; slots past the end are opaque. Empty: all opaque.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub materials: Vec<Option<u32>>,
 }
 
 impl Object {
+    /// The alpha material of slot `slot`, `None` when it is opaque.
+    #[inline]
+    pub fn alpha_material(&self, slot: u32) -> Option<u32> {
+        self.materials.get(slot as usize).copied().flatten()
+    }
+
     pub fn new(name: impl Into<String>, mesh: usize, world_from_object: DMat4) -> Self {
         Object {
             name: name.into(),
@@ -25,6 +35,7 @@ impl Object {
             world_from_object,
             visible_to_camera: true,
             casts_shadow: true,
+            materials: Vec::new(),
         }
     }
 }

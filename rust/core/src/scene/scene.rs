@@ -2,7 +2,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Camera, Light, Mesh, Object, Resolution};
+use super::{Camera, Light, Mesh, Object, Resolution, SceneAlpha};
 use crate::{Error, Result};
 
 /// One frame of a scene: meshes (shared between frames through `Arc` when they do not change),
@@ -15,6 +15,9 @@ pub struct Scene {
     pub camera: Camera,
     pub lights: Vec<Light>,
     pub resolution: Resolution,
+    /// Alpha images and materials the objects' slots refer to; empty for an opaque scene.
+    #[serde(default)]
+    pub alpha: SceneAlpha,
 }
 
 impl Scene {
@@ -30,6 +33,7 @@ impl Scene {
         for mesh in &self.meshes {
             mesh.validate()?;
         }
+        self.alpha.validate().map_err(at_frame)?;
         for object in &self.objects {
             if object.mesh >= self.meshes.len() {
                 return Err(Error::UnknownMesh {
@@ -37,6 +41,20 @@ impl Scene {
                     mesh: object.mesh,
                     mesh_count: self.meshes.len(),
                 });
+            }
+            if let Some(slot) = object
+                .materials
+                .iter()
+                .position(|m| m.is_some_and(|m| m as usize >= self.alpha.materials.len()))
+            {
+                return Err(at_frame(Error::invalid(
+                    format!("object '{}'.materials[{slot}]", object.name),
+                    format!(
+                        "alpha material {}, but the frame has {}",
+                        object.materials[slot].unwrap_or_default(),
+                        self.alpha.materials.len()
+                    ),
+                )));
             }
             let m = object.world_from_object.to_cols_array();
             if let Some(i) = m.iter().position(|v| !v.is_finite()) {
@@ -54,6 +72,13 @@ impl Scene {
             light.validate().map_err(at_frame)?;
         }
         Ok(())
+    }
+
+    /// Whether any object gives a slot an alpha material (else every triangle is opaque).
+    pub fn has_alpha(&self) -> bool {
+        self.objects
+            .iter()
+            .any(|o| o.materials.iter().any(Option::is_some))
     }
 
     pub fn triangle_count(&self) -> usize {

@@ -130,6 +130,7 @@ pub fn boxes_scene(resolution: u32) -> Scene {
         camera,
         lights: vec![sun, lamp],
         resolution: Resolution::new(resolution, resolution * 3 / 4),
+        alpha: Default::default(),
     }
 }
 

@@ -170,6 +170,7 @@ pub fn tiny_scene(frame: i32, width: u32, height: u32) -> Scene {
             LightKind::Sun { angle: 0.05 },
         )],
         resolution: Resolution::new(width, height),
+        alpha: Default::default(),
     }
 }
 

@@ -91,6 +91,7 @@ pub fn tiny_scene(frame: i32) -> Scene {
             spot,
         ],
         resolution: Resolution::new(32, 24),
+        alpha: Default::default(),
     }
 }
 

@@ -179,6 +179,7 @@ fn framed_scene(imported: Imported) -> Result<Scene> {
         camera: camera(DVec3::NEG_Y, DVec3::ZERO, 50.0, (0.1, 100.0)),
         lights: vec![sun("Sun", sun_direction(0.9, -0.9), 0.0093)],
         resolution: default_resolution(),
+        alpha: Default::default(),
     };
     // Non-finite positions are reported by validation, not framed.
     scene.validate()?;
