@@ -10,9 +10,11 @@ only those, as the version matrix does in ``.venv-bpy53`` (bpy 5.3, docs/blender
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -131,3 +133,15 @@ def cli_render(antumbra_bin: Path, recording: Path, frame: int, out: Path, spp: 
         capture_output=True,
     )
     return out / f"frame_{frame:04d}.exr"
+
+
+@pytest.fixture(params=[pytest.param("bpy", marks=pytest.mark.bpy), "blender"])
+def blender_kind(request) -> str:
+    """Which Blender runs a script: the bpy module of this Python, or Debian's ``blender``; a
+    missing one fails its variant (never a skip)."""
+    kind = request.param
+    if kind == "bpy" and importlib.util.find_spec("bpy") is None:
+        pytest.fail(f"this Python ({sys.executable}) has no bpy module (pip install bpy==5.0.1)")
+    if kind == "blender" and shutil.which("blender") is None:
+        pytest.fail("no `blender` on PATH (apt-get install blender python3-numpy)")
+    return kind

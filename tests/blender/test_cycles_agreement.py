@@ -28,17 +28,14 @@ a skip). The passes come back as Blender's own multilayer EXR, read with ``antum
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 import antumbra
 
@@ -49,25 +46,11 @@ OBJECT_ID_THRESHOLD = 0.995
 SHADOW_THRESHOLD = 0.99
 
 
-def _has_bpy() -> bool:
-    return importlib.util.find_spec("bpy") is not None
-
-
 def _blender_command(kind: str, out: Path) -> list[str]:
     args = ["--", "--out", str(out)]
     if kind == "bpy":
         return [sys.executable, str(SCRIPT), *args]
     return ["blender", "-b", "--factory-startup", "-noaudio", "-P", str(SCRIPT), *args]
-
-
-@pytest.fixture(params=[pytest.param("bpy", marks=pytest.mark.bpy), "blender"])
-def blender_kind(request) -> str:
-    kind = request.param
-    if kind == "bpy" and not _has_bpy():
-        pytest.fail("this Python has no bpy module (pip install bpy==5.0.1)")
-    if kind == "blender" and shutil.which("blender") is None:
-        pytest.fail("no `blender` on PATH (apt-get install blender python3-numpy)")
-    return kind
 
 
 def run_blender(kind: str, tmp: Path) -> Path:

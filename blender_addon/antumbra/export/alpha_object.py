@@ -34,14 +34,29 @@ class ObjectAlpha:
     slots: list[dict]
     mesh: MeshAlpha | None
     warnings: list[str] = field(default_factory=list)
+    #: Per slot: its material's name ("" for an empty slot) and, for a texture, the
+    #: ``image_key`` of the array it reads in the caller's IMAGES (else None).
+    names: list[str] = field(default_factory=list)
+    image_keys: list[str | None] = field(default_factory=list)
 
 
-def object_alpha(obj_eval, mesh, images: dict) -> ObjectAlpha:
+def object_alpha(
+    obj_eval, mesh, images: dict, read_mesh: bool = True, known: dict | None = None
+) -> ObjectAlpha:
+    """With READ_MESH false, ``mesh`` stays None (the caller holds the mesh's slots and UVs
+    from an earlier frame). KNOWN memoises ``material_alpha`` by material within a frame (a
+    thousand objects of one material walk its graph once)."""
     warnings: list[str] = []
     sources: list[tuple[str, AlphaSource]] = []
     for slot in obj_eval.material_slots:
         material = slot.material
-        source = material_alpha(material)
+        key = material.as_pointer() if material is not None else 0
+        if known is not None and key in known:
+            source = known[key]
+        else:
+            source = material_alpha(material)
+            if known is not None:
+                known[key] = source
         warnings += source.warnings
         if source.kind == "texture" and image_key(source) not in images:
             try:
@@ -50,7 +65,13 @@ def object_alpha(obj_eval, mesh, images: dict) -> ObjectAlpha:
                 warnings.append(f"{e}; exported opaque")
                 source = AlphaSource(modes=source.modes)
         sources.append((material.name if material else "", source))
-    found = mesh_alpha(obj_eval, mesh, sources)
+    found = mesh_alpha(obj_eval, mesh, sources) if read_mesh else None
     if found is not None:
         warnings += found.warnings
-    return ObjectAlpha(slots=[s.contract() for _, s in sources], mesh=found, warnings=warnings)
+    return ObjectAlpha(
+        slots=[s.contract() for _, s in sources],
+        mesh=found,
+        warnings=warnings,
+        names=[name for name, _ in sources],
+        image_keys=[image_key(s) if s.kind == "texture" else None for _, s in sources],
+    )

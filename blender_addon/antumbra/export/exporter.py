@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .alpha_frame import FrameAlpha
 from .instances import read_instances
 
 #: The depsgraph's "no index" in an instance's persistent id.
@@ -35,6 +36,17 @@ class MeshData:
     hash: int
     #: Shading normals at each triangle's corners, float32 (3m, 3); None when not exported.
     normals: np.ndarray | None = None
+    #: Each triangle's material slot, uint32 (m,), and the UV maps its alpha materials read,
+    #: {name: float32 (m, 3, 2)}; None for a mesh whose slots are all opaque.
+    material_slots: np.ndarray | None = None
+    uv_maps: dict[str, np.ndarray] | None = None
+
+    def arrays(self) -> dict:
+        """The client's mesh arguments (``mesh_hash``, ``upload_mesh``): normals and alpha
+        only when there are any, so a plain mesh is hashed and sent as by an older client."""
+        return mesh_arrays(
+            self.positions, self.triangles, self.normals, self.material_slots, self.uv_maps
+        )
 
 
 @dataclass
@@ -53,16 +65,46 @@ class FrameExport:
     #: Instance arrays (``frame_update``'s ``instances``): every instance of a mesh placed
     #: more than once through instancing, as one array.
     instances: list[dict] = field(default_factory=list)
+    #: The alpha materials the objects' and arrays' ``materials`` refer to, and the image
+    #: arrays they read (see ``alpha_frame``).
+    alpha: FrameAlpha = field(default_factory=FrameAlpha)
 
     def placements(self) -> int:
         """Objects and instances: what the frame places."""
         return len(self.objects) + sum(len(a["matrices"]) for a in self.instances)
 
 
-def mesh_arrays(positions, triangles, normals) -> tuple:
-    """The client's mesh arguments: normals only when there are any, so a flat mesh is hashed
-    and sent as by a client that predates them."""
-    return (positions, triangles) if normals is None else (positions, triangles, normals)
+def mesh_arrays(positions, triangles, normals=None, material_slots=None, uv_maps=None) -> dict:
+    """The client's mesh arguments as keywords: normals, slots and UV maps only when there are
+    any, so a plain mesh is hashed and sent as by a client that predates them."""
+    arrays = {"positions": positions, "triangles": triangles}
+    if normals is not None:
+        arrays["normals"] = normals
+    if material_slots is not None:
+        arrays["material_slots"] = material_slots
+        arrays["uv_maps"] = uv_maps or {}
+    return arrays
+
+
+def send(session, e: FrameExport) -> None:
+    """Sends a frame's scene state, then the meshes and alpha images the session lacks (after
+    a reconnect: all of them)."""
+    images = {key: session.image_hash(values) for key, values in e.alpha.images.items()}
+    missing = session.frame_update(
+        e.frame,
+        e.objects,
+        e.camera,
+        e.lights,
+        e.resolution,
+        e.instances,
+        alpha_materials=e.alpha.materials_for(images),
+    )
+    by_hash = {h: e.alpha.images[key] for key, h in images.items()}
+    for h in missing:
+        if h in e.meshes:
+            session.upload_mesh(e.meshes[h].name, **e.meshes[h].arrays())
+        else:
+            session.upload_image(by_hash[h])
 
 
 def _matrix(m) -> list[list[float]]:
@@ -272,6 +314,14 @@ def resolution_dict(scene, percentage: int) -> dict:
 
 
 @dataclass
+class _GroupAlpha:
+    #: Per material slot: the frame's alpha material index, None for an opaque slot.
+    slots: list
+    #: ``alpha_mesh.MeshAlpha``, or None when a static mesh from an earlier frame holds it.
+    mesh: object
+
+
+@dataclass
 class Exporter:
     """Exports frames; keeps the meshes of static objects between frames of one job, so a
     1M-triangle set that only moves is read from Blender once. With ``normals``, meshes with
@@ -279,8 +329,12 @@ class Exporter:
 
     client: object
     normals: bool = False
+    #: Read materials' alpha (issue 38); off, every material is sent opaque.
+    alpha: bool = True
     static: dict[str, MeshData] = field(default_factory=dict)
     topology: dict[str, _Topology] = field(default_factory=dict)
+    #: ``object_alpha``'s image arrays, read once per job.
+    images: dict = field(default_factory=dict)
     _extracted: int = 0
 
     def frame(self, depsgraph, scene, frame: int, percentage: int) -> FrameExport:
@@ -294,17 +348,21 @@ class Exporter:
         arrays: list[dict] = []
         meshes: dict[int, MeshData] = {}
         # Evaluated meshes shared by several groups are read once per frame.
-        by_data: dict[int, MeshData] = {}
+        by_data: dict[tuple, MeshData] = {}
         self._extracted = 0
         triangles = 0
+        alpha, known = FrameAlpha(), {}
         for group in found.groups.values():
             if not (group.visible_camera or group.visible_shadow):
                 continue
             itself = group.as_itself()
             placed, own = np.flatnonzero(~itself), np.flatnonzero(itself)
-            mesh = self._mesh(group.mesh, group.source, len(own) == 0, frame, by_data)
+            instanced = len(own) == 0
+            slots = self._alpha(group, depsgraph, instanced, alpha, known)
+            mesh = self._mesh(group.mesh, group.source, instanced, frame, by_data, slots)
             if mesh is None:
                 continue
+            materials = slots.slots if slots is not None and mesh.material_slots is not None else []
             meshes.setdefault(mesh.hash, mesh)
             triangles += len(mesh.triangles) * len(group.matrices)
             # One instance travels as an object, under its own name.
@@ -317,10 +375,13 @@ class Exporter:
                         "matrix_world": group.matrices[row],
                         "visible_camera": group.visible_camera,
                         "visible_shadow": group.visible_shadow,
+                        **({"materials": materials} if materials else {}),
                     }
                 )
             if len(placed) > 1:
                 arrays.append(self._array(group, placed, mesh.hash, arrays))
+                if materials:
+                    arrays[-1]["materials"] = materials
         return FrameExport(
             frame=frame,
             objects=objects,
@@ -332,7 +393,24 @@ class Exporter:
             triangles=triangles,
             extracted=self._extracted,
             instances=arrays,
+            alpha=alpha,
         )
+
+    def _alpha(self, group, depsgraph, instanced: bool, alpha: FrameAlpha, known: dict):
+        """The group's slots as the frame's alpha material indices, and its mesh's slots and
+        UVs unless a static mesh holds them already; None without alpha (or with it off)."""
+        if not self.alpha:
+            return None
+        from .alpha_object import object_alpha  # alpha_mesh imports this module's readers
+
+        source = group.source
+        cached = not instanced and _is_static(source) and source.name in self.static
+        obj_eval = source.evaluated_get(depsgraph)
+        found = object_alpha(obj_eval, group.mesh, self.images, not cached, known)
+        indices = alpha.slots(found, self.images)
+        if all(i is None for i in indices):
+            return None
+        return _GroupAlpha(indices, found.mesh)
 
     @staticmethod
     def _array(group, rows: np.ndarray, mesh_hash: int, arrays: list[dict]) -> dict:
@@ -361,12 +439,14 @@ class Exporter:
                 break
         return array
 
-    def _mesh(self, data, original, instanced: bool, frame, by_data) -> MeshData | None:
+    def _mesh(self, data, original, instanced: bool, frame, by_data, alpha=None) -> MeshData | None:
         static = not instanced and _is_static(original)
         key = original.name
         if static and key in self.static:
             return self.static[key]
-        data_key = data.as_pointer()
+        # A mesh read with one object's slots and UVs is another mesh for the daemon.
+        uv_names = tuple(sorted(alpha.mesh.uvs)) if alpha and alpha.mesh else None
+        data_key = (data.as_pointer(), uv_names)
         if data_key in by_data:
             return by_data[data_key]
         positions, triangles = self._arrays(data, key, instanced)
@@ -380,13 +460,19 @@ class Exporter:
                 f"(index {bad}: {positions[bad].tolist()})"
             )
         normals = _corner_normals(data) if self.normals else None
+        slots, uv_maps = None, None
+        if alpha is not None and alpha.mesh is not None:
+            slots, uv_maps = alpha.mesh.material_index, alpha.mesh.uvs
         mesh = MeshData(
             name=original.name,
             positions=positions,
             triangles=triangles,
-            hash=self.client.mesh_hash(*mesh_arrays(positions, triangles, normals)),
+            hash=0,
             normals=normals,
+            material_slots=slots,
+            uv_maps=uv_maps,
         )
+        mesh.hash = self.client.mesh_hash(**mesh.arrays())
         by_data[data_key] = mesh
         if static:
             self.static[key] = mesh

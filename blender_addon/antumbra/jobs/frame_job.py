@@ -29,7 +29,7 @@ from pathlib import Path
 
 import bpy
 
-from ..export.exporter import Exporter, ExportError, FrameExport, mesh_arrays
+from ..export.exporter import Exporter, ExportError, FrameExport, send
 from ..properties.options import RenderOptions
 from . import results
 
@@ -79,17 +79,6 @@ class SceneFrames:
     def restore(self):
         if self.scene.frame_current != self.start:
             self.scene.frame_set(self.start)
-
-
-def send_frame(session, export: FrameExport) -> None:
-    """Sends a frame's scene state, then the meshes the session lacks (after a reconnect: all)."""
-    e = export
-    missing = session.frame_update(
-        e.frame, e.objects, e.camera, e.lights, e.resolution, e.instances
-    )
-    for h in missing:
-        mesh = e.meshes[h]
-        session.upload_mesh(mesh.name, *mesh_arrays(mesh.positions, mesh.triangles, mesh.normals))
 
 
 def is_lost(client, error: BaseException) -> bool:
@@ -287,7 +276,7 @@ class RenderJob:
         """On the worker thread: everything that waits for the daemon."""
         try:
             session = self._session()
-            send_frame(session, work.export)
+            send(session, work.export)
             work.result = self._request(session, work.frame)
         except BaseException as error:  # noqa: BLE001 - handed to the main thread
             work.error = error

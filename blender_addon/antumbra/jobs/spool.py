@@ -17,7 +17,7 @@ from pathlib import Path
 
 import bpy
 
-from ..export.exporter import Exporter, mesh_arrays
+from ..export.exporter import Exporter, send
 from ..properties.options import RenderOptions
 
 
@@ -75,12 +75,7 @@ def submit(
                     f,
                     options.percentage(scene.render.resolution_percentage),
                 )
-                missing = recorder.frame_update(
-                    f, e.objects, e.camera, e.lights, e.resolution, e.instances
-                )
-                for h in missing:
-                    m = e.meshes[h]
-                    recorder.upload_mesh(m.name, *mesh_arrays(m.positions, m.triangles, m.normals))
+                send(recorder, e)
             recorded, dropped = recorder.stop_recording()
     finally:
         scene.frame_set(start_frame)
