@@ -2,10 +2,9 @@
 
 Each object's material slots become indices into one list of materials per frame (equal
 materials shared, by name and contract), opaque slots ``None``; each image array the frame's
-textures read is listed once by its ``alpha_object.image_key``. The job uploads the arrays
-(``Session.upload_image`` sends only what the daemon lacks) and puts their hashes in place of
-the keys (``materials_for``). Warnings (unsupported nodes, unreadable images, absent UV maps)
-are gathered once per frame, each said once.
+textures read is listed once, by the content hash a texture names it by (``image_hash``). The
+job uploads those the session lacks (``exporter.send``). Warnings (unsupported nodes,
+unreadable images, absent UV maps) are gathered once per frame, each said once.
 """
 
 from __future__ import annotations
@@ -20,17 +19,18 @@ from .alpha_object import ObjectAlpha
 
 @dataclass
 class FrameAlpha:
-    #: The protocol's alpha materials: ``name`` plus the contract; a texture's ``image`` is an
-    #: image key until ``materials_for`` resolves it.
+    #: The protocol's alpha materials: ``name`` plus the contract, a texture's ``image`` its
+    #: array's content hash.
     materials: list[dict] = field(default_factory=list)
-    #: image key -> float32 (height, width), rows bottom first: the arrays the frame reads.
-    images: dict[str, np.ndarray] = field(default_factory=dict)
+    #: content hash -> float32 (height, width), rows bottom first: the arrays the frame reads.
+    images: dict[int, np.ndarray] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     _index: dict[str, int] = field(default_factory=dict)
 
-    def slots(self, found: ObjectAlpha, cache: dict) -> list[int | None]:
+    def slots(self, found: ObjectAlpha, cache: dict, hashes: dict) -> list[int | None]:
         """FOUND's slots as indices into ``materials`` (None: opaque). CACHE is the
-        ``object_alpha`` image cache, key -> (width, height, values)."""
+        ``object_alpha`` image cache, key -> (width, height, values); HASHES, key -> content
+        hash, of the same arrays."""
         for w in found.warnings:
             if w not in self.warnings:
                 self.warnings.append(w)
@@ -42,18 +42,11 @@ class FrameAlpha:
             material = {"name": name, **contract}
             if contract["kind"] == "texture":
                 material.pop("channel")  # the array of KEY already holds the channel read
-                material["image"] = key
-                self.images[key] = cache[key][2]
+                material["image"] = hashes[key]
+                self.images[hashes[key]] = cache[key][2]
             tag = json.dumps(material, sort_keys=True)
             if tag not in self._index:
                 self._index[tag] = len(self.materials)
                 self.materials.append(material)
             out.append(self._index[tag])
         return out
-
-    def materials_for(self, hashes: dict[str, int]) -> list[dict]:
-        """The materials with each texture's image key replaced by its uploaded hash."""
-        return [
-            {**m, "image": hashes[m["image"]]} if m["kind"] == "texture" else m
-            for m in self.materials
-        ]

@@ -89,7 +89,6 @@ def mesh_arrays(positions, triangles, normals=None, material_slots=None, uv_maps
 def send(session, e: FrameExport) -> None:
     """Sends a frame's scene state, then the meshes and alpha images the session lacks (after
     a reconnect: all of them)."""
-    images = {key: session.image_hash(values) for key, values in e.alpha.images.items()}
     missing = session.frame_update(
         e.frame,
         e.objects,
@@ -97,14 +96,12 @@ def send(session, e: FrameExport) -> None:
         e.lights,
         e.resolution,
         e.instances,
-        alpha_materials=e.alpha.materials_for(images),
+        alpha_materials=e.alpha.materials,
     )
-    by_hash = {h: e.alpha.images[key] for key, h in images.items()}
     for h in missing:
-        if h in e.meshes:
-            session.upload_mesh(e.meshes[h].name, **e.meshes[h].arrays())
-        else:
-            session.upload_image(by_hash[h])
+        session.upload_mesh(e.meshes[h].name, **e.meshes[h].arrays())
+    for h in missing.images:
+        session.upload_image(e.alpha.images[h])
 
 
 def _matrix(m) -> list[list[float]]:
@@ -333,8 +330,9 @@ class Exporter:
     alpha: bool = True
     static: dict[str, MeshData] = field(default_factory=dict)
     topology: dict[str, _Topology] = field(default_factory=dict)
-    #: ``object_alpha``'s image arrays, read once per job.
+    #: ``object_alpha``'s image arrays, read once per job, and their content hashes.
     images: dict = field(default_factory=dict)
+    image_hashes: dict = field(default_factory=dict)
     _extracted: int = 0
 
     def frame(self, depsgraph, scene, frame: int, percentage: int) -> FrameExport:
@@ -407,7 +405,10 @@ class Exporter:
         cached = not instanced and _is_static(source) and source.name in self.static
         obj_eval = source.evaluated_get(depsgraph)
         found = object_alpha(obj_eval, group.mesh, self.images, not cached, known)
-        indices = alpha.slots(found, self.images)
+        for key in found.image_keys:
+            if key is not None and key in self.images and key not in self.image_hashes:
+                self.image_hashes[key] = self.client.image_hash(self.images[key][2])
+        indices = alpha.slots(found, self.images, self.image_hashes)
         if all(i is None for i in indices):
             return None
         return _GroupAlpha(indices, found.mesh)
