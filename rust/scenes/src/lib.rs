@@ -17,6 +17,7 @@ mod hairball;
 mod import;
 mod indoors;
 mod instanced_forest;
+mod leaf_cards;
 mod params;
 mod primitives;
 mod rng;
@@ -29,6 +30,7 @@ use antumbra_core::scene::Animation;
 use antumbra_core::{Error, Result};
 
 pub use import::{load_file, load_file_with, load_gltf, load_obj, ImportLimits};
+pub use leaf_cards::{fence_image, leaf_image};
 pub use params::{SceneParams, MAX_INSTANCES, MAX_TRIANGLES};
 pub use rotate::{rotate_scene, Rotated, ROTATED_SUFFIX};
 pub use viewpoints::viewpoints;
@@ -43,6 +45,7 @@ pub const BUILTIN_SCENES: &[&str] = &[
     "indoors",
     "instanced-forest",
     "character-room",
+    "leaf-cards",
 ];
 
 /// The built-in scenes that take [`SceneParams::instances`].
@@ -64,6 +67,7 @@ pub fn builtin(name: &str, params: &SceneParams) -> Result<Box<dyn Animation>> {
         "indoors" => |p| Box::new(indoors::Indoors::new(p)),
         "instanced-forest" => |p| Box::new(instanced_forest::InstancedForest::new(p)),
         "character-room" => |p| Box::new(character_room::CharacterRoom::new(p)),
+        "leaf-cards" => |p| Box::new(leaf_cards::LeafCards::new(p)),
         _ => {
             let known = BUILTIN_SCENES.join(", ");
             return Err(Error::invalid(

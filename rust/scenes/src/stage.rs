@@ -40,6 +40,14 @@ impl Stage {
         index
     }
 
+    /// [`Stage::add_static`] with the object's material slots mapped to alpha materials.
+    pub fn add_static_with(&mut self, mesh: Mesh, xf: DMat4, materials: Vec<Option<u32>>) {
+        self.add_static(mesh, xf);
+        if let Some(o) = self.objects.last_mut() {
+            o.materials = materials;
+        }
+    }
+
     /// Places the stage's mesh `mesh` at `xf` in every frame (an instance when several objects
     /// share a mesh).
     pub fn place(&mut self, name: String, mesh: usize, xf: DMat4) {

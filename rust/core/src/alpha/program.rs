@@ -1,6 +1,8 @@
 //! A material's alpha as a short program: a source, then Math-node operations in order, in f32
 //! (Cycles' `svm_math` for each operation: `intern/cycles/kernel/svm/math_util.h`).
 
+use std::sync::Arc;
+
 use serde::{Deserialize, Serialize};
 
 use super::{AlphaImage, Extension, Interpolation};
@@ -126,6 +128,18 @@ impl AlphaProgram {
     /// (NaN counts as 1). `images` must hold the source's image (see [`AlphaProgram::validate`]).
     #[inline]
     pub fn eval(&self, images: &[AlphaImage], uv: [f32; 2]) -> f32 {
+        self.eval_with(|i| &images[i], uv)
+    }
+
+    /// [`AlphaProgram::eval`] over images shared with the scene (a frame's
+    /// [`crate::scene::SceneAlpha`]), so a frame's alpha copies no texels.
+    #[inline]
+    pub fn eval_shared(&self, images: &[Arc<AlphaImage>], uv: [f32; 2]) -> f32 {
+        self.eval_with(|i| &images[i], uv)
+    }
+
+    #[inline(always)]
+    fn eval_with<'a>(&self, image_at: impl Fn(usize) -> &'a AlphaImage, uv: [f32; 2]) -> f32 {
         let mut a = match self.source {
             AlphaSource::Constant(c) => c,
             AlphaSource::Image {
@@ -133,7 +147,7 @@ impl AlphaProgram {
                 interpolation,
                 extension,
                 ..
-            } => images[image as usize].sample(interpolation, extension, uv[0], uv[1]),
+            } => image_at(image as usize).sample(interpolation, extension, uv[0], uv[1]),
         };
         for op in &self.ops {
             a = op.apply(a);

@@ -1,13 +1,16 @@
 //! Everything a traversal needs to evaluate alpha at a hit: the images, one program per
 //! material, and the flagged triangles of the triangle set the tree was built from.
 
+use std::sync::Arc;
+
 use super::{AlphaImage, AlphaProgram, AlphaTriangles};
 use crate::{Error, Result};
 
 /// The alpha of one triangle set, validated once when made.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct AlphaScene {
-    images: Vec<AlphaImage>,
+    /// Shared with the frame's scene: a frame's alpha copies no texels.
+    images: Vec<Arc<AlphaImage>>,
     programs: Vec<AlphaProgram>,
     triangles: AlphaTriangles,
 }
@@ -17,6 +20,19 @@ impl AlphaScene {
     /// in range, finite constants) and every flagged triangle's material; errors name the field.
     pub fn new(
         images: Vec<AlphaImage>,
+        programs: Vec<AlphaProgram>,
+        triangles: AlphaTriangles,
+    ) -> Result<Self> {
+        Self::shared(
+            images.into_iter().map(Arc::new).collect(),
+            programs,
+            triangles,
+        )
+    }
+
+    /// As [`AlphaScene::new`] over images shared with their owner (the frame's scene).
+    pub fn shared(
+        images: Vec<Arc<AlphaImage>>,
         programs: Vec<AlphaProgram>,
         triangles: AlphaTriangles,
     ) -> Result<Self> {
@@ -52,7 +68,7 @@ impl AlphaScene {
         })
     }
 
-    pub fn images(&self) -> &[AlphaImage] {
+    pub fn images(&self) -> &[Arc<AlphaImage>] {
         &self.images
     }
 
@@ -74,6 +90,6 @@ impl AlphaScene {
             Some(set) => self.triangles.uv(rank, set, b),
             None => [0.0; 2],
         };
-        Some(program.eval(&self.images, uv))
+        Some(program.eval_shared(&self.images, uv))
     }
 }

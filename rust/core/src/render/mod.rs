@@ -5,6 +5,7 @@
 pub mod auto;
 mod camera_rays;
 mod facing;
+mod frame_alpha;
 mod frame_trees;
 mod light_tracer;
 mod lights;
@@ -27,6 +28,7 @@ mod wide_tree;
 
 pub use camera_rays::PrimaryRays;
 pub use facing::Facing;
+pub use frame_alpha::{alpha_scene, AlphaCamera, AlphaFrameStats, FrameAlpha};
 pub use frame_trees::{CameraQuery, CameraTree, FrameTrees};
 pub use light_tracer::{
     binary_order, light_tracing, LightRays, LightTracing, ShadowTracer, ShadowTrees,
@@ -40,7 +42,7 @@ pub use pick::{Pick, AUTO};
 pub use primary::{HitGeometry, PrimaryPass, SurfacePoint};
 pub use renderer::{FrameResult, HeatMaps, Renderer, WarmUp, OBJECT_PLANE};
 pub use scene_trees::SceneTrees;
-pub use settings::{RenderSettings, SceneStructure, StatsMode, MAX_SPP};
+pub use settings::{RenderSettings, SceneStructure, StatsMode, MAX_SPP, MAX_TRANSPARENT_BOUNCES};
 pub use shadow::{
     representative_rays, samples_for, shadow_ray_batches, shadow_rays, PointRays, SamplePlan,
     ShadowPass, ShadowRayOutcome,

@@ -3,8 +3,9 @@
 
 use super::auto;
 use super::facing::face_shading_normals;
+use super::frame_alpha::{AlphaCamera, AlphaCameraTree, AlphaShadowTracer, FrameAlpha};
 use super::frame_trees::Prepared;
-use super::light_tracer::LightRays;
+use super::light_tracer::{LightRays, ShadowTracer};
 use super::policy::{pass_rays, LightMeasurement, LightPlan};
 use super::primary::heat_planes;
 use super::renderer::{FrameResult, HeatMaps};
@@ -20,7 +21,7 @@ use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
 use crate::scene::{Scene, TriangleRef};
 use crate::stats::StatsRow;
-use crate::trace::{NoStats, RayQuery, TraversalStats};
+use crate::trace::{AlphaStats, NoStats, RayQuery, TraversalStats};
 use crate::Result;
 
 /// What every statistics row of a frame shares.
@@ -60,11 +61,12 @@ pub(super) fn primary_pass(
     trees: &SceneTrees,
     scene: &Scene,
     settings: &RenderSettings,
+    alpha: Option<&FrameAlpha>,
     rows: &Rows,
     cancel: &CancelToken,
 ) -> Result<(PrimaryPass, StatsRow)> {
     let (counted, timed) = counted_timed(settings);
-    let trace = |counted: bool| trace_camera(trees, scene, settings, counted, cancel);
+    let trace = |counted: bool| trace_camera(trees, scene, settings, alpha, counted, cancel);
     let mut primary = trace(counted)?;
     let columns = trees.camera_columns(rows.prepared.rebuilt, rows.collapse_ms);
     let mut row = rows.row("primary", "", columns);
@@ -88,16 +90,31 @@ pub(super) fn primary_pass(
 }
 
 /// The camera rays of a frame on the tree its primary pass reads, counted or timed.
+/// With `alpha`, the camera's flat tree through [`AlphaCamera`] (counted in [`AlphaStats`]).
 pub(super) fn trace_camera(
     trees: &SceneTrees,
     scene: &Scene,
     settings: &RenderSettings,
+    alpha: Option<&FrameAlpha>,
     counted: bool,
     cancel: &CancelToken,
 ) -> Result<PrimaryPass> {
     let rays = PrimaryRays::new(&scene.camera, &scene.resolution, trees.space());
     let tree = trees.camera_query(pass_rays(settings));
-    trace_primary(counted, &rays, &tree, trees.hit_geometry(scene), cancel)
+    let hits = trees.hit_geometry(scene);
+    let Some(alpha) = alpha else {
+        return trace_primary(counted, &rays, &tree, hits, cancel);
+    };
+    let camera = AlphaCamera {
+        tree: &AlphaCameraTree::of(&tree)?,
+        alpha: &alpha.camera,
+        clip: alpha.clip,
+    };
+    if counted {
+        PrimaryPass::trace::<AlphaStats>(&rays, &camera, hits, cancel)
+    } else {
+        PrimaryPass::trace::<NoStats>(&rays, &camera, hits, cancel)
+    }
 }
 
 /// Whether a frame's passes count work, and whether they are timed without counters.
@@ -118,16 +135,20 @@ pub(super) struct ShadowPasses {
     pub(super) measured: Vec<LightMeasurement>,
     /// Shadow rays traced, over every pass (counted and timed).
     pub(super) rays: u64,
+    /// Per light, the alpha lookups of its counted pass (empty without alpha).
+    pub(super) alpha_lookups: Vec<(String, u64)>,
 }
 
 /// Each shadow-casting light in turn: its tree and order ([`FrameTrees::for_light`]), its
 /// shadow pass and its row.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn shadow_passes(
     trees: &SceneTrees,
     primary: &PrimaryPass,
     scene: &Scene,
     settings: &RenderSettings,
     plans: &[LightPlan],
+    alpha: Option<&FrameAlpha>,
     rows: &Rows,
     cancel: &CancelToken,
 ) -> Result<ShadowPasses> {
@@ -138,6 +159,7 @@ pub(super) fn shadow_passes(
         work: vec![TraversalStats::default(); if counted { primary.surfaces.len() } else { 0 }],
         measured: Vec::new(),
         rays: 0,
+        alpha_lookups: Vec::new(),
     };
     let shadow_lights = scene
         .lights
@@ -165,12 +187,13 @@ pub(super) fn shadow_passes(
         let tracing = trees.for_light(&order.order, settings.width, &light_rays);
         cancel.check()?;
         let tracer = tracing.tracer(order.rays);
-        let pass_of = |counted: bool| {
-            if counted {
+        // Chosen per pass: an opaque frame calls today's pass as it was.
+        let pass_of = |counted: bool| match alpha {
+            None if counted => {
                 ShadowPass::trace::<TraversalStats>(primary, &tracer, &sampler, plan, cancel)
-            } else {
-                ShadowPass::trace::<NoStats>(primary, &tracer, &sampler, plan, cancel)
             }
+            None => ShadowPass::trace::<NoStats>(primary, &tracer, &sampler, plan, cancel),
+            Some(a) => alpha_shadow_pass(counted, primary, &tracer, a, &sampler, plan, cancel),
         };
         let pass = pass_of(counted)?;
         out.rays += pass.outcome.rays;
@@ -211,6 +234,10 @@ pub(super) fn shadow_passes(
             own_tree: tracing.own_tree().is_some(),
             sampled,
         });
+        if alpha.is_some() {
+            out.alpha_lookups
+                .push((light.name.clone(), pass.alpha_lookups));
+        }
         out.rows.push(r);
         out.masks.push(pass.mask);
     }
@@ -271,6 +298,27 @@ pub(super) fn combine(
             SceneTrees::TwoLevel(_) => SceneStructure::TwoLevel,
         },
         stats,
+    }
+}
+
+/// One light's pass through alpha on its flat tree and order (`counted` in [`AlphaStats`]).
+fn alpha_shadow_pass(
+    counted: bool,
+    primary: &PrimaryPass,
+    tracer: &ShadowTracer,
+    alpha: &FrameAlpha,
+    sampler: &LightSampler,
+    plan: SamplePlan,
+    cancel: &CancelToken,
+) -> Result<ShadowPass> {
+    let tracer = AlphaShadowTracer::of(tracer)?;
+    let (scene, max_hits) = (alpha.shadow(), alpha.max_hits);
+    if counted {
+        ShadowPass::trace_alpha::<AlphaStats>(
+            primary, &tracer, scene, max_hits, sampler, plan, cancel,
+        )
+    } else {
+        ShadowPass::trace_alpha::<NoStats>(primary, &tracer, scene, max_hits, sampler, plan, cancel)
     }
 }
 

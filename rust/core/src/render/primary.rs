@@ -80,6 +80,8 @@ pub struct PrimaryPass {
     pub work: Vec<TraversalStats>,
     pub totals: TraversalStats,
     pub trace_ms: f64,
+    /// Alpha evaluations of a pass counted in [`crate::trace::AlphaStats`] (else 0).
+    pub alpha_lookups: u64,
 }
 
 impl PrimaryPass {
@@ -113,6 +115,7 @@ impl PrimaryPass {
             });
         cancel.check()?;
         let trace_ms = start.elapsed().as_secs_f64() * 1e3;
+        let alpha_lookups = work.iter().map(Counters::lookups).sum();
         let work: Vec<TraversalStats> = if C::COUNTING {
             work.into_iter().map(Into::into).collect()
         } else {
@@ -129,6 +132,7 @@ impl PrimaryPass {
             work,
             totals,
             trace_ms,
+            alpha_lookups,
         })
     }
 

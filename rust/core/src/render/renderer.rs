@@ -6,13 +6,14 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use super::frame_alpha::{two_level_alpha_error, AlphaCache, AlphaFrameStats, FrameAlpha};
 use super::frame_trees::{BvhInfo, FrameTrees, GeometryKey, Prepared};
 use super::passes::{combine, counted_timed, primary_pass, shadow_passes, trace_camera, Rows};
 use super::policy::{mark_build_row, mark_two_level_rows, planned_orders, BuildPlan, Policy};
 use super::scene_trees::SceneTrees;
 use super::two_level_trees::TwoLevelTrees;
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
-use super::VisibilitySource;
+use super::{Pick, VisibilitySource};
 use super::{RenderSettings, SceneStructure};
 use crate::build::{build_binned_sah, build_with_visibility, BuildMethod};
 use crate::bvh::Bvh;
@@ -101,6 +102,10 @@ pub struct Renderer {
     frames_rendered: u64,
     /// Chooses the build and the lights' orders (fixed, or `auto` from measured work).
     policy: Policy,
+    /// The last frame's alpha and what it was made from.
+    alpha_cache: Option<AlphaCache>,
+    /// The last rendered frame's alpha lookups.
+    alpha_stats: Option<AlphaFrameStats>,
 }
 
 impl Renderer {
@@ -135,6 +140,8 @@ impl Renderer {
         cancel.check()?;
         let frame = self.frames_rendered;
         let (build, prepared) = self.prepare_trees(scene, settings, cancel)?;
+        let alpha = self.frame_alpha(scene, settings)?;
+        let alpha = alpha.as_deref();
         let trees = self
             .trees
             .as_mut()
@@ -146,14 +153,22 @@ impl Renderer {
             prepared,
             collapse_ms: trees.flat().map_or(0.0, FrameTrees::collapse_ms),
         };
-        let (primary, mut primary_row) = primary_pass(trees, scene, settings, &rows, cancel)?;
+        let (primary, mut primary_row) =
+            primary_pass(trees, scene, settings, alpha, &rows, cancel)?;
         let lights = self
             .policy
             .plan_lights(scene, &primary, settings, trees, frame);
         if let SceneTrees::Flat(t) = trees {
             t.prepare_orders(&planned_orders(&lights), cancel)?;
         }
-        let shadows = shadow_passes(trees, &primary, scene, settings, &lights, &rows, cancel)?;
+        let shadows = shadow_passes(
+            trees, &primary, scene, settings, &lights, alpha, &rows, cancel,
+        )?;
+        self.alpha_stats = alpha.map(|_| AlphaFrameStats {
+            frame: scene.frame,
+            primary: primary.alpha_lookups,
+            shadow: shadows.alpha_lookups.clone(),
+        });
         mark_build_row(&mut primary_row, &build);
         if counted_timed(settings).0 {
             let measured = &shadows.measured;
@@ -168,6 +183,29 @@ impl Renderer {
         Ok(result)
     }
 
+    /// The frame's alpha when it traces through alpha (kept while its inputs hold), on the
+    /// flat trees just prepared; two levels have none yet.
+    fn frame_alpha(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+    ) -> Result<Option<Arc<FrameAlpha>>> {
+        if !settings.alpha_active(scene) {
+            return Ok(None);
+        }
+        let Some(SceneTrees::Flat(t)) = self.trees.as_ref() else {
+            return Err(two_level_alpha_error());
+        };
+        let (max_hits, clip) = (settings.shadow_max_hits(), settings.alpha_clip);
+        AlphaCache::get(&mut self.alpha_cache, scene, &t.geometry, max_hits, clip).map(Some)
+    }
+
+    /// The alpha lookups of the last rendered frame, `None` when it traced no alpha (alpha
+    /// off, or no alpha material on any object).
+    pub fn alpha_stats(&self) -> Option<&AlphaFrameStats> {
+        self.alpha_stats.as_ref()
+    }
+
     /// The frame's trees in the structure the policy picks: a flat frame's built with the
     /// planned method (or kept), collapsed and with its per-tree orders; a two-level frame's
     /// mesh trees kept or built and its top levels.
@@ -177,6 +215,11 @@ impl Renderer {
         settings: &RenderSettings,
         cancel: &CancelToken,
     ) -> Result<(BuildPlan, Prepared)> {
+        if settings.structure == Pick::Fixed(SceneStructure::TwoLevel)
+            && settings.alpha_active(scene)
+        {
+            return Err(two_level_alpha_error());
+        }
         match self.policy.plan_structure(scene, settings) {
             SceneStructure::Flat => {
                 let flat = self.trees.as_ref().and_then(SceneTrees::flat);
@@ -225,11 +268,12 @@ impl Renderer {
         cancel.check()?;
         // `auto` chooses as a render would from what it learned; a warm-up teaches it nothing.
         self.prepare_trees(scene, settings, cancel)?;
+        let alpha = self.frame_alpha(scene, settings)?;
         let trees = self
             .trees
             .as_ref()
             .expect("prepare leaves the frame's trees");
-        let primary = trace_camera(trees, scene, settings, false, cancel)?;
+        let primary = trace_camera(trees, scene, settings, alpha.as_deref(), false, cancel)?;
         let visible = visible_set(
             &primary.surfaces,
             trees.flat().map(|t| &t.geometry().camera),

@@ -97,7 +97,35 @@ pub struct RenderSettings {
     /// or `auto` (the policy's rule per frame, docs/auto.md).
     #[serde(default = "auto_structure")]
     pub structure: Pick<SceneStructure>,
+    /// Trace through alpha-textured materials as Cycles does (transparent shadows, camera
+    /// rays past clipped hits; docs/alpha.md); off: every triangle is opaque.
+    #[serde(default = "alpha_on")]
+    pub alpha: bool,
+    /// Camera rays: a hit on an alpha material counts when its alpha is at least this.
+    #[serde(default = "default_alpha_clip")]
+    pub alpha_clip: f32,
+    /// Cycles' Light Paths > Transparent max bounces: a shadow ray from a camera ray's first
+    /// hit passes at most `transparent_bounces - 1` transparent hits, more make it black.
+    #[serde(default = "default_transparent_bounces")]
+    pub transparent_bounces: u32,
 }
+
+fn alpha_on() -> bool {
+    true
+}
+
+fn default_alpha_clip() -> f32 {
+    0.5
+}
+
+/// Blender's default Transparent bounces.
+fn default_transparent_bounces() -> u32 {
+    8
+}
+
+/// Upper bound on `transparent_bounces`: Cycles' own record of a shadow ray's hits holds 1024
+/// on the CPU; more would only make a runaway shadow ray cheaper to ask for.
+pub const MAX_TRANSPARENT_BOUNCES: u32 = 1024;
 
 fn auto_rays() -> Pick<RayMode> {
     Pick::Auto
@@ -144,7 +172,22 @@ impl RenderSettings {
             facing: Facing::Geometric,
             rays: Pick::Fixed(RayMode::Single),
             structure: Pick::Fixed(SceneStructure::Flat),
+            alpha: alpha_on(),
+            alpha_clip: default_alpha_clip(),
+            transparent_bounces: default_transparent_bounces(),
         }
+    }
+
+    /// The hit limit of a shadow ray from a camera ray's first hit: Cycles'
+    /// `max(transparent_max_bounce - transparent_bounce - 1, 0)` at bounce 0.
+    pub fn shadow_max_hits(&self) -> u32 {
+        self.transparent_bounces.saturating_sub(1)
+    }
+
+    /// Whether a frame of `scene` traces through alpha: the setting is on and some object gives
+    /// a slot an alpha material.
+    pub fn alpha_active(&self, scene: &crate::scene::Scene) -> bool {
+        self.alpha && scene.has_alpha()
     }
 
     /// Why two levels cannot render with these settings, naming the setting: they build each

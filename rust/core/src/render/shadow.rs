@@ -7,11 +7,12 @@ use rayon::prelude::*;
 use super::lights::LightFrom;
 use super::tiles::{band_pixels, band_tiles, tiles, Tile, TILE_SIDE};
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
+use crate::alpha::AlphaScene;
 use crate::cancel::CancelToken;
 use crate::geometry::{offset_ray_origin, Ray};
 use crate::image::ImagePlane;
 use crate::sampling::{extend_stratified_2d, hash_combine, hash_u32};
-use crate::trace::{Counters, NoStats, RayQuery, TraversalStats};
+use crate::trace::{AlphaQuery, Counters, NoStats, RayQuery, TraversalStats};
 use crate::Result;
 
 /// What happened to the shadow samples of one light, counted over a frame.
@@ -45,6 +46,8 @@ pub struct ShadowPass {
     pub totals: TraversalStats,
     pub outcome: ShadowRayOutcome,
     pub trace_ms: f64,
+    /// Alpha evaluations of a pass counted in [`crate::trace::AlphaStats`] (else 0).
+    pub alpha_lookups: u64,
 }
 
 /// Samples per pixel actually used for a light.
@@ -68,6 +71,52 @@ impl ShadowPass {
         plan: SamplePlan,
         cancel: &CancelToken,
     ) -> Result<Self> {
+        Self::trace_tiles::<C, _>(primary, light, plan, cancel, |buffers, mask, work| {
+            tracer.occluded_batch(&buffers.rays, &mut buffers.occluded, &mut buffers.counters);
+            buffers.write(plan, mask, work)
+        })
+    }
+
+    /// As [`ShadowPass::trace`] through alpha-textured materials: each ray's transmission
+    /// ([`AlphaQuery::transmission`], at most `max_hits` transparent hits) on the same tree and
+    /// order, a pixel's mask the mean of its rays' transmissions (so 0/1 answers give the same
+    /// bits as `trace`). Count in `C` = [`crate::trace::AlphaStats`] to get `alpha_lookups`.
+    pub fn trace_alpha<C: Counters>(
+        primary: &PrimaryPass,
+        tracer: &impl AlphaQuery,
+        alpha: &AlphaScene,
+        max_hits: u32,
+        light: &LightSampler,
+        plan: SamplePlan,
+        cancel: &CancelToken,
+    ) -> Result<Self> {
+        Self::trace_tiles::<C, _>(primary, light, plan, cancel, |buffers, mask, work| {
+            let n = buffers.rays.len();
+            buffers.transmitted.clear();
+            buffers.transmitted.resize(n, 0.0);
+            tracer.transmission_batch(
+                &buffers.rays,
+                alpha,
+                max_hits,
+                &mut buffers.transmitted,
+                &mut buffers.counters,
+            );
+            buffers.write_transmitted(plan, mask, work)
+        })
+    }
+
+    /// The tile loop of both passes: `step` traces a gathered tile's rays and writes its mask
+    /// values and work (one monomorphised copy per pass, so the opaque pass is today's code).
+    fn trace_tiles<'l, C: Counters, F>(
+        primary: &PrimaryPass,
+        light: &'l LightSampler,
+        plan: SamplePlan,
+        cancel: &CancelToken,
+        step: F,
+    ) -> Result<Self>
+    where
+        F: Fn(&mut TileRays<'l, C>, &mut [f32], &mut [C]) -> ShadowRayOutcome + Sync,
+    {
         let start = Instant::now();
         let mut mask = ImagePlane::new(light.name.clone(), primary.width, primary.height);
         let mut work = vec![C::default(); primary.surfaces.len()];
@@ -93,12 +142,7 @@ impl ShadowPass {
                             width: primary.width,
                         };
                         outcome += buffers.gather(&band, tile, light, plan);
-                        tracer.occluded_batch(
-                            &buffers.rays,
-                            &mut buffers.occluded,
-                            &mut buffers.counters,
-                        );
-                        outcome += buffers.write(plan, mask, work);
+                        outcome += step(buffers, mask, work);
                     }
                     outcome
                 },
@@ -109,6 +153,7 @@ impl ShadowPass {
             });
         cancel.check()?;
         let trace_ms = start.elapsed().as_secs_f64() * 1e3;
+        let alpha_lookups = work.iter().map(Counters::lookups).sum();
         let work: Vec<TraversalStats> = if C::COUNTING {
             work.into_iter().map(Into::into).collect()
         } else {
@@ -124,6 +169,7 @@ impl ShadowPass {
             totals,
             outcome,
             trace_ms,
+            alpha_lookups,
         })
     }
 }
@@ -141,6 +187,8 @@ struct Band<'a> {
 struct TileRays<'l, C> {
     rays: Vec<Ray>,
     occluded: Vec<bool>,
+    /// Per ray, its transmission (the alpha pass's answers).
+    transmitted: Vec<f32>,
     counters: Vec<C>,
     /// Per ray, its pixel in `points`.
     owners: Vec<u32>,
@@ -154,6 +202,8 @@ struct TileRays<'l, C> {
     settled: Vec<(u32, f32)>,
     /// Per pixel of `points`: its rays not occluded, and their work.
     lit: Vec<u32>,
+    /// Per pixel of `points`: the sum of its rays' transmissions (the alpha pass).
+    pixel_sums: Vec<f32>,
     work: Vec<C>,
 }
 
@@ -243,6 +293,51 @@ impl<'l, C: Counters> TileRays<'l, C> {
         for &(i, value) in &self.settled {
             mask[i as usize] = value;
         }
+        ShadowRayOutcome {
+            rays: self.rays.len() as u64,
+            occluded,
+            ..ShadowRayOutcome::default()
+        }
+    }
+}
+
+impl<C: Counters> TileRays<'_, C> {
+    /// [`TileRays::write`] for transmissions: a pixel's value is the sum of its rays'
+    /// transmissions in sample order over the samples; a ray counts as occluded when it lets
+    /// less than all light through.
+    fn write_transmitted(
+        &mut self,
+        plan: SamplePlan,
+        mask: &mut [f32],
+        work: &mut [C],
+    ) -> ShadowRayOutcome {
+        let pixels = self.points.len();
+        let mut sums = std::mem::take(&mut self.pixel_sums);
+        sums.clear();
+        sums.resize(pixels, 0.0);
+        let mut occluded = 0;
+        for (&k, &t) in self.owners.iter().zip(&self.transmitted) {
+            sums[k as usize] += t;
+            occluded += u64::from(t < 1.0);
+        }
+        if C::COUNTING {
+            self.work.clear();
+            self.work.resize(pixels, C::default());
+            for (&k, c) in self.owners.iter().zip(&self.counters) {
+                self.work[k as usize] += *c;
+            }
+            for ((i, _), w) in self.points.iter().zip(&self.work) {
+                work[*i as usize] = *w;
+            }
+        }
+        let samples = plan.samples as f32;
+        for ((i, _), &sum) in self.points.iter().zip(&sums) {
+            mask[*i as usize] = sum / samples;
+        }
+        for &(i, value) in &self.settled {
+            mask[i as usize] = value;
+        }
+        self.pixel_sums = sums;
         ShadowRayOutcome {
             rays: self.rays.len() as u64,
             occluded,

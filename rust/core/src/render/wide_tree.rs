@@ -4,8 +4,8 @@ use crate::build::CollapseSettings;
 use crate::bvh::{Bvh, BvhWidth, WideBvh};
 use crate::geometry::Ray;
 use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
-use crate::trace::forward_ray_query;
 use crate::trace::wide::BoxKernel;
+use crate::trace::{forward_alpha_query, forward_ray_query};
 use crate::trace::{OrderedWide, RayMode};
 
 /// A collapsed BVH of one of the supported widths.
@@ -120,3 +120,4 @@ macro_rules! with_ordered {
 }
 
 forward_ray_query!(OrderedWideTree<'_>, with_ordered);
+forward_alpha_query!(OrderedWideTree<'_>, with_ordered);

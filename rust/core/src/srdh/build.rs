@@ -16,7 +16,10 @@ use crate::bvh::{Bvh, BvhNode, NodeArray};
 use crate::geometry::{Aabb, Ray, RayBoxPrecomp};
 use crate::order::SrdhSettings;
 use crate::order::{Kernel, PackedKernels};
-use crate::trace::{occluded_with, Counters, Hit, RayQuery};
+use crate::trace::{
+    closest_hit_filtered, occluded_with, occluding_leaf_filtered, AlphaQuery, Counters, Hit,
+    HitFilter, RayQuery,
+};
 
 /// A binary BVH for one light's shadow rays with a traversal kernel per node.
 #[derive(Clone, Debug, Default)]
@@ -40,6 +43,25 @@ impl RayQuery for SrdhBvh {
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
         self.bvh.closest_hit(ray, stats)
+    }
+}
+
+/// The light's tree through alpha: transmission follows its kernels, as its any hit does.
+/// Its triangle ids are those of the set it was built over (the frame's shadow set), so the
+/// frame's alpha applies as is.
+impl AlphaQuery for SrdhBvh {
+    #[inline]
+    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
+        occluding_leaf_filtered(&self.bvh, &self.kernels, ray, filter, stats).is_some()
+    }
+    #[inline]
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        closest_hit_filtered(&self.bvh, ray, filter, stats)
     }
 }
 

@@ -13,6 +13,34 @@ use crate::bvh::{Bvh, WideBvh};
 use crate::geometry::Ray;
 use crate::order::{AnyHitOrder, FrontToBack, OrderView, Stored};
 
+/// Implements [`AlphaQuery`] for a type that holds one of several queries, as
+/// [`super::forward_ray_query`] does for [`super::RayQuery`]: `$with!(self, q => ...)` picks.
+macro_rules! forward_alpha_query {
+    ($ty:ty, $with:ident) => {
+        impl $crate::trace::AlphaQuery for $ty {
+            #[inline]
+            fn stopped<C: $crate::trace::Counters, F: $crate::trace::HitFilter>(
+                &self,
+                ray: &$crate::geometry::Ray,
+                filter: &mut F,
+                stats: &mut C,
+            ) -> bool {
+                $with!(self, q => q.stopped(ray, filter, stats))
+            }
+            #[inline]
+            fn closest_hit_filtered<C: $crate::trace::Counters, F: $crate::trace::HitFilter>(
+                &self,
+                ray: &$crate::geometry::Ray,
+                filter: &mut F,
+                stats: &mut C,
+            ) -> Option<$crate::trace::Hit> {
+                $with!(self, q => q.closest_hit_filtered(ray, filter, stats))
+            }
+        }
+    };
+}
+pub(crate) use forward_alpha_query;
+
 /// Queries with a rule for hits ([`HitFilter`]), and the two alpha queries built on them.
 pub trait AlphaQuery: Sync {
     /// Any hit under `filter`: true when the filter stopped the ray.

@@ -19,6 +19,12 @@ pub trait Counters: Copy + Default + Send + AddAssign + Into<TraversalStats> {
     /// [`AlphaStats`] only, so today's counters and their columns are unchanged.
     #[inline(always)]
     fn alpha_lookups(&mut self, _n: u32) {}
+    /// The alpha lookups counted so far (0 but for [`AlphaStats`]): what a pass sums before
+    /// its counters become [`TraversalStats`].
+    #[inline(always)]
+    fn lookups(&self) -> u64 {
+        0
+    }
 }
 
 /// No counting.
@@ -121,6 +127,10 @@ impl Counters for AlphaStats {
     #[inline(always)]
     fn alpha_lookups(&mut self, n: u32) {
         self.alpha_lookups += n as u64;
+    }
+    #[inline(always)]
+    fn lookups(&self) -> u64 {
+        self.alpha_lookups
     }
 }
 

@@ -15,6 +15,7 @@ mod filter;
 mod query;
 pub mod wide;
 
+pub(crate) use alpha_query::forward_alpha_query;
 pub use alpha_query::AlphaQuery;
 pub use any_hit::{occluded, occluded_with, occluding_leaf, occluding_leaf_filtered};
 pub use brute::{brute_closest_hit, brute_closest_hit_alpha, brute_occluded, brute_transmission};

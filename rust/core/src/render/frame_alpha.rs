@@ -1,0 +1,269 @@
+//! [`FrameAlpha`]: a frame's alpha as the passes read it: one [`AlphaScene`] per triangle set
+//! the frame's trees are built over (camera, and shadow where it differs), its triangle ids
+//! those of the set, its images shared with the scene.
+
+use crate::alpha::{AlphaScene, AlphaTriangles, FlaggedTriangle};
+use crate::bvh::Bvh;
+use crate::geometry::Ray;
+use std::sync::Arc;
+
+use crate::alpha::AlphaImage;
+use crate::scene::{AlphaMaterial, FrameGeometry, Scene, TriangleSet};
+use crate::srdh::SrdhBvh;
+use crate::trace::{forward_alpha_query, AlphaQuery, Counters, Hit, OrderedBinary, RayQuery};
+use crate::{Error, Result};
+
+use super::frame_trees::CameraQuery;
+use super::light_tracer::ShadowTracer;
+use super::wide_tree::OrderedWideTree;
+
+/// The alpha of a flat frame's triangle sets.
+#[derive(Clone, Debug)]
+pub struct FrameAlpha {
+    pub camera: AlphaScene,
+    /// `None`: the camera set serves shadow rays too ([`FrameGeometry::shadow`]).
+    pub shadow: Option<AlphaScene>,
+    /// The hit limit of shadow rays ([`super::RenderSettings::shadow_max_hits`]).
+    pub max_hits: u32,
+    /// Camera rays' clip threshold.
+    pub clip: f32,
+}
+
+impl FrameAlpha {
+    /// The alpha of `geometry`'s sets (made from `scene`, which the renderer validated).
+    pub fn new(
+        scene: &Scene,
+        geometry: &FrameGeometry,
+        max_hits: u32,
+        clip: f32,
+    ) -> Result<FrameAlpha> {
+        Ok(FrameAlpha {
+            camera: alpha_scene(scene, &geometry.camera)?,
+            shadow: geometry
+                .shadow
+                .as_ref()
+                .map(|s| alpha_scene(scene, s))
+                .transpose()?,
+            max_hits,
+            clip,
+        })
+    }
+
+    /// The alpha of the shadow set.
+    pub fn shadow(&self) -> &AlphaScene {
+        self.shadow.as_ref().unwrap_or(&self.camera)
+    }
+}
+
+/// A frame's alpha lookups, from its counted passes (0 in timed-only frames): the alpha
+/// statistics of a frame, beside its rows ([`crate::stats::StatsRow`]'s columns are pinned by
+/// the protocol and the Python client, so they live here: [`super::Renderer::alpha_stats`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AlphaFrameStats {
+    pub frame: i32,
+    /// Camera rays' alpha evaluations (candidate closest hits on flagged triangles).
+    pub primary: u64,
+    /// Per shadow-casting light, by name: its shadow rays' alpha evaluations.
+    pub shadow: Vec<(String, u64)>,
+}
+
+/// The last frame's alpha, kept while what it was made from holds: the same geometry (so the
+/// same triangle ids and meshes), object slots, materials, images and limits.
+#[derive(Clone)]
+pub(super) struct AlphaCache {
+    geometry: Arc<FrameGeometry>,
+    slots: Vec<Vec<Option<u32>>>,
+    materials: Vec<AlphaMaterial>,
+    /// Compared by identity: an image is the same `Arc` while it is unchanged.
+    images: Vec<Arc<AlphaImage>>,
+    limits: (u32, u32),
+    pub(super) alpha: Arc<FrameAlpha>,
+}
+
+impl AlphaCache {
+    /// The alpha of `scene` over `geometry`, kept or made.
+    pub(super) fn get(
+        cache: &mut Option<AlphaCache>,
+        scene: &Scene,
+        geometry: &Arc<FrameGeometry>,
+        max_hits: u32,
+        clip: f32,
+    ) -> Result<Arc<FrameAlpha>> {
+        let limits = (max_hits, clip.to_bits());
+        let holds = |c: &&AlphaCache| {
+            Arc::ptr_eq(&c.geometry, geometry)
+                && c.limits == limits
+                && c.materials == scene.alpha.materials
+                && c.images.len() == scene.alpha.images.len()
+                && c.images
+                    .iter()
+                    .zip(&scene.alpha.images)
+                    .all(|(a, b)| Arc::ptr_eq(a, b))
+                && c.slots.len() == scene.objects.len()
+                && c.slots
+                    .iter()
+                    .zip(&scene.objects)
+                    .all(|(s, o)| *s == o.materials)
+        };
+        if let Some(c) = cache.as_ref().filter(holds) {
+            return Ok(c.alpha.clone());
+        }
+        let alpha = Arc::new(FrameAlpha::new(scene, geometry, max_hits, clip)?);
+        *cache = Some(AlphaCache {
+            geometry: geometry.clone(),
+            slots: scene.objects.iter().map(|o| o.materials.clone()).collect(),
+            materials: scene.alpha.materials.clone(),
+            images: scene.alpha.images.clone(),
+            limits,
+            alpha: alpha.clone(),
+        });
+        Ok(alpha)
+    }
+}
+
+/// One set's alpha: a triangle is flagged when its object's slot has an alpha material; its
+/// UVs come from the mesh's map the material names (UV (0, 0) at every corner without it, as
+/// Cycles reads a missing attribute). One UV set: the materials' programs read set 0.
+pub fn alpha_scene(scene: &Scene, set: &TriangleSet) -> Result<AlphaScene> {
+    let mut flagged = Vec::new();
+    for (id, r) in set.refs.iter().enumerate() {
+        let object = scene.objects.get(r.object as usize).ok_or_else(|| {
+            Error::invalid(
+                format!("alpha triangle {id}"),
+                format!("object {} is not in the frame", r.object),
+            )
+        })?;
+        if object.materials.is_empty() {
+            continue;
+        }
+        let mesh = scene
+            .meshes
+            .get(object.mesh)
+            .ok_or_else(|| Error::UnknownMesh {
+                object: object.name.clone(),
+                mesh: object.mesh,
+                mesh_count: scene.meshes.len(),
+            })?;
+        let primitive = r.primitive as usize;
+        let Some(m) = object.alpha_material(mesh.material_slot(primitive)) else {
+            continue;
+        };
+        let material = scene.alpha.materials.get(m as usize).ok_or_else(|| {
+            Error::invalid(
+                format!("object '{}'.materials", object.name),
+                format!(
+                    "alpha material {m}, but the frame has {}",
+                    scene.alpha.materials.len()
+                ),
+            )
+        })?;
+        let corners = match material.program.uv_set() {
+            Some(_) => mesh
+                .uv_map(&material.uv_map)
+                .and_then(|map| map.corners.get(primitive).copied())
+                .unwrap_or([[0.0; 2]; 3]),
+            None => [[0.0; 2]; 3],
+        };
+        flagged.push(FlaggedTriangle {
+            triangle: id as u32,
+            material: m,
+            uvs: vec![corners],
+        });
+    }
+    let triangles = AlphaTriangles::new(set.len() as u32, 1, flagged)?;
+    let programs = scene
+        .alpha
+        .materials
+        .iter()
+        .map(|m| m.program.clone())
+        .collect();
+    AlphaScene::shared(scene.alpha.images.clone(), programs, triangles)
+}
+
+/// Why a frame with alpha cannot trace two levels, naming the setting.
+pub fn two_level_alpha_error() -> Error {
+    Error::invalid(
+        "scene_structure",
+        "two-level has no alpha traversal yet (its mesh trees' ids are not the frame's); set \
+         scene_structure to flat or auto, or alpha to false",
+    )
+}
+
+/// Camera rays through alpha as the primary pass traces them: a [`RayQuery`] whose closest
+/// hit is [`AlphaQuery::closest_hit_alpha`] (single rays: packets have no alpha kernel).
+pub struct AlphaCamera<'a, Q> {
+    pub tree: &'a Q,
+    pub alpha: &'a AlphaScene,
+    pub clip: f32,
+}
+
+impl<Q: AlphaQuery> RayQuery for AlphaCamera<'_, Q> {
+    /// Whether a hit that is not clipped away lies on the ray (the pass asks only for closest
+    /// hits; this keeps the face whole).
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        self.closest_hit(ray, stats).is_some()
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        self.tree
+            .closest_hit_alpha(ray, self.alpha, self.clip, stats)
+    }
+}
+
+/// The flat camera trees with an alpha face.
+pub enum AlphaCameraTree<'a> {
+    Binary(&'a Bvh),
+    Wide(&'a OrderedWideTree<'a>),
+}
+
+impl<'a> AlphaCameraTree<'a> {
+    /// The camera query's tree, or the two-level error.
+    pub fn of(query: &'a CameraQuery<'a>) -> Result<Self> {
+        match query {
+            CameraQuery::Binary(b) => Ok(AlphaCameraTree::Binary(b)),
+            CameraQuery::Wide(w) => Ok(AlphaCameraTree::Wide(w)),
+            CameraQuery::TwoLevel(_) => Err(two_level_alpha_error()),
+        }
+    }
+}
+
+macro_rules! with_camera_tree {
+    ($tree:expr, $q:ident => $f:expr) => {
+        match $tree {
+            AlphaCameraTree::Binary($q) => $f,
+            AlphaCameraTree::Wide($q) => $f,
+        }
+    };
+}
+forward_alpha_query!(AlphaCameraTree<'_>, with_camera_tree);
+
+/// A light's flat tree and order with an alpha face (packets fall back to single rays).
+pub enum AlphaShadowTracer<'a> {
+    Binary(OrderedBinary<'a>),
+    Wide(&'a OrderedWideTree<'a>),
+    Srdh(&'a SrdhBvh),
+}
+
+impl<'a> AlphaShadowTracer<'a> {
+    /// The shadow tracer's tree and order, or the two-level error.
+    pub fn of(tracer: &'a ShadowTracer<'a>) -> Result<Self> {
+        match tracer {
+            ShadowTracer::Binary(b) => Ok(AlphaShadowTracer::Binary(*b)),
+            ShadowTracer::Wide(w) => Ok(AlphaShadowTracer::Wide(w)),
+            ShadowTracer::Srdh(t) => Ok(AlphaShadowTracer::Srdh(t)),
+            ShadowTracer::TwoLevel(_) => Err(two_level_alpha_error()),
+        }
+    }
+}
+
+macro_rules! with_shadow_tracer {
+    ($tracer:expr, $q:ident => $f:expr) => {
+        match $tracer {
+            AlphaShadowTracer::Binary($q) => $f,
+            AlphaShadowTracer::Wide($q) => $f,
+            AlphaShadowTracer::Srdh($q) => $f,
+        }
+    };
+}
+forward_alpha_query!(AlphaShadowTracer<'_>, with_shadow_tracer);
