@@ -233,7 +233,9 @@ def test_bad_meshes_images_and_slots_are_named(daemon):
         )
     bad = leaf_image()
     bad[1, 2] = np.inf
-    with pytest.raises(antumbra.InvalidInput, match=r"image 0x[0-9a-f]+.*texels"):
+    with pytest.raises(
+        antumbra.InvalidInput, match=r"texels of image 0x[0-9a-f]+ .*\(inf\) at index 10"
+    ):
         daemon.upload_image(bad)
     with pytest.raises(antumbra.InvalidInput, match=r"texels: expected a float32"):
         daemon.upload_image(leaf_image().astype(np.float64))
