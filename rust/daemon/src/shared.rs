@@ -83,6 +83,8 @@ impl Shared {
             renders_failed: get(&c.renders_failed),
             uptime_s: self.started.elapsed().as_secs_f64(),
             meshes_evicted: cache.evicted,
+            images_cached: cache.images,
+            images_evicted: cache.images_evicted,
         }
     }
 }

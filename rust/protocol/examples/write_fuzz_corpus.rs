@@ -7,8 +7,11 @@
 
 use std::path::Path;
 
+use antumbra_core::alpha::{AlphaImage, AlphaOp, AlphaProgram, Extension, Interpolation};
 use antumbra_core::render::RenderSettings;
-use antumbra_core::scene::{Camera, Light, LightKind, Mesh, Object, Resolution, Scene};
+use antumbra_core::scene::{
+    AlphaMaterial, Camera, Light, LightKind, Mesh, Object, Resolution, Scene, SceneAlpha, UvMap,
+};
 use antumbra_core::settings::{Kind, SCHEMA};
 use antumbra_protocol::*;
 use glam::{DMat4, DVec3, Vec3};
@@ -33,6 +36,53 @@ fn scene() -> Scene {
         resolution: Resolution::new(4, 3),
         alpha: Default::default(),
     }
+}
+
+/// The tiny scene with alpha (issue 38): a two-triangle card whose slot 1 reads a 2x2 image
+/// through UV map "Leaves", slot 0 a constant; its triangles have slots and corner UVs.
+fn alpha_scene(frame: i32) -> Scene {
+    let mut s = scene_at(frame);
+    let card = Mesh::new(
+        "card",
+        vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)],
+        vec![[0, 1, 2], [1, 3, 2]],
+    )
+    .with_alpha(
+        vec![0, 1],
+        vec![UvMap {
+            name: "Leaves".into(),
+            corners: vec![
+                [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+                [[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+            ],
+        }],
+    );
+    s.meshes.push(Arc::new(card));
+    let mut object = Object::new("card", 1, DMat4::IDENTITY);
+    object.materials = vec![Some(0), Some(1)];
+    s.objects.push(object);
+    let mut leaf = AlphaProgram::image(0, 0, Interpolation::Linear, Extension::Clip);
+    leaf.ops = vec![AlphaOp::Multiply(2.0), AlphaOp::OneMinus, AlphaOp::Clamp];
+    s.alpha = SceneAlpha {
+        images: vec![Arc::new(AlphaImage {
+            width: 2,
+            height: 2,
+            texels: vec![0.0, 0.25, 0.5, 1.0],
+        })],
+        materials: vec![
+            AlphaMaterial {
+                name: "Glass".into(),
+                uv_map: String::new(),
+                program: AlphaProgram::constant(0.5),
+            },
+            AlphaMaterial {
+                name: "Leaf".into(),
+                uv_map: "Leaves".into(),
+                program: leaf,
+            },
+        ],
+    };
+    s
 }
 
 type Res = Result<(), Box<dyn std::error::Error>>;
@@ -102,11 +152,14 @@ fn recording(dir: &Path) -> Res {
             visible_to_camera: true,
             casts_shadow: true,
             unchanged,
+            materials: Vec::new(),
         });
         Ok(Request::FrameUpdate(update))
     };
     w.append(&ring(7, false)?)?;
     w.append(&ring(8, true)?)?;
+    // Alpha: a mesh with slots and UVs, an image, materials, an object's slots.
+    w.append_scene(&alpha_scene(9))?;
     w.append(&Request::Close)?;
     std::fs::write(dir.join("session.antrec"), w.finish()?)?;
     Ok(())
@@ -237,13 +290,19 @@ fn decode_frame(dir: &Path) -> Res {
         request_id: 7,
         warm_up: false,
     });
+    let (alpha_uploads, alpha_frame) = scene_to_messages(&alpha_scene(2))?;
     let mut session = vec![
         hello.clone(),
         Request::MissingMeshes {
             hashes: vec![1, u64::MAX],
         },
+        Request::MissingImages {
+            hashes: vec![2, u64::MAX],
+        },
     ];
     session.extend(uploads.iter().cloned());
+    session.extend(alpha_uploads.iter().cloned());
+    session.push(alpha_frame.clone());
     session.extend([
         frame.clone(),
         render.clone(),
@@ -256,6 +315,11 @@ fn decode_frame(dir: &Path) -> Res {
         ("hello", vec![hello]),
         ("upload_mesh", uploads),
         ("frame_update", vec![frame]),
+        ("alpha", {
+            let mut alpha = alpha_uploads;
+            alpha.push(alpha_frame);
+            alpha
+        }),
         ("render", vec![render]),
         ("session", session),
     ];

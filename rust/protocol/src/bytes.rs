@@ -119,6 +119,22 @@ pub fn bytes_to_triangles(bytes: &[u8], field: &str) -> Result<Vec<[u32; 3]>, Pr
         .collect())
 }
 
+/// Corner UVs: 3 u, v as f32 per triangle, 24 bytes a triangle.
+pub fn bytes_to_corner_uvs(bytes: &[u8], field: &str) -> Result<Vec<[[f32; 2]; 3]>, ProtocolError> {
+    Ok(
+        chunks::<24>(bytes, field, "3 corners of u, v as f32 per triangle")?
+            .map(|c| {
+                let f = |i: usize| f32::from_le_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
+                [0, 8, 16].map(|k| [f(k), f(k + 4)])
+            })
+            .collect(),
+    )
+}
+
+pub fn corner_uvs_to_bytes(corners: &[[[f32; 2]; 3]]) -> ByteBuf {
+    f32s_to_bytes(corners.as_flattened().as_flattened())
+}
+
 pub fn bytes_to_triangle_refs(
     bytes: &[u8],
     field: &str,

@@ -8,7 +8,7 @@ use antumbra_core::scene::Scene;
 
 use crate::error::ProtocolError;
 use crate::limits::Limits;
-use crate::messages::{FrameUpdate, Passes, Request};
+use crate::messages::{FrameUpdate, Passes, Request, UploadImage};
 
 fn check(
     what: impl FnOnce() -> String,
@@ -39,12 +39,27 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
             limits.max_meshes,
             "max_meshes",
         ),
-        Request::UploadMesh(upload) => check(
-            || format!("mesh '{}': triangles", upload.name),
-            upload.triangles.len() as u64 / 12,
-            limits.max_triangles_per_mesh,
-            "max_triangles_per_mesh",
+        Request::UploadMesh(upload) => {
+            check(
+                || format!("mesh '{}': triangles", upload.name),
+                upload.triangles.len() as u64 / 12,
+                limits.max_triangles_per_mesh,
+                "max_triangles_per_mesh",
+            )?;
+            check(
+                || format!("mesh '{}': uv_maps", upload.name),
+                upload.uv_maps.len() as u64,
+                limits.max_uv_maps,
+                "max_uv_maps",
+            )
+        }
+        Request::MissingImages { hashes } => check(
+            || "MissingImages: hashes".into(),
+            hashes.len() as u64,
+            limits.max_alpha_materials,
+            "max_alpha_materials",
         ),
+        Request::UploadImage(upload) => check_image_texels(upload, limits),
         Request::FrameUpdate(update) => check_frame_limits(update, limits),
         Request::Render(render) => check_spp(
             || format!("Render frame {}: settings.spp", render.frame),
@@ -88,10 +103,48 @@ pub fn check_limits(request: &Request, limits: &Limits) -> Result<(), ProtocolEr
     }
 }
 
+/// An image upload's size (as announced and as sent) against `max_image_texels`, before its
+/// texels are decoded; the error names the image by its hash.
+pub fn check_image_texels(upload: &UploadImage, limits: &Limits) -> Result<(), ProtocolError> {
+    let announced = upload.width as u64 * upload.height as u64;
+    check(
+        || {
+            format!(
+                "image {:#018x} ({}x{}): texels",
+                upload.hash, upload.width, upload.height
+            )
+        },
+        announced.max(upload.texels.len() as u64 / 4),
+        limits.max_image_texels,
+        "max_image_texels",
+    )
+}
+
 /// A frame's counts against the limits: objects (instances included), lights, distinct meshes,
-/// pixels. The daemon checks a frame again once its unchanged arrays are filled in.
+/// pixels, alpha materials, their operations and the material slots every object (instance)
+/// keeps. The daemon checks a frame again once its unchanged arrays are filled in.
 pub fn check_frame_limits(update: &FrameUpdate, limits: &Limits) -> Result<(), ProtocolError> {
     let frame = update.frame;
+    check(
+        || format!("frame {frame}: alpha_materials"),
+        update.alpha_materials.len() as u64,
+        limits.max_alpha_materials,
+        "max_alpha_materials",
+    )?;
+    for (i, m) in update.alpha_materials.iter().enumerate() {
+        check(
+            || format!("frame {frame}: alpha_materials[{i}] '{}': ops", m.name),
+            m.ops.len() as u64,
+            limits.max_alpha_ops,
+            "max_alpha_ops",
+        )?;
+    }
+    check(
+        || format!("frame {frame}: material slots (every object's and instance's)"),
+        crate::instances::material_slot_count(update),
+        limits.max_material_slots,
+        "max_material_slots",
+    )?;
     check(
         || format!("frame {frame}: objects"),
         crate::instances::object_count(update),

@@ -8,32 +8,55 @@ use std::collections::HashMap;
 use std::hash::BuildHasher;
 use std::sync::Arc;
 
+use antumbra_core::alpha::{AlphaImage, AlphaProgram, AlphaSource};
 use antumbra_core::image::ImagePlane;
 use antumbra_core::render::{FrameResult, RenderSettings, WarmUp};
 use antumbra_core::scene::{
-    AreaShape, Camera, Light, LightKind, Mesh, Object, Resolution, Scene, SensorFit, TriangleRef,
+    AlphaMaterial, AreaShape, Camera, Light, LightKind, Mesh, Object, Resolution, Scene,
+    SceneAlpha, SensorFit, TriangleRef, UvMap,
 };
 use antumbra_core::settings::NamedSettings;
 use antumbra_core::stats::StatsRow;
 use glam::DMat4;
 
 use crate::bytes::{
-    bytes_to_corner_normals, bytes_to_f32s, bytes_to_triangle_refs, bytes_to_triangles,
-    bytes_to_vec3s, f32s_to_bytes, triangle_refs_to_bytes, triangles_to_bytes, vec3s_to_bytes,
+    bytes_to_corner_normals, bytes_to_corner_uvs, bytes_to_f32s, bytes_to_triangle_refs,
+    bytes_to_triangles, bytes_to_u32s, bytes_to_vec3s, corner_uvs_to_bytes, f32s_to_bytes,
+    triangle_refs_to_bytes, triangles_to_bytes, u32s_to_bytes, vec3s_to_bytes,
 };
 use crate::error::ProtocolError;
 use crate::instances;
 use crate::limits::Limits;
 use crate::messages::*;
 
-/// Where the daemon keeps uploaded meshes, by content hash.
+/// Where the daemon keeps uploaded meshes (and alpha images), by content hash.
 pub trait MeshStore {
     fn mesh(&self, hash: u64) -> Option<Arc<Mesh>>;
+    /// The alpha image with this hash; a store of meshes alone holds none.
+    fn image(&self, _hash: u64) -> Option<Arc<AlphaImage>> {
+        None
+    }
 }
 
 impl<S: BuildHasher> MeshStore for HashMap<u64, Arc<Mesh>, S> {
     fn mesh(&self, hash: u64) -> Option<Arc<Mesh>> {
         self.get(&hash).cloned()
+    }
+}
+
+/// Meshes from one map and alpha images from another (a session's, a replay's).
+impl<S: BuildHasher, T: BuildHasher> MeshStore
+    for (
+        &HashMap<u64, Arc<Mesh>, S>,
+        &HashMap<u64, Arc<AlphaImage>, T>,
+    )
+{
+    fn mesh(&self, hash: u64) -> Option<Arc<Mesh>> {
+        self.0.get(&hash).cloned()
+    }
+
+    fn image(&self, hash: u64) -> Option<Arc<AlphaImage>> {
+        self.1.get(&hash).cloned()
     }
 }
 
@@ -57,7 +80,14 @@ pub fn mesh_from_upload(upload: &UploadMesh, limits: &Limits) -> Result<Mesh, Pr
     let positions = bytes_to_vec3s(&upload.positions, &format!("mesh '{name}'.positions"))?;
     let triangles = bytes_to_triangles(&upload.triangles, &format!("mesh '{name}'.triangles"))?;
     let normals = bytes_to_corner_normals(&upload.normals, &format!("mesh '{name}'.normals"))?;
-    let mesh = Mesh::new(name.clone(), positions, triangles).with_normals(normals);
+    let material_slots = bytes_to_u32s(
+        &upload.material_slots,
+        &format!("mesh '{name}'.material_slots"),
+    )?;
+    let uv_maps = uv_maps_from_upload(upload, limits)?;
+    let mesh = Mesh::new(name.clone(), positions, triangles)
+        .with_normals(normals)
+        .with_alpha(material_slots, uv_maps);
     mesh.validate()?;
     let actual = mesh.content_hash();
     if actual != upload.hash {
@@ -70,6 +100,34 @@ pub fn mesh_from_upload(upload: &UploadMesh, limits: &Limits) -> Result<Mesh, Pr
     Ok(mesh)
 }
 
+/// An upload's UV maps: at most `max_uv_maps`, names distinct (a material finds its map by
+/// name), whole corners; counts and values are checked with the mesh (`Mesh::validate`).
+fn uv_maps_from_upload(upload: &UploadMesh, limits: &Limits) -> Result<Vec<UvMap>, ProtocolError> {
+    let name = &upload.name;
+    let count = upload.uv_maps.len() as u64;
+    if count > limits.max_uv_maps {
+        return Err(ProtocolError::LimitExceeded {
+            what: format!("mesh '{name}': uv_maps"),
+            value: count,
+            limit: limits.max_uv_maps,
+            limit_name: "max_uv_maps",
+        });
+    }
+    let mut maps: Vec<UvMap> = Vec::with_capacity(upload.uv_maps.len());
+    for map in &upload.uv_maps {
+        let field = format!("mesh '{name}'.uv_maps['{}']", map.name);
+        if maps.iter().any(|m| m.name == map.name) {
+            return Err(ProtocolError::invalid(field, "two UV maps have this name"));
+        }
+        let corners = bytes_to_corner_uvs(&map.corners, &format!("{field}.corners"))?;
+        maps.push(UvMap {
+            name: map.name.clone(),
+            corners,
+        });
+    }
+    Ok(maps)
+}
+
 pub fn upload_from_mesh(mesh: &Mesh) -> UploadMesh {
     UploadMesh {
         hash: mesh.content_hash(),
@@ -77,6 +135,57 @@ pub fn upload_from_mesh(mesh: &Mesh) -> UploadMesh {
         positions: vec3s_to_bytes(&mesh.positions),
         triangles: triangles_to_bytes(&mesh.triangles),
         normals: vec3s_to_bytes(mesh.normals.as_flattened()),
+        material_slots: u32s_to_bytes(&mesh.material_slots),
+        uv_maps: mesh
+            .uv_maps
+            .iter()
+            .map(|m| UvMapState {
+                name: m.name.clone(),
+                corners: corner_uvs_to_bytes(&m.corners),
+            })
+            .collect(),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Alpha images
+
+/// How messages name an image: by its hash (images have no name on the wire).
+pub fn image_label(hash: u64) -> String {
+    format!("image {hash:#018x}")
+}
+
+/// Decodes and checks an image upload: the texel limit (before decoding), the byte length,
+/// `width * height` finite texels, and that `hash` is the content hash of what arrived.
+pub fn image_from_upload(
+    upload: &UploadImage,
+    limits: &Limits,
+) -> Result<AlphaImage, ProtocolError> {
+    crate::check::check_image_texels(upload, limits)?;
+    let label = image_label(upload.hash);
+    let texels = bytes_to_f32s(&upload.texels, &format!("{label}.texels"))?;
+    let image = AlphaImage {
+        width: upload.width,
+        height: upload.height,
+        texels,
+    };
+    image.validate(&label)?;
+    let actual = image.content_hash();
+    if actual != upload.hash {
+        return Err(ProtocolError::ImageHashMismatch {
+            declared: upload.hash,
+            actual,
+        });
+    }
+    Ok(image)
+}
+
+pub fn upload_from_image(image: &AlphaImage) -> UploadImage {
+    UploadImage {
+        hash: image.content_hash(),
+        width: image.width,
+        height: image.height,
+        texels: f32s_to_bytes(&image.texels),
     }
 }
 
@@ -267,6 +376,104 @@ pub fn frame_mesh_hashes(update: &FrameUpdate) -> impl Iterator<Item = u64> + '_
     objects.chain(update.instances.iter().map(|a| a.mesh_hash))
 }
 
+/// The image hash of every alpha material of a frame that reads one, in order (with repeats).
+pub fn frame_image_hashes(update: &FrameUpdate) -> impl Iterator<Item = u64> + '_ {
+    update
+        .alpha_materials
+        .iter()
+        .filter_map(|m| match m.source {
+            AlphaSourceState::Image { hash, .. } => Some(hash),
+            AlphaSourceState::Constant { .. } => None,
+        })
+}
+
+/// The distinct image hashes of a frame that `store` lacks, in order of first use.
+pub fn missing_images(update: &FrameUpdate, store: &impl MeshStore) -> Vec<u64> {
+    let mut seen = std::collections::HashSet::new();
+    frame_image_hashes(update)
+        .filter(|&h| seen.insert(h) && store.image(h).is_none())
+        .collect()
+}
+
+/// The frame's alpha images and materials: each distinct image once (the store's `Arc`), in
+/// order of first use; errors name the frame and the material (an image the store lacks, a
+/// constant that is not finite).
+fn scene_alpha(update: &FrameUpdate, store: &impl MeshStore) -> Result<SceneAlpha, ProtocolError> {
+    let frame = update.frame;
+    let mut alpha = SceneAlpha::default();
+    let mut index_of: HashMap<u64, u32> = HashMap::new();
+    for (i, m) in update.alpha_materials.iter().enumerate() {
+        let owner = format!("frame {frame}: alpha_materials[{i}] '{}'", m.name);
+        let source = match m.source {
+            AlphaSourceState::Constant { alpha } => AlphaSource::Constant(alpha),
+            AlphaSourceState::Image {
+                hash,
+                interpolation,
+                extension,
+            } => {
+                let image = match index_of.get(&hash) {
+                    Some(&k) => k,
+                    None => {
+                        let image =
+                            store
+                                .image(hash)
+                                .ok_or_else(|| ProtocolError::UnknownImage {
+                                    frame,
+                                    material: m.name.clone(),
+                                    hash,
+                                })?;
+                        alpha.images.push(image);
+                        let k = (alpha.images.len() - 1) as u32;
+                        index_of.insert(hash, k);
+                        k
+                    }
+                };
+                // One UV map per material, by name: the mesh's map of that name is UV set 0.
+                AlphaSource::Image {
+                    image,
+                    uv_set: 0,
+                    interpolation,
+                    extension,
+                }
+            }
+        };
+        let program = AlphaProgram {
+            source,
+            ops: m.ops.clone(),
+        };
+        program.validate(&owner, alpha.images.len(), 1)?;
+        alpha.materials.push(AlphaMaterial {
+            name: m.name.clone(),
+            uv_map: m.uv_map.clone(),
+            program,
+        });
+    }
+    Ok(alpha)
+}
+
+/// Checks an object's (or instance array's) slots against the frame's alpha materials.
+fn check_materials(
+    frame: i32,
+    owner: &str,
+    materials: &[Option<u32>],
+    count: usize,
+) -> Result<(), ProtocolError> {
+    match materials
+        .iter()
+        .enumerate()
+        .find(|(_, m)| m.is_some_and(|m| m as usize >= count))
+    {
+        Some((slot, m)) => Err(ProtocolError::invalid(
+            format!("frame {frame}: {owner}.materials[{slot}]"),
+            format!(
+                "alpha material {}, but the frame has {count} alpha_materials",
+                m.unwrap_or_default()
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// The distinct mesh hashes of a frame that `store` lacks, in order of first use.
 pub fn missing_meshes(update: &FrameUpdate, store: &impl MeshStore) -> Vec<u64> {
     let mut seen = std::collections::HashSet::new();
@@ -300,8 +507,16 @@ pub fn scene_from_frame(
         index_of.insert(hash, meshes.len() - 1);
         Ok(meshes.len() - 1)
     };
+    let alpha = scene_alpha(update, store)?;
+    let material_count = alpha.materials.len();
     for o in &update.objects {
         let mesh = mesh_index(o.mesh_hash, &o.name)?;
+        check_materials(
+            frame,
+            &format!("object '{}'", o.name),
+            &o.materials,
+            material_count,
+        )?;
         if let Some(i) = o.world_from_object.iter().position(|v| !v.is_finite()) {
             return Err(antumbra_core::Error::NonFinite {
                 owner: format!("object '{}' (frame {frame})", o.name),
@@ -317,11 +532,17 @@ pub fn scene_from_frame(
             world_from_object: DMat4::from_cols_array(&o.world_from_object),
             visible_to_camera: o.visible_to_camera,
             casts_shadow: o.casts_shadow,
-            materials: Vec::new(),
+            materials: o.materials.clone(),
         });
     }
     for array in &update.instances {
         let mesh = mesh_index(array.mesh_hash, &format!("{}[]", array.name))?;
+        check_materials(
+            frame,
+            &format!("instance array '{}'", array.name),
+            &array.materials,
+            material_count,
+        )?;
         objects.extend(instances::instance_objects(frame, array, mesh)?);
     }
     let in_frame = |error| ProtocolError::InFrame { frame, error };
@@ -340,13 +561,62 @@ pub fn scene_from_frame(
         camera,
         lights,
         resolution,
-        alpha: Default::default(),
+        alpha,
     })
 }
 
-/// The `FrameUpdate` of a scene; meshes are referred to by content hash.
+/// A scene's alpha materials as the wire's, images by content hash (`image_hashes`, parallel
+/// to `scene.alpha.images`).
+fn alpha_materials_state(
+    scene: &Scene,
+    image_hashes: &[u64],
+) -> Result<Vec<AlphaMaterialState>, ProtocolError> {
+    scene
+        .alpha
+        .materials
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let source = match m.program.source {
+                AlphaSource::Constant(alpha) => AlphaSourceState::Constant { alpha },
+                AlphaSource::Image {
+                    image,
+                    interpolation,
+                    extension,
+                    ..
+                } => AlphaSourceState::Image {
+                    hash: *image_hashes.get(image as usize).ok_or_else(|| {
+                        ProtocolError::invalid(
+                            format!("alpha.materials[{i}] '{}'.source.image", m.name),
+                            format!(
+                                "image {image}, but the scene has {} alpha images",
+                                image_hashes.len()
+                            ),
+                        )
+                    })?,
+                    interpolation,
+                    extension,
+                },
+            };
+            Ok(AlphaMaterialState {
+                name: m.name.clone(),
+                uv_map: m.uv_map.clone(),
+                source,
+                ops: m.program.ops.clone(),
+            })
+        })
+        .collect()
+}
+
+/// The `FrameUpdate` of a scene; meshes and alpha images are referred to by content hash.
 pub fn frame_update_from_scene(scene: &Scene) -> Result<FrameUpdate, ProtocolError> {
     let hashes: Vec<u64> = scene.meshes.iter().map(|m| m.content_hash()).collect();
+    let image_hashes: Vec<u64> = scene
+        .alpha
+        .images
+        .iter()
+        .map(|i| i.content_hash())
+        .collect();
     let objects = scene
         .objects
         .iter()
@@ -364,6 +634,7 @@ pub fn frame_update_from_scene(scene: &Scene) -> Result<FrameUpdate, ProtocolErr
                 world_from_object: o.world_from_object.to_cols_array(),
                 visible_to_camera: o.visible_to_camera,
                 casts_shadow: o.casts_shadow,
+                materials: o.materials.clone(),
             })
         })
         .collect::<Result<Vec<_>, ProtocolError>>()?;
@@ -374,12 +645,13 @@ pub fn frame_update_from_scene(scene: &Scene) -> Result<FrameUpdate, ProtocolErr
         camera: (&scene.camera).into(),
         lights: scene.lights.iter().map(LightState::from).collect(),
         resolution: (&scene.resolution).into(),
+        alpha_materials: alpha_materials_state(scene, &image_hashes)?,
     })
 }
 
 /// A scene as the messages that recreate it on a daemon: one `UploadMesh` per distinct mesh
-/// content that an object uses, then the `FrameUpdate`. Fails only for an object whose mesh
-/// index is out of range.
+/// content that an object uses, one `UploadImage` per distinct alpha image a material reads,
+/// then the `FrameUpdate`. Fails only for an object's mesh or a material's image out of range.
 pub fn scene_to_messages(scene: &Scene) -> Result<(Vec<Request>, Request), ProtocolError> {
     let update = frame_update_from_scene(scene)?;
     let mut uploaded = std::collections::HashSet::new();
@@ -390,6 +662,18 @@ pub fn scene_to_messages(scene: &Scene) -> Result<(Vec<Request>, Request), Proto
             let upload = upload_from_mesh(mesh);
             if uploaded.insert(upload.hash) {
                 uploads.push(Request::UploadMesh(upload));
+            }
+        }
+    }
+    let mut images = std::collections::HashSet::new();
+    for m in &scene.alpha.materials {
+        // frame_update_from_scene checked every image index.
+        if let AlphaSource::Image { image, .. } = m.program.source {
+            if let Some(image) = scene.alpha.images.get(image as usize) {
+                let upload = upload_from_image(image);
+                if images.insert(upload.hash) {
+                    uploads.push(Request::UploadImage(upload));
+                }
             }
         }
     }

@@ -86,6 +86,14 @@ pub enum ProtocolError {
         declared: u64,
         actual: u64,
     },
+    #[error("image {declared:#018x}: declared hash {declared:#018x} but its size and texels hash to {actual:#018x}")]
+    ImageHashMismatch { declared: u64, actual: u64 },
+    #[error("frame {frame}: alpha material '{material}' refers to image {hash:#018x}, which the daemon does not hold (upload it first)")]
+    UnknownImage {
+        frame: i32,
+        material: String,
+        hash: u64,
+    },
     #[error("frame {frame}: object '{object}' refers to mesh {hash:#018x}, which the daemon does not hold (upload it first)")]
     UnknownMesh {
         frame: i32,
@@ -177,6 +185,7 @@ impl ProtocolError {
         match self {
             ProtocolError::VersionMismatch { .. } => ErrorCode::VersionMismatch,
             ProtocolError::UnknownMesh { .. } => ErrorCode::UnknownMesh,
+            ProtocolError::UnknownImage { .. } => ErrorCode::UnknownImage,
             ProtocolError::LimitExceeded { .. }
             | ProtocolError::RenderMemory { .. }
             | ProtocolError::CompareMemory { .. }
@@ -189,6 +198,7 @@ impl ProtocolError {
             | ProtocolError::Core(antumbra_core::Error::Cancelled) => ErrorCode::Cancelled,
             ProtocolError::Invalid { .. }
             | ProtocolError::HashMismatch { .. }
+            | ProtocolError::ImageHashMismatch { .. }
             | ProtocolError::InFrame { .. }
             | ProtocolError::Core(_) => ErrorCode::InvalidInput,
         }

@@ -26,6 +26,19 @@ pub fn object_count(update: &FrameUpdate) -> u64 {
     update.objects.len() as u64 + update.instances.iter().map(instance_count).sum::<u64>()
 }
 
+/// The material slots the frame's objects keep: each object's, and each array's once per
+/// instance (every instance gets the array's list). Saturating, so no input overflows.
+pub fn material_slot_count(update: &FrameUpdate) -> u64 {
+    let objects: u64 = update
+        .objects
+        .iter()
+        .map(|o| o.materials.len() as u64)
+        .sum();
+    update.instances.iter().fold(objects, |n, a| {
+        n.saturating_add((a.materials.len() as u64).saturating_mul(instance_count(a)))
+    })
+}
+
 /// f32 rows 0..3 of each world matrix (row-major, as Blender's `matrix_world[row][column]`) as
 /// the wire's bytes.
 pub fn matrices_to_bytes(rows: &[[f32; 12]]) -> ByteBuf {
@@ -105,7 +118,7 @@ pub fn instance_objects(
             world_from_object,
             visible_to_camera: array.visible_to_camera,
             casts_shadow: array.casts_shadow,
-            materials: Vec::new(),
+            materials: array.materials.clone(),
         });
     }
     Ok(objects)
@@ -184,6 +197,7 @@ pub fn changed_since(update: &FrameUpdate, previous: Option<&FrameUpdate>) -> Fr
                 visible_to_camera: array.visible_to_camera,
                 casts_shadow: array.casts_shadow,
                 unchanged: true,
+                materials: array.materials.clone(),
             }
         } else {
             array.clone()
@@ -202,6 +216,7 @@ impl FrameUpdate {
             camera: self.camera.clone(),
             lights: self.lights.clone(),
             resolution: self.resolution,
+            alpha_materials: self.alpha_materials.clone(),
         }
     }
 }
@@ -224,6 +239,7 @@ mod tests {
             visible_to_camera: true,
             casts_shadow: false,
             unchanged: false,
+            materials: Vec::new(),
         }
     }
 
@@ -251,6 +267,7 @@ mod tests {
                 pixel_aspect_x: 1.0,
                 pixel_aspect_y: 1.0,
             },
+            alpha_materials: Vec::new(),
         }
     }
 

@@ -26,15 +26,19 @@ pub mod recording;
 pub mod trade;
 
 pub use admission::{admit_compare, admit_render, admit_trade, Asked};
-pub use check::{check_frame_limits, check_limits, check_repeat, reply_planes, MAX_COMPARE_REPEAT};
+pub use check::{
+    check_frame_limits, check_image_texels, check_limits, check_repeat, reply_planes,
+    MAX_COMPARE_REPEAT,
+};
 pub use compare::{
     compare_result_reply, heat_from_reply, CompareMethod, CompareRequest, CompareResultReply,
     CompareRowState, MismatchState, COMPARE_STAGE, DEFAULT_REPEAT,
 };
 pub use convert::{
-    frame_mesh_hashes, frame_result_reply, frame_update_from_scene, mesh_from_upload,
-    missing_meshes, planes_from_reply, render_settings, scene_from_frame, scene_to_messages,
-    stats_from_reply, upload_from_mesh, visible_from_reply, warm_up_reply, MeshStore,
+    frame_image_hashes, frame_mesh_hashes, frame_result_reply, frame_update_from_scene,
+    image_from_upload, image_label, mesh_from_upload, missing_images, missing_meshes,
+    planes_from_reply, render_settings, scene_from_frame, scene_to_messages, stats_from_reply,
+    upload_from_image, upload_from_mesh, visible_from_reply, warm_up_reply, MeshStore,
 };
 pub use error::{FrameError, ProtocolError};
 pub use frame::{

@@ -37,6 +37,18 @@ pub struct Limits {
     /// and its reference, a `Render`'s one, times the frames of a command-line run or spool
     /// job ([`crate::admission`]); default [`DEFAULT_MAX_REQUEST_PASSES`].
     pub max_request_passes: u64,
+    /// Most texels of one alpha image (and so 4 bytes each of its upload); default 8192².
+    pub max_image_texels: u64,
+    /// Most alpha materials of one frame (and distinct images it uses, and hashes in one
+    /// `MissingImages`).
+    pub max_alpha_materials: u64,
+    /// Most Math-node operations of one alpha material.
+    pub max_alpha_ops: u64,
+    /// Most UV maps of one mesh.
+    pub max_uv_maps: u64,
+    /// Most material slots of one frame, each instance's counted: every object (instance)
+    /// keeps its own slot list, so this bounds what an array's list multiplies into.
+    pub max_material_slots: u64,
 }
 
 impl Default for Limits {
@@ -55,6 +67,15 @@ impl Default for Limits {
             // is refused on every one; it holds a 4096x4096 frame with every pass and counters.
             max_render_bytes: DEFAULT_MAX_RENDER_BYTES,
             max_request_passes: DEFAULT_MAX_REQUEST_PASSES,
+            // A 64 MP image is 256 MiB of f32 texels: large leaf atlases fit, a frame stays bounded.
+            max_image_texels: 8192 * 8192,
+            max_alpha_materials: 4096,
+            // Node trees of a few Math nodes: 64 is far above any real material.
+            max_alpha_ops: 64,
+            // Blender allows 8 UV maps per mesh.
+            max_uv_maps: 8,
+            // 16M slots of 8 bytes: 128 MiB at most, whatever the instances.
+            max_material_slots: 1 << 24,
         }
     }
 }

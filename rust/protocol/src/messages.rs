@@ -12,6 +12,7 @@
 //! - Matrices are 16 f64 in column-major order (Blender's `matrix_world` transposed: element
 //!   `4*col + row`).
 
+pub use antumbra_core::alpha::{AlphaOp, Extension, Interpolation};
 pub use antumbra_core::settings::NamedSettings;
 use serde::{Deserialize, Serialize};
 use serde_bytes::ByteBuf;
@@ -20,13 +21,15 @@ use crate::compare::{CompareRequest, CompareResultReply};
 use crate::limits::Limits;
 use crate::trade::{TradeRequest, TradeResultReply};
 
-/// The protocol version this crate speaks; `Hello` must carry it. Version 4: `FrameUpdate`
+/// The protocol version this crate speaks; `Hello` must carry it. Version 5: alpha materials
+/// (meshes' slots and UV maps, `UploadImage`, `FrameUpdate.alpha_materials`, objects' `materials`).
+/// Version 4: `FrameUpdate`
 /// carries `instances` (a daemon that skipped the unknown field would drop them unseen).
 /// Version 3: no `CameraPath`
 /// (an older client would send it and fail mid-session; the version refuses it at `Hello`).
 /// Version 2: mesh hashes are XXH3 and render settings a map by name (version 1: FNV-1a,
 /// nested settings structs).
-pub const PROTOCOL_VERSION: u32 = 4;
+pub const PROTOCOL_VERSION: u32 = 5;
 
 /// A message from the client to the daemon.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -44,6 +47,10 @@ pub enum Request {
     MissingMeshes { hashes: Vec<u64> },
     /// Reply: `MeshStored`.
     UploadMesh(UploadMesh),
+    /// Which of these alpha image hashes does the daemon lack? Reply: `Missing`.
+    MissingImages { hashes: Vec<u64> },
+    /// Reply: `ImageStored`.
+    UploadImage(UploadImage),
     /// The whole scene state of one frame. Reply: `FrameAccepted`.
     FrameUpdate(FrameUpdate),
     /// Render a frame that was sent with `FrameUpdate`. Replies: zero or more `Progress`, then
@@ -73,7 +80,8 @@ pub enum Reply {
     Welcome {
         version: u32,
         server: String,
-        limits: Limits,
+        /// Boxed: the largest field of any reply, kept out of every other reply's size.
+        limits: Box<Limits>,
     },
     Missing {
         hashes: Vec<u64>,
@@ -82,10 +90,16 @@ pub enum Reply {
         hash: u64,
         triangles: u32,
     },
+    ImageStored {
+        hash: u64,
+    },
     FrameAccepted {
         frame: i32,
         /// Hashes the frame refers to that the daemon does not hold; upload them before `Render`.
         meshes_missing: Vec<u64>,
+        /// Alpha image hashes the frame's materials refer to that the daemon does not hold.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        images_missing: Vec<u64>,
     },
     Ack,
     Progress {
@@ -111,7 +125,7 @@ pub enum Reply {
 }
 
 /// One mesh in object space. `hash` must equal [`antumbra_core::scene::Mesh::content_hash`] of
-/// the positions and triangles (the name is not hashed).
+/// the positions, triangles, normals, material slots and UV maps (the name is not hashed).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UploadMesh {
     pub hash: u64,
@@ -124,6 +138,33 @@ pub struct UploadMesh {
     /// triangle (36 bytes a triangle), or empty (left out) for a flat-shaded mesh.
     #[serde(default, skip_serializing_if = "no_bytes")]
     pub normals: ByteBuf,
+    /// Optional material slot of each triangle (Blender's `material_index`): u32 little-endian,
+    /// 4 bytes a triangle, or empty (every triangle in slot 0).
+    #[serde(default, skip_serializing_if = "no_bytes")]
+    pub material_slots: ByteBuf,
+    /// The UV maps the mesh's alpha materials read; none without alpha.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub uv_maps: Vec<UvMapState>,
+}
+
+/// One UV map of a mesh: (u, v) at each triangle's three corners in vertex order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UvMapState {
+    /// The name an alpha material's `uv_map` refers to ("" is the active render map).
+    pub name: String,
+    /// f32 little-endian u, v per corner, 3 corners per triangle: 24 bytes a triangle.
+    pub corners: ByteBuf,
+}
+
+/// One alpha image. `hash` must equal [`antumbra_core::alpha::AlphaImage::content_hash`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UploadImage {
+    pub hash: u64,
+    pub width: u32,
+    pub height: u32,
+    /// f32 little-endian alpha per texel, rows of `width` from the bottom row up (Blender's
+    /// order): 4 × width × height bytes.
+    pub texels: ByteBuf,
 }
 
 fn no_bytes(b: &ByteBuf) -> bool {
@@ -142,6 +183,38 @@ pub struct FrameUpdate {
     pub camera: CameraState,
     pub lights: Vec<LightState>,
     pub resolution: ResolutionState,
+    /// The materials objects' slots refer to by index (`ObjectState::materials`); omitted
+    /// for an opaque frame.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub alpha_materials: Vec<AlphaMaterialState>,
+}
+
+/// A material whose alpha is not 1 everywhere (mirrors [`antumbra_core::scene::AlphaMaterial`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AlphaMaterialState {
+    /// Blender's material name, for messages.
+    pub name: String,
+    /// The UV map an image source reads, by name ("" the active render map).
+    #[serde(default)]
+    pub uv_map: String,
+    pub source: AlphaSourceState,
+    /// Math-node operations applied in order: `{"Multiply": c}`, ..., `"OneMinus"`, `"Clamp"`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ops: Vec<AlphaOp>,
+}
+
+/// Where a material's alpha starts: a constant, or an image by content hash.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum AlphaSourceState {
+    Constant {
+        alpha: f32,
+    },
+    Image {
+        /// The hash of an `UploadImage`.
+        hash: u64,
+        interpolation: Interpolation,
+        extension: Extension,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -152,6 +225,10 @@ pub struct ObjectState {
     pub world_from_object: [f64; 16],
     pub visible_to_camera: bool,
     pub casts_shadow: bool,
+    /// Per material slot, an index into `FrameUpdate::alpha_materials`, or nil for an opaque
+    /// slot; omitted when every slot is opaque.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub materials: Vec<Option<u32>>,
 }
 
 /// Every placement of one mesh with one pair of visibility flags: instance `i` is the object
@@ -175,6 +252,9 @@ pub struct InstanceArrayState {
     /// accepted: only what changed travels.
     #[serde(default, skip_serializing_if = "is_false")]
     pub unchanged: bool,
+    /// Every instance's material slots, as [`ObjectState::materials`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub materials: Vec<Option<u32>>,
 }
 
 /// Mirrors [`antumbra_core::scene::Camera`].
@@ -356,6 +436,10 @@ pub struct DaemonStats {
     /// Meshes dropped from the cache since start to stay within the memory budget (only meshes
     /// that no connected session uses are dropped).
     pub meshes_evicted: u64,
+    /// Alpha images cached (their bytes count in `bytes_cached`, within the same budget).
+    pub images_cached: u64,
+    /// Alpha images dropped from the cache since start, as meshes are.
+    pub images_evicted: u64,
 }
 
 impl Request {
@@ -365,6 +449,8 @@ impl Request {
             Request::Hello { .. } => "Hello",
             Request::MissingMeshes { .. } => "MissingMeshes",
             Request::UploadMesh(_) => "UploadMesh",
+            Request::MissingImages { .. } => "MissingImages",
+            Request::UploadImage(_) => "UploadImage",
             Request::FrameUpdate(_) => "FrameUpdate",
             Request::Render(_) => "Render",
             Request::Compare(_) => "Compare",
@@ -383,6 +469,7 @@ impl Reply {
             Reply::Welcome { .. } => "Welcome",
             Reply::Missing { .. } => "Missing",
             Reply::MeshStored { .. } => "MeshStored",
+            Reply::ImageStored { .. } => "ImageStored",
             Reply::FrameAccepted { .. } => "FrameAccepted",
             Reply::Ack => "Ack",
             Reply::Progress { .. } => "Progress",
@@ -416,7 +503,7 @@ pub fn welcome(server: impl Into<String>, limits: &Limits) -> Reply {
     Reply::Welcome {
         version: PROTOCOL_VERSION,
         server: server.into(),
-        limits: limits.clone(),
+        limits: Box::new(limits.clone()),
     }
 }
 
@@ -436,6 +523,8 @@ pub enum ErrorCode {
     InvalidInput,
     /// A frame refers to a mesh hash the daemon does not hold: upload it and resend the frame.
     UnknownMesh,
+    /// A frame's alpha material refers to an image hash the daemon does not hold: upload it.
+    UnknownImage,
     /// A count or size above one of the [`crate::Limits`].
     LimitExceeded,
     /// The daemon is doing something else that this request would conflict with.

@@ -3,7 +3,7 @@
 //!
 //! Format: the 8 bytes `ANTREC1\n` (version 1), then framed [`Request`]s exactly as on the socket
 //! (4-byte LE length + MessagePack body), until the end of the file. Replaying stores every
-//! `UploadMesh` of the file, then builds each `FrameUpdate`'s scene, so a frame may come before the
+//! `UploadMesh` and `UploadImage` of the file, then builds each `FrameUpdate`'s scene, so a frame may come before the
 //! meshes it uses (as the add-on sends them); every other request is skipped, and so are the
 //! requests the protocol no longer has ([`RETIRED_REQUESTS`]), so older files still replay.
 
@@ -14,11 +14,12 @@ use std::ops::RangeInclusive;
 use std::path::Path;
 use std::sync::Arc;
 
+use antumbra_core::alpha::AlphaImage;
 use antumbra_core::scene::{Animation, Mesh, Scene};
 use thiserror::Error;
 
 use crate::check::check_limits;
-use crate::convert::{mesh_from_upload, scene_from_frame, scene_to_messages};
+use crate::convert::{image_from_upload, mesh_from_upload, scene_from_frame, scene_to_messages};
 use crate::error::{FrameError, ProtocolError};
 use crate::frame::{decode_body, read_frame, write_message};
 use crate::limits::{Limits, MAX_FRAME_BYTES_CEILING};
@@ -115,6 +116,8 @@ pub struct RecordingWriter<W: Write> {
     /// Meshes already in the recording, so [`append_scene`](Self::append_scene) uploads each
     /// content once.
     uploaded: HashSet<u64>,
+    /// Alpha images already in the recording, likewise.
+    images: HashSet<u64>,
     written: usize,
 }
 
@@ -140,13 +143,20 @@ impl<W: Write> RecordingWriter<W> {
         Ok(RecordingWriter {
             w,
             uploaded: HashSet::new(),
+            images: HashSet::new(),
             written: 0,
         })
     }
 
     pub fn append(&mut self, request: &Request) -> Result<(), FrameError> {
-        if let Request::UploadMesh(u) = request {
-            self.uploaded.insert(u.hash);
+        match request {
+            Request::UploadMesh(u) => {
+                self.uploaded.insert(u.hash);
+            }
+            Request::UploadImage(u) => {
+                self.images.insert(u.hash);
+            }
+            _ => {}
         }
         write_message(&mut self.w, request)?;
         self.written += 1;
@@ -156,6 +166,11 @@ impl<W: Write> RecordingWriter<W> {
     /// Whether the recording holds an upload of this mesh.
     pub fn has_mesh(&self, hash: u64) -> bool {
         self.uploaded.contains(&hash)
+    }
+
+    /// Whether the recording holds an upload of this alpha image.
+    pub fn has_image(&self, hash: u64) -> bool {
+        self.images.contains(&hash)
     }
 
     /// Requests appended so far.
@@ -173,10 +188,13 @@ impl<W: Write> RecordingWriter<W> {
                 error: source,
             })?;
         for request in uploads.iter().chain([&update]) {
-            if let Request::UploadMesh(u) = request {
-                if self.uploaded.contains(&u.hash) {
-                    continue;
-                }
+            let held = match request {
+                Request::UploadMesh(u) => self.uploaded.contains(&u.hash),
+                Request::UploadImage(u) => self.images.contains(&u.hash),
+                _ => false,
+            };
+            if held {
+                continue;
             }
             let index = self.written;
             self.append(request)
@@ -320,13 +338,14 @@ impl<R: Read> Iterator for RecordingReader<R> {
     }
 }
 
-/// Replays requests whatever their order: stores every upload's mesh and keeps every
+/// Replays requests whatever their order: stores every upload's mesh (and alpha image) and keeps every
 /// `FrameUpdate`, then [`scenes`](Self::scenes) builds the frames from all the meshes. Meshes with
 /// the same hash are the same `Arc` in every scene, so a renderer reuses its BVHs for frames whose
 /// geometry did not change.
 #[derive(Default)]
 pub struct Replay {
     pub meshes: HashMap<u64, Arc<Mesh>>,
+    pub images: HashMap<u64, Arc<AlphaImage>>,
     pub limits: Limits,
     /// The frame updates with their message index, in order.
     frames: Vec<(usize, FrameUpdate)>,
@@ -364,6 +383,16 @@ impl Replay {
                 })?;
                 self.meshes.insert(upload.hash, Arc::new(mesh));
             }
+            Request::UploadImage(upload) if !self.images.contains_key(&upload.hash) => {
+                let image = image_from_upload(&upload, &self.limits).map_err(|source| {
+                    RecordingError::Protocol {
+                        index,
+                        kind: "UploadImage",
+                        error: source,
+                    }
+                })?;
+                self.images.insert(upload.hash, Arc::new(image));
+            }
             Request::FrameUpdate(mut update) => {
                 // Arrays recorded as unchanged repeat the frame before, as the daemon read them.
                 let previous = self.frames.last().map(|(_, f)| f);
@@ -387,7 +416,8 @@ impl Replay {
         self.frames
             .iter()
             .map(|(index, update)| {
-                scene_from_frame(update, &self.meshes).map_err(|source| match source {
+                let store = (&self.meshes, &self.images);
+                scene_from_frame(update, &store).map_err(|source| match source {
                     ProtocolError::UnknownMesh {
                         frame,
                         object,

@@ -327,7 +327,7 @@ fn hello_checks() {
         panic!()
     };
     assert_eq!(version, PROTOCOL_VERSION);
-    assert_eq!(limits, Limits::default());
+    assert_eq!(*limits, Limits::default());
 }
 
 #[test]
@@ -346,6 +346,8 @@ fn limits_are_checked_and_named() {
         positions: Default::default(),
         triangles: serde_bytes::ByteBuf::from(vec![0; 24]),
         normals: Default::default(),
+        material_slots: Default::default(),
+        uv_maps: Vec::new(),
     });
     let err = check_limits(&upload, &limits).unwrap_err();
     assert_eq!(err.code(), ErrorCode::LimitExceeded);

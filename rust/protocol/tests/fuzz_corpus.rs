@@ -54,8 +54,17 @@ fn recording_seeds_are_real_recordings() {
         assert!(seed.starts_with(RECORDING_MAGIC), "{name}");
         let scenes = replay_scenes_from(&seed[..]).unwrap_or_else(|e| panic!("{name}: {e}"));
         if name == "session.antrec" {
-            // Two frames, then an instance array and the same array sent as unchanged.
-            assert_eq!(scenes.len(), 4, "{name}");
+            // Two frames, then an instance array and the same array sent as unchanged, then a
+            // frame with alpha materials.
+            assert_eq!(scenes.len(), 5, "{name}");
+            let alpha = &scenes[4].alpha;
+            assert_eq!(
+                (alpha.images.len(), alpha.materials.len()),
+                (1, 2),
+                "{name}"
+            );
+            assert!(scenes[4].has_alpha(), "{name}");
+            assert!(!scenes[4].meshes[1].uv_maps.is_empty(), "{name}");
             let placed = |s: &antumbra_core::scene::Scene| {
                 let o = &s.objects;
                 (

@@ -90,16 +90,76 @@ fn light() -> impl Strategy<Value = LightState> {
     })
 }
 
-fn object() -> impl Strategy<Value = ObjectState> {
-    (name(), any::<u64>(), matrix(), any::<bool>(), any::<bool>()).prop_map(
-        |(name, mesh_hash, m, visible_to_camera, casts_shadow)| ObjectState {
+/// Material slots: opaque (nil) or an index, any u32.
+fn slot_materials() -> impl Strategy<Value = Vec<Option<u32>>> {
+    vec(proptest::option::of(any::<u32>()), 0..4)
+}
+
+fn f32s() -> impl Strategy<Value = f32> {
+    prop_oneof![-1e6f32..1e6, Just(0.0), Just(-0.0), Just(f32::MAX)]
+}
+
+fn alpha_material() -> impl Strategy<Value = AlphaMaterialState> {
+    let interpolation = prop_oneof![
+        Just(Interpolation::Closest),
+        Just(Interpolation::Linear),
+        Just(Interpolation::Cubic)
+    ];
+    let extension = prop_oneof![
+        Just(Extension::Repeat),
+        Just(Extension::Extend),
+        Just(Extension::Clip),
+        Just(Extension::Mirror)
+    ];
+    let source = prop_oneof![
+        f32s().prop_map(|alpha| AlphaSourceState::Constant { alpha }),
+        (any::<u64>(), interpolation, extension).prop_map(|(hash, interpolation, extension)| {
+            AlphaSourceState::Image {
+                hash,
+                interpolation,
+                extension,
+            }
+        }),
+    ];
+    let op = prop_oneof![
+        f32s().prop_map(AlphaOp::Multiply),
+        f32s().prop_map(AlphaOp::Add),
+        f32s().prop_map(AlphaOp::Subtract),
+        f32s().prop_map(AlphaOp::Power),
+        f32s().prop_map(AlphaOp::GreaterThan),
+        f32s().prop_map(AlphaOp::LessThan),
+        Just(AlphaOp::OneMinus),
+        Just(AlphaOp::Clamp),
+    ];
+    (name(), name(), source, vec(op, 0..5)).prop_map(|(name, uv_map, source, ops)| {
+        AlphaMaterialState {
             name,
-            mesh_hash,
-            world_from_object: m,
-            visible_to_camera,
-            casts_shadow,
-        },
+            uv_map,
+            source,
+            ops,
+        }
+    })
+}
+
+fn object() -> impl Strategy<Value = ObjectState> {
+    (
+        name(),
+        any::<u64>(),
+        matrix(),
+        any::<bool>(),
+        any::<bool>(),
+        slot_materials(),
     )
+        .prop_map(
+            |(name, mesh_hash, m, visible_to_camera, casts_shadow, materials)| ObjectState {
+                name,
+                mesh_hash,
+                world_from_object: m,
+                visible_to_camera,
+                casts_shadow,
+                materials,
+            },
+        )
 }
 
 fn instance_array() -> impl Strategy<Value = InstanceArrayState> {
@@ -109,16 +169,20 @@ fn instance_array() -> impl Strategy<Value = InstanceArrayState> {
         vec(any::<u8>(), 0..200),
         vec(any::<u8>(), 0..20),
         any::<[bool; 3]>(),
+        slot_materials(),
     )
         .prop_map(
-            |(name, mesh_hash, matrices, ids, [camera, shadow, unchanged])| InstanceArrayState {
-                name,
-                mesh_hash,
-                matrices: ByteBuf::from(matrices),
-                ids: ByteBuf::from(ids),
-                visible_to_camera: camera,
-                casts_shadow: shadow,
-                unchanged,
+            |(name, mesh_hash, matrices, ids, [camera, shadow, unchanged], materials)| {
+                InstanceArrayState {
+                    name,
+                    mesh_hash,
+                    matrices: ByteBuf::from(matrices),
+                    ids: ByteBuf::from(ids),
+                    visible_to_camera: camera,
+                    casts_shadow: shadow,
+                    unchanged,
+                    materials,
+                }
             },
         )
 }
@@ -162,9 +226,10 @@ fn limits() -> impl Strategy<Value = Limits> {
         (any::<u64>(), any::<u64>(), any::<u64>(), any::<u64>()),
         (any::<u64>(), any::<u32>(), any::<u32>(), any::<u64>()),
         any::<u64>(),
+        any::<[u64; 5]>(),
     )
         .prop_map(
-            |((fb, tri, meshes, objects), (px, spp, lights, render), passes)| Limits {
+            |((fb, tri, meshes, objects), (px, spp, lights, render), passes, alpha)| Limits {
                 max_frame_bytes: fb,
                 max_triangles_per_mesh: tri,
                 max_meshes: meshes,
@@ -174,6 +239,11 @@ fn limits() -> impl Strategy<Value = Limits> {
                 max_lights: lights,
                 max_render_bytes: render,
                 max_request_passes: passes,
+                max_image_texels: alpha[0],
+                max_alpha_materials: alpha[1],
+                max_alpha_ops: alpha[2],
+                max_uv_maps: alpha[3],
+                max_material_slots: alpha[4],
             },
         )
 }
@@ -238,16 +308,35 @@ fn request() -> impl Strategy<Value = Request> {
             token: None,
         }),
         vec(any::<u64>(), 0..8).prop_map(|hashes| Request::MissingMeshes { hashes }),
-        (any::<u64>(), name(), bytes(), bytes(), bytes()).prop_map(
-            |(hash, name, positions, triangles, normals)| {
-                Request::UploadMesh(UploadMesh {
-                    hash,
-                    name,
-                    positions,
-                    triangles,
-                    normals,
-                })
-            }
+        (
+            (any::<u64>(), name(), bytes(), bytes(), bytes()),
+            bytes(),
+            vec((name(), bytes()), 0..3)
+        )
+            .prop_map(
+                |((hash, name, positions, triangles, normals), material_slots, uv_maps)| {
+                    Request::UploadMesh(UploadMesh {
+                        hash,
+                        name,
+                        positions,
+                        triangles,
+                        normals,
+                        material_slots,
+                        uv_maps: uv_maps
+                            .into_iter()
+                            .map(|(name, corners)| UvMapState { name, corners })
+                            .collect(),
+                    })
+                }
+            ),
+        vec(any::<u64>(), 0..8).prop_map(|hashes| Request::MissingImages { hashes }),
+        (any::<u64>(), any::<u32>(), any::<u32>(), bytes()).prop_map(
+            |(hash, width, height, texels)| Request::UploadImage(UploadImage {
+                hash,
+                width,
+                height,
+                texels,
+            })
         ),
         (
             any::<i32>(),
@@ -255,18 +344,22 @@ fn request() -> impl Strategy<Value = Request> {
             vec(instance_array(), 0..3),
             camera(),
             vec(light(), 0..4),
-            resolution()
+            resolution(),
+            vec(alpha_material(), 0..3)
         )
-            .prop_map(|(frame, objects, instances, camera, lights, resolution)| {
-                Request::FrameUpdate(FrameUpdate {
-                    frame,
-                    objects,
-                    instances,
-                    camera,
-                    lights,
-                    resolution,
-                })
-            }),
+            .prop_map(
+                |(frame, objects, instances, camera, lights, resolution, alpha_materials)| {
+                    Request::FrameUpdate(FrameUpdate {
+                        frame,
+                        objects,
+                        instances,
+                        camera,
+                        lights,
+                        resolution,
+                        alpha_materials,
+                    })
+                }
+            ),
         (
             any::<i32>(),
             settings(),
@@ -384,17 +477,24 @@ fn reply() -> impl Strategy<Value = Reply> {
         (any::<u32>(), name(), limits()).prop_map(|(version, server, limits)| Reply::Welcome {
             version,
             server,
-            limits
+            limits: Box::new(limits)
         }),
         vec(any::<u64>(), 0..8).prop_map(|hashes| Reply::Missing { hashes }),
         (any::<u64>(), any::<u32>())
             .prop_map(|(hash, triangles)| Reply::MeshStored { hash, triangles }),
-        (any::<i32>(), vec(any::<u64>(), 0..8)).prop_map(|(frame, meshes_missing)| {
-            Reply::FrameAccepted {
-                frame,
-                meshes_missing,
-            }
-        }),
+        any::<u64>().prop_map(|hash| Reply::ImageStored { hash }),
+        (
+            any::<i32>(),
+            vec(any::<u64>(), 0..8),
+            vec(any::<u64>(), 0..3)
+        )
+            .prop_map(
+                |(frame, meshes_missing, images_missing)| Reply::FrameAccepted {
+                    frame,
+                    meshes_missing,
+                    images_missing,
+                }
+            ),
         Just(Reply::Ack),
         (any::<u64>(), name(), any::<u32>(), any::<u32>()).prop_map(
             |(request_id, stage, done, total)| Reply::Progress {
@@ -656,6 +756,7 @@ fn nan_and_infinity_survive_bit_exact() {
         world_from_object: m,
         visible_to_camera: true,
         casts_shadow: false,
+        materials: vec![None, Some(3)],
     };
     let back = round_trip(&obj);
     assert_eq!(

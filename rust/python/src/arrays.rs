@@ -1,14 +1,17 @@
 //! numpy arrays in, numpy arrays out: mesh arrays become an [`antumbra_core::scene::Mesh`]
 //! (checked and hashed without the GIL), result planes become float32 arrays without a copy.
 
+use antumbra_core::alpha::AlphaImage;
 use antumbra_core::image::ImagePlane;
-use antumbra_core::scene::{Mesh, TriangleRef};
+use antumbra_core::scene::{Mesh, TriangleRef, UvMap};
 use glam::Vec3;
 use numpy::ndarray::{Array2, ArrayView2};
 use numpy::{
-    Element, IntoPyArray, PyArray2, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods,
+    Element, IntoPyArray, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArray,
+    PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyString};
 
 use crate::error::{ClientError, ClientResult};
 
@@ -168,14 +171,154 @@ where
     Ok(out)
 }
 
-/// A mesh from numpy arrays (corner normals optional), checked if `validate` (finite positions
-/// and normals, indices in range) and hashed; the work on the arrays runs without the GIL. Returns the mesh and its content hash.
+/// A C-contiguous copy (or the array itself) of `v` as `dtype`; None if numpy cannot convert it.
+fn contiguous<'py>(v: &Bound<'py, PyAny>, dtype: &str) -> Option<Bound<'py, PyAny>> {
+    let numpy = v.py().import("numpy").ok()?;
+    let kwargs = PyDict::new(v.py());
+    kwargs.set_item("dtype", dtype).ok()?;
+    numpy
+        .call_method("ascontiguousarray", (v,), Some(&kwargs))
+        .ok()
+}
+
+/// Whether `v` is a numpy array (or sequence) of integers, not floats or bools.
+fn is_integer_array(v: &Bound<'_, PyAny>) -> bool {
+    (|| -> PyResult<bool> {
+        let array = v.py().import("numpy")?.call_method1("asarray", (v,))?;
+        let kind: String = array.getattr("dtype")?.getattr("kind")?.extract()?;
+        Ok(matches!(kind.as_str(), "i" | "u"))
+    })()
+    .unwrap_or(false)
+}
+
+/// Material slots: one integer per triangle (Blender's `material_index`), shape (m,).
+pub fn material_slots_from(v: &Bound<'_, PyAny>, mesh: &str) -> ClientResult<Vec<u32>> {
+    let field = format!("mesh '{mesh}'.material_slots");
+    let bad = || {
+        ClientError::invalid(format!(
+            "{field}: expected an integer numpy array (uint32) with shape (m,), got {}",
+            describe(v)
+        ))
+    };
+    if !is_integer_array(v) {
+        return Err(bad());
+    }
+    let array = contiguous(v, "int64").ok_or_else(bad)?;
+    let array = array.cast::<PyArrayDyn<i64>>().map_err(|_| bad())?;
+    if array.ndim() != 1 {
+        return Err(bad());
+    }
+    let ro = array.readonly();
+    let values = ro.as_slice().map_err(|_| bad())?;
+    values
+        .iter()
+        .enumerate()
+        .map(|(t, &v)| {
+            u32::try_from(v).map_err(|_| {
+                ClientError::invalid(format!(
+                    "{field}[{t}]: {v} is not a material slot (0 to 4294967295)"
+                ))
+            })
+        })
+        .collect()
+}
+
+/// UV maps: a dict {name: float32 array of shape (m, 3, 2)}, (u, v) at each triangle's corners.
+pub fn uv_maps_from(v: &Bound<'_, PyAny>, mesh: &str) -> ClientResult<Vec<UvMap>> {
+    let field = format!("mesh '{mesh}'.uv_maps");
+    let dict = v.cast::<PyDict>().map_err(|_| {
+        ClientError::invalid(format!(
+            "{field}: expected a dict {{uv map name: float32 array of shape (m, 3, 2)}}, got {}",
+            describe(v)
+        ))
+    })?;
+    let mut maps = Vec::with_capacity(dict.len());
+    for (key, value) in dict.iter() {
+        let name = key.cast::<PyString>().map(|s| s.to_string()).map_err(|_| {
+            ClientError::invalid(format!(
+                "{field}: keys are UV map names (str), got {}",
+                describe(&key)
+            ))
+        })?;
+        let field = format!("{field}['{name}']");
+        let bad = || {
+            ClientError::invalid(format!(
+                "{field}: expected a float32 numpy array with shape (m, 3, 2), got {}",
+                describe(&value)
+            ))
+        };
+        let array = value.cast::<PyArrayDyn<f32>>().map_err(|_| bad())?;
+        let m = match array.shape() {
+            [m, 3, 2] => *m,
+            _ => return Err(bad()),
+        };
+        let array = contiguous(&value, "float32").ok_or_else(bad)?;
+        let array = array.cast::<PyArrayDyn<f32>>().map_err(|_| bad())?;
+        let ro = array.readonly();
+        let values = ro.as_slice().map_err(|_| bad())?;
+        let mut corners = Vec::with_capacity(m);
+        for c in values.chunks_exact(6) {
+            corners.push([[c[0], c[1]], [c[2], c[3]], [c[4], c[5]]]);
+        }
+        maps.push(UvMap { name, corners });
+    }
+    Ok(maps)
+}
+
+/// An alpha image from a float32 array of shape (height, width), rows bottom first (Blender's
+/// order); checked (size, finite texels) and hashed without the GIL. Returns it and its hash.
+pub fn image_from_array(
+    py: Python<'_>,
+    texels: &Bound<'_, PyAny>,
+) -> ClientResult<(AlphaImage, u64)> {
+    let field = "texels";
+    let bad = || {
+        ClientError::invalid(format!(
+            "{field}: expected a float32 numpy array with shape (height, width), rows bottom              first, got {}",
+            describe(texels)
+        ))
+    };
+    let array = texels.cast::<PyArray2<f32>>().map_err(|_| bad())?;
+    let (height, width) = match array.shape() {
+        [h, w] => (*h, *w),
+        _ => return Err(bad()),
+    };
+    let (Ok(width), Ok(height)) = (u32::try_from(width), u32::try_from(height)) else {
+        return Err(bad());
+    };
+    let texels = with_rows(py, array, |s| s.to_vec())?;
+    let image = AlphaImage {
+        width,
+        height,
+        texels,
+    };
+    py.detach(|| {
+        let hash = image.content_hash();
+        image
+            .validate(&format!("image {hash:#018x}"))
+            .map_err(|e| ClientError::invalid(e.to_string()))?;
+        Ok((image, hash))
+    })
+}
+
+/// What a mesh carries for alpha materials, as Python gave it: `material_slots=`, `uv_maps=`.
+#[derive(Clone, Copy, Default)]
+pub struct MeshAlphaArgs<'a, 'py> {
+    pub material_slots: Option<&'a Bound<'py, PyAny>>,
+    pub uv_maps: Option<&'a Bound<'py, PyAny>>,
+}
+
+/// A mesh from numpy arrays (corner normals, material slots and UV maps optional), checked if
+/// `validate` (finite positions, normals and UVs, indices in range, one slot and one corner
+/// triple per triangle) and hashed; the work on the arrays runs without the GIL. Returns the
+/// mesh and its content hash.
 pub fn mesh_from_arrays(
     py: Python<'_>,
     name: &str,
     positions: &Bound<'_, PyAny>,
     triangles: &Bound<'_, PyAny>,
     normals: Option<&Bound<'_, PyAny>>,
+    alpha: MeshAlphaArgs<'_, '_>,
     validate: bool,
 ) -> ClientResult<(Mesh, u64)> {
     let positions = positions_from(py, positions, name)?;
@@ -184,7 +327,17 @@ pub fn mesh_from_arrays(
         Some(n) if !n.is_none() => corner_normals_from(py, n, name)?,
         _ => Vec::new(),
     };
-    let mesh = Mesh::new(name, positions, triangles).with_normals(normals);
+    let material_slots = match alpha.material_slots {
+        Some(v) if !v.is_none() => material_slots_from(v, name)?,
+        _ => Vec::new(),
+    };
+    let uv_maps = match alpha.uv_maps {
+        Some(v) if !v.is_none() => uv_maps_from(v, name)?,
+        _ => Vec::new(),
+    };
+    let mesh = Mesh::new(name, positions, triangles)
+        .with_normals(normals)
+        .with_alpha(material_slots, uv_maps);
     py.detach(|| {
         if validate {
             mesh.validate()

@@ -10,12 +10,13 @@ use std::time::Duration;
 
 use antumbra_protocol::client::{self, Client, Interrupt, Sender, Wait};
 use antumbra_protocol::{
-    upload_from_mesh, ErrorCode, Limits, RenderRequest, Request, PROTOCOL_VERSION,
+    upload_from_image, upload_from_mesh, ErrorCode, Limits, RenderRequest, Request,
+    PROTOCOL_VERSION,
 };
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
 
-use crate::arrays::mesh_from_arrays;
+use crate::arrays::{image_from_array, mesh_from_arrays, MeshAlphaArgs};
 use crate::compare::{compare_reply_to_py, compare_request};
 use crate::error::{ClientError, ClientResult, IntoPyResult};
 use crate::recording::Recorder;
@@ -131,6 +132,8 @@ struct State {
     client: Client,
     /// Meshes the daemon confirmed it holds (MeshStored, or absent from a missing list).
     known: HashSet<u64>,
+    /// Alpha images the daemon confirmed it holds, likewise.
+    known_images: HashSet<u64>,
     recorder: Option<Recorder>,
 }
 
@@ -329,8 +332,87 @@ impl Connection {
         .py_result(py)
     }
 
+    /// Which of these alpha image hashes the daemon lacks (and, while recording, the file).
+    fn missing_images(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>) -> PyResult<Vec<u64>> {
+        let mut wait = PyWait::new(py);
+        (|| {
+            let hashes = scene::hashes(hashes)?;
+            let mut guard = self.lock()?;
+            let state = Self::state(&mut guard)?;
+            let missing = state
+                .client
+                .missing_images(&mut wait, hashes.clone())
+                .map_err(|e| wait.error(e))?;
+            let m: HashSet<u64> = missing.iter().copied().collect();
+            for h in &hashes {
+                if m.contains(h) {
+                    state.known_images.remove(h);
+                } else {
+                    state.known_images.insert(*h);
+                }
+            }
+            let mut out = missing;
+            if let Some(rec) = &state.recorder {
+                let mut seen = m;
+                for h in hashes {
+                    if !rec.has_image(h) && seen.insert(h) {
+                        out.push(h);
+                    }
+                }
+            }
+            Ok(out)
+        })()
+        .py_result(py)
+    }
+
+    /// Hashes and checks an alpha image; uploads it unless the daemon holds it already (asked
+    /// once per hash). Returns its content hash, which `alpha_materials`' "image" names.
+    fn upload_image(&self, py: Python<'_>, texels: &Bound<'_, PyAny>) -> PyResult<u64> {
+        let mut wait = PyWait::new(py);
+        (|| {
+            let (image, hash) = image_from_array(py, texels)?;
+            antumbra_protocol::check_image_texels(&upload_header(&image, hash), &self.limits)
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let mut guard = self.lock()?;
+            let state = Self::state(&mut guard)?;
+            let recording = state.recorder.as_ref().is_some_and(|r| !r.has_image(hash));
+            let held = state.known_images.contains(&hash)
+                || state
+                    .client
+                    .missing_images(&mut wait, vec![hash])
+                    .map_err(|e| wait.error(e))?
+                    .is_empty();
+            if held && !recording {
+                state.known_images.insert(hash);
+                return Ok(hash);
+            }
+            let mut upload = py.detach(|| upload_from_image(&image));
+            drop(image);
+            if !held {
+                let (sent, stored) = state
+                    .client
+                    .upload_image(&mut wait, upload)
+                    .map_err(|e| wait.error(e))?;
+                upload = sent;
+                if stored != hash {
+                    return Err(ClientError::Mismatch(format!(
+                        "the daemon stored image hash {stored:#018x}, this client computed \
+                         {hash:#018x} (different image hash functions?)"
+                    )));
+                }
+            }
+            state.known_images.insert(hash);
+            if let Some(rec) = state.recorder.as_mut() {
+                rec.image(&upload)?;
+            }
+            Ok(hash)
+        })()
+        .py_result(py)
+    }
+
     /// Hashes, checks and uploads a mesh; returns its content hash.
-    #[pyo3(signature = (name, positions, triangles, normals = None))]
+    #[pyo3(signature = (name, positions, triangles, normals = None, material_slots = None, uv_maps = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's arguments
     fn upload_mesh(
         &self,
         py: Python<'_>,
@@ -338,11 +420,18 @@ impl Connection {
         positions: &Bound<'_, PyAny>,
         triangles: &Bound<'_, PyAny>,
         normals: Option<&Bound<'_, PyAny>>,
+        material_slots: Option<&Bound<'_, PyAny>>,
+        uv_maps: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<u64> {
         let mut wait = PyWait::new(py);
         (|| {
             let name = crate::mesh_name(name)?;
-            let (mesh, hash) = mesh_from_arrays(py, &name, positions, triangles, normals, true)?;
+            let alpha = MeshAlphaArgs {
+                material_slots,
+                uv_maps,
+            };
+            let (mesh, hash) =
+                mesh_from_arrays(py, &name, positions, triangles, normals, alpha, true)?;
             let upload = py.detach(|| upload_from_mesh(&mesh));
             drop(mesh);
             let request = Request::UploadMesh(upload);
@@ -376,9 +465,9 @@ impl Connection {
         .py_result(py)
     }
 
-    /// Sends a frame's scene state; returns the hashes of the meshes it uses that the daemon
-    /// lacks (upload them before rendering).
-    #[pyo3(signature = (frame, objects, camera, lights, resolution, instances = None))]
+    /// Sends a frame's scene state; returns the hashes of the meshes and of the alpha images
+    /// it uses that the daemon lacks (upload them before rendering).
+    #[pyo3(signature = (frame, objects, camera, lights, resolution, instances = None, alpha_materials = None))]
     #[allow(clippy::too_many_arguments)] // the Python method's arguments
     fn frame_update(
         &self,
@@ -389,33 +478,50 @@ impl Connection {
         lights: &Bound<'_, PyAny>,
         resolution: &Bound<'_, PyAny>,
         instances: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Vec<u64>> {
+        alpha_materials: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<(Vec<u64>, Vec<u64>)> {
         let mut wait = PyWait::new(py);
         (|| {
-            let update =
-                scene::frame_update(frame, objects, camera, lights, resolution, instances)?;
+            let update = scene::frame_update(
+                frame,
+                objects,
+                camera,
+                lights,
+                resolution,
+                instances,
+                alpha_materials,
+                &self.limits,
+            )?;
             scene::check_frame(&update, &self.limits)?;
             let mut guard = self.lock()?;
             let state = Self::state(&mut guard)?;
-            let (update, meshes_missing) = state
+            let (update, missing) = state
                 .client
                 .frame_update(&mut wait, update)
                 .map_err(|e| wait.error(e))?;
-            let m: HashSet<u64> = meshes_missing.iter().copied().collect();
-            for h in antumbra_protocol::frame_mesh_hashes(&update) {
-                if m.contains(&h) {
-                    state.known.remove(&h);
-                } else {
-                    state.known.insert(h);
-                }
-            }
-            let mut out = meshes_missing;
+            note_held(
+                &mut state.known,
+                antumbra_protocol::frame_mesh_hashes(&update),
+                &missing.meshes,
+            );
+            note_held(
+                &mut state.known_images,
+                antumbra_protocol::frame_image_hashes(&update),
+                &missing.images,
+            );
+            let (mut meshes, mut images) = (missing.meshes, missing.images);
             if let Some(rec) = state.recorder.as_mut() {
-                let mut seen = m;
-                out.extend(rec.missing(&update).into_iter().filter(|h| seen.insert(*h)));
+                let mut seen: HashSet<u64> = meshes.iter().copied().collect();
+                meshes.extend(rec.missing(&update).into_iter().filter(|h| seen.insert(*h)));
+                let mut seen: HashSet<u64> = images.iter().copied().collect();
+                images.extend(
+                    rec.missing_images(&update)
+                        .into_iter()
+                        .filter(|h| seen.insert(*h)),
+                );
                 rec.frame(&update)?;
             }
-            Ok(out)
+            Ok((meshes, images))
         })()
         .py_result(py)
     }
@@ -672,6 +778,31 @@ impl Connection {
     }
 }
 
+/// Updates what the daemon holds from a frame's hashes and those it reported missing.
+fn note_held(known: &mut HashSet<u64>, used: impl Iterator<Item = u64>, missing: &[u64]) {
+    let missing: HashSet<u64> = missing.iter().copied().collect();
+    for h in used {
+        if missing.contains(&h) {
+            known.remove(&h);
+        } else {
+            known.insert(h);
+        }
+    }
+}
+
+/// An upload of `image` without its texels, for the limit check before they are encoded.
+pub(crate) fn upload_header(
+    image: &antumbra_core::alpha::AlphaImage,
+    hash: u64,
+) -> antumbra_protocol::UploadImage {
+    antumbra_protocol::UploadImage {
+        hash,
+        width: image.width,
+        height: image.height,
+        texels: Default::default(),
+    }
+}
+
 impl Connection {
     fn connect(
         py: Python<'_>,
@@ -715,6 +846,7 @@ impl Connection {
             state: Mutex::new(Some(State {
                 client,
                 known: HashSet::new(),
+                known_images: HashSet::new(),
                 recorder: None,
             })),
             active_render: AtomicU64::new(0),

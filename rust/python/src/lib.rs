@@ -30,7 +30,7 @@ use std::path::Path;
 use pyo3::prelude::*;
 use pyo3::types::PyString;
 
-use crate::arrays::{describe, mesh_from_arrays};
+use crate::arrays::{describe, image_from_array, mesh_from_arrays, MeshAlphaArgs};
 use crate::error::{ClientError, ClientResult, IntoPyResult};
 
 /// A mesh name: a str.
@@ -44,14 +44,30 @@ pub(crate) fn mesh_name(v: &Bound<'_, PyAny>) -> ClientResult<String> {
 /// positions a float32 array of shape (n, 3), triangles an integer array of shape (m, 3). The
 /// values are not checked (NaN hashes like any other bits); `upload_mesh` checks them.
 #[pyfunction]
-#[pyo3(signature = (positions, triangles, normals = None))]
+#[pyo3(signature = (positions, triangles, normals = None, material_slots = None, uv_maps = None))]
 fn mesh_hash(
     py: Python<'_>,
     positions: &Bound<'_, PyAny>,
     triangles: &Bound<'_, PyAny>,
     normals: Option<&Bound<'_, PyAny>>,
+    material_slots: Option<&Bound<'_, PyAny>>,
+    uv_maps: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<u64> {
-    mesh_from_arrays(py, "mesh", positions, triangles, normals, false)
+    let alpha = MeshAlphaArgs {
+        material_slots,
+        uv_maps,
+    };
+    mesh_from_arrays(py, "mesh", positions, triangles, normals, alpha, false)
+        .map(|(_, hash)| hash)
+        .py_result(py)
+}
+
+/// The content hash of an alpha image (`antumbra_core::alpha::AlphaImage::content_hash`):
+/// texels a float32 array of shape (height, width), rows bottom first; checked (finite, not
+/// empty) as `upload_image` checks it.
+#[pyfunction]
+fn image_hash(py: Python<'_>, texels: &Bound<'_, PyAny>) -> PyResult<u64> {
+    image_from_array(py, texels)
         .map(|(_, hash)| hash)
         .py_result(py)
 }
@@ -146,6 +162,7 @@ fn colorize_difference<'py>(
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     error::set_package(&m.name()?.to_string());
     m.add_function(wrap_pyfunction!(mesh_hash, m)?)?;
+    m.add_function(wrap_pyfunction!(image_hash, m)?)?;
     m.add_function(wrap_pyfunction!(read_recording, m)?)?;
     m.add_function(wrap_pyfunction!(save_frame, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;

@@ -11,8 +11,8 @@ use std::time::Instant;
 
 use antumbra_core::cancel::CancelToken;
 use antumbra_protocol::{
-    check_limits, upload_from_mesh, DaemonStats, ErrorCode, Limits, ProtocolError, RenderRequest,
-    Reply, Request,
+    check_limits, upload_from_image, upload_from_mesh, DaemonStats, ErrorCode, Limits,
+    ProtocolError, RenderRequest, Reply, Request,
 };
 use antumbra_session::{
     Handled, Job, MeshCache, SessionRenderer, SessionState, ENCODE_STAGE, RENDER_STAGE,
@@ -21,7 +21,7 @@ use antumbra_session::{
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
 
-use crate::arrays::mesh_from_arrays;
+use crate::arrays::{image_from_array, mesh_from_arrays, MeshAlphaArgs};
 use crate::compare::{compare_reply_to_py, compare_request};
 use crate::connection::check_progress;
 use crate::error::{ClientError, ClientResult, IntoPyResult};
@@ -272,7 +272,63 @@ impl LocalSession {
         .py_result(py)
     }
 
-    #[pyo3(signature = (name, positions, triangles, normals = None))]
+    fn missing_images(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>) -> PyResult<Vec<u64>> {
+        (|| {
+            let hashes = scene::hashes(hashes)?;
+            let request = Request::MissingImages {
+                hashes: hashes.clone(),
+            };
+            check_limits(&request, &self.limits)
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let mut state = self.lock()?;
+            let Reply::Missing { hashes: lacking } = state.answer(request)? else {
+                return wrong_reply();
+            };
+            // A recording lacking an image asks for it again, as the socket session does.
+            let lacking: HashSet<u64> = lacking.into_iter().collect();
+            let in_file = |h| !matches!(&state.recorder, Some(r) if !r.has_image(h));
+            let mut seen = HashSet::new();
+            Ok(hashes
+                .into_iter()
+                .filter(|&h| (lacking.contains(&h) || !in_file(h)) && seen.insert(h))
+                .collect())
+        })()
+        .py_result(py)
+    }
+
+    /// As the socket session's: stores the image unless the session holds it already.
+    fn upload_image(&self, py: Python<'_>, texels: &Bound<'_, PyAny>) -> PyResult<u64> {
+        (|| {
+            let (image, hash) = image_from_array(py, texels)?;
+            antumbra_protocol::check_image_texels(
+                &crate::connection::upload_header(&image, hash),
+                &self.limits,
+            )
+            .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let mut state = self.lock()?;
+            let state = &mut *state;
+            let recording = state.recorder.as_ref().is_some_and(|r| !r.has_image(hash));
+            let held = state.cache.contains_image(hash);
+            if held && !recording {
+                return Ok(hash);
+            }
+            let upload = py.detach(|| upload_from_image(&image));
+            drop(image);
+            let recorded = recording.then(|| upload.clone());
+            match state.answer(Request::UploadImage(upload))? {
+                Reply::ImageStored { .. } => {}
+                _ => return wrong_reply(),
+            }
+            if let (Some(rec), Some(upload)) = (state.recorder.as_mut(), recorded) {
+                rec.image(&upload)?;
+            }
+            Ok(hash)
+        })()
+        .py_result(py)
+    }
+
+    #[pyo3(signature = (name, positions, triangles, normals = None, material_slots = None, uv_maps = None))]
+    #[allow(clippy::too_many_arguments)] // the Python method's arguments
     fn upload_mesh(
         &self,
         py: Python<'_>,
@@ -280,10 +336,17 @@ impl LocalSession {
         positions: &Bound<'_, PyAny>,
         triangles: &Bound<'_, PyAny>,
         normals: Option<&Bound<'_, PyAny>>,
+        material_slots: Option<&Bound<'_, PyAny>>,
+        uv_maps: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<u64> {
         (|| {
             let name = crate::mesh_name(name)?;
-            let (mesh, hash) = mesh_from_arrays(py, &name, positions, triangles, normals, true)?;
+            let alpha = MeshAlphaArgs {
+                material_slots,
+                uv_maps,
+            };
+            let (mesh, hash) =
+                mesh_from_arrays(py, &name, positions, triangles, normals, alpha, true)?;
             let request = Request::UploadMesh(py.detach(|| upload_from_mesh(&mesh)));
             drop(mesh);
             check_limits(&request, &self.limits)
@@ -309,7 +372,7 @@ impl LocalSession {
         .py_result(py)
     }
 
-    #[pyo3(signature = (frame, objects, camera, lights, resolution, instances = None))]
+    #[pyo3(signature = (frame, objects, camera, lights, resolution, instances = None, alpha_materials = None))]
     #[allow(clippy::too_many_arguments)] // the Python method's arguments
     fn frame_update(
         &self,
@@ -320,14 +383,24 @@ impl LocalSession {
         lights: &Bound<'_, PyAny>,
         resolution: &Bound<'_, PyAny>,
         instances: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<Vec<u64>> {
+        alpha_materials: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<(Vec<u64>, Vec<u64>)> {
         (|| {
-            let update =
-                scene::frame_update(frame, objects, camera, lights, resolution, instances)?;
+            let update = scene::frame_update(
+                frame,
+                objects,
+                camera,
+                lights,
+                resolution,
+                instances,
+                alpha_materials,
+                &self.limits,
+            )?;
             scene::check_frame(&update, &self.limits)?;
             let mut state = self.lock()?;
             let Reply::FrameAccepted {
                 meshes_missing: mut missing,
+                images_missing: mut images,
                 ..
             } = state.answer(Request::FrameUpdate(update.clone()))?
             else {
@@ -336,9 +409,15 @@ impl LocalSession {
             if let Some(rec) = state.recorder.as_mut() {
                 let mut seen: HashSet<u64> = missing.iter().copied().collect();
                 missing.extend(rec.missing(&update).into_iter().filter(|h| seen.insert(*h)));
+                let mut seen: HashSet<u64> = images.iter().copied().collect();
+                images.extend(
+                    rec.missing_images(&update)
+                        .into_iter()
+                        .filter(|h| seen.insert(*h)),
+                );
                 rec.frame(&update)?;
             }
-            Ok(missing)
+            Ok((missing, images))
         })()
         .py_result(py)
     }
@@ -519,6 +598,8 @@ impl LocalSession {
                 renders_failed: state.counts.failed,
                 uptime_s: self.started.elapsed().as_secs_f64(),
                 meshes_evicted: cache.evicted,
+                images_cached: cache.images,
+                images_evicted: cache.images_evicted,
             };
             Ok(daemon_stats(py, &s)?)
         })()

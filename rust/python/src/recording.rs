@@ -1,11 +1,12 @@
 //! Session recordings (`.antrec`) written by the client: the uploads and frames a session sends,
-//! in an order that replays (a frame is written once every mesh it uses is in the file).
+//! in an order that replays (a frame is written once every mesh and alpha image it uses is in
+//! the file).
 
 use std::collections::HashSet;
 use std::fs::File;
 use std::io::BufWriter;
 
-use antumbra_protocol::{FrameUpdate, RecordingWriter, Request, UploadMesh};
+use antumbra_protocol::{FrameUpdate, RecordingWriter, Request, UploadImage, UploadMesh};
 
 use crate::error::{ClientError, ClientResult};
 
@@ -14,6 +15,8 @@ pub struct Recorder {
     writer: RecordingWriter<BufWriter<File>>,
     /// Meshes already in the file.
     meshes: HashSet<u64>,
+    /// Alpha images already in the file.
+    images: HashSet<u64>,
     /// Frames waiting for meshes that are not in the file yet, in the order they were sent.
     pending: Vec<FrameUpdate>,
     frames: usize,
@@ -27,6 +30,7 @@ impl Recorder {
             path: path.to_string(),
             writer,
             meshes: HashSet::new(),
+            images: HashSet::new(),
             pending: Vec::new(),
             frames: 0,
         })
@@ -34,6 +38,10 @@ impl Recorder {
 
     pub fn has_mesh(&self, hash: u64) -> bool {
         self.meshes.contains(&hash)
+    }
+
+    pub fn has_image(&self, hash: u64) -> bool {
+        self.images.contains(&hash)
     }
 
     fn append(&mut self, request: &Request) -> ClientResult<()> {
@@ -48,6 +56,22 @@ impl Recorder {
             self.flush_ready()?;
         }
         Ok(())
+    }
+
+    pub fn image(&mut self, upload: &UploadImage) -> ClientResult<()> {
+        if self.images.insert(upload.hash) {
+            self.append(&Request::UploadImage(upload.clone()))?;
+            self.flush_ready()?;
+        }
+        Ok(())
+    }
+
+    /// Alpha images a frame's materials read that the file lacks (distinct, first use order).
+    pub fn missing_images(&self, update: &FrameUpdate) -> Vec<u64> {
+        let mut seen = HashSet::new();
+        antumbra_protocol::frame_image_hashes(update)
+            .filter(|h| seen.insert(*h) && !self.images.contains(h))
+            .collect()
     }
 
     /// Records a frame now if the file holds its meshes, else once they have been uploaded.
@@ -69,7 +93,8 @@ impl Recorder {
     fn flush_ready(&mut self) -> ClientResult<()> {
         let mut i = 0;
         while i < self.pending.len() {
-            if self.missing(&self.pending[i]).is_empty() {
+            let pending = &self.pending[i];
+            if self.missing(pending).is_empty() && self.missing_images(pending).is_empty() {
                 let update = self.pending.remove(i);
                 self.append(&Request::FrameUpdate(update))?;
                 self.frames += 1;
@@ -80,7 +105,8 @@ impl Recorder {
         Ok(())
     }
 
-    /// Closes the file; returns (frames written, frames dropped because meshes never came).
+    /// Closes the file; returns (frames written, frames dropped because meshes or images never
+    /// came).
     pub fn finish(self) -> ClientResult<(usize, usize)> {
         let path = self.path;
         self.writer

@@ -3,9 +3,11 @@
 //! uses it to turn a recorded or built-in animation into a `.blend`.
 
 use antumbra_protocol::{
+    image_from_upload,
     instances::{resolve_unchanged, MATRIX_BYTES},
-    mesh_from_upload, AreaShapeState, CameraState, FrameUpdate, InstanceArrayState, LightKindState,
-    LightState, ObjectState, RecordingReader, Request, ResolutionState, SensorFitState,
+    mesh_from_upload, AlphaMaterialState, AlphaOp, AlphaSourceState, AreaShapeState, CameraState,
+    Extension, FrameUpdate, InstanceArrayState, Interpolation, LightKindState, LightState,
+    ObjectState, RecordingReader, Request, ResolutionState, SensorFitState,
 };
 use numpy::ndarray::Array2;
 use numpy::IntoPyArray;
@@ -26,6 +28,72 @@ fn object_dict<'py>(py: Python<'py>, o: &ObjectState) -> PyResult<Bound<'py, PyD
     d.set_item("matrix_world", rows(&o.world_from_object))?;
     d.set_item("visible_camera", o.visible_to_camera)?;
     d.set_item("visible_shadow", o.casts_shadow)?;
+    if !o.materials.is_empty() {
+        d.set_item("materials", o.materials.clone())?;
+    }
+    Ok(d)
+}
+
+/// An alpha material as `frame_update`'s `alpha_materials` takes it (the exporter's contract
+/// with its name; an image by the hash `upload_image` returns).
+fn alpha_material_dict<'py>(
+    py: Python<'py>,
+    m: &AlphaMaterialState,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("name", &m.name)?;
+    match m.source {
+        AlphaSourceState::Constant { alpha } => {
+            d.set_item("kind", "constant")?;
+            d.set_item("alpha", alpha)?;
+        }
+        AlphaSourceState::Image {
+            hash,
+            interpolation,
+            extension,
+        } => {
+            d.set_item("kind", "texture")?;
+            d.set_item("image", hash)?;
+            d.set_item("uv_map", &m.uv_map)?;
+            let interpolation = match interpolation {
+                Interpolation::Closest => "Closest",
+                Interpolation::Linear => "Linear",
+                Interpolation::Cubic => "Cubic",
+            };
+            d.set_item("interpolation", interpolation)?;
+            let extension = match extension {
+                Extension::Repeat => "REPEAT",
+                Extension::Extend => "EXTEND",
+                Extension::Clip => "CLIP",
+                Extension::Mirror => "MIRROR",
+            };
+            d.set_item("extension", extension)?;
+        }
+    }
+    let ops = PyList::empty(py);
+    for op in &m.ops {
+        let item = match *op {
+            AlphaOp::Multiply(c) => ("MULTIPLY", Some(c)),
+            AlphaOp::Add(c) => ("ADD", Some(c)),
+            AlphaOp::Subtract(c) => ("SUBTRACT", Some(c)),
+            AlphaOp::Power(c) => ("POWER", Some(c)),
+            AlphaOp::GreaterThan(c) => ("GREATER_THAN", Some(c)),
+            AlphaOp::LessThan(c) => ("LESS_THAN", Some(c)),
+            AlphaOp::OneMinus => ("ONE_MINUS", None),
+            AlphaOp::Clamp => ("CLAMP", None),
+        };
+        match item {
+            (name, Some(c)) => ops.append(PyList::new(
+                py,
+                [
+                    name.into_pyobject(py)?.into_any(),
+                    c.into_pyobject(py)?.into_any(),
+                ],
+            )?)?,
+            (name, None) => ops.append(PyList::new(py, [name])?)?,
+        }
+    }
+    d.set_item("ops", ops)?;
     Ok(d)
 }
 
@@ -55,6 +123,9 @@ fn instance_dict<'py>(py: Python<'py>, a: &InstanceArrayState) -> PyResult<Bound
     }
     d.set_item("visible_camera", a.visible_to_camera)?;
     d.set_item("visible_shadow", a.casts_shadow)?;
+    if !a.materials.is_empty() {
+        d.set_item("materials", a.materials.clone())?;
+    }
     Ok(d)
 }
 
@@ -153,18 +224,28 @@ fn frame_dict<'py>(py: Python<'py>, f: &FrameUpdate) -> PyResult<Bound<'py, PyDi
     }
     d.set_item("lights", lights)?;
     d.set_item("resolution", resolution_dict(py, &f.resolution)?)?;
+    if !f.alpha_materials.is_empty() {
+        let materials = PyList::empty(py);
+        for m in &f.alpha_materials {
+            materials.append(alpha_material_dict(py, m)?)?;
+        }
+        d.set_item("alpha_materials", materials)?;
+    }
     Ok(d)
 }
 
 /// `{"meshes": {hash: {"name", "positions": float32 (n, 3), "triangles": uint32 (m, 3), and
-/// for a mesh with corner normals "normals": float32 (3m, 3)}}, "frames": [frame dict, ...]}`
-/// in the file's order. Meshes are checked (hash, finite
-/// positions, indices in range) as the daemon checks an upload.
+/// for a mesh with corner normals "normals": float32 (3m, 3), with slots "material_slots":
+/// uint32 (m,), with UV maps "uv_maps": {name: float32 (m, 3, 2)}}}, "images": {hash: float32
+/// (height, width), rows bottom first}, "frames": [frame dict, ...]}` in the file's order.
+/// Meshes and images are checked (hash, finite values, indices in range) as the daemon checks
+/// an upload.
 pub fn read_recording<'py>(py: Python<'py>, path: &str) -> ClientResult<Bound<'py, PyDict>> {
     let fail = |e: &dyn std::fmt::Display| ClientError::invalid(format!("recording {path}: {e}"));
     let mut reader = RecordingReader::open(path).map_err(|e| fail(&e))?;
     let limits = reader.limits().clone();
     let meshes = PyDict::new(py);
+    let images = PyDict::new(py);
     let frames = PyList::empty(py);
     let mut previous: Option<FrameUpdate> = None;
     while let Some(request) = py.detach(|| reader.next_request()).map_err(|e| fail(&e))? {
@@ -190,7 +271,33 @@ pub fn read_recording<'py>(py: Python<'py>, path: &str) -> ClientResult<Bound<'p
                         .expect("three floats per normal");
                     entry.set_item("normals", n.into_pyarray(py))?;
                 }
+                if !mesh.material_slots.is_empty() {
+                    entry.set_item(
+                        "material_slots",
+                        mesh.material_slots.clone().into_pyarray(py),
+                    )?;
+                }
+                if !mesh.uv_maps.is_empty() {
+                    let maps = PyDict::new(py);
+                    for map in &mesh.uv_maps {
+                        let flat: Vec<f32> = map.corners.as_flattened().as_flattened().to_vec();
+                        let a =
+                            numpy::ndarray::Array3::from_shape_vec((map.corners.len(), 3, 2), flat)
+                                .expect("six floats per triangle");
+                        maps.set_item(&map.name, a.into_pyarray(py))?;
+                    }
+                    entry.set_item("uv_maps", maps)?;
+                }
                 meshes.set_item(upload.hash, entry)?;
+            }
+            Request::UploadImage(upload) => {
+                let image = py
+                    .detach(|| image_from_upload(&upload, &limits))
+                    .map_err(|e| fail(&e))?;
+                let shape = (image.height as usize, image.width as usize);
+                let a = Array2::from_shape_vec(shape, image.texels)
+                    .expect("validated: width x height texels");
+                images.set_item(upload.hash, a.into_pyarray(py))?;
             }
             Request::FrameUpdate(mut update) => {
                 // A daemon's recording holds arrays as sent: unchanged ones repeat the last frame.
@@ -204,6 +311,7 @@ pub fn read_recording<'py>(py: Python<'py>, path: &str) -> ClientResult<Bound<'p
     }
     let out = PyDict::new(py);
     out.set_item("meshes", meshes)?;
+    out.set_item("images", images)?;
     out.set_item("frames", frames)?;
     Ok(out)
 }

@@ -89,6 +89,8 @@ pub fn daemon_stats<'py>(py: Python<'py>, s: &DaemonStats) -> PyResult<Bound<'py
             renders_failed,
             uptime_s,
             meshes_evicted,
+            images_cached,
+            images_evicted,
         ]
     ))
 }
@@ -107,6 +109,11 @@ pub fn limits<'py>(py: Python<'py>, l: &Limits) -> PyResult<Bound<'py, PyDict>> 
             max_lights,
             max_render_bytes,
             max_request_passes,
+            max_image_texels,
+            max_alpha_materials,
+            max_alpha_ops,
+            max_uv_maps,
+            max_material_slots,
         ]
     ))
 }

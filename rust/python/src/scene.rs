@@ -4,9 +4,10 @@
 
 use antumbra_core::scene::{Camera, Light, Resolution};
 use antumbra_protocol::{
-    check_limits, instances::MATRIX_BYTES, AreaShapeState, CameraState, FrameUpdate,
-    InstanceArrayState, LightKindState, LightState, Limits, ObjectState, Passes, Request,
-    ResolutionState, SensorFitState, DEFAULT_REPEAT, MAX_COMPARE_REPEAT,
+    check_limits, instances::MATRIX_BYTES, AlphaMaterialState, AlphaOp, AlphaSourceState,
+    AreaShapeState, CameraState, Extension, FrameUpdate, InstanceArrayState, Interpolation,
+    LightKindState, LightState, Limits, ObjectState, Passes, Request, ResolutionState,
+    SensorFitState, DEFAULT_REPEAT, MAX_COMPARE_REPEAT,
 };
 use numpy::{PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::PyOverflowError;
@@ -283,9 +284,40 @@ const OBJECT_FIELDS: &[&str] = &[
     "visible_camera",
     "visible_shadow",
     "cast_shadow",
+    "materials",
 ];
 
-fn object(v: &Bound<'_, PyAny>, index: usize) -> ClientResult<ObjectState> {
+/// `materials` of an object or instance array: per slot None (opaque) or an index into the
+/// frame's `alpha_materials` (of which there are `count`).
+fn slot_materials(f: &Fields<'_, '_>, count: usize) -> ClientResult<Vec<Option<u32>>> {
+    let Some(v) = f.get("materials")? else {
+        return Ok(Vec::new());
+    };
+    let field = f.field("materials");
+    items(&v, &field)?
+        .iter()
+        .enumerate()
+        .map(|(slot, m)| {
+            if m.is_none() {
+                return Ok(None);
+            }
+            let field = format!("{field}[{slot}]");
+            let range = format!(
+                "None or an index into alpha_materials, 0 to {}",
+                count as i64 - 1
+            );
+            let index = integer::<u32>(m, &field, &range)?;
+            if index as usize >= count {
+                return Err(ClientError::invalid(format!(
+                    "{field}: alpha material {index}, but the frame has {count} alpha_materials"
+                )));
+            }
+            Ok(Some(index))
+        })
+        .collect()
+}
+
+fn object(v: &Bound<'_, PyAny>, index: usize, materials: usize) -> ClientResult<ObjectState> {
     let f = Fields::new(v, item_label(v, "objects", index), OBJECT_FIELDS)?;
     let name = f.string("name")?;
     let mesh_hash = mesh_hash(&f.required("mesh_hash")?, &f.field("mesh_hash"))?;
@@ -307,6 +339,7 @@ fn object(v: &Bound<'_, PyAny>, index: usize) -> ClientResult<ObjectState> {
         world_from_object,
         visible_to_camera,
         casts_shadow,
+        materials: slot_materials(&f, materials)?,
     })
 }
 
@@ -317,10 +350,15 @@ const INSTANCE_FIELDS: &[&str] = &[
     "ids",
     "visible_camera",
     "visible_shadow",
+    "materials",
 ];
 
 /// `instances[i]`: every placement of one mesh as arrays; matrices travel as Blender's f32.
-fn instance_array(v: &Bound<'_, PyAny>, index: usize) -> ClientResult<InstanceArrayState> {
+fn instance_array(
+    v: &Bound<'_, PyAny>,
+    index: usize,
+    materials: usize,
+) -> ClientResult<InstanceArrayState> {
     let f = Fields::new(v, item_label(v, "instances", index), INSTANCE_FIELDS)?;
     let matrices = instance_matrices(&f.required("matrices")?, &f.field("matrices"))?;
     let count = matrices.len() / MATRIX_BYTES;
@@ -336,6 +374,7 @@ fn instance_array(v: &Bound<'_, PyAny>, index: usize) -> ClientResult<InstanceAr
         visible_to_camera: f.bool_or("visible_camera", true)?,
         casts_shadow: f.bool_or("visible_shadow", true)?,
         unchanged: false,
+        materials: slot_materials(&f, materials)?,
     })
 }
 
@@ -603,7 +642,205 @@ pub fn resolution(v: &Bound<'_, PyAny>) -> ClientResult<ResolutionState> {
     })
 }
 
-/// A frame's scene state from Python values.
+// ---------------------------------------------------------------------------------------------
+// Alpha materials
+
+const ALPHA_MATERIAL_FIELDS: &[&str] = &[
+    "name",
+    "kind",
+    "alpha",
+    "image",
+    "channel",
+    "uv_map",
+    "interpolation",
+    "extension",
+    "ops",
+];
+
+/// The fields only a texture material has (the exporter's contract, `docs/alpha_export.md`).
+const TEXTURE_ONLY: &[&str] = &["image", "channel", "uv_map", "interpolation", "extension"];
+
+/// One Math node of a material's `ops`: `[NAME, constant]`, or `[NAME]` for ONE_MINUS, CLAMP.
+fn alpha_op(v: &Bound<'_, PyAny>, field: &str) -> ClientResult<AlphaOp> {
+    let parts = items(v, field)?;
+    let name = match parts.first() {
+        Some(n) => string(n, &format!("{field}[0]"))?,
+        None => {
+            return Err(ClientError::invalid(format!(
+                "{field}: expected [operation, constant] or [operation], got an empty list"
+            )))
+        }
+    };
+    #[derive(Clone, Copy)]
+    enum Op {
+        With(fn(f32) -> AlphaOp),
+        Alone(AlphaOp),
+    }
+    let op = choice(
+        &name,
+        &format!("{field}[0]"),
+        &[
+            ("MULTIPLY", Op::With(AlphaOp::Multiply)),
+            ("ADD", Op::With(AlphaOp::Add)),
+            ("SUBTRACT", Op::With(AlphaOp::Subtract)),
+            ("POWER", Op::With(AlphaOp::Power)),
+            ("GREATER_THAN", Op::With(AlphaOp::GreaterThan)),
+            ("LESS_THAN", Op::With(AlphaOp::LessThan)),
+            ("ONE_MINUS", Op::Alone(AlphaOp::OneMinus)),
+            ("CLAMP", Op::Alone(AlphaOp::Clamp)),
+        ],
+    )?;
+    match (op, parts.len()) {
+        (Op::With(make), 2) => {
+            let c = number(&parts[1], &format!("{field}[1]"))? as f32;
+            if !c.is_finite() {
+                return Err(ClientError::invalid(format!(
+                    "{field}[1]: the constant of {name} must be finite, got {c}"
+                )));
+            }
+            Ok(make(c))
+        }
+        (Op::Alone(op), 1) => Ok(op),
+        (Op::With(_), n) => Err(ClientError::invalid(format!(
+            "{field}: {name} takes one constant ([{name}, c]), got {} values",
+            n - 1
+        ))),
+        (Op::Alone(_), n) => Err(ClientError::invalid(format!(
+            "{field}: {name} takes no constant ([{name}]), got {} values",
+            n - 1
+        ))),
+    }
+}
+
+/// `alpha_materials[i]`: the exporter's contract dict with a `name`, its `image` the hash
+/// `upload_image` returned. An "opaque" material is a constant alpha of 1.
+fn alpha_material(
+    v: &Bound<'_, PyAny>,
+    index: usize,
+    limits: &Limits,
+) -> ClientResult<AlphaMaterialState> {
+    let f = Fields::new(
+        v,
+        item_label(v, "alpha_materials", index),
+        ALPHA_MATERIAL_FIELDS,
+    )?;
+    let name = f.string("name")?;
+    let kind = f.string("kind")?;
+    #[derive(Clone, Copy, PartialEq)]
+    enum Kind {
+        Opaque,
+        Constant,
+        Texture,
+    }
+    let kind = choice(
+        &kind,
+        &f.field("kind"),
+        &[
+            ("opaque", Kind::Opaque),
+            ("constant", Kind::Constant),
+            ("texture", Kind::Texture),
+        ],
+    )?;
+    // A field of another kind is a mistake in the caller's contract, not something to ignore.
+    let misplaced = |key: &str| -> ClientResult<()> {
+        let belongs = match key {
+            "alpha" => kind == Kind::Constant,
+            k if TEXTURE_ONLY.contains(&k) => kind == Kind::Texture,
+            _ => true,
+        };
+        if !belongs && f.get(key)?.is_some() {
+            return Err(ClientError::invalid(format!(
+                "{}: not a field of a material of kind '{}'",
+                f.field(key),
+                f.string("kind")?
+            )));
+        }
+        Ok(())
+    };
+    for key in ALPHA_MATERIAL_FIELDS {
+        misplaced(key)?;
+    }
+    let source = match kind {
+        Kind::Opaque => AlphaSourceState::Constant { alpha: 1.0 },
+        Kind::Constant => {
+            let field = f.field("alpha");
+            let alpha = number(&f.required("alpha")?, &field)? as f32;
+            if !alpha.is_finite() {
+                return Err(ClientError::invalid(format!(
+                    "{field}: must be finite, got {alpha}"
+                )));
+            }
+            AlphaSourceState::Constant { alpha }
+        }
+        Kind::Texture => {
+            let hash = integer::<u64>(
+                &f.required("image")?,
+                &f.field("image"),
+                "an image hash (upload_image's) is an unsigned 64-bit integer",
+            )?;
+            // The texels already hold the channel the material reads (the exporter's array).
+            let channel = f.string_or("channel", "alpha")?;
+            choice(
+                &channel,
+                &f.field("channel"),
+                &[("alpha", ()), ("luminance", ())],
+            )?;
+            let interpolation = choice(
+                &f.string_or("interpolation", "Linear")?,
+                &f.field("interpolation"),
+                &[
+                    ("Linear", Interpolation::Linear),
+                    ("Closest", Interpolation::Closest),
+                    ("Cubic", Interpolation::Cubic),
+                    // Cycles renders Smart as Cubic.
+                    ("Smart", Interpolation::Cubic),
+                ],
+            )?;
+            let extension = choice(
+                &f.string_or("extension", "REPEAT")?,
+                &f.field("extension"),
+                &[
+                    ("REPEAT", Extension::Repeat),
+                    ("EXTEND", Extension::Extend),
+                    ("CLIP", Extension::Clip),
+                    ("MIRROR", Extension::Mirror),
+                ],
+            )?;
+            AlphaSourceState::Image {
+                hash,
+                interpolation,
+                extension,
+            }
+        }
+    };
+    let ops = match f.get("ops")? {
+        None => Vec::new(),
+        Some(v) => {
+            let field = f.field("ops");
+            let list = items(&v, &field)?;
+            if list.len() as u64 > limits.max_alpha_ops {
+                return Err(ClientError::invalid(format!(
+                    "{field}: {} operations exceed the limit of {} (max_alpha_ops)",
+                    list.len(),
+                    limits.max_alpha_ops
+                )));
+            }
+            list.iter()
+                .enumerate()
+                .map(|(i, op)| alpha_op(op, &format!("{field}[{i}]")))
+                .collect::<ClientResult<Vec<_>>>()?
+        }
+    };
+    Ok(AlphaMaterialState {
+        name,
+        uv_map: f.string_or("uv_map", "")?,
+        source,
+        ops,
+    })
+}
+
+/// A frame's scene state from Python values; `limits` bound the alpha materials read.
+#[allow(clippy::too_many_arguments)] // the Python method's arguments
 pub fn frame_update(
     frame: &Bound<'_, PyAny>,
     objects: &Bound<'_, PyAny>,
@@ -611,12 +848,33 @@ pub fn frame_update(
     lights: &Bound<'_, PyAny>,
     resolution_v: &Bound<'_, PyAny>,
     instances: Option<&Bound<'_, PyAny>>,
+    alpha_materials: Option<&Bound<'_, PyAny>>,
+    limits: &Limits,
 ) -> ClientResult<FrameUpdate> {
     let frame = frame_number(frame, "frame")?;
+    let alpha_materials = match alpha_materials.filter(|v| !v.is_none()) {
+        None => Vec::new(),
+        Some(v) => {
+            let list = items(v, "alpha_materials")?;
+            if list.len() as u64 > limits.max_alpha_materials {
+                return Err(ClientError::invalid(format!(
+                    "frame {frame}: alpha_materials: {} materials exceed the limit of {} \
+                     (max_alpha_materials)",
+                    list.len(),
+                    limits.max_alpha_materials
+                )));
+            }
+            list.iter()
+                .enumerate()
+                .map(|(i, m)| alpha_material(m, i, limits))
+                .collect::<ClientResult<Vec<_>>>()?
+        }
+    };
+    let material_count = alpha_materials.len();
     let objects = items(objects, "objects")?
         .iter()
         .enumerate()
-        .map(|(i, o)| object(o, i))
+        .map(|(i, o)| object(o, i, material_count))
         .collect::<ClientResult<Vec<_>>>()?;
     let lights = items(lights, "lights")?
         .iter()
@@ -628,7 +886,7 @@ pub fn frame_update(
         Some(v) => items(v, "instances")?
             .iter()
             .enumerate()
-            .map(|(i, a)| instance_array(a, i))
+            .map(|(i, a)| instance_array(a, i, material_count))
             .collect::<ClientResult<Vec<_>>>()?,
     };
     let update = FrameUpdate {
@@ -638,6 +896,7 @@ pub fn frame_update(
         camera: camera(camera_v, "camera")?,
         lights,
         resolution: resolution(resolution_v)?,
+        alpha_materials,
     };
     Ok(update)
 }

@@ -16,7 +16,7 @@ mod reply;
 mod state;
 mod trade;
 
-pub use cache::{mesh_bytes, CacheStats, MeshCache};
+pub use cache::{image_bytes, mesh_bytes, CacheStats, MeshCache};
 pub use compare::CompareState;
 pub use job::{Job, JobKind};
 pub use renderer::{Done, SessionRenderer, ENCODE_STAGE, RENDER_STAGE, RENDER_STAGES};

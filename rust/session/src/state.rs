@@ -5,12 +5,14 @@
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::{Arc, OnceLock};
 
+use antumbra_core::alpha::AlphaImage;
 use antumbra_core::scene::{Mesh, Scene};
 use antumbra_protocol::{
-    admit_compare, admit_render, admit_trade, check_frame_limits, check_limits, frame_mesh_hashes,
-    instances::resolve_unchanged, mesh_from_upload, render_settings, reply_planes,
-    scene_from_frame, Asked, CompareRequest, ErrorCode, FrameUpdate, Limits, ProtocolError,
-    RenderRequest, Reply, Request, TradeRequest, UploadMesh,
+    admit_compare, admit_render, admit_trade, check_frame_limits, check_limits, frame_image_hashes,
+    frame_mesh_hashes, image_from_upload, image_label, instances::resolve_unchanged,
+    mesh_from_upload, render_settings, reply_planes, scene_from_frame, Asked, CompareRequest,
+    ErrorCode, FrameUpdate, Limits, ProtocolError, RenderRequest, Reply, Request, TradeRequest,
+    UploadImage, UploadMesh,
 };
 
 use crate::cache::MeshCache;
@@ -22,7 +24,7 @@ pub const FRAMES_KEPT: usize = 8;
 
 /// How [`SessionState::handle`] answered a request.
 pub enum Handled {
-    /// Answered at once: `Missing`, `MeshStored`, `FrameAccepted`, or an `Error`.
+    /// Answered at once: `Missing`, `MeshStored`, `ImageStored`, `FrameAccepted`, or an `Error`.
     Reply(Reply),
     /// A `Render`, `Compare` or `Trade` admitted: to run on the session's
     /// [`crate::SessionRenderer`].
@@ -49,6 +51,8 @@ pub struct SessionState {
     /// The session's working set: meshes it uploaded, asked about or used recently, with the
     /// generation in which it last touched them. Holding the `Arc` keeps them out of eviction.
     pins: HashMap<u64, (Arc<Mesh>, u64)>,
+    /// The alpha images of the working set, kept as meshes are.
+    image_pins: HashMap<u64, (Arc<AlphaImage>, u64)>,
     frames: VecDeque<Arc<FrameUpdate>>,
 }
 
@@ -59,6 +63,7 @@ impl SessionState {
             limits,
             generation: 0,
             pins: HashMap::new(),
+            image_pins: HashMap::new(),
             frames: VecDeque::new(),
         }
     }
@@ -72,6 +77,14 @@ impl SessionState {
         match self.pins.get(&hash) {
             Some((mesh, _)) => Some(mesh.clone()),
             None => self.cache.get(hash),
+        }
+    }
+
+    /// The alpha image with this hash if the session or its cache holds it (without touching it).
+    pub fn held_image(&self, hash: u64) -> Option<Arc<AlphaImage>> {
+        match self.image_pins.get(&hash) {
+            Some((image, _)) => Some(image.clone()),
+            None => self.cache.image(hash),
         }
     }
 
@@ -102,6 +115,10 @@ impl SessionState {
             }
             Request::MissingMeshes { hashes } => return Handled::Reply(self.missing(hashes)),
             Request::UploadMesh(upload) => return Handled::Reply(self.upload(&upload)),
+            Request::MissingImages { hashes } => {
+                return Handled::Reply(self.missing_images(hashes))
+            }
+            Request::UploadImage(upload) => return Handled::Reply(self.upload_image(&upload)),
             Request::FrameUpdate(update) => return Handled::Reply(self.frame_update(update)),
             Request::Render(r) => self.render(r),
             Request::Compare(c) => self.compare(c),
@@ -129,6 +146,62 @@ impl SessionState {
         let mesh = self.cache.get(hash)?;
         self.pins.insert(hash, (mesh.clone(), generation));
         Some(mesh)
+    }
+
+    /// The alpha image with this hash from the working set or the cache; adds it to the set.
+    fn resolve_image(&mut self, hash: u64) -> Option<Arc<AlphaImage>> {
+        let generation = self.generation;
+        if let Some((image, touched)) = self.image_pins.get_mut(&hash) {
+            *touched = generation;
+            return Some(image.clone());
+        }
+        let image = self.cache.image(hash)?;
+        self.image_pins.insert(hash, (image.clone(), generation));
+        Some(image)
+    }
+
+    fn missing_images(&mut self, hashes: Vec<u64>) -> Reply {
+        let mut seen = HashSet::new();
+        let hashes = hashes
+            .into_iter()
+            .filter(|&h| seen.insert(h) && self.resolve_image(h).is_none())
+            .collect();
+        Reply::Missing { hashes }
+    }
+
+    fn upload_image(&mut self, upload: &UploadImage) -> Reply {
+        match image_from_upload(upload, &self.limits) {
+            Ok(image) => {
+                let (width, height) = (image.width, image.height);
+                let image = self.cache.insert_image(upload.hash, image);
+                self.image_pins
+                    .insert(upload.hash, (image, self.generation));
+                tracing::debug!(image = %image_label(upload.hash), width, height, "image stored");
+                Reply::ImageStored { hash: upload.hash }
+            }
+            Err(e) => {
+                tracing::warn!(image = %image_label(upload.hash), error = %e, "image refused");
+                e.to_reply()
+            }
+        }
+    }
+
+    /// The alpha images of a frame by hash, and the hashes the session lacks (first use order).
+    fn frame_images(&mut self, update: &FrameUpdate) -> (HashMap<u64, Arc<AlphaImage>>, Vec<u64>) {
+        let mut found = HashMap::new();
+        let mut missing = Vec::new();
+        for h in frame_image_hashes(update) {
+            if found.contains_key(&h) || missing.contains(&h) {
+                continue;
+            }
+            match self.resolve_image(h) {
+                Some(i) => {
+                    found.insert(h, i);
+                }
+                None => missing.push(h),
+            }
+        }
+        (found, missing)
     }
 
     fn missing(&mut self, hashes: Vec<u64>) -> Reply {
@@ -193,7 +266,11 @@ impl SessionState {
         for &h in &missing {
             meshes.insert(h, placeholder_mesh());
         }
-        if let Err(e) = scene_from_frame(&update, &meshes) {
+        let (mut images, images_missing) = self.frame_images(&update);
+        for &h in &images_missing {
+            images.insert(h, placeholder_image());
+        }
+        if let Err(e) = scene_from_frame(&update, &(&meshes, &images)) {
             tracing::warn!(frame = update.frame, error = %e, "frame refused");
             return e.to_reply();
         }
@@ -201,16 +278,24 @@ impl SessionState {
         // this update), drop the rest from the working set.
         let keep_from = self.generation.saturating_sub(1);
         self.pins.retain(|_, (_, touched)| *touched >= keep_from);
+        self.image_pins
+            .retain(|_, (_, touched)| *touched >= keep_from);
         let frame = update.frame;
         self.frames.retain(|f| f.frame != frame);
         self.frames.push_back(Arc::new(update));
         while self.frames.len() > FRAMES_KEPT {
             self.frames.pop_front();
         }
-        tracing::debug!(frame, missing = missing.len(), "frame accepted");
+        tracing::debug!(
+            frame,
+            missing = missing.len(),
+            images_missing = images_missing.len(),
+            "frame accepted"
+        );
         Reply::FrameAccepted {
             frame,
             meshes_missing: missing,
+            images_missing,
         }
     }
 
@@ -231,7 +316,8 @@ impl SessionState {
             ));
         };
         let (meshes, _) = self.frame_meshes(&update);
-        scene_from_frame(&update, &meshes).map_err(|e| refused(what, &e, request_id))
+        let (images, _) = self.frame_images(&update);
+        scene_from_frame(&update, &(&meshes, &images)).map_err(|e| refused(what, &e, request_id))
     }
 
     fn render(&mut self, r: RenderRequest) -> Result<Job, Reply> {
@@ -302,6 +388,20 @@ impl SessionState {
 fn refused(what: &str, e: &ProtocolError, request_id: u64) -> Reply {
     tracing::warn!(request_id, error = %e, "{what} refused");
     protocol_error(e, Some(request_id))
+}
+
+/// A one-texel image standing in for missing images while a frame is checked.
+fn placeholder_image() -> Arc<AlphaImage> {
+    static IMAGE: OnceLock<Arc<AlphaImage>> = OnceLock::new();
+    IMAGE
+        .get_or_init(|| {
+            Arc::new(AlphaImage {
+                width: 1,
+                height: 1,
+                texels: vec![1.0],
+            })
+        })
+        .clone()
 }
 
 /// A one-triangle mesh standing in for missing meshes while a frame is checked.

@@ -8,6 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::{Error, Result};
+use xxhash_rust::xxh3::Xxh3;
 
 /// The Image Texture node's interpolation (Cycles' `InterpolationType`; Smart is Cubic).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -65,6 +66,24 @@ impl AlphaImage {
             });
         }
         Ok(())
+    }
+
+    /// The image's identity on the wire (`UploadImage.hash`): XXH3 over the width and height
+    /// (u32 LE each) and the texels (f32 LE, rows bottom-up), so a client uploads each image once
+    /// per daemon, as meshes ([`crate::scene::Mesh::content_hash`]).
+    pub fn content_hash(&self) -> u64 {
+        let mut h = Xxh3::new();
+        h.update(&self.width.to_le_bytes());
+        h.update(&self.height.to_le_bytes());
+        // In chunks, so hashing a large image allocates nothing proportional to it.
+        let mut buf = [0u8; 4096];
+        for chunk in self.texels.chunks(buf.len() / 4) {
+            for (out, t) in buf.chunks_exact_mut(4).zip(chunk) {
+                out.copy_from_slice(&t.to_le_bytes());
+            }
+            h.update(&buf[..chunk.len() * 4]);
+        }
+        h.digest()
     }
 
     /// The alpha at texture coordinate (u, v) (Cycles' `TextureInterpolator::interp`). Requires
@@ -248,5 +267,33 @@ fn wrap_mirror(x: i32, width: i32) -> i32 {
         2 * width - m - 1
     } else {
         m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn content_hash_is_xxh3_of_the_size_and_texels_le() {
+        let image = AlphaImage {
+            width: 3,
+            height: 2,
+            texels: (0..6).map(|i| i as f32 * 0.25).collect(),
+        };
+        let mut bytes = Vec::new();
+        bytes.extend(3u32.to_le_bytes());
+        bytes.extend(2u32.to_le_bytes());
+        for t in &image.texels {
+            bytes.extend(t.to_le_bytes());
+        }
+        assert_eq!(image.content_hash(), xxhash_rust::xxh3::xxh3_64(&bytes));
+        // The size is hashed: the same texels as 2x3 are another image.
+        let transposed = AlphaImage {
+            width: 2,
+            height: 3,
+            ..image.clone()
+        };
+        assert_ne!(image.content_hash(), transposed.content_hash());
     }
 }

@@ -51,8 +51,8 @@ impl Session<'_> {
             let kind = request.kind();
             let flow = catch_unwind(AssertUnwindSafe(|| self.handle(request)));
             // An upload is recorded once stored, from what the daemon holds.
-            if let Some(hash) = upload {
-                self.record_meshes([hash]);
+            if let Some(upload) = upload {
+                self.record_upload(upload);
             }
             match flow {
                 Ok(Flow::Continue) => {}

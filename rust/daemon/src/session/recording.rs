@@ -1,7 +1,8 @@
-//! A session's recording (`--record DIR`): its requests as they arrive, and each mesh its frames
-//! use uploaded once, so the file replays on its own whatever the daemon already held.
+//! A session's recording (`--record DIR`): its requests as they arrive, and each mesh and alpha
+//! image its frames use uploaded once, so the file replays on its own whatever the daemon
+//! already held.
 
-use antumbra_protocol::{upload_from_mesh, RecordingWriter, Request};
+use antumbra_protocol::{upload_from_image, upload_from_mesh, RecordingWriter, Request};
 
 use super::{recording_path, Session};
 
@@ -21,10 +22,11 @@ impl Session<'_> {
     }
 
     /// Appends a request to the recording (a Hello without its token). A frame update comes
-    /// after the meshes it uses that the daemon holds and the file lacks (an earlier session may
-    /// have uploaded them). An upload is not written here: its hash is returned, to be recorded
-    /// with [`record_meshes`](Self::record_meshes) once handled (a refused upload never is).
-    pub(super) fn record(&mut self, request: &Request) -> Option<u64> {
+    /// after the meshes and images it uses that the daemon holds and the file lacks (an earlier
+    /// session may have uploaded them). An upload is not written here: it is returned, to be
+    /// recorded with [`record_upload`](Self::record_upload) once handled (a refused upload
+    /// never is).
+    pub(super) fn record(&mut self, request: &Request) -> Option<Upload> {
         self.recorder.as_ref()?;
         let result = match request {
             Request::Hello {
@@ -34,9 +36,11 @@ impl Session<'_> {
                 client: client.clone(),
                 token: None,
             }),
-            Request::UploadMesh(u) => return Some(u.hash),
+            Request::UploadMesh(u) => return Some(Upload::Mesh(u.hash)),
+            Request::UploadImage(u) => return Some(Upload::Image(u.hash)),
             Request::FrameUpdate(update) => {
                 self.record_meshes(antumbra_protocol::frame_mesh_hashes(update));
+                self.record_images(antumbra_protocol::frame_image_hashes(update));
                 self.append(request)
             }
             other => self.append(other),
@@ -47,7 +51,7 @@ impl Session<'_> {
 
     /// Records an upload of each of these meshes that the file lacks and the daemon holds (in
     /// the session's working set or the shared cache), so each mesh is in the file once.
-    pub(super) fn record_meshes(&mut self, hashes: impl IntoIterator<Item = u64>) {
+    fn record_meshes(&mut self, hashes: impl IntoIterator<Item = u64>) {
         for hash in hashes {
             let Some(w) = &self.recorder else {
                 return;
@@ -57,6 +61,30 @@ impl Session<'_> {
             }
             if let Some(mesh) = self.state.held(hash) {
                 let result = self.append(&Request::UploadMesh(upload_from_mesh(&mesh)));
+                self.keep_or_stop(result);
+            }
+        }
+    }
+
+    /// Records an upload [`record`](Self::record) returned, from what the daemon now holds.
+    pub(super) fn record_upload(&mut self, upload: Upload) {
+        match upload {
+            Upload::Mesh(hash) => self.record_meshes([hash]),
+            Upload::Image(hash) => self.record_images([hash]),
+        }
+    }
+
+    /// Records an upload of each of these alpha images that the file lacks and the daemon holds.
+    fn record_images(&mut self, hashes: impl IntoIterator<Item = u64>) {
+        for hash in hashes {
+            let Some(w) = &self.recorder else {
+                return;
+            };
+            if w.has_image(hash) {
+                continue;
+            }
+            if let Some(image) = self.state.held_image(hash) {
+                let result = self.append(&Request::UploadImage(upload_from_image(&image)));
                 self.keep_or_stop(result);
             }
         }
@@ -77,4 +105,10 @@ impl Session<'_> {
             self.recorder = None;
         }
     }
+}
+
+/// An upload to record once the session has stored it.
+pub(super) enum Upload {
+    Mesh(u64),
+    Image(u64),
 }

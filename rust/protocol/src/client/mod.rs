@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 pub use conn::Conn;
 pub use error::ClientError;
-pub use requests::{Rendered, SceneSent};
+pub use requests::{Missing, Rendered, SceneSent};
 
 use crate::{
     encode_message, FrameDecoder, FrameError, FrameUpdate, Limits, Reply, Request, PROTOCOL_VERSION,
@@ -417,7 +417,7 @@ impl Client {
                 }
                 self.server = server;
                 self.decoder = FrameDecoder::new(&limits);
-                self.limits = limits;
+                self.limits = *limits;
                 Ok(())
             }
             other => Err(ClientError::from_reply("Hello", other)),

@@ -8,9 +8,9 @@ use antumbra_core::scene::Scene;
 use super::{Blocking, Client, ClientError, Interrupt, Wait};
 use crate::instances::changed_since;
 use crate::{
-    frame_update_from_scene, upload_from_mesh, CompareRequest, CompareResultReply, DaemonStats,
-    FrameResultReply, FrameUpdate, NamedSettings, Passes, RenderRequest, Reply, Request,
-    TradeRequest, TradeResultReply, UploadMesh,
+    frame_update_from_scene, upload_from_image, upload_from_mesh, CompareRequest,
+    CompareResultReply, DaemonStats, FrameResultReply, FrameUpdate, NamedSettings, Passes,
+    RenderRequest, Reply, Request, TradeRequest, TradeResultReply, UploadImage, UploadMesh,
 };
 
 /// How long to wait for a cancelled render to end after the caller interrupted the wait.
@@ -20,10 +20,18 @@ const CANCEL_DRAIN: Duration = Duration::from_secs(30);
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SceneSent {
     pub meshes_uploaded: usize,
-    /// Bytes of `UploadMesh` frames sent.
+    pub images_uploaded: usize,
+    /// Bytes of `UploadMesh` and `UploadImage` frames sent.
     pub upload_bytes: u64,
     /// All bytes sent for the scene (questions, uploads, the frame update).
     pub bytes: u64,
+}
+
+/// What an accepted frame uses that the daemon lacks (`FrameAccepted`).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Missing {
+    pub meshes: Vec<u64>,
+    pub images: Vec<u64>,
 }
 
 /// A rendered frame and the progress stages seen before it.
@@ -64,28 +72,64 @@ impl Client {
         }
     }
 
+    /// Which of these alpha images the daemon lacks.
+    pub fn missing_images(
+        &mut self,
+        wait: &mut impl Wait,
+        hashes: Vec<u64>,
+    ) -> Result<Vec<u64>, ClientError> {
+        match self.request(wait, &Request::MissingImages { hashes })? {
+            Reply::Missing { hashes } => Ok(hashes),
+            other => Err(self.unexpected("MissingImages", &other)),
+        }
+    }
+
+    /// Uploads an alpha image; returns the upload (for a recording) and the hash the daemon
+    /// stored it under.
+    pub fn upload_image(
+        &mut self,
+        wait: &mut impl Wait,
+        upload: UploadImage,
+    ) -> Result<(UploadImage, u64), ClientError> {
+        let request = Request::UploadImage(upload);
+        let reply = self.request(wait, &request)?;
+        let Request::UploadImage(upload) = request else {
+            unreachable!("built above")
+        };
+        match reply {
+            Reply::ImageStored { hash } => Ok((upload, hash)),
+            other => Err(self.unexpected("UploadImage", &other)),
+        }
+    }
+
     /// Sends a frame's state, its instance arrays that equal the last accepted frame's as
-    /// `unchanged`; returns the whole update (for a recording) and the meshes it uses that the
-    /// daemon lacks.
+    /// `unchanged`; returns the whole update (for a recording) and what it uses that the daemon
+    /// lacks.
     pub fn frame_update(
         &mut self,
         wait: &mut impl Wait,
         update: FrameUpdate,
-    ) -> Result<(FrameUpdate, Vec<u64>), ClientError> {
+    ) -> Result<(FrameUpdate, Missing), ClientError> {
         let request = Request::FrameUpdate(changed_since(&update, self.accepted.as_ref()));
         let reply = self.request(wait, &request)?;
         match reply {
             Reply::FrameAccepted {
                 meshes_missing,
+                images_missing,
                 frame,
             } if frame == update.frame => {
                 // Only the arrays are compared later; the rest is not kept.
                 self.accepted = Some(FrameUpdate {
                     objects: Vec::new(),
                     lights: Vec::new(),
+                    alpha_materials: Vec::new(),
                     ..update.clone()
                 });
-                Ok((update, meshes_missing))
+                let missing = Missing {
+                    meshes: meshes_missing,
+                    images: images_missing,
+                };
+                Ok((update, missing))
             }
             other => Err(self.unexpected("FrameUpdate", &other)),
         }
@@ -189,10 +233,30 @@ impl Client {
             sent.meshes_uploaded += 1;
             sent.upload_bytes += self.bytes_sent() - before;
         }
+        let images: Vec<u64> = {
+            let mut seen = HashSet::new();
+            crate::frame_image_hashes(&update)
+                .filter(|h| seen.insert(*h))
+                .collect()
+        };
+        if !images.is_empty() {
+            for h in self.missing_images(wait, images)? {
+                let Some(image) = scene.alpha.images.iter().find(|i| i.content_hash() == h) else {
+                    return Err(ClientError::Mismatch(format!(
+                        "the daemon asked for image {h:#x}, which the scene does not have"
+                    )));
+                };
+                let before = self.bytes_sent();
+                self.upload_image(wait, upload_from_image(image))?;
+                sent.images_uploaded += 1;
+                sent.upload_bytes += self.bytes_sent() - before;
+            }
+        }
         let (_, missing) = self.frame_update(wait, update)?;
-        if !missing.is_empty() {
+        if !missing.meshes.is_empty() || !missing.images.is_empty() {
             return Err(ClientError::Mismatch(format!(
-                "meshes still missing after upload: {missing:x?}"
+                "still missing after upload: meshes {:x?}, images {:x?}",
+                missing.meshes, missing.images
             )));
         }
         sent.bytes = self.bytes_sent() - start;

@@ -2,7 +2,7 @@
 //! the daemon's checks of every request decoded.
 
 use crate::check::check_limits;
-use crate::convert::{missing_meshes, render_settings};
+use crate::convert::{missing_images, missing_meshes, render_settings};
 use crate::error::FrameError;
 use crate::frame::{decode_body, encode_message, read_message, FrameDecoder};
 use crate::limits::Limits;
@@ -128,6 +128,7 @@ pub fn decode_frame(data: &[u8]) {
             }
             Request::FrameUpdate(u) => {
                 let _ = missing_meshes(u, &replay.meshes);
+                let _ = missing_images(u, &(&replay.meshes, &replay.images));
             }
             _ => {}
         }

@@ -49,7 +49,9 @@ from .session import (
     DEFAULT_PASSES,
     PROTOCOL_VERSION,
     LocalSession,
+    Missing,
     ProgressCallback,
+    image_hash,
     mesh_hash,
 )
 from .settings import render_settings, settings_schema
@@ -73,6 +75,7 @@ __all__ = [
     "DaemonUnavailable",
     "InvalidInput",
     "LocalSession",
+    "Missing",
     "ProgressCallback",
     "ProtocolMismatch",
     "RequestError",
@@ -85,6 +88,7 @@ __all__ = [
     "colorize_heat",
     "default_socket_path",
     "errors",
+    "image_hash",
     "mesh_hash",
     "rays",
     "read_exr",

@@ -31,12 +31,20 @@ def mesh_hash(
     positions: npt.NDArray[np.float32],
     triangles: npt.NDArray[np.integer],
     normals: npt.NDArray[np.float32] | None = None,
+    material_slots: npt.NDArray[np.integer] | None = None,
+    uv_maps: Mapping[str, npt.NDArray[np.float32]] | None = None,
 ) -> int:
     """The protocol's content hash of a mesh: positions float32 (n, 3), triangles integer
-    (m, 3), optional corner normals float32 (3m, 3). Values are not checked."""
+    (m, 3), optional corner normals float32 (3m, 3), material slots uint32 (m,) and UV maps
+    {name: float32 (m, 3, 2)}. Values are not checked."""
+
+def image_hash(texels: npt.NDArray[np.float32]) -> int:
+    """The content hash of an alpha image, float32 (height, width) rows bottom first;
+    checked (finite, not empty)."""
 
 def read_recording(path: str) -> dict[str, Any]:
-    """Meshes (numpy) and frames (`frame_update` dicts) of an `.antrec` recording."""
+    """Meshes (numpy, with material slots and UV maps), alpha images (numpy, by hash) and
+    frames (`frame_update` dicts, with alpha_materials) of an `.antrec` recording."""
 
 def save_frame(
     dir: str,
@@ -164,7 +172,9 @@ class _SessionMethods:
     @property
     def limits(self) -> dict[str, int]:
         """max_frame_bytes, max_triangles_per_mesh, max_meshes, max_objects,
-        max_image_pixels, max_spp, max_lights, max_render_bytes, max_request_passes."""
+        max_image_pixels, max_spp, max_lights, max_render_bytes, max_request_passes,
+        max_image_texels, max_alpha_materials, max_alpha_ops, max_uv_maps,
+        max_material_slots."""
     @property
     def closed(self) -> bool: ...
     @property
@@ -176,7 +186,11 @@ class _SessionMethods:
         positions: npt.NDArray[np.float32],
         triangles: npt.NDArray[np.integer],
         normals: npt.NDArray[np.float32] | None = None,
+        material_slots: npt.NDArray[np.integer] | None = None,
+        uv_maps: Mapping[str, npt.NDArray[np.float32]] | None = None,
     ) -> int: ...
+    def missing_images(self, hashes: Iterable[int]) -> list[int]: ...
+    def upload_image(self, texels: npt.NDArray[np.float32]) -> int: ...
     def frame_update(
         self,
         frame: int,
@@ -185,7 +199,9 @@ class _SessionMethods:
         lights: Iterable[Mapping[str, Any]],
         resolution: Mapping[str, Any] | tuple[int, int],
         instances: Iterable[Mapping[str, Any]] | None = None,
-    ) -> list[int]: ...
+        alpha_materials: Iterable[Mapping[str, Any]] | None = None,
+    ) -> tuple[list[int], list[int]]:
+        """(mesh hashes missing, alpha image hashes missing)."""
     def render(
         self,
         frame: int,

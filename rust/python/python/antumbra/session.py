@@ -50,16 +50,42 @@ ProgressCallback = Callable[[str, int, int], "bool | None"]
 
 
 def mesh_hash(
-    positions: np.ndarray, triangles: np.ndarray, normals: np.ndarray | None = None
+    positions: np.ndarray,
+    triangles: np.ndarray,
+    normals: np.ndarray | None = None,
+    material_slots: np.ndarray | None = None,
+    uv_maps: Mapping[str, np.ndarray] | None = None,
 ) -> int:
     """The protocol's content hash of a mesh (64-bit XXH3 over the vertex count, the float32
-    positions, the triangle count and the uint32 indices, then any corner normals; computed in
-    Rust).
+    positions, the triangle count and the uint32 indices, then any corner normals, material
+    slots and UV maps; computed in Rust).
 
     ``positions``: float32 array of shape (n, 3); ``triangles``: integer array of shape (m, 3);
-    ``normals``: None or float32 array of shape (3m, 3), each triangle's corner normals.
+    ``normals``: None or float32 array of shape (3m, 3), each triangle's corner normals;
+    ``material_slots`` and ``uv_maps`` as :meth:`Client.upload_mesh` takes them.
     """
-    return _native.mesh_hash(positions, triangles, normals)
+    return _native.mesh_hash(positions, triangles, normals, material_slots, uv_maps)
+
+
+def image_hash(texels: np.ndarray) -> int:
+    """The content hash of an alpha image (float32 (height, width), rows bottom first), as
+    :meth:`upload_image` returns it; NaN or infinite texels raise :class:`InvalidInput`."""
+    return _native.image_hash(texels)
+
+
+class Missing(list[int]):
+    """What :meth:`frame_update` returns: the mesh hashes the frame uses that the session lacks
+    (a list, as before alpha materials), and in ``images`` the alpha image hashes its
+    materials read that the session lacks. Upload both before rendering."""
+
+    images: list[int]
+
+    def __init__(self, meshes: Iterable[int] = (), images: Iterable[int] = ()) -> None:
+        super().__init__(meshes)
+        self.images = list(images)
+
+    def __repr__(self) -> str:
+        return f"Missing(meshes={list(self)!r}, images={self.images!r})"
 
 
 def _rows_frame(rows: list[dict[str, Any]]) -> Any:
@@ -89,6 +115,8 @@ class _Session:
         positions: np.ndarray,
         triangles: np.ndarray,
         normals: np.ndarray | None = None,
+        material_slots: np.ndarray | None = None,
+        uv_maps: Mapping[str, np.ndarray] | None = None,
     ) -> int:
         """Checks, hashes and uploads one mesh in object space; returns its content hash.
 
@@ -98,8 +126,30 @@ class _Session:
         ``facing="shading"`` (docs/facing.md). A NaN or infinite value, or an index out of
         range, raises :class:`InvalidInput` naming the mesh. The GIL is released while the
         arrays are hashed and sent.
+
+        Alpha materials (docs/alpha_export.md): ``material_slots``, uint32 (m,), each
+        triangle's material slot (Blender's ``material_index``; None: all slot 0), and
+        ``uv_maps``, ``{name: float32 (m, 3, 2)}``, the (u, v) at each triangle's corners of
+        the UV maps the alpha materials read. A count that is not one per triangle, or a NaN
+        UV, raises :class:`InvalidInput` naming the mesh and the map.
         """
-        return self._native.upload_mesh(name, positions, triangles, normals)
+        return self._native.upload_mesh(
+            name, positions, triangles, normals, material_slots, uv_maps
+        )
+
+    # -- alpha images ---------------------------------------------------------------------
+
+    def missing_images(self, hashes: Iterable[int]) -> list[int]:
+        """Which of these alpha image hashes the session lacks (upload those)."""
+        return self._native.missing_images(hashes)
+
+    def upload_image(self, texels: np.ndarray) -> int:
+        """Checks and hashes an alpha image, float32 (height, width) with rows bottom first
+        (Blender's order; the exporter's array), and uploads it unless the session holds it
+        already; returns its content hash, which an ``alpha_materials`` dict's ``image``
+        names. NaN or infinite texels, or more than the ``max_image_texels`` limit, raise
+        :class:`InvalidInput`."""
+        return self._native.upload_image(texels)
 
     # -- frames ---------------------------------------------------------------------------
 
@@ -111,19 +161,31 @@ class _Session:
         lights: Iterable[Mapping[str, Any]] = (),
         resolution: Mapping[str, Any] | tuple[int, int] = (1920, 1080),
         instances: Iterable[Mapping[str, Any]] = (),
-    ) -> list[int]:
+        alpha_materials: Iterable[Mapping[str, Any]] = (),
+    ) -> Missing:
         """Sends the whole scene state of one frame, with Blender's field names; returns the
-        hashes of the meshes it uses that the session lacks (upload them before rendering).
+        hashes of the meshes it uses that the session lacks, and in ``.images`` those of the
+        alpha images (upload them before rendering): a :class:`Missing`.
 
         ``objects``: dicts ``name``, ``mesh_hash``, ``matrix_world`` (4x4, indexed
         [row][column] as Blender's ``Matrix`` and numpy), ``visible_camera`` (True),
-        ``visible_shadow`` (True; ``cast_shadow`` is accepted as its alias).
+        ``visible_shadow`` (True; ``cast_shadow`` is accepted as its alias), ``materials``
+        (per material slot None, opaque, or an index into ``alpha_materials``; default all
+        opaque).
+
+        ``alpha_materials``: the exporter's contract dicts (docs/alpha_export.md) with a
+        ``name``: ``{"kind": "opaque"}``, ``{"kind": "constant", "alpha": a}`` or
+        ``{"kind": "texture", "image": hash, "channel": "alpha" | "luminance", "uv_map": ""
+        | name, "interpolation": "Linear" | "Closest" | "Cubic" | "Smart", "extension":
+        "REPEAT" | "EXTEND" | "CLIP" | "MIRROR"}``, each with ``ops`` (``[["MULTIPLY", c],
+        ["ONE_MINUS"], ...]``); ``image`` is the hash :meth:`upload_image` returned.
 
         ``instances``: every placement of a shared mesh as arrays, one dict per mesh and pair
         of visibility flags: ``name``, ``mesh_hash``, ``matrices`` (numpy (n, 4, 4) or
         (n, 3, 4) world matrices, [instance][row][column]; sent as float32, Blender's own
         precision), ``ids`` (n unsigned 32-bit integers naming the instances ``name[id]``;
-        default: their index), ``visible_camera``, ``visible_shadow`` (True). Their objects
+        default: their index), ``visible_camera``, ``visible_shadow`` (True), ``materials``
+        (as an object's, for every instance). Their objects
         follow ``objects`` in the frame's object order (the ``object_ids`` pass counts them
         so). An array equal to the one of its name in the last frame the session accepted
         travels as "unchanged", without its matrices.
@@ -144,7 +206,10 @@ class _Session:
         A field of the wrong type, a missing or unknown field raises :class:`InvalidInput`
         naming it.
         """
-        return self._native.frame_update(frame, objects, camera, lights, resolution, instances)
+        meshes, images = self._native.frame_update(
+            frame, objects, camera, lights, resolution, instances, alpha_materials
+        )
+        return Missing(meshes, images)
 
     # -- rendering ------------------------------------------------------------------------
 
@@ -350,10 +415,10 @@ class _Session:
         for item in frames:
             if isinstance(item, Mapping):
                 missing = self.frame_update(**item)
-                if missing:
+                if missing or missing.images:
                     raise InvalidInput(
-                        f"trade: frame {item.get('frame')} uses meshes this session lacks: "
-                        f"{missing} (upload them first)"
+                        f"trade: frame {item.get('frame')} uses meshes or images this session "
+                        f"lacks: {missing!r} (upload them first)"
                     )
                 item = item["frame"]
             tf = self.trade_frame(
