@@ -8,9 +8,10 @@ an in-process ``antumbra.LocalSession``), and saves both as arrays.
     python tests/blender/leaf_cards_agreement.py -- --out DIR ...   # the bpy module
 
 Output in DIR: ``cycles_sun.exr`` and ``cycles_lamp.exr`` (Blender's multilayer EXR, every
-pass), ``antumbra.npz`` (``object_ids`` and ``mask_sun``, ``mask_lamp``: float32 (size, size),
-rows top to bottom) and ``scene.json`` (object names in export order, the ground's index,
-Blender's version, the export's warnings, the size).
+pass), ``antumbra.npz`` (``object_ids``, ``mask_sun``, ``mask_lamp``: float32 (size, size),
+rows top to bottom; ``mask_sun_opaque``, ``mask_lamp_opaque``: the same with alpha off) and
+``scene.json`` (object names in export order, the ground's index, Blender's version, the
+export's warnings, the size).
 """
 
 from __future__ import annotations
@@ -49,16 +50,20 @@ def render_antumbra(scene, client, transparent_bounces: int) -> tuple[list[str],
     session = client.LocalSession()
     exported = export.Exporter(client).frame(depsgraph, scene, scene.frame_current, 100)
     export.send(session, exported)
-    result = session.render(
-        exported.frame,
-        spp=1,
-        passes=("masks", "object_ids"),
-        settings={"transparent_bounces": transparent_bounces},
-    )
+    arrays = {}
+    # Also every card opaque (alpha off): what antumbra cast before issue 38, the sensitivity.
+    for suffix, alpha in (("", True), ("_opaque", False)):
+        result = session.render(
+            exported.frame,
+            spp=1,
+            passes=("masks", "object_ids"),
+            alpha=alpha,
+            transparent_bounces=transparent_bounces,
+        )
+        arrays.setdefault("object_ids", result.object_ids)
+        for light in ("Sun", "Lamp"):
+            arrays[f"mask_{light.lower()}{suffix}"] = result.masks[light]
     names = [o["name"] for o in exported.objects]
-    arrays = {"object_ids": result.object_ids}
-    for light in ("Sun", "Lamp"):
-        arrays[f"mask_{light.lower()}"] = result.masks[light]
     return names, arrays, exported.alpha.warnings
 
 

@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .alpha_object import ObjectAlpha
+if TYPE_CHECKING:  # alpha_object imports the exporter's readers, and the exporter this module
+    from .alpha_object import ObjectAlpha
 
 
 @dataclass
