@@ -86,7 +86,9 @@ pub enum ProtocolError {
         declared: u64,
         actual: u64,
     },
-    #[error("image {declared:#018x}: declared hash {declared:#018x} but its size and texels hash to {actual:#018x}")]
+    #[error(
+        "image {declared:#018x}: its size and texels hash to {actual:#018x}, not the declared hash"
+    )]
     ImageHashMismatch { declared: u64, actual: u64 },
     #[error("frame {frame}: alpha material '{material}' refers to image {hash:#018x}, which the daemon does not hold (upload it first)")]
     UnknownImage {

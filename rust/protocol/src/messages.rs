@@ -427,7 +427,7 @@ pub struct DaemonStats {
     /// Sessions since start.
     pub sessions_total: u64,
     pub meshes_cached: u64,
-    /// Bytes held by cached meshes (positions and triangles).
+    /// Bytes held by cached meshes (positions, triangles, normals, slots, UV maps) and images.
     pub bytes_cached: u64,
     pub renders_done: u64,
     pub renders_cancelled: u64,

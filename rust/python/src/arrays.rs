@@ -266,10 +266,12 @@ pub fn uv_maps_from(v: &Bound<'_, PyAny>, mesh: &str) -> ClientResult<Vec<UvMap>
 }
 
 /// An alpha image from a float32 array of shape (height, width), rows bottom first (Blender's
-/// order); checked (size, finite texels) and hashed without the GIL. Returns it and its hash.
+/// order); checked (size, at most `max_texels` texels before anything is copied, finite texels)
+/// and hashed without the GIL. Returns it and its hash.
 pub fn image_from_array(
     py: Python<'_>,
     texels: &Bound<'_, PyAny>,
+    max_texels: u64,
 ) -> ClientResult<(AlphaImage, u64)> {
     let field = "texels";
     let bad = || {
@@ -286,6 +288,13 @@ pub fn image_from_array(
     let (Ok(width), Ok(height)) = (u32::try_from(width), u32::try_from(height)) else {
         return Err(bad());
     };
+    let count = width as u64 * height as u64;
+    if count > max_texels {
+        return Err(ClientError::invalid(format!(
+            "{field}: a {width}x{height} image has {count} texels, over the limit of \
+             {max_texels} (max_image_texels)"
+        )));
+    }
     let texels = with_rows(py, array, |s| s.to_vec())?;
     let image = AlphaImage {
         width,

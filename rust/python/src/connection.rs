@@ -370,9 +370,7 @@ impl Connection {
     fn upload_image(&self, py: Python<'_>, texels: &Bound<'_, PyAny>) -> PyResult<u64> {
         let mut wait = PyWait::new(py);
         (|| {
-            let (image, hash) = image_from_array(py, texels)?;
-            antumbra_protocol::check_image_texels(&upload_header(&image, hash), &self.limits)
-                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let (image, hash) = image_from_array(py, texels, self.limits.max_image_texels)?;
             let mut guard = self.lock()?;
             let state = Self::state(&mut guard)?;
             let recording = state.recorder.as_ref().is_some_and(|r| !r.has_image(hash));
@@ -787,19 +785,6 @@ fn note_held(known: &mut HashSet<u64>, used: impl Iterator<Item = u64>, missing:
         } else {
             known.insert(h);
         }
-    }
-}
-
-/// An upload of `image` without its texels, for the limit check before they are encoded.
-pub(crate) fn upload_header(
-    image: &antumbra_core::alpha::AlphaImage,
-    hash: u64,
-) -> antumbra_protocol::UploadImage {
-    antumbra_protocol::UploadImage {
-        hash,
-        width: image.width,
-        height: image.height,
-        texels: Default::default(),
     }
 }
 

@@ -67,7 +67,7 @@ fn mesh_hash(
 /// empty) as `upload_image` checks it.
 #[pyfunction]
 fn image_hash(py: Python<'_>, texels: &Bound<'_, PyAny>) -> PyResult<u64> {
-    image_from_array(py, texels)
+    image_from_array(py, texels, u64::MAX)
         .map(|(_, hash)| hash)
         .py_result(py)
 }

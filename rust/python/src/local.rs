@@ -299,12 +299,7 @@ impl LocalSession {
     /// As the socket session's: stores the image unless the session holds it already.
     fn upload_image(&self, py: Python<'_>, texels: &Bound<'_, PyAny>) -> PyResult<u64> {
         (|| {
-            let (image, hash) = image_from_array(py, texels)?;
-            antumbra_protocol::check_image_texels(
-                &crate::connection::upload_header(&image, hash),
-                &self.limits,
-            )
-            .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let (image, hash) = image_from_array(py, texels, self.limits.max_image_texels)?;
             let mut state = self.lock()?;
             let state = &mut *state;
             let recording = state.recorder.as_ref().is_some_and(|r| !r.has_image(hash));
