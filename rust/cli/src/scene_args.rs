@@ -12,8 +12,8 @@ use crate::scene_source::open_scene;
 #[derive(Args, Debug)]
 pub struct SceneArgs {
     /// A built-in scene (bedroom, colonnade, city, forest, hairball, indoors, instanced-forest,
-    /// character-room; "-rot45" for the rotated variant), an OBJ/glTF file, or a recording
-    /// (.antrec).
+    /// character-room, leaf-cards; "-rot45" for the rotated variant), an OBJ/glTF file, or a
+    /// recording (.antrec).
     #[arg(long)]
     pub scene: String,
     /// Frames, "A-B" or "N" (default: the scene's whole range).

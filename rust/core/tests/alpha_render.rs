@@ -239,6 +239,15 @@ fn alpha_off_and_opaque_materials_keep_todays_masks_and_counters() {
             r.stats.iter().map(|s| s.untimed()).collect::<Vec<_>>()
         };
         assert_eq!(untimed(&r), untimed(&opaque), "{width}");
+        // A slot mapped to a material no triangle uses flags nothing: the opaque path.
+        let mut unused = stripped(&scene);
+        unused.alpha = scene.alpha.clone();
+        unused.objects[0].materials = vec![None, Some(0)];
+        let mut renderer = Renderer::new();
+        let r = renderer.render("t", &unused, &on).unwrap();
+        assert!(renderer.alpha_stats().is_none());
+        assert_eq!(r.masks, opaque.masks, "{width}");
+        assert_eq!(untimed(&r), untimed(&opaque), "{width}");
         // Flagged triangles of alpha 1: the alpha path, today's answers and work.
         let mut renderer = Renderer::new();
         let ones = with_programs(&scene, AlphaProgram::constant(1.0));

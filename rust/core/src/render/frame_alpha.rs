@@ -49,6 +49,13 @@ impl FrameAlpha {
         })
     }
 
+    /// Whether no triangle of either set is flagged (a slot mapped to an alpha material that
+    /// no triangle uses): the frame then traces as an opaque one.
+    pub fn flags_nothing(&self) -> bool {
+        let none = |a: &AlphaScene| a.triangles().flagged_count() == 0;
+        none(&self.camera) && self.shadow.as_ref().is_none_or(none)
+    }
+
     /// The alpha of the shadow set.
     pub fn shadow(&self) -> &AlphaScene {
         self.shadow.as_ref().unwrap_or(&self.camera)

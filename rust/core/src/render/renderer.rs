@@ -184,7 +184,7 @@ impl Renderer {
     }
 
     /// The frame's alpha when it traces through alpha (kept while its inputs hold), on the
-    /// flat trees just prepared; two levels have none yet.
+    /// flat trees just prepared; `None` when nothing is flagged; two levels have none yet.
     fn frame_alpha(
         &mut self,
         scene: &Scene,
@@ -197,11 +197,13 @@ impl Renderer {
             return Err(two_level_alpha_error());
         };
         let (max_hits, clip) = (settings.shadow_max_hits(), settings.alpha_clip);
-        AlphaCache::get(&mut self.alpha_cache, scene, &t.geometry, max_hits, clip).map(Some)
+        let alpha = AlphaCache::get(&mut self.alpha_cache, scene, &t.geometry, max_hits, clip)?;
+        // Without a flagged triangle the passes call the opaque code, as for an opaque scene.
+        Ok((!alpha.flags_nothing()).then_some(alpha))
     }
 
     /// The alpha lookups of the last rendered frame, `None` when it traced no alpha (alpha
-    /// off, or no alpha material on any object).
+    /// off, or no triangle with an alpha material).
     pub fn alpha_stats(&self) -> Option<&AlphaFrameStats> {
         self.alpha_stats.as_ref()
     }

@@ -153,7 +153,12 @@ impl ShadowPass {
             });
         cancel.check()?;
         let trace_ms = start.elapsed().as_secs_f64() * 1e3;
-        let alpha_lookups = work.iter().map(Counters::lookups).sum();
+        // Read only where counting: an uncounted pass keeps no loop over its pixels for it.
+        let alpha_lookups = if C::COUNTING {
+            work.iter().map(Counters::lookups).sum()
+        } else {
+            0
+        };
         let work: Vec<TraversalStats> = if C::COUNTING {
             work.into_iter().map(Into::into).collect()
         } else {

@@ -86,6 +86,51 @@ pub static SCHEMA: &[Setting] = &[
             Ok(())
         },
     },
+    // Alpha.
+    Setting {
+        name: "alpha",
+        kind: Kind::Bool,
+        group: Group::Sampling,
+        help: "Trace through alpha-textured materials as Cycles does: shadows through their \
+               transparent parts, camera rays past clipped hits (docs/alpha.md); off: every \
+               triangle is opaque.",
+        get: |s| s.alpha.into(),
+        set: |s, v| {
+            s.alpha = v.as_bool();
+            Ok(())
+        },
+    },
+    Setting {
+        name: "alpha_clip",
+        kind: Kind::Float {
+            min: 0.0,
+            max: 1.0,
+            open: false,
+        },
+        group: Group::Sampling,
+        help: "Camera rays: a hit on an alpha material counts where its alpha is at least this \
+               (EEVEE's alpha clip); below it the ray goes on.",
+        get: |s| s.alpha_clip.into(),
+        set: |s, v| {
+            s.alpha_clip = v.as_float() as f32;
+            Ok(())
+        },
+    },
+    Setting {
+        name: "transparent_bounces",
+        kind: Kind::Int {
+            min: 0,
+            max: crate::render::MAX_TRANSPARENT_BOUNCES as i64,
+        },
+        group: Group::Sampling,
+        help: "Cycles' Transparent max bounces: a shadow ray passes at most this minus one \
+               transparent hits; more make it black.",
+        get: |s| s.transparent_bounces.into(),
+        set: |s, v| {
+            s.transparent_bounces = v.as_int() as u32;
+            Ok(())
+        },
+    },
     // Build.
     Setting {
         name: "build",
@@ -393,51 +438,6 @@ pub static SCHEMA: &[Setting] = &[
         get: |s| s.structure.to_string().into(),
         set: |s, v| {
             s.structure = parsed::<Pick<SceneStructure>>("scene_structure", v)?;
-            Ok(())
-        },
-    },
-    // Alpha.
-    Setting {
-        name: "alpha",
-        kind: Kind::Bool,
-        group: Group::Sampling,
-        help: "Trace through alpha-textured materials as Cycles does: shadows through their \
-               transparent parts, camera rays past clipped hits (docs/alpha.md); off: every \
-               triangle is opaque.",
-        get: |s| s.alpha.into(),
-        set: |s, v| {
-            s.alpha = v.as_bool();
-            Ok(())
-        },
-    },
-    Setting {
-        name: "alpha_clip",
-        kind: Kind::Float {
-            min: 0.0,
-            max: 1.0,
-            open: false,
-        },
-        group: Group::Sampling,
-        help: "Camera rays: a hit on an alpha material counts where its alpha is at least this \
-               (EEVEE's alpha clip); below it the ray goes on.",
-        get: |s| s.alpha_clip.into(),
-        set: |s, v| {
-            s.alpha_clip = v.as_float() as f32;
-            Ok(())
-        },
-    },
-    Setting {
-        name: "transparent_bounces",
-        kind: Kind::Int {
-            min: 0,
-            max: crate::render::MAX_TRANSPARENT_BOUNCES as i64,
-        },
-        group: Group::Sampling,
-        help: "Cycles' Transparent max bounces: a shadow ray passes at most this minus one \
-               transparent hits; more make it black.",
-        get: |s| s.transparent_bounces.into(),
-        set: |s, v| {
-            s.transparent_bounces = v.as_int() as u32;
             Ok(())
         },
     },
