@@ -2,8 +2,8 @@
 material slots and UV maps, alpha images uploaded once by hash, frames with the exporter's
 material contracts; missing images reported and named; the daemon's own recording of the
 session reads back with the images and materials (so the scenes it built carry the alpha); bad
-input named, and the daemon keeps serving. The renderer does not read alpha yet: renders only
-have to run."""
+input named, and the daemon keeps serving. What the renderer makes of alpha is
+test_alpha_render.py's."""
 
 from __future__ import annotations
 
