@@ -80,6 +80,22 @@ pub static KNOBS: &[Knob] = &[
         values: &["25", "50", "75", "100"],
     },
     Knob {
+        name: "transparent_bounces",
+        kind: KnobKind::Image,
+        trades: "transparent hits a shadow ray passes (Cycles' Transparent bounces) against shadows too dark behind layers of leaves",
+        base: SORTED8,
+        target: Target::Setting("transparent_bounces"),
+        values: &["1", "2", "4", "8", "16", "64"],
+    },
+    Knob {
+        name: "alpha",
+        kind: KnobKind::Image,
+        trades: "alpha-textured cards cast whole (no alpha lookups) against light through their transparent parts",
+        base: SORTED8,
+        target: Target::Setting("alpha"),
+        values: &["false", "true"],
+    },
+    Knob {
         name: "sort_budget",
         kind: KnobKind::Work,
         trades: "representative rays traced to sort a light's tree against a better order",
