@@ -199,6 +199,7 @@ def run(argv: list[str]) -> int:
 
     def progress(job: RenderJob, done):
         n = len(job.done) + len(job.skipped)
+        say_warnings(done)
         print(
             f"antumbra: frame {done.frame} ({n}/{len(job.frames)}) {done.seconds:.2f} s "
             f"(export {done.export_seconds:.3f} s) | " + " | ".join(done.stats_lines),
@@ -345,11 +346,18 @@ def run_trade(args, scene, frames, options, out: Path, client, link) -> int:
 # what the folder holds, said and summed up in the same words but for the verb.
 
 
+def say_warnings(done) -> None:
+    """A frame's export warnings (each said once per job), on stderr."""
+    for w in done.warnings:
+        print(f"antumbra: warning: {w}", file=sys.stderr, flush=True)
+
+
 def sweep_job(args, scene, frames, options, link, folder: Path, report) -> dict:
     """The arguments a comparison's and a trade's job share (the batch loads no images)."""
 
     def progress(job: CompareJob, done):
         n = len(job.done) + len(job.skipped)
+        say_warnings(done)
         print(
             f"antumbra: frame {done.frame} ({n}/{len(job.frames)}) {done.seconds:.2f} s | "
             + " | ".join(done.stats_lines),

@@ -518,3 +518,78 @@ def test_panel_in_a_real_window_draws_every_setting(addon_zips, short_tmp):
     assert out.exists(), done.stdout[-3000:] + done.stderr[-3000:]
     report = json.loads(out.read_text())
     assert report["schema"] and sorted(report["drawn"]) == sorted(report["schema"])
+
+
+def alpha_material(name, alpha=None, image=None, noise=False):
+    """A Principled BSDF whose Alpha is a constant, an image's alpha or a Noise Texture."""
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    tree = material.node_tree
+    bsdf = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    if alpha is not None:
+        bsdf.inputs["Alpha"].default_value = alpha
+    if image is not None:
+        texture = tree.nodes.new("ShaderNodeTexImage")
+        texture.image = image
+        texture.interpolation = "Closest"
+        tree.links.new(texture.outputs["Alpha"], bsdf.inputs["Alpha"])
+    if noise:
+        texture = tree.nodes.new("ShaderNodeTexNoise")
+        tree.links.new(texture.outputs["Fac"], bsdf.inputs["Alpha"])
+    return material
+
+
+def card(scene, name, location, material):
+    """A 2 x 2 quad facing up with UVs (0, 0)-(1, 1) and MATERIAL."""
+    quad = ([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)])
+    obj = add_mesh(scene, name, *quad, location=location)
+    layer = obj.data.uv_layers.new(name="UVMap")
+    layer.data.foreach_set("uv", [0, 0, 1, 0, 1, 1, 0, 1])
+    obj.data.materials.append(material)
+    return obj
+
+
+@pytest.mark.bpy
+def test_alpha_materials_travel_with_their_meshes_and_warnings_are_said_once():
+    scene = empty_scene()
+    add_mesh(scene, "Ground", *GROUND)
+    add_light(scene, "Sun", "SUN", angle=0.0)
+    leaf = bpy.data.images.new("Leaf", 2, 1, alpha=True)
+    leaf.pixels.foreach_set([1, 1, 1, 1, 1, 1, 1, 0])  # opaque left, transparent right
+    card(scene, "Glass", (-3, 0, 1), alpha_material("Glass", alpha=0.5))
+    card(scene, "Card", (3, 0, 1), alpha_material("Leaf", image=leaf))
+    card(scene, "Noisy", (0, 3, 1), alpha_material("Noisy", noise=True))
+    exporter = export.Exporter(client)
+    e, _ = export_now(scene, exporter)
+    objects = by_name(e)
+    # Opaque objects travel as before; the unsupported graph is opaque, with a warning once.
+    assert "materials" not in objects["Ground"] and "materials" not in objects["Noisy"]
+    assert len(e.warnings) == 1 and "material 'Noisy'" in e.warnings[0], e.warnings
+    assert "ShaderNodeTexNoise" in e.warnings[0] and "exported opaque" in e.warnings[0]
+    names = [m["name"] for m in e.alpha.materials]
+    assert sorted(names) == ["Glass", "Leaf"]
+    glass, leaf_material = (e.alpha.materials[names.index(n)] for n in ("Glass", "Leaf"))
+    assert glass == {"name": "Glass", "kind": "constant", "alpha": 0.5}
+    assert leaf_material["kind"] == "texture" and leaf_material["interpolation"] == "Closest"
+    assert objects["Glass"]["materials"] == [names.index("Glass")]
+    assert objects["Card"]["materials"] == [names.index("Leaf")]
+    texels = e.alpha.images[leaf_material["image"]]
+    assert texels.shape == (1, 2) and texels.tolist() == [[1.0, 0.0]]
+    card_mesh = e.meshes[objects["Card"]["mesh_hash"]]
+    assert card_mesh.material_slots.tolist() == [0, 0]
+    assert list(card_mesh.uv_maps) == [leaf_material["uv_map"]]
+    assert e.meshes[objects["Noisy"]["mesh_hash"]].material_slots is None
+
+    e2, _ = export_now(scene, exporter)
+    assert e2.warnings == [] and e2.alpha.warnings == e.alpha.warnings
+    assert e2.extracted == 0  # the static meshes' slots and UVs came from the cache
+    assert by_name(e2)["Card"]["mesh_hash"] == objects["Card"]["mesh_hash"]
+
+    with client.LocalSession() as session:
+        export.send(session, e)
+        lit = session.render(e.frame, spp=1, passes=("masks",), alpha_clip=0.6).masks["Sun"]
+        whole = session.render(e.frame, spp=1, passes=("masks",), alpha=False).masks["Sun"]
+    # The glass casts 0.5 (the camera sees the ground through it); alpha off casts black.
+    assert np.count_nonzero(lit == 0.5) > 20
+    assert np.count_nonzero(whole == 0.5) == 0
+    assert np.count_nonzero(whole == 0.0) > np.count_nonzero(lit == 0.0)

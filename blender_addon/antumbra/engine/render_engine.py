@@ -177,6 +177,9 @@ class AntumbraRenderEngine(bpy.types.RenderEngine):
         self._write_result(depsgraph.view_layer.name, done.result)
         if self.is_animation:
             job.pending[frame] = results.frame_record(done, job.key)
+        for w in done.warnings:
+            self.report({"WARNING"}, f"antumbra: {w}")
+            _say(f"warning: {w}")
         _say(f"frame {frame} {done.seconds:.2f} s | " + " | ".join(done.stats_lines))
 
     # -- one frame, through the frame job ----------------------------------------------------

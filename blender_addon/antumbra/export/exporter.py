@@ -68,6 +68,9 @@ class FrameExport:
     #: The alpha materials the objects' and arrays' ``materials`` refer to, and the image
     #: arrays they read (see ``alpha_frame``).
     alpha: FrameAlpha = field(default_factory=FrameAlpha)
+    #: The frame's export warnings not said before in this job (an unsupported node, an
+    #: unreadable image, an absent UV map), each said once per job.
+    warnings: list[str] = field(default_factory=list)
 
     def placements(self) -> int:
         """Objects and instances: what the frame places."""
@@ -333,6 +336,8 @@ class Exporter:
     #: ``object_alpha``'s image arrays, read once per job, and their content hashes.
     images: dict = field(default_factory=dict)
     image_hashes: dict = field(default_factory=dict)
+    #: Warnings said in this job.
+    said: set = field(default_factory=set)
     _extracted: int = 0
 
     def frame(self, depsgraph, scene, frame: int, percentage: int) -> FrameExport:
@@ -392,7 +397,13 @@ class Exporter:
             extracted=self._extracted,
             instances=arrays,
             alpha=alpha,
+            warnings=self._first_said(alpha.warnings),
         )
+
+    def _first_said(self, warnings: list[str]) -> list[str]:
+        new = [w for w in warnings if w not in self.said]
+        self.said.update(new)
+        return new
 
     def _alpha(self, group, depsgraph, instanced: bool, alpha: FrameAlpha, known: dict):
         """The group's slots as the frame's alpha material indices, and its mesh's slots and

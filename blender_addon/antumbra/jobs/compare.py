@@ -122,6 +122,7 @@ class CompareJob(RenderJob):
             files=[],
             objects=work.export.placements(),
             triangles=work.export.triangles,
+            warnings=work.export.warnings,
         )
         self.done.append(done)
         if self.on_frame is not None:

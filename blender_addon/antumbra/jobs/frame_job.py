@@ -103,6 +103,8 @@ class FrameDone:
     files: list[str]
     objects: int
     triangles: int
+    #: Export warnings first said at this frame (``FrameExport.warnings``).
+    warnings: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -328,6 +330,7 @@ class RenderJob:
             files=files,
             objects=work.export.placements(),
             triangles=work.export.triangles,
+            warnings=work.export.warnings,
         )
         if self.out_dir is not None:
             results.write_frame_stats(self.out_dir, results.frame_record(done, self.key))
