@@ -54,6 +54,7 @@ STATS_COLUMNS = {
     "nts_per_ray",
     "auto_choice",
     "auto_estimate_ms",
+    "alpha_lookups_per_ray",
 }
 
 

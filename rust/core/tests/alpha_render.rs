@@ -159,6 +159,25 @@ fn every_method_equals_brute_force_bit_for_bit() {
     assert!(first.masks[2].data.iter().any(|&v| v > 0.0 && v < 1.0));
     let lookups = renderer.alpha_stats().expect("alpha traced");
     assert!(lookups.primary > 0 && lookups.shadow.iter().all(|(_, n)| *n > 0));
+    // The rows say the same per ray.
+    for row in &first.stats {
+        let n = match row.pass.as_str() {
+            "primary" => lookups.primary,
+            _ => {
+                lookups
+                    .shadow
+                    .iter()
+                    .find(|(l, _)| *l == row.light)
+                    .unwrap()
+                    .1
+            }
+        };
+        assert_eq!(
+            row.alpha_lookups_per_ray,
+            n as f64 / row.rays as f64,
+            "{row:?}"
+        );
+    }
     let orders = [
         "stored",
         "fbto",
@@ -255,7 +274,15 @@ fn alpha_off_and_opaque_materials_keep_todays_masks_and_counters() {
         assert!(renderer.alpha_stats().is_some_and(|a| a.primary > 0));
         assert_eq!(r.masks, opaque.masks, "{width}");
         assert_eq!(r.primary_hits, opaque.primary_hits);
-        assert_eq!(untimed(&r), untimed(&opaque), "{width}");
+        // The same rows but the lookups, which only the alpha path makes.
+        assert!(r.stats.iter().all(|s| s.alpha_lookups_per_ray > 0.0));
+        assert!(opaque.stats.iter().all(|s| s.alpha_lookups_per_ray == 0.0));
+        let without_lookups = |r: &antumbra_core::render::FrameResult| {
+            let mut rows = untimed(r);
+            rows.iter_mut().for_each(|s| s.alpha_lookups_per_ray = 0.0);
+            rows
+        };
+        assert_eq!(without_lookups(&r), untimed(&opaque), "{width}");
     }
 }
 

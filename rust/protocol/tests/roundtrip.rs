@@ -296,6 +296,7 @@ fn stats_row() -> impl Strategy<Value = StatsRowState> {
                 nts_per_ray: nb,
                 auto_choice: format!("explore:{frame}"),
                 auto_estimate_ms: nl,
+                alpha_lookups_per_ray: nt,
             },
         )
 }

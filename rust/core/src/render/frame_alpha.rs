@@ -10,6 +10,7 @@ use std::sync::Arc;
 use crate::alpha::AlphaImage;
 use crate::scene::{AlphaMaterial, FrameGeometry, Scene, TriangleSet};
 use crate::srdh::SrdhBvh;
+use crate::stats::StatsRow;
 use crate::trace::{forward_alpha_query, AlphaQuery, Counters, Hit, OrderedBinary, RayQuery};
 use crate::{Error, Result};
 
@@ -62,9 +63,8 @@ impl FrameAlpha {
     }
 }
 
-/// A frame's alpha lookups, from its counted passes (0 in timed-only frames): the alpha
-/// statistics of a frame, beside its rows ([`crate::stats::StatsRow`]'s columns are pinned by
-/// the protocol and the Python client, so they live here: [`super::Renderer::alpha_stats`]).
+/// A frame's alpha lookups, from its counted passes (0 in timed-only frames), as totals
+/// ([`super::Renderer::alpha_stats`]); the rows get them per ray (`alpha_lookups_per_ray`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct AlphaFrameStats {
     pub frame: i32,
@@ -72,6 +72,25 @@ pub struct AlphaFrameStats {
     pub primary: u64,
     /// Per shadow-casting light, by name: its shadow rays' alpha evaluations.
     pub shadow: Vec<(String, u64)>,
+}
+
+impl AlphaFrameStats {
+    /// Writes the lookups per ray into the frame's rows: the primary row's from the camera
+    /// rays, each shadow row's from its light's rays.
+    pub fn fill_rows(&self, rows: &mut [StatsRow]) {
+        for row in rows {
+            let lookups = if row.pass == "primary" {
+                Some(self.primary)
+            } else {
+                (self.shadow.iter())
+                    .find(|(light, _)| *light == row.light)
+                    .map(|&(_, n)| n)
+            };
+            if let Some(n) = lookups {
+                row.alpha_lookups_per_ray = n as f64 / row.rays.max(1) as f64;
+            }
+        }
+    }
 }
 
 /// The last frame's alpha, kept while what it was made from holds: the same geometry (so the

@@ -176,6 +176,9 @@ impl Renderer {
         }
         self.shadow_rays += shadows.rays;
         let mut result = combine(scene, trees, primary, primary_row, shadows, settings);
+        if let Some(stats) = &self.alpha_stats {
+            stats.fill_rows(&mut result.stats);
+        }
         if result.structure == SceneStructure::TwoLevel {
             mark_two_level_rows(&mut result.stats, settings);
         }
