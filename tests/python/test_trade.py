@@ -187,7 +187,8 @@ def test_bad_knobs_are_refused_naming_them(recording, knobs, named):
 
 def test_knobs_are_the_core_s_table():
     names = [k["name"] for k in antumbra.KNOBS]
-    assert names[:3] == ["spp", "resolution", "sort_budget"] and len(set(names)) == len(names)
+    assert names[:5] == ["spp", "resolution", "transparent_bounces", "alpha", "sort_budget"]
+    assert len(set(names)) == len(names)
     for k in antumbra.KNOBS:
         assert k["kind"] in ("image", "work") and k["trades"] and k["base"], k
         assert all(isinstance(v, str) for v in k["values"]), k
