@@ -21,7 +21,9 @@ import tempfile
 
 SCENES = ["bedroom", "city", "colonnade", "forest", "hairball", "indoors"]
 # The columns of a statistics row that are time the frame spent (trace_ms of a timed pass).
-TIME_COLUMNS = ["build_ms", "visibility_ms", "sort_ms", "trace_ms"]
+TIME_COLUMNS = ["build_ms", "visibility_ms", "prepare_ms", "trace_ms"]
+# Binaries before protocol 6 called prepare_ms sort_ms.
+OLD_NAMES = {"prepare_ms": "sort_ms"}
 
 
 def frame_times(binary: str, scene: str, args: argparse.Namespace) -> dict[int, float]:
@@ -37,7 +39,7 @@ def frame_times(binary: str, scene: str, args: argparse.Namespace) -> dict[int, 
         rows = json.load(f)
     times: dict[int, float] = {}
     for row in rows:
-        spent = sum(float(row.get(c) or 0.0) for c in TIME_COLUMNS)
+        spent = sum(float(row.get(c) or row.get(OLD_NAMES.get(c, c)) or 0.0) for c in TIME_COLUMNS)
         times[row["frame"]] = times.get(row["frame"], 0.0) + spent
     return times
 

@@ -51,14 +51,20 @@ def render_antumbra(scene, client, transparent_bounces: int) -> tuple[list[str],
     exported = export.Exporter(client).frame(depsgraph, scene, scene.frame_current, 100)
     export.send(session, exported)
     arrays = {}
-    # Also every card opaque (alpha off): what antumbra cast before issue 38, the sensitivity.
-    for suffix, alpha in (("", True), ("_opaque", False)):
+    # Also every card opaque (alpha off): what antumbra cast before issue 38, the sensitivity;
+    # and the same frame on two levels (a tree per shared mesh, the rest in the static group).
+    for suffix, alpha, structure in (
+        ("", True, "flat"),
+        ("_opaque", False, "flat"),
+        ("_two_level", True, "two-level"),
+    ):
         result = session.render(
             exported.frame,
             spp=1,
             passes=("masks", "object_ids"),
             alpha=alpha,
             transparent_bounces=transparent_bounces,
+            scene_structure=structure,
         )
         arrays.setdefault("object_ids", result.object_ids)
         for light in ("Sun", "Lamp"):

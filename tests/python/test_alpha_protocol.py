@@ -100,7 +100,7 @@ def test_hashes_cover_slots_uvs_and_texels():
 
 def test_alpha_frame_on_a_daemon_and_its_recording(recorded):
     client, rec = recorded
-    assert client.protocol_version == 5
+    assert client.protocol_version == 6
     card_hash = upload_card(client)
     positions, triangles, slots, uv_maps = card()
     assert card_hash == antumbra.mesh_hash(positions, triangles, None, slots, uv_maps)

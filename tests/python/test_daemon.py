@@ -26,7 +26,7 @@ from conftest import (
 )
 
 # Columns that measure time, which differ between two renders of the same frame.
-TIMED = {"build_ms", "trace_ms", "mrays_per_s", "sort_ms", "visibility_ms"}
+TIMED = {"build_ms", "trace_ms", "mrays_per_s", "prepare_ms", "visibility_ms"}
 
 
 def assert_same_result(a: antumbra.Result, b: antumbra.Result) -> None:

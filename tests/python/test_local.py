@@ -47,7 +47,7 @@ STATS_COLUMNS = {
     "nbox_per_ray",
     "back_facing",
     "unreached",
-    "sort_ms",
+    "prepare_ms",
     "references",
     "visible_input",
     "visibility_ms",
@@ -230,12 +230,12 @@ def test_width_and_order_change_work_not_masks(scene):
         )
         shadow = [s for s in r.stats if s["pass"] == "shadow"]
         assert shadow and all(s["method"].startswith(f"sah/bin{width}/") for s in shadow)
-        # sort_ms: the per-light preparation (sorting, or the SRDH ray set and build); a
+        # prepare_ms: the per-light preparation (sorting, or the SRDH ray set and build); a
         # per-tree order (sato, rtsah) is made once for all lights, reported on the first row.
         per_light = order.startswith(("sorted", "srdh"))
         per_tree = order in ("sato", "rtsah")
         assert len(shadow) > 1
-        assert [s["sort_ms"] > 0 for s in shadow] == [
+        assert [s["prepare_ms"] > 0 for s in shadow] == [
             per_light or (per_tree and i == 0) for i in range(len(shadow))
         ]
 

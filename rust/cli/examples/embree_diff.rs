@@ -8,12 +8,11 @@ use antumbra_cli::example_args::{ExampleFrame, FrameArgs, FrameDefaults};
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::{intersect_triangle, WatertightRay};
-use antumbra_core::order::AnyHitOrder;
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
 };
 use antumbra_core::scene::ImageSize;
-use antumbra_core::trace::{brute_occluded, closest_hit, occluded, NoStats};
+use antumbra_core::trace::{brute_occluded, NoStats, RayQuery};
 use antumbra_embree::{EmbreeQuality, EmbreeScene};
 use clap::Parser;
 
@@ -50,7 +49,7 @@ fn main() -> anyhow::Result<()> {
         };
         for ray in shadow_rays(&pass, &sampler, plan) {
             total += 1;
-            let ours = occluded(&bvh, &ray, AnyHitOrder::NearFirst, &mut NoStats);
+            let ours = bvh.occluded(&ray, &mut NoStats);
             if ours == embree.occluded(&ray) {
                 continue;
             }
@@ -60,7 +59,7 @@ fn main() -> anyhow::Result<()> {
                 light.name,
                 !ours,
                 brute_occluded(tris, &ray),
-                closest_hit(&bvh, &ray, &mut NoStats).map(|h| (h.t, h.triangle)),
+                bvh.closest_hit(&ray, &mut NoStats).map(|h| (h.t, h.triangle)),
                 embree.intersect(&ray),
             );
             if let Some((t, id)) = embree.intersect(&ray) {

@@ -15,35 +15,34 @@ use antumbra_cli::shadow_lights::{shadow_lights, ShadowLight};
 use antumbra_core::build::BuildSettings;
 use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::ShadowOrder;
 use antumbra_core::order::SrdhSettings;
-use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::order::{OrderView, PreparedOrder};
 use antumbra_core::render::{representative_rays, shadow_rays, srdh_for_light};
 use antumbra_core::scene::ImageSize;
 use antumbra_core::srdh::SrdhBvh;
-use antumbra_core::trace::occluded_with;
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
-use antumbra_core::trace::{occluded, NoStats};
+use antumbra_core::trace::{NoStats, RayQuery};
 use clap::Parser;
 
 #[inline(never)]
 fn trace_binary(bvh: &Bvh, rays: &[Ray]) -> usize {
     rays.iter()
-        .filter(|r| occluded(bvh, r, AnyHitOrder::NearFirst, &mut NoStats))
+        .filter(|r| bvh.occluded(r, &mut NoStats))
         .count()
 }
 
 #[inline(never)]
 fn trace_wide(bvh: &WideBvh<8>, rays: &[Ray], order: OrderView) -> usize {
     rays.iter()
-        .filter(|r| bvh.occluded(r, order, BoxKernel::Auto, &mut NoStats))
+        .filter(|r| WideQueries::occluded(bvh, r, order, BoxKernel::Auto, &mut NoStats))
         .count()
 }
 
 #[inline(never)]
 fn trace_srdh(tree: &SrdhBvh, rays: &[Ray]) -> usize {
     rays.iter()
-        .filter(|r| occluded_with(&tree.bvh, &tree.kernels, r, &mut NoStats))
+        .filter(|r| tree.occluded(r, &mut NoStats))
         .count()
 }
 

@@ -40,7 +40,7 @@ struct Light {
 struct Measured {
     stats: TraversalStats,
     rays: u64,
-    sort_ms: f64,
+    prepare_ms: f64,
 }
 
 fn measure<const N: usize>(
@@ -55,7 +55,7 @@ where
     let mut m = Measured {
         stats: TraversalStats::default(),
         rays: 0,
-        sort_ms: 0.0,
+        prepare_ms: 0.0,
     };
     for light in lights {
         let budget = match order {
@@ -73,7 +73,7 @@ where
             .build()
             .expect("pool")
             .install(|| PreparedOrder::new(bvh, order, Some(tables), reps, BoxKernel::Auto));
-        m.sort_ms += prepared.sort_ms();
+        m.prepare_ms += prepared.prepare_ms();
         let view = prepared.view();
         let stats = light
             .rays
@@ -91,7 +91,7 @@ where
         m.stats += stats;
         m.rays += light.rays.len() as u64;
     }
-    m.sort_ms /= lights.len().max(1) as f64;
+    m.prepare_ms /= lights.len().max(1) as f64;
     m
 }
 
@@ -250,7 +250,7 @@ fn main() -> anyhow::Result<()> {
                     per_ray(m.stats.inner, m.rays),
                     per_ray(m.stats.leaves, m.rays),
                     per_ray(m.stats.triangles, m.rays),
-                    m.sort_ms
+                    m.prepare_ms
                 );
             }
         }
@@ -318,7 +318,7 @@ fn main() -> anyhow::Result<()> {
                 print!(
                     " {:.2} / {:.1} |",
                     per_ray(m.stats.inner, m.rays),
-                    m.sort_ms
+                    m.prepare_ms
                 );
             }
             println!();

@@ -25,20 +25,20 @@ use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::{Bvh, WideBvh};
 use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
+use antumbra_core::order::ShadowOrder;
 use antumbra_core::order::{
     rtsah_kernels, ChildOrder as KernelSource, Kernel, KernelSet, RandomKernel, RaySetSource,
     SrdhSettings, Uniform,
 };
-use antumbra_core::order::{AnyHitOrder, ShadowOrder};
 use antumbra_core::order::{PreparedOrder, SortTables};
 use antumbra_core::render::{
     shadow_rays, srdh_for_light, srdh_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
 };
 use antumbra_core::scene::ImageSize;
 use antumbra_core::srdh::{build_srdh, RaySet};
+use antumbra_core::trace::occluding_leaf;
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
-use antumbra_core::trace::{occluded, NoStats, TraversalStats};
-use antumbra_core::trace::{occluded_with, occluding_leaf};
+use antumbra_core::trace::{NoStats, RayQuery, TraversalStats};
 use clap::Parser;
 use rayon::prelude::*;
 
@@ -114,7 +114,7 @@ fn split_wide(bvh: &WideBvh<8>, order: &PreparedOrder, rays: &[Ray]) -> Split {
         .with_min_len(256)
         .map(|r| {
             let mut s = TraversalStats::default();
-            if bvh.occluded(r, view, BoxKernel::Auto, &mut s) {
+            if WideQueries::occluded(bvh, r, view, BoxKernel::Auto, &mut s) {
                 Split {
                     faux: s.boxes,
                     ..Split::default()
@@ -265,7 +265,7 @@ fn counts(
         let rays = &light.rays;
         occluded_rays += rays
             .par_iter()
-            .filter(|r| occluded(&sah, r, AnyHitOrder::NearFirst, &mut NoStats))
+            .filter(|r| sah.occluded(r, &mut NoStats))
             .count();
         add(
             "random",
@@ -443,7 +443,7 @@ fn wall(
         let rays = &light.rays;
         let fbto = best_of(3, || {
             rays.par_iter().with_min_len(256).for_each(|r| {
-                std::hint::black_box(occluded(&sah, r, AnyHitOrder::NearFirst, &mut NoStats));
+                std::hint::black_box(sah.occluded(r, &mut NoStats));
             })
         });
         let l = srdh_for_light(
@@ -465,7 +465,7 @@ fn wall(
         };
         let srdh_trace = best_of(3, || {
             rays.par_iter().with_min_len(256).for_each(|r| {
-                std::hint::black_box(occluded_with(&tree.bvh, &tree.kernels, r, &mut NoStats));
+                std::hint::black_box(tree.occluded(r, &mut NoStats));
             })
         });
         // The same rays with 4-triangle leaves: fewer, cheaper steps for the timed path.
@@ -485,7 +485,7 @@ fn wall(
         let t4 = l4.tree.as_ref().expect("same rays as above");
         let leaf4_trace = best_of(3, || {
             rays.par_iter().with_min_len(256).for_each(|r| {
-                std::hint::black_box(occluded_with(&t4.bvh, &t4.kernels, r, &mut NoStats));
+                std::hint::black_box(t4.occluded(r, &mut NoStats));
             })
         });
         let t = Instant::now();
@@ -496,7 +496,13 @@ fn wall(
         let view = prepared.view();
         let sorted_trace = best_of(3, || {
             rays.par_iter().with_min_len(256).for_each(|r| {
-                std::hint::black_box(wide.occluded(r, view, BoxKernel::Auto, &mut NoStats));
+                std::hint::black_box(WideQueries::occluded(
+                    &wide,
+                    r,
+                    view,
+                    BoxKernel::Auto,
+                    &mut NoStats,
+                ));
             })
         });
         let (a, b) = (l.ms + srdh_trace, sorted_prep + sorted_trace);

@@ -173,7 +173,7 @@ fn lights_with_few_rays_are_traced_with_nothing_prepared() {
         assert!(!shadow.is_empty());
         for s in shadow {
             assert_eq!(
-                (s.auto_choice.as_str(), s.sort_ms),
+                (s.auto_choice.as_str(), s.prepare_ms),
                 ("fbto", 0.0),
                 "{name} frame {} light {}",
                 s.frame,

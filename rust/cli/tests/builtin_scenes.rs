@@ -14,7 +14,9 @@ use antumbra_core::render::{
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::scene::{FrameGeometry, Resolution};
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
-use antumbra_core::trace::{brute_closest_hit, brute_occluded, closest_hit, occluded, NoStats};
+use antumbra_core::trace::{
+    brute_closest_hit, brute_occluded, BinaryInOrder, NoStats, OrderedBinary, RayQuery,
+};
 use antumbra_scenes::{builtin, SceneParams, BUILTIN_SCENES};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -93,12 +95,19 @@ fn every_builtin_scene_matches_brute_force() {
                 .par_iter()
                 .enumerate()
                 .filter(|(_, ray)| {
-                    let h = closest_hit(&bvh, ray, &mut NoStats).map(|h| (h.triangle, h.t));
+                    let h = bvh
+                        .closest_hit(ray, &mut NoStats)
+                        .map(|h| (h.triangle, h.t));
                     let b = brute_closest_hit(tris, ray).map(|h| (h.triangle, h.t));
                     let occ = brute_occluded(tris, ray);
                     h != b
-                        || occluded(&bvh, ray, AnyHitOrder::NearFirst, &mut NoStats) != occ
-                        || occluded(&bvh, ray, AnyHitOrder::Stored, &mut NoStats) != occ
+                        || bvh.occluded(ray, &mut NoStats) != occ
+                        || OrderedBinary {
+                            bvh: &bvh,
+                            order: AnyHitOrder::Stored,
+                        }
+                        .occluded(ray, &mut NoStats)
+                            != occ
                 })
                 .map(|(i, _)| i)
                 .collect();
@@ -108,9 +117,9 @@ fn every_builtin_scene_matches_brute_force() {
                     "{name} rotated={rotated}: {} of {} rays differ; first {ray:?}: bvh {:?} brute {:?}, occluded bvh {} brute {}",
                     mismatches.len(),
                     rays.len(),
-                    closest_hit(&bvh, ray, &mut NoStats),
+                    bvh.closest_hit(ray, &mut NoStats),
                     brute_closest_hit(tris, ray),
-                    occluded(&bvh, ray, AnyHitOrder::NearFirst, &mut NoStats),
+                    bvh.occluded(ray, &mut NoStats),
                     brute_occluded(tris, ray),
                 );
             }
@@ -207,7 +216,9 @@ fn check_tree<const N: usize>(
         let differ = primary
             .par_iter()
             .zip(ids)
-            .filter(|(r, id)| wide.closest_hit(r, k, &mut NoStats).map(|h| h.triangle) != **id)
+            .filter(|(r, id)| {
+                WideQueries::closest_hit(wide, r, k, &mut NoStats).map(|h| h.triangle) != **id
+            })
             .count();
         assert_eq!(differ, 0, "{label} N={N} {k:?}: closest-hit ids differ");
         // Packets of 16 neighbouring camera rays (rows of pixels) answer as single rays do.
@@ -235,7 +246,9 @@ fn check_tree<const N: usize>(
             let differ = shadow
                 .par_iter()
                 .zip(occ)
-                .filter(|(r, o)| wide.occluded(r, prepared.view(), k, &mut NoStats) != **o)
+                .filter(|(r, o)| {
+                    WideQueries::occluded(wide, r, prepared.view(), k, &mut NoStats) != **o
+                })
                 .count();
             assert_eq!(differ, 0, "{label} N={N} {order} {k:?}: occlusion differs");
             // Packets of the frame's shadow rays, light by light in pixel order.
@@ -261,7 +274,6 @@ fn srdh_trees_match_brute_force_on_every_builtin_scene() {
     };
     use antumbra_core::render::srdh_rays;
     use antumbra_core::srdh::{build_srdh, RaySet};
-    use antumbra_core::trace::occluded_with;
     for name in BUILTIN_SCENES {
         for rotated in [false, true] {
             let params = SceneParams {
@@ -310,9 +322,7 @@ fn srdh_trees_match_brute_force_on_every_builtin_scene() {
                     let wrong = rays
                         .par_iter()
                         .zip(&occ)
-                        .filter(|(r, o)| {
-                            occluded_with(&tree.bvh, &tree.kernels, r, &mut NoStats) != **o
-                        })
+                        .filter(|(r, o)| tree.occluded(r, &mut NoStats) != **o)
                         .count();
                     assert_eq!(wrong, 0, "{name} rotated={rotated} light {i} {source:?}");
                 }
@@ -320,10 +330,23 @@ fn srdh_trees_match_brute_force_on_every_builtin_scene() {
                     .par_iter()
                     .zip(&occ)
                     .filter(|(r, o)| {
-                        occluded_with(&bvh, &rtsah, r, &mut NoStats) != **o
-                            || occluded_with(&bvh, &RandomKernel { seed: 2 }, r, &mut NoStats)
+                        BinaryInOrder {
+                            bvh: &bvh,
+                            order: &rtsah,
+                        }
+                        .occluded(r, &mut NoStats)
+                            != **o
+                            || BinaryInOrder {
+                                bvh: &bvh,
+                                order: &RandomKernel { seed: 2 },
+                            }
+                            .occluded(r, &mut NoStats)
                                 != **o
-                            || occluded_with(&bvh, &Uniform(Kernel::BackToFront), r, &mut NoStats)
+                            || BinaryInOrder {
+                                bvh: &bvh,
+                                order: &Uniform(Kernel::BackToFront),
+                            }
+                            .occluded(r, &mut NoStats)
                                 != **o
                     })
                     .count();

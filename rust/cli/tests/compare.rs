@@ -28,7 +28,7 @@ const TIMING: [&str; 6] = [
     "trace_ms",
     "mrays_per_s",
     "timed_without_counters",
-    "sort_ms",
+    "prepare_ms",
     "visibility_ms",
 ];
 

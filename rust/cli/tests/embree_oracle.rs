@@ -10,13 +10,13 @@ use antumbra_core::bvh::WideBvh;
 use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::PreparedOrder;
-use antumbra_core::order::{AnyHitOrder, ShadowOrder};
+use antumbra_core::order::ShadowOrder;
 use antumbra_core::render::{
     samples_for, shadow_rays, LightSampler, PrimaryPass, PrimaryRays, SamplePlan,
 };
 use antumbra_core::scene::{FrameGeometry, Resolution};
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
-use antumbra_core::trace::{closest_hit, occluded, NoStats};
+use antumbra_core::trace::{NoStats, RayQuery};
 use antumbra_embree::{EmbreeQuality, EmbreeScene};
 use antumbra_scenes::{builtin, SceneParams, BUILTIN_SCENES};
 
@@ -53,9 +53,7 @@ fn occlusion_agrees_with_embree_on_every_builtin_scene() {
         }
         let occ_diff = shadow
             .iter()
-            .filter(|r| {
-                occluded(&bvh, r, AnyHitOrder::NearFirst, &mut NoStats) != embree.occluded(r)
-            })
+            .filter(|r| bvh.occluded(r, &mut NoStats) != embree.occluded(r))
             .count();
         let mut id_diff = 0;
         let mut primary = 0;
@@ -63,7 +61,7 @@ fn occlusion_agrees_with_embree_on_every_builtin_scene() {
             for x in 0..160 {
                 let ray = camera.ray(x, y);
                 primary += 1;
-                let ours = closest_hit(&bvh, &ray, &mut NoStats).map(|h| h.triangle);
+                let ours = bvh.closest_hit(&ray, &mut NoStats).map(|h| h.triangle);
                 let theirs = embree.intersect(&ray).map(|(_, id)| id);
                 if ours != theirs {
                     id_diff += 1;
@@ -99,7 +97,7 @@ fn occlusion_agrees_with_embree_on_every_builtin_scene() {
         let wide_diff = shadow
             .iter()
             .filter(|r| {
-                wide.occluded(r, prepared.view(), BoxKernel::Auto, &mut NoStats)
+                WideQueries::occluded(&wide, r, prepared.view(), BoxKernel::Auto, &mut NoStats)
                     != embree.occluded(r)
             })
             .count();
@@ -109,7 +107,7 @@ fn occlusion_agrees_with_embree_on_every_builtin_scene() {
         for y in 0..90 {
             for x in 0..160 {
                 let ray = camera.ray(x, y);
-                let ours = wide4.closest_hit(&ray, BoxKernel::Auto, &mut NoStats);
+                let ours = WideQueries::closest_hit(&wide4, &ray, BoxKernel::Auto, &mut NoStats);
                 let theirs = embree.intersect(&ray).map(|(_, id)| id);
                 wide_ids_diff += (ours.map(|h| h.triangle) != theirs) as usize;
             }

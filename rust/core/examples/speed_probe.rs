@@ -1,9 +1,8 @@
 //! Quick build/trace probe on a synthetic scene (many spheres over a ground grid), no scenes crate.
 use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::Ray;
-use antumbra_core::order::AnyHitOrder;
 use antumbra_core::sampling::{hash_u32, unit_float};
-use antumbra_core::trace::{closest_hit, occluded, NoStats, TraversalStats};
+use antumbra_core::trace::{NoStats, RayQuery, TraversalStats};
 use glam::Vec3;
 use std::time::Instant;
 
@@ -78,7 +77,7 @@ fn main() {
     let t = Instant::now();
     let hits: Vec<_> = prim
         .iter()
-        .map(|r| closest_hit(&bvh, r, &mut NoStats))
+        .map(|r| bvh.closest_hit(r, &mut NoStats))
         .collect();
     let ms = t.elapsed().as_secs_f64() * 1e3;
     println!(
@@ -99,10 +98,7 @@ fn main() {
         })
         .collect();
     let mut st = TraversalStats::default();
-    let occ = shadow
-        .iter()
-        .filter(|r| occluded(&bvh, r, AnyHitOrder::NearFirst, &mut st))
-        .count();
+    let occ = shadow.iter().filter(|r| bvh.occluded(r, &mut st)).count();
     println!(
         "shadow rays {} occluded {:.1}% N_B {:.2} N_L {:.2} N_T {:.2}",
         shadow.len(),
@@ -119,7 +115,7 @@ fn main() {
         let t = Instant::now();
         let c = shadow
             .iter()
-            .filter(|r| occluded(&bvh, r, AnyHitOrder::NearFirst, &mut NoStats))
+            .filter(|r| bvh.occluded(r, &mut NoStats))
             .count();
         std::hint::black_box(c);
         best = best.min(t.elapsed().as_secs_f64() * 1e3);

@@ -23,7 +23,7 @@
 //! | nbox_per_ray | N_box: ray/box tests per ray |
 //! | back_facing | shadow samples behind the surface's own plane (shadowed, no ray) |
 //! | unreached | shadow samples of points outside a spot cone or behind an area light |
-//! | sort_ms | shadow: per-light preparation: choosing the representative rays, logging and sorting of the sorted order; for `srdh`, ray selection + hit lists + SRDH build; for `sato`, `rtsah`, `random` (made once per tree and shared by the lights), the preparation on the first shadow row of the frame that made it (0 elsewhere and for other orders) |
+//! | prepare_ms | shadow: per-light preparation: choosing the representative rays, logging and sorting of the sorted order; for `srdh`, ray selection + hit lists + SRDH build; for `sato`, `rtsah`, `random` (made once per tree and shared by the lights), the preparation on the first shadow row of the frame that made it (0 elsewhere and for other orders) |
 //! | references | triangle references in the structure's leaves (> triangles with spatial splits) |
 //! | visible_input | triangles of the structure's set the build was told are visible (ABVH/OSAH/VSAH) |
 //! | visibility_ms | time to get that set this frame (exact mode or first-frame prepass; else 0) |
@@ -72,7 +72,7 @@ pub struct StatsRow {
     pub nbox_per_ray: f64,
     pub back_facing: u64,
     pub unreached: u64,
-    pub sort_ms: f64,
+    pub prepare_ms: f64,
     pub references: u64,
     pub visible_input: u64,
     pub visibility_ms: f64,
@@ -100,7 +100,7 @@ impl StatsRow {
             build_ms: 0.0,
             trace_ms: 0.0,
             mrays_per_s: 0.0,
-            sort_ms: 0.0,
+            prepare_ms: 0.0,
             visibility_ms: 0.0,
             ..self.clone()
         }
@@ -154,7 +154,7 @@ impl StatsRow {
             ("nbox_per_ray", Real(self.nbox_per_ray)),
             ("back_facing", Count(self.back_facing)),
             ("unreached", Count(self.unreached)),
-            ("sort_ms", Real(self.sort_ms)),
+            ("prepare_ms", Real(self.prepare_ms)),
             ("references", Count(self.references)),
             ("visible_input", Count(self.visible_input)),
             ("visibility_ms", Real(self.visibility_ms)),
@@ -293,7 +293,7 @@ mod tests {
             nbox_per_ray: 11.5,
             back_facing: 12,
             unreached: 13,
-            sort_ms: 14.5,
+            prepare_ms: 14.5,
             references: 15,
             visible_input: 16,
             visibility_ms: 17.5,

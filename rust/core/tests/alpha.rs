@@ -17,8 +17,8 @@ use antumbra_core::order::{AnyHitOrder, OrderView};
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
 use antumbra_core::trace::{
-    brute_closest_hit_alpha, brute_transmission, closest_hit, occluded, AlphaQuery, AlphaStats,
-    Counters, Hit, HitFilter, NoStats, OrderedBinary, OrderedWide, RayMode, TraversalStats,
+    brute_closest_hit_alpha, brute_transmission, AlphaQuery, AlphaStats, Counters, Hit, HitFilter,
+    NoStats, OrderedBinary, OrderedWide, RayMode, RayQuery, TraversalStats,
 };
 use glam::{Vec2, Vec3};
 
@@ -272,7 +272,7 @@ fn opaque_triangles_answer_as_today() {
     let (mut blocked, mut free) = (0, 0);
     for ray in &rays {
         let (mut today, mut with_alpha) = (TraversalStats::default(), AlphaStats::default());
-        let occ = occluded(&bvh, ray, AnyHitOrder::NearFirst, &mut today);
+        let occ = bvh.occluded(ray, &mut today);
         let t = bvh.transmission(ray, &alpha, MAX_HITS, &mut with_alpha);
         assert_eq!(t, if occ { 0.0 } else { 1.0 });
         assert_eq!(with_alpha.traversal, today);
@@ -302,7 +302,7 @@ fn opaque_triangles_answer_as_today() {
             assert_eq!(with_alpha.traversal, today, "{kernel:?} closest");
         }
         let mut today = TraversalStats::default();
-        let want = closest_hit(&bvh, ray, &mut today);
+        let want = bvh.closest_hit(ray, &mut today);
         let mut with_alpha = AlphaStats::default();
         assert_eq!(
             key(bvh.closest_hit_alpha(ray, &alpha, CLIP, &mut with_alpha)),

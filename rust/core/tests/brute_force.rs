@@ -8,7 +8,7 @@ use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::AnyHitOrder;
 use antumbra_core::sampling::{hash_u32, unit_float};
-use antumbra_core::trace::{brute_closest_hit, brute_occluded, closest_hit, occluded, NoStats};
+use antumbra_core::trace::{brute_closest_hit, brute_occluded, NoStats, OrderedBinary, RayQuery};
 use glam::Vec3;
 
 fn r(seed: u32) -> f32 {
@@ -59,7 +59,7 @@ fn check(tris: &[[Vec3; 3]], rays: &[Ray], settings: &BuildSettings) {
     let mut hits = 0;
     for (i, ray) in rays.iter().enumerate() {
         let b = brute_closest_hit(tris, ray);
-        let h = closest_hit(&bvh, ray, &mut NoStats);
+        let h = bvh.closest_hit(ray, &mut NoStats);
         assert_eq!(
             h.map(|h| (h.triangle, h.t)),
             b.map(|b| (b.triangle, b.t)),
@@ -68,7 +68,11 @@ fn check(tris: &[[Vec3; 3]], rays: &[Ray], settings: &BuildSettings) {
         hits += h.is_some() as u32;
         let occ = brute_occluded(tris, ray);
         for order in [AnyHitOrder::Stored, AnyHitOrder::NearFirst] {
-            assert_eq!(occluded(&bvh, ray, order, &mut NoStats), occ, "ray {i}");
+            assert_eq!(
+                OrderedBinary { bvh: &bvh, order }.occluded(ray, &mut NoStats),
+                occ,
+                "ray {i}"
+            );
         }
     }
     assert!(
@@ -109,7 +113,7 @@ fn exact_ties_are_broken_by_id() {
     let bvh = build_binned_sah(&tris, &BuildSettings::default());
     let mut ties = 0;
     for ray in rays(4000, 77) {
-        let h = closest_hit(&bvh, &ray, &mut NoStats);
+        let h = bvh.closest_hit(&ray, &mut NoStats);
         assert_eq!(
             h.map(|h| h.triangle),
             brute_closest_hit(&tris, &ray).map(|h| h.triangle)

@@ -59,8 +59,8 @@ fn assert_same(got: &FrameResult, want: &FrameResult, what: &str) {
             "{what}: build time of {g:?}"
         );
         assert_eq!(
-            g.sort_ms > 0.0,
-            w.sort_ms > 0.0,
+            g.prepare_ms > 0.0,
+            w.prepare_ms > 0.0,
             "{what}: sort time of {g:?}"
         );
     }

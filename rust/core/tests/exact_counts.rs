@@ -16,7 +16,7 @@ use antumbra_core::build::{build_binned_sah, BuildSettings};
 use antumbra_core::bvh::Bvh;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::AnyHitOrder;
-use antumbra_core::trace::{closest_hit, occluded, TraversalStats};
+use antumbra_core::trace::{OrderedBinary, RayQuery, TraversalStats};
 use glam::Vec3;
 
 fn scene() -> Bvh {
@@ -72,7 +72,7 @@ fn closest_hit_from_the_left() {
     let bvh = scene();
     let ray = Ray::new(Vec3::new(-1.0, 0.25, 0.25), Vec3::X, 0.0, f32::INFINITY);
     let mut s = TraversalStats::default();
-    let hit = closest_hit(&bvh, &ray, &mut s).unwrap();
+    let hit = bvh.closest_hit(&ray, &mut s).unwrap();
     assert_eq!((hit.triangle, hit.t), (0, 1.0));
     assert_eq!(s, stats(1, 1, 1, 3));
 }
@@ -84,7 +84,7 @@ fn closest_hit_from_the_right() {
     let bvh = scene();
     let ray = Ray::new(Vec3::new(20.0, 0.25, 0.25), Vec3::NEG_X, 0.0, f32::INFINITY);
     let mut s = TraversalStats::default();
-    let hit = closest_hit(&bvh, &ray, &mut s).unwrap();
+    let hit = bvh.closest_hit(&ray, &mut s).unwrap();
     assert_eq!((hit.triangle, hit.t), (2, 9.0));
     assert_eq!(s, stats(2, 1, 1, 5));
 }
@@ -94,8 +94,8 @@ fn a_miss_costs_one_box_test() {
     let bvh = scene();
     let ray = Ray::new(Vec3::new(-1.0, 5.0, 0.25), Vec3::X, 0.0, f32::INFINITY);
     let mut s = TraversalStats::default();
-    assert!(closest_hit(&bvh, &ray, &mut s).is_none());
-    assert!(!occluded(&bvh, &ray, AnyHitOrder::NearFirst, &mut s));
+    assert!(bvh.closest_hit(&ray, &mut s).is_none());
+    assert!(!bvh.occluded(&ray, &mut s));
     assert_eq!(s, stats(0, 0, 0, 2));
 }
 
@@ -105,7 +105,7 @@ fn short_shadow_segment_skips_the_far_subtree() {
     let bvh = scene();
     let ray = Ray::new(Vec3::new(-1.0, 0.25, 0.25), Vec3::X, 0.0, 5.0);
     let mut s = TraversalStats::default();
-    assert!(occluded(&bvh, &ray, AnyHitOrder::NearFirst, &mut s));
+    assert!(bvh.occluded(&ray, &mut s));
     assert_eq!(s, stats(1, 1, 1, 3));
 }
 
@@ -115,10 +115,14 @@ fn order_changes_work_not_answers() {
     let ray = Ray::new(Vec3::new(20.0, 0.25, 0.25), Vec3::NEG_X, 0.0, f32::INFINITY);
     // Stored order: A (left) first, occluded at once.
     let mut stored = TraversalStats::default();
-    assert!(occluded(&bvh, &ray, AnyHitOrder::Stored, &mut stored));
+    assert!(OrderedBinary {
+        bvh: &bvh,
+        order: AnyHitOrder::Stored
+    }
+    .occluded(&ray, &mut stored));
     assert_eq!(stored, stats(1, 1, 1, 3));
     // Near first: B/C subtree, then C.
     let mut near = TraversalStats::default();
-    assert!(occluded(&bvh, &ray, AnyHitOrder::NearFirst, &mut near));
+    assert!(bvh.occluded(&ray, &mut near));
     assert_eq!(near, stats(2, 1, 1, 5));
 }

@@ -82,7 +82,7 @@ fn masks_do_not_depend_on_width_or_order_and_sorting_reports_its_cost() {
                     // Sorted orders cost each light; a per-tree order is made once, reported
                     // on the first row.
                     let costs = order.starts_with("sorted") || (per_tree && i == 0);
-                    assert_eq!(row.sort_ms > 0.0, costs, "{row:?}");
+                    assert_eq!(row.prepare_ms > 0.0, costs, "{row:?}");
                 }
             }
         }
@@ -100,16 +100,16 @@ fn a_per_tree_order_is_made_once_per_tree_and_shared_by_lights_and_frames() {
         shadow_order: order.parse().unwrap(),
         ..RenderSettings::baseline()
     };
-    let shadow_sort_ms = |r: &antumbra_core::render::FrameResult| -> Vec<f64> {
+    let shadow_prepare_ms = |r: &antumbra_core::render::FrameResult| -> Vec<f64> {
         r.stats
             .iter()
             .filter(|s| s.pass == "shadow")
-            .map(|s| s.sort_ms)
+            .map(|s| s.prepare_ms)
             .collect()
     };
     let mut renderer = Renderer::new();
     let first = renderer.render("t", &scene, &settings("sato")).unwrap();
-    let ms = shadow_sort_ms(&first);
+    let ms = shadow_prepare_ms(&first);
     assert!(
         ms.len() > 1 && ms[0] > 0.0,
         "made on the first frame: {ms:?}"
@@ -120,12 +120,12 @@ fn a_per_tree_order_is_made_once_per_tree_and_shared_by_lights_and_frames() {
     );
     let second = renderer.render("t", &scene, &settings("sato")).unwrap();
     assert!(
-        shadow_sort_ms(&second).iter().all(|&m| m == 0.0),
+        shadow_prepare_ms(&second).iter().all(|&m| m == 0.0),
         "reused while the tree is"
     );
     // Another per-tree order is made anew, and none changes an answer.
     let third = renderer.render("t", &scene, &settings("rtsah")).unwrap();
-    assert!(shadow_sort_ms(&third)[0] > 0.0);
+    assert!(shadow_prepare_ms(&third)[0] > 0.0);
     for r in [&first, &second, &third] {
         assert_eq!(r.masks, base.masks);
     }
@@ -385,7 +385,7 @@ fn srdh_masks_equal_the_default_and_rows_report_the_light_tree() {
             let r = Renderer::new().render("t", &scene, &settings).unwrap();
             assert_eq!(r.masks, base.masks, "{width} {order}");
             for row in r.stats.iter().filter(|s| s.pass == "shadow") {
-                assert!(row.sort_ms > 0.0, "{row:?}");
+                assert!(row.prepare_ms > 0.0, "{row:?}");
                 let default_row = base
                     .stats
                     .iter()

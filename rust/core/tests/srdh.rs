@@ -7,8 +7,7 @@ use antumbra_core::geometry::Ray;
 use antumbra_core::order::{rtsah_kernels, Kernel, KernelSet, RandomKernel, SrdhSettings, Uniform};
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::srdh::{build_srdh, cost::reference_cost, root_candidates, RaySet};
-use antumbra_core::trace::occluded_with;
-use antumbra_core::trace::{brute_occluded, NoStats, TraversalStats};
+use antumbra_core::trace::{brute_occluded, BinaryInOrder, NoStats, RayQuery, TraversalStats};
 use glam::Vec3;
 
 fn r(seed: u32) -> f32 {
@@ -76,14 +75,35 @@ fn srdh_and_baseline_answers_equal_brute_force() {
             t.bvh.validate().unwrap();
             for ray in &rays {
                 let expect = brute_occluded(&tris, ray);
-                assert_eq!(occluded_with(&t.bvh, &t.kernels, ray, &mut NoStats), expect);
+                assert_eq!(t.occluded(ray, &mut NoStats), expect);
                 if kernels == KernelSet::All && leaf == 1 {
                     for k in Kernel::ALL {
-                        assert_eq!(occluded_with(&base, &Uniform(k), ray, &mut NoStats), expect);
+                        assert_eq!(
+                            BinaryInOrder {
+                                bvh: &base,
+                                order: &Uniform(k)
+                            }
+                            .occluded(ray, &mut NoStats),
+                            expect
+                        );
                     }
                     let random = RandomKernel { seed: 3 };
-                    assert_eq!(occluded_with(&base, &random, ray, &mut NoStats), expect);
-                    assert_eq!(occluded_with(&base, &rtsah, ray, &mut NoStats), expect);
+                    assert_eq!(
+                        BinaryInOrder {
+                            bvh: &base,
+                            order: &random
+                        }
+                        .occluded(ray, &mut NoStats),
+                        expect
+                    );
+                    assert_eq!(
+                        BinaryInOrder {
+                            bvh: &base,
+                            order: &rtsah
+                        }
+                        .occluded(ray, &mut NoStats),
+                        expect
+                    );
                 }
             }
         }
@@ -103,8 +123,12 @@ fn srdh_reduces_box_tests_on_its_own_rays() {
     let t = build_srdh(&tris, &set, &SrdhSettings::default(), &sah);
     let (mut srdh, mut random) = (TraversalStats::default(), TraversalStats::default());
     for ray in &rays {
-        occluded_with(&t.bvh, &t.kernels, ray, &mut srdh);
-        occluded_with(&base, &RandomKernel { seed: 0 }, ray, &mut random);
+        t.occluded(ray, &mut srdh);
+        BinaryInOrder {
+            bvh: &base,
+            order: &RandomKernel { seed: 0 },
+        }
+        .occluded(ray, &mut random);
     }
     assert!(
         srdh.boxes < random.boxes,
@@ -181,7 +205,7 @@ fn cost_of_two_leaves_is_the_triangle_tests_of_the_traversal() {
             let t = build_srdh(&tris, &set, &settings, &sah);
             let mut stats = TraversalStats::default();
             for &i in &root.reaching {
-                occluded_with(&t.bvh, &t.kernels, &rays[i], &mut stats);
+                t.occluded(&rays[i], &mut stats);
             }
             assert_eq!(stats.triangles, root.chosen.cost, "seed {seed}");
         }

@@ -12,7 +12,7 @@ use antumbra_core::geometry::Ray;
 use antumbra_core::order::AnyHitOrder;
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::{
-    brute_closest_hit, brute_occluded, closest_hit, occluded, NoStats, TraversalStats,
+    brute_closest_hit, brute_occluded, NoStats, OrderedBinary, RayQuery, TraversalStats,
 };
 use glam::Vec3;
 
@@ -78,7 +78,7 @@ fn assert_same_answers(tris: &[[Vec3; 3]], bvh: &Bvh, rays: &[Ray], what: &str) 
     let mut hits = 0;
     for (i, ray) in rays.iter().enumerate() {
         let b = brute_closest_hit(tris, ray);
-        let h = closest_hit(bvh, ray, &mut NoStats);
+        let h = bvh.closest_hit(ray, &mut NoStats);
         assert_eq!(
             h.map(|h| (h.triangle, h.t)),
             b.map(|b| (b.triangle, b.t)),
@@ -88,7 +88,7 @@ fn assert_same_answers(tris: &[[Vec3; 3]], bvh: &Bvh, rays: &[Ray], what: &str) 
         let occ = brute_occluded(tris, ray);
         for order in [AnyHitOrder::Stored, AnyHitOrder::NearFirst] {
             assert_eq!(
-                occluded(bvh, ray, order, &mut NoStats),
+                OrderedBinary { bvh, order }.occluded(ray, &mut NoStats),
                 occ,
                 "{what} ray {i}"
             );
@@ -221,7 +221,8 @@ fn vsah_answers_rays_whose_closest_hit_is_visible() {
     for ray in &rays {
         let b = brute_closest_hit(&tris, ray).map(|h| (h.triangle, h.t));
         assert_eq!(
-            closest_hit(&bvh, ray, &mut NoStats).map(|h| (h.triangle, h.t)),
+            bvh.closest_hit(ray, &mut NoStats)
+                .map(|h| (h.triangle, h.t)),
             b
         );
     }
@@ -303,7 +304,7 @@ fn walled_clutter() -> (Vec<[Vec3; 3]>, Vec<Ray>) {
 fn work(bvh: &Bvh, rays: &[Ray]) -> TraversalStats {
     let mut total = TraversalStats::default();
     for ray in rays {
-        closest_hit(bvh, ray, &mut total);
+        bvh.closest_hit(ray, &mut total);
     }
     total
 }

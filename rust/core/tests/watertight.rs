@@ -9,7 +9,7 @@ use antumbra_core::geometry::Ray;
 use antumbra_core::order::OrderView;
 use antumbra_core::render::WideTree;
 use antumbra_core::sampling::{hash_u32, unit_float};
-use antumbra_core::trace::{closest_hit, NoStats, RayMode, RayQuery};
+use antumbra_core::trace::{NoStats, RayMode, RayQuery};
 use glam::Vec3;
 
 /// Rays that miss (closest hit) and that nothing occludes (any hit) when traced in packets of 16
@@ -63,7 +63,7 @@ fn rays_from_inside_a_closed_sphere_never_escape() {
             continue;
         }
         let ray = Ray::new(o, d, 0.0, f32::INFINITY);
-        if closest_hit(&bvh, &ray, &mut NoStats).is_none() {
+        if bvh.closest_hit(&ray, &mut NoStats).is_none() {
             misses += 1;
         }
         rays.push(ray);
@@ -101,7 +101,7 @@ fn rays_through_shared_edges_and_vertices_of_a_grid_all_hit() {
                 };
                 let ray = Ray::new(from, target - from, 0.0, 2.0);
                 total += 1;
-                if closest_hit(&bvh, &ray, &mut NoStats).is_none() {
+                if bvh.closest_hit(&ray, &mut NoStats).is_none() {
                     misses += 1;
                 }
                 rays.push(ray);

@@ -12,7 +12,7 @@ use antumbra_core::order::{OrderView, PreparedOrder};
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::trace::wide::{BoxKernel, WideQueries};
 use antumbra_core::trace::{
-    brute_closest_hit, brute_occluded, closest_hit, occluded, NoStats, TraversalStats,
+    brute_closest_hit, brute_occluded, NoStats, OrderedBinary, RayQuery, TraversalStats,
 };
 use glam::Vec3;
 use proptest::prelude::*;
@@ -126,15 +126,15 @@ where
     for (i, ray) in rays.iter().enumerate() {
         let mut work = Vec::new();
         // The whole hit, barycentrics included, is the scalar kernel's with every kernel.
-        let scalar = wide.closest_hit(ray, BoxKernel::Scalar, &mut NoStats);
+        let scalar = WideQueries::closest_hit(wide, ray, BoxKernel::Scalar, &mut NoStats);
         for k in KERNELS {
             let mut st = TraversalStats::default();
-            let hit = wide.closest_hit(ray, k, &mut st);
+            let hit = WideQueries::closest_hit(wide, ray, k, &mut st);
             assert_eq!(hit, scalar, "N={N} {k:?} closest hit, ray {i}: {ray:?}");
             let h = hit.map(|h| (h.triangle, h.t));
             assert_eq!(h, brute[i].0, "N={N} {k:?} closest, ray {i}: {ray:?}");
             // The timed path (no counters) skips the root box test: the same answers.
-            let hit = wide.closest_hit(ray, k, &mut NoStats);
+            let hit = WideQueries::closest_hit(wide, ray, k, &mut NoStats);
             assert_eq!(
                 hit, scalar,
                 "N={N} {k:?} closest uncounted, ray {i}: {ray:?}"
@@ -157,9 +157,9 @@ where
             let mut work = Vec::new();
             for k in KERNELS {
                 let mut st = TraversalStats::default();
-                let occ = wide.occluded(ray, prepared.view(), k, &mut st);
+                let occ = WideQueries::occluded(wide, ray, prepared.view(), k, &mut st);
                 assert_eq!(occ, brute[i].1, "N={N} {order} {k:?}, ray {i}: {ray:?}");
-                let occ = wide.occluded(ray, prepared.view(), k, &mut NoStats);
+                let occ = WideQueries::occluded(wide, ray, prepared.view(), k, &mut NoStats);
                 assert_eq!(occ, brute[i].1, "N={N} {order} {k:?} uncounted, ray {i}");
                 work.push(st);
             }
@@ -260,16 +260,19 @@ fn two_wide_tree_does_the_binary_traversals_work() {
         ] {
             let (mut a, mut b) = (TraversalStats::default(), TraversalStats::default());
             assert_eq!(
-                occluded(&bvh, &ray, binary, &mut a),
-                wide.occluded(&ray, order, BoxKernel::Auto, &mut b)
+                OrderedBinary {
+                    bvh: &bvh,
+                    order: binary
+                }
+                .occluded(&ray, &mut a),
+                WideQueries::occluded(&wide, &ray, order, BoxKernel::Auto, &mut b)
             );
             assert_eq!(a, b, "{binary:?} {ray:?}");
         }
         let (mut a, mut b) = (TraversalStats::default(), TraversalStats::default());
         assert_eq!(
-            closest_hit(&bvh, &ray, &mut a).map(|h| h.triangle),
-            wide.closest_hit(&ray, BoxKernel::Auto, &mut b)
-                .map(|h| h.triangle)
+            bvh.closest_hit(&ray, &mut a).map(|h| h.triangle),
+            WideQueries::closest_hit(&wide, &ray, BoxKernel::Auto, &mut b).map(|h| h.triangle)
         );
         assert_eq!(a, b, "closest {ray:?}");
     }
@@ -310,7 +313,7 @@ fn sorting_changes_work_not_answers_and_learns_the_occluder() {
         let mut st = TraversalStats::default();
         let answers: Vec<bool> = shadow
             .iter()
-            .map(|r| wide.occluded(r, p.view(), BoxKernel::Auto, &mut st))
+            .map(|r| WideQueries::occluded(&wide, r, p.view(), BoxKernel::Auto, &mut st))
             .collect();
         (answers, st)
     };

@@ -21,7 +21,9 @@ use crate::compare::{CompareRequest, CompareResultReply};
 use crate::limits::Limits;
 use crate::trade::{TradeRequest, TradeResultReply};
 
-/// The protocol version this crate speaks; `Hello` must carry it. Version 5: alpha materials
+/// The protocol version this crate speaks; `Hello` must carry it. Version 6: the statistics
+/// column `sort_ms` is `prepare_ms` (it holds every per-light preparation, SRDH builds too).
+/// Version 5: alpha materials
 /// (meshes' slots and UV maps, `UploadImage`, `FrameUpdate.alpha_materials`, objects' `materials`).
 /// Version 4: `FrameUpdate`
 /// carries `instances` (a daemon that skipped the unknown field would drop them unseen).
@@ -29,7 +31,7 @@ use crate::trade::{TradeRequest, TradeResultReply};
 /// (an older client would send it and fail mid-session; the version refuses it at `Hello`).
 /// Version 2: mesh hashes are XXH3 and render settings a map by name (version 1: FNV-1a,
 /// nested settings structs).
-pub const PROTOCOL_VERSION: u32 = 5;
+pub const PROTOCOL_VERSION: u32 = 6;
 
 /// A message from the client to the daemon.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -289,7 +289,7 @@ fn stats_row() -> impl Strategy<Value = StatsRowState> {
                 nbox_per_ray: nbox,
                 back_facing,
                 unreached,
-                sort_ms: trace_ms * 0.5,
+                prepare_ms: trace_ms * 0.5,
                 references: bvh_nodes ^ rays,
                 visible_input: triangles / 2,
                 visibility_ms: trace_ms,
@@ -450,11 +450,11 @@ fn compare_row() -> impl Strategy<Value = CompareRowState> {
         [timing(), timing(), timing(), timing()],
     )
         .prop_map(
-            |(label, stats, [build_ms, sort_ms, trace_ms, frame_ms])| CompareRowState {
+            |(label, stats, [build_ms, prepare_ms, trace_ms, frame_ms])| CompareRowState {
                 label,
                 stats,
                 build_ms,
-                sort_ms,
+                prepare_ms,
                 trace_ms,
                 frame_ms,
             },

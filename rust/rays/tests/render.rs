@@ -9,7 +9,8 @@ use std::sync::Arc;
 use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray as RenderRay;
 use antumbra_core::render::{
-    samples_for, LightSampler, PrimaryPass, PrimaryRays, RenderSettings, Renderer, SamplePlan,
+    samples_for, visibility_flags, LightSampler, PrimaryPass, PrimaryRays, RenderSettings,
+    Renderer, SamplePlan,
 };
 use antumbra_core::scene::{Mesh, Object, RenderSpace, Resolution, Scene as CoreScene};
 use antumbra_core::trace::TraversalStats;
@@ -17,15 +18,17 @@ use antumbra_rays::{BuildMethod, BuildOptions, BvhWidth, Ray, Scene, ShadowOrder
 use antumbra_scenes::SceneParams;
 use glam::{DMat4, DVec3};
 
-/// Frame 3 of a built-in scene as one mesh in world space, and its f32 vertices.
-fn flattened(name: &str) -> (CoreScene, Vec<[f32; 3]>, Vec<[u32; 3]>) {
+/// A frame of a built-in scene as one mesh in world space, and its f32 vertices.
+fn flattened(name: &str, frame: i32) -> (CoreScene, Vec<[f32; 3]>, Vec<[u32; 3]>) {
     let params = SceneParams {
         triangles: 20_000,
         frames: 4,
         rotated: false,
         instances: None,
     };
-    let mut scene = antumbra_scenes::builtin(name, &params).unwrap().frame(3);
+    let mut scene = antumbra_scenes::builtin(name, &params)
+        .unwrap()
+        .frame(frame);
     scene.resolution = Resolution::new(96, 64);
     let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
     for object in scene
@@ -70,8 +73,10 @@ fn assert_round_trip(space: &RenderSpace, render: &[RenderRay], world: &[Ray]) {
     }
 }
 
+/// Frame 3 rendered after frame 2 (so visibility-driven builds read frame 2's visible set),
+/// and the same tree built through the public API over the same triangles and visible set.
 fn check(name: &str, method: BuildMethod, width: BvhWidth, order: &str) {
-    let (scene, vertices, triangles) = flattened(name);
+    let (scene, vertices, triangles) = flattened(name, 3);
     let shadow_order: ShadowOrder = order.parse().unwrap();
     let settings = RenderSettings {
         build: method.into(),
@@ -80,15 +85,47 @@ fn check(name: &str, method: BuildMethod, width: BvhWidth, order: &str) {
         ..RenderSettings::baseline()
     };
     let mut renderer = Renderer::new();
+    renderer
+        .render(name, &flattened(name, 2).0, &settings)
+        .unwrap();
     let frame = renderer.render(name, &scene, &settings).unwrap();
     let (geometry, camera_bvh, _) = renderer.current().unwrap();
     let space = geometry.space;
 
+    // The renderer's visible set as the caller's per-triangle flags (one object: a triangle's
+    // ref names its caller index).
+    let visible = renderer.trees().unwrap().visible_input().map(|v| {
+        let mut flags = vec![false; triangles.len()];
+        for (r, seen) in geometry
+            .camera
+            .refs
+            .iter()
+            .zip(visibility_flags(&geometry.camera, v))
+        {
+            flags[r.primitive as usize] = seen;
+        }
+        flags
+    });
+    assert_eq!(
+        visible.is_some(),
+        method.uses_visibility(),
+        "{name} {}: a visible set where the method reads one",
+        method.name()
+    );
+    if let Some(v) = &visible {
+        let seen = v.iter().filter(|s| **s).count();
+        assert!(
+            seen > 0 && seen < v.len(),
+            "{name}: {seen} of {} triangles visible",
+            v.len()
+        );
+    }
     let options = BuildOptions {
         method,
         width,
         settings: settings.build_settings,
         collapse: settings.collapse,
+        visible,
         ..BuildOptions::default()
     };
     let public = Scene::build(&vertices, &triangles, &options).unwrap();
@@ -198,4 +235,11 @@ fn wide_trees_and_prepared_orders_as_rendered() {
         "sorted:budget=0.1",
     );
     check("colonnade", BuildMethod::Sah, BvhWidth::Two, "rtsah");
+}
+
+#[test]
+fn visibility_driven_builds_as_rendered() {
+    check("bedroom", BuildMethod::Abvh, BvhWidth::Eight, "fbto");
+    check("indoors", BuildMethod::Osah, BvhWidth::Two, "fbto");
+    check("city", BuildMethod::Abvh, BvhWidth::Four, "sorted");
 }

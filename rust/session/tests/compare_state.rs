@@ -43,7 +43,7 @@ fn counters(rows: Vec<CompareRow>) -> Vec<(String, StatsRow)> {
                 build_ms: 0.0,
                 trace_ms: 0.0,
                 mrays_per_s: 0.0,
-                sort_ms: 0.0,
+                prepare_ms: 0.0,
                 visibility_ms: 0.0,
                 ..r.stats
             };

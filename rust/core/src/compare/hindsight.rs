@@ -47,7 +47,7 @@ pub fn hindsight(rows: &[CompareRow], fixed: &[&str]) -> Option<Hindsight> {
         f.frame_ms = r.frame_ms.median;
         if r.stats.pass == "shadow" {
             *f.lights.entry(r.stats.light.clone()).or_default() +=
-                r.trace_ms.median + r.sort_ms.median;
+                r.trace_ms.median + r.prepare_ms.median;
         }
     }
     let fixed: Vec<&str> = labels
@@ -133,7 +133,7 @@ mod tests {
                 ..StatsRow::default()
             },
             build_ms: ms(0.0),
-            sort_ms: ms(sort),
+            prepare_ms: ms(sort),
             trace_ms: ms(trace),
             frame_ms: ms(total),
         };

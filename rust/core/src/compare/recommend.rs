@@ -241,7 +241,7 @@ mod tests {
                 ..StatsRow::default()
             },
             build_ms: Timing::default(),
-            sort_ms: timing(prep_trace.0, 0.0),
+            prepare_ms: timing(prep_trace.0, 0.0),
             trace_ms: timing(prep_trace.1, 0.0),
             frame_ms: timing(frame_ms.0, frame_ms.1),
         }

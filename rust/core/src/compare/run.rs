@@ -55,7 +55,7 @@ pub struct CompareRow {
     pub label: String,
     pub stats: StatsRow,
     pub build_ms: Timing,
-    pub sort_ms: Timing,
+    pub prepare_ms: Timing,
     pub trace_ms: Timing,
     /// The whole frame of this method (build, preparation, every pass, combine).
     pub frame_ms: Timing,
@@ -483,17 +483,17 @@ fn merge_rows(
                 )
             };
             let build_ms = column(|r| r.build_ms);
-            let sort_ms = column(|r| r.sort_ms);
+            let prepare_ms = column(|r| r.prepare_ms);
             let trace_ms = column(|r| r.trace_ms);
             let mut stats = row.clone();
             stats.build_ms = build_ms.median;
-            stats.sort_ms = sort_ms.median;
+            stats.prepare_ms = prepare_ms.median;
             stats.set_timing(trace_ms.median, true);
             CompareRow {
                 label: label.to_string(),
                 stats,
                 build_ms,
-                sort_ms,
+                prepare_ms,
                 trace_ms,
                 frame_ms,
             }

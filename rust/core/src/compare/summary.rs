@@ -102,7 +102,7 @@ impl Figures {
             }
             let f = frames.entry((r.label.clone(), r.stats.frame)).or_default();
             f.work.entry(r.stats.pass.clone()).or_default().add(r);
-            f.prep_ms += r.sort_ms.median;
+            f.prep_ms += r.prepare_ms.median;
             f.trace_ms += r.trace_ms.median;
             f.frame_ms = r.frame_ms.median;
         }

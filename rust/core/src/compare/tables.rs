@@ -12,8 +12,8 @@ const LEAD: [&str; 2] = ["label", "settings"];
 const SPREAD: [&str; 9] = [
     "build_ms_min",
     "build_ms_max",
-    "sort_ms_min",
-    "sort_ms_max",
+    "prepare_ms_min",
+    "prepare_ms_max",
     "trace_ms_min",
     "trace_ms_max",
     "frame_ms",
@@ -51,8 +51,8 @@ pub fn cells<'a>(r: &'a CompareRow, settings: &'a str) -> Vec<(&'static str, Cel
     let spread = [
         r.build_ms.min,
         r.build_ms.max,
-        r.sort_ms.min,
-        r.sort_ms.max,
+        r.prepare_ms.min,
+        r.prepare_ms.max,
         r.trace_ms.min,
         r.trace_ms.max,
         r.frame_ms.median,
@@ -86,7 +86,7 @@ pub struct JsonRow<'a> {
     #[serde(flatten)]
     pub stats: &'a StatsRow,
     pub build_ms_spread: [f64; 2],
-    pub sort_ms_spread: [f64; 2],
+    pub prepare_ms_spread: [f64; 2],
     pub trace_ms_spread: [f64; 2],
     pub frame_ms: [f64; 3],
 }
@@ -97,7 +97,7 @@ impl<'a> From<&'a CompareRow> for JsonRow<'a> {
             label: &r.label,
             stats: &r.stats,
             build_ms_spread: [r.build_ms.min, r.build_ms.max],
-            sort_ms_spread: [r.sort_ms.min, r.sort_ms.max],
+            prepare_ms_spread: [r.prepare_ms.min, r.prepare_ms.max],
             trace_ms_spread: [r.trace_ms.min, r.trace_ms.max],
             frame_ms: [r.frame_ms.median, r.frame_ms.min, r.frame_ms.max],
         }
@@ -119,7 +119,7 @@ mod tests {
                 ..StatsRow::default()
             },
             build_ms: Timing::of(&[1.0, 2.0]),
-            sort_ms: Timing::default(),
+            prepare_ms: Timing::default(),
             trace_ms: Timing::of(&[0.5]),
             frame_ms: Timing::of(&[3.0, 4.0, 5.0]),
         };

@@ -71,7 +71,7 @@ impl PreparedOrder {
     }
 
     /// Logging + sorting time in ms (0 for orders that need no rays).
-    pub fn sort_ms(&self) -> f64 {
+    pub fn prepare_ms(&self) -> f64 {
         match self {
             PreparedOrder::Sorted(o) => o.logging_ms + o.sorting_ms,
             _ => 0.0,

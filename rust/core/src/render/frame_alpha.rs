@@ -1,6 +1,9 @@
-//! [`FrameAlpha`]: a frame's alpha as the passes read it: one [`AlphaScene`] per triangle set
-//! the frame's trees are built over (camera, and shadow where it differs), its triangle ids
-//! those of the set, its images shared with the scene.
+//! [`FrameAlpha`]: a frame's alpha as the passes read it: on a flat frame one [`AlphaScene`]
+//! per triangle set the trees are built over (camera, and shadow where it differs), its
+//! triangle ids those of the set; on two levels one per mesh tree and materials
+//! ([`InstanceAlpha`]), its ids the mesh tree's. The images are shared with the scene.
+
+use std::collections::HashMap;
 
 use crate::alpha::{AlphaScene, AlphaTriangles, FlaggedTriangle};
 use crate::bvh::Bvh;
@@ -8,26 +11,41 @@ use crate::geometry::Ray;
 use std::sync::Arc;
 
 use crate::alpha::AlphaImage;
-use crate::scene::{AlphaMaterial, FrameGeometry, Scene, TriangleSet};
+use crate::scene::{AlphaMaterial, FrameGeometry, Scene, TriangleRef, TriangleSet};
 use crate::srdh::SrdhBvh;
 use crate::stats::StatsRow;
-use crate::trace::{forward_alpha_query, AlphaQuery, Counters, Hit, OrderedBinary, RayQuery};
+use crate::trace::RayQuery;
+use crate::trace::{forward_alpha_query, AlphaQuery, AlphaScenes, Counters, Hit, OrderedBinary};
+use crate::two_level::InstanceAlpha;
 use crate::{Error, Result};
 
 use super::frame_trees::CameraQuery;
 use super::light_tracer::ShadowTracer;
+use super::two_level_trees::{TwoLevelQuery, TwoLevelTrees};
 use super::wide_tree::OrderedWideTree;
 
-/// The alpha of a flat frame's triangle sets.
+/// A frame's alpha and the limits its passes trace it with.
 #[derive(Clone, Debug)]
 pub struct FrameAlpha {
-    pub camera: AlphaScene,
-    /// `None`: the camera set serves shadow rays too ([`FrameGeometry::shadow`]).
-    pub shadow: Option<AlphaScene>,
+    pub sets: AlphaSets,
     /// The hit limit of shadow rays ([`super::RenderSettings::shadow_max_hits`]).
     pub max_hits: u32,
     /// Camera rays' clip threshold.
     pub clip: f32,
+}
+
+/// The alpha scenes of a frame's trees.
+#[derive(Clone, Debug)]
+pub enum AlphaSets {
+    /// A flat frame's, per triangle set.
+    Flat {
+        camera: AlphaScene,
+        /// `None`: the camera set serves shadow rays too ([`FrameGeometry::shadow`]).
+        shadow: Option<AlphaScene>,
+    },
+    /// A two-level frame's, per instance: the camera's and the shadow casters' top levels
+    /// place the same mesh trees, so one serves both.
+    TwoLevel(InstanceAlpha),
 }
 
 impl FrameAlpha {
@@ -38,28 +56,41 @@ impl FrameAlpha {
         max_hits: u32,
         clip: f32,
     ) -> Result<FrameAlpha> {
-        Ok(FrameAlpha {
+        let sets = AlphaSets::Flat {
             camera: alpha_scene(scene, &geometry.camera)?,
-            shadow: geometry
-                .shadow
-                .as_ref()
+            shadow: (geometry.shadow.as_ref())
                 .map(|s| alpha_scene(scene, s))
                 .transpose()?,
+        };
+        Ok(FrameAlpha {
+            sets,
             max_hits,
             clip,
         })
     }
 
-    /// Whether no triangle of either set is flagged (a slot mapped to an alpha material that
-    /// no triangle uses): the frame then traces as an opaque one.
-    pub fn flags_nothing(&self) -> bool {
-        let none = |a: &AlphaScene| a.triangles().flagged_count() == 0;
-        none(&self.camera) && self.shadow.as_ref().is_none_or(none)
+    /// The alpha of a two-level frame's instances.
+    pub fn two_level(
+        scene: &Scene,
+        trees: &TwoLevelTrees,
+        max_hits: u32,
+        clip: f32,
+    ) -> Result<FrameAlpha> {
+        Ok(FrameAlpha {
+            sets: AlphaSets::TwoLevel(instance_alpha(scene, trees)?),
+            max_hits,
+            clip,
+        })
     }
 
-    /// The alpha of the shadow set.
-    pub fn shadow(&self) -> &AlphaScene {
-        self.shadow.as_ref().unwrap_or(&self.camera)
+    /// Whether no triangle is flagged (a slot mapped to an alpha material that no triangle
+    /// uses): the frame then traces as an opaque one.
+    pub fn flags_nothing(&self) -> bool {
+        let none = |a: &AlphaScene| a.triangles().flagged_count() == 0;
+        match &self.sets {
+            AlphaSets::Flat { camera, shadow } => none(camera) && shadow.as_ref().is_none_or(none),
+            AlphaSets::TwoLevel(instances) => instances.flags_nothing(),
+        }
     }
 }
 
@@ -151,8 +182,13 @@ impl AlphaCache {
 /// UVs come from the mesh's map the material names (UV (0, 0) at every corner without it, as
 /// Cycles reads a missing attribute). One UV set: the materials' programs read set 0.
 pub fn alpha_scene(scene: &Scene, set: &TriangleSet) -> Result<AlphaScene> {
+    alpha_scene_of(scene, &set.refs)
+}
+
+/// The alpha of the triangles `refs` names, their ids the indices in `refs`.
+fn alpha_scene_of(scene: &Scene, refs: &[TriangleRef]) -> Result<AlphaScene> {
     let mut flagged = Vec::new();
-    for (id, r) in set.refs.iter().enumerate() {
+    for (id, r) in refs.iter().enumerate() {
         let object = scene.objects.get(r.object as usize).ok_or_else(|| {
             Error::invalid(
                 format!("alpha triangle {id}"),
@@ -196,7 +232,7 @@ pub fn alpha_scene(scene: &Scene, set: &TriangleSet) -> Result<AlphaScene> {
             uvs: vec![corners],
         });
     }
-    let triangles = AlphaTriangles::new(set.len() as u32, 1, flagged)?;
+    let triangles = AlphaTriangles::new(refs.len() as u32, 1, flagged)?;
     let programs = scene
         .alpha
         .materials
@@ -206,24 +242,63 @@ pub fn alpha_scene(scene: &Scene, set: &TriangleSet) -> Result<AlphaScene> {
     AlphaScene::shared(scene.alpha.images.clone(), programs, triangles)
 }
 
-/// Why a frame with alpha cannot trace two levels, naming the setting.
-pub fn two_level_alpha_error() -> Error {
-    Error::invalid(
-        "scene_structure",
-        "two-level has no alpha traversal yet (its mesh trees' ids are not the frame's); set \
-         scene_structure to flat or auto, or alpha to false",
-    )
+/// A two-level frame's alpha: a scene per (mesh tree, object materials) pair, made once for
+/// the objects that share it, over the mesh tree's ids; the group tree's over its own ids.
+/// Objects without an alpha material stay opaque (no scene).
+fn instance_alpha(scene: &Scene, trees: &TwoLevelTrees) -> Result<InstanceAlpha> {
+    let mut scenes = Vec::new();
+    let mut made: HashMap<(u32, &[Option<u32>]), Option<u32>> = HashMap::new();
+    let keep = |scene_alpha: AlphaScene, scenes: &mut Vec<AlphaScene>| {
+        (scene_alpha.triangles().flagged_count() > 0).then(|| {
+            scenes.push(scene_alpha);
+            scenes.len() as u32 - 1
+        })
+    };
+    let mut by_object = vec![None; scene.objects.len()];
+    for (i, o) in scene.objects.iter().enumerate() {
+        if o.materials.is_empty() {
+            continue;
+        }
+        let Some((tree_index, tree)) = trees.object_tree(o) else {
+            continue; // in the group, or placing nothing
+        };
+        let key = (tree_index, o.materials.as_slice());
+        by_object[i] = match made.get(&key) {
+            Some(&s) => s,
+            None => {
+                let refs: Vec<TriangleRef> = (tree.primitives.iter())
+                    .map(|&primitive| TriangleRef {
+                        object: i as u32,
+                        primitive,
+                    })
+                    .collect();
+                let s = keep(alpha_scene_of(scene, &refs)?, &mut scenes);
+                made.insert(key, s);
+                s
+            }
+        };
+    }
+    let group = match trees.group_tree() {
+        Some(tree) => {
+            let refs: Vec<TriangleRef> = (tree.objects.iter().zip(&tree.primitives))
+                .map(|(&object, &primitive)| TriangleRef { object, primitive })
+                .collect();
+            keep(alpha_scene_of(scene, &refs)?, &mut scenes)
+        }
+        None => None,
+    };
+    Ok(InstanceAlpha::new(scenes, &by_object, group))
 }
 
 /// Camera rays through alpha as the primary pass traces them: a [`RayQuery`] whose closest
 /// hit is [`AlphaQuery::closest_hit_alpha`] (single rays: packets have no alpha kernel).
-pub struct AlphaCamera<'a, Q> {
+pub struct AlphaCamera<'a, Q, S: ?Sized = AlphaScene> {
     pub tree: &'a Q,
-    pub alpha: &'a AlphaScene,
+    pub alpha: &'a S,
     pub clip: f32,
 }
 
-impl<Q: AlphaQuery> RayQuery for AlphaCamera<'_, Q> {
+impl<Q: AlphaQuery, S: AlphaScenes + ?Sized> RayQuery for AlphaCamera<'_, Q, S> {
     /// Whether a hit that is not clipped away lies on the ray (the pass asks only for closest
     /// hits; this keeps the face whole).
     #[inline]
@@ -237,19 +312,20 @@ impl<Q: AlphaQuery> RayQuery for AlphaCamera<'_, Q> {
     }
 }
 
-/// The flat camera trees with an alpha face.
+/// The camera trees with an alpha face (packets fall back to single rays).
 pub enum AlphaCameraTree<'a> {
     Binary(&'a Bvh),
     Wide(&'a OrderedWideTree<'a>),
+    TwoLevel(&'a TwoLevelQuery<'a>),
 }
 
 impl<'a> AlphaCameraTree<'a> {
-    /// The camera query's tree, or the two-level error.
-    pub fn of(query: &'a CameraQuery<'a>) -> Result<Self> {
+    /// The camera query's tree.
+    pub fn of(query: &'a CameraQuery<'a>) -> Self {
         match query {
-            CameraQuery::Binary(b) => Ok(AlphaCameraTree::Binary(b)),
-            CameraQuery::Wide(w) => Ok(AlphaCameraTree::Wide(w)),
-            CameraQuery::TwoLevel(_) => Err(two_level_alpha_error()),
+            CameraQuery::Binary(b) => AlphaCameraTree::Binary(b),
+            CameraQuery::Wide(w) => AlphaCameraTree::Wide(w),
+            CameraQuery::TwoLevel(q) => AlphaCameraTree::TwoLevel(q),
         }
     }
 }
@@ -259,26 +335,28 @@ macro_rules! with_camera_tree {
         match $tree {
             AlphaCameraTree::Binary($q) => $f,
             AlphaCameraTree::Wide($q) => $f,
+            AlphaCameraTree::TwoLevel($q) => $f,
         }
     };
 }
 forward_alpha_query!(AlphaCameraTree<'_>, with_camera_tree);
 
-/// A light's flat tree and order with an alpha face (packets fall back to single rays).
+/// A light's tree and order with an alpha face (packets fall back to single rays).
 pub enum AlphaShadowTracer<'a> {
     Binary(OrderedBinary<'a>),
     Wide(&'a OrderedWideTree<'a>),
     Srdh(&'a SrdhBvh),
+    TwoLevel(&'a TwoLevelQuery<'a>),
 }
 
 impl<'a> AlphaShadowTracer<'a> {
-    /// The shadow tracer's tree and order, or the two-level error.
-    pub fn of(tracer: &'a ShadowTracer<'a>) -> Result<Self> {
+    /// The shadow tracer's tree and order.
+    pub fn of(tracer: &'a ShadowTracer<'a>) -> Self {
         match tracer {
-            ShadowTracer::Binary(b) => Ok(AlphaShadowTracer::Binary(*b)),
-            ShadowTracer::Wide(w) => Ok(AlphaShadowTracer::Wide(w)),
-            ShadowTracer::Srdh(t) => Ok(AlphaShadowTracer::Srdh(t)),
-            ShadowTracer::TwoLevel(_) => Err(two_level_alpha_error()),
+            ShadowTracer::Binary(b) => AlphaShadowTracer::Binary(*b),
+            ShadowTracer::Wide(w) => AlphaShadowTracer::Wide(w),
+            ShadowTracer::Srdh(t) => AlphaShadowTracer::Srdh(t),
+            ShadowTracer::TwoLevel(q) => AlphaShadowTracer::TwoLevel(q),
         }
     }
 }
@@ -289,6 +367,7 @@ macro_rules! with_shadow_tracer {
             AlphaShadowTracer::Binary($q) => $f,
             AlphaShadowTracer::Wide($q) => $f,
             AlphaShadowTracer::Srdh($q) => $f,
+            AlphaShadowTracer::TwoLevel($q) => $f,
         }
     };
 }

@@ -90,7 +90,7 @@ impl WideTrees {
 pub(super) struct PerTreeOrder {
     pub(super) order: ShadowOrder,
     pub(super) prepared: PreparedOrder,
-    /// Preparation time, reported (as the first shadow row's `sort_ms`) only by the frame
+    /// Preparation time, reported (as the first shadow row's `prepare_ms`) only by the frame
     /// that prepared it.
     pub(super) ms: Option<f64>,
 }
@@ -187,6 +187,12 @@ impl FrameTrees {
     /// The binary camera tree (the one the wide camera tree was collapsed from).
     pub fn camera_bvh(&self) -> &Bvh {
         &self.camera_bvh
+    }
+
+    /// The visible set the trees were built from (the previous frame's, or a prepass's), for
+    /// visibility-driven builds (ABVH, OSAH, VSAH); `None` for the others.
+    pub fn visible_input(&self) -> Option<&[TriangleRef]> {
+        self.visible_input.as_deref()
     }
 
     /// The binary tree of the shadow casters.

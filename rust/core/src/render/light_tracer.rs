@@ -68,9 +68,12 @@ pub struct LightTracing<'a> {
     route: Route<'a>,
     /// Preparation time for this light's statistics row, ms: sorting or SRDH selection and
     /// build; a per-tree order's on the first light's row only.
-    pub sort_ms: f64,
+    pub prepare_ms: f64,
 }
 
+/// What a light's tracing owns (its prepared order, its SRDH tree), where [`ShadowTracer`] is
+/// the borrowed view a pass traces: one value cannot hold a view beside what it borrows, so the
+/// owner and the view are two types, and [`LightTracing::tracer`] is the only way between them.
 enum Route<'a> {
     Binary(OrderedBinary<'a>),
     Wide {
@@ -86,7 +89,7 @@ impl<'a> LightTracing<'a> {
     pub fn two_level(query: TwoLevelQuery<'a>) -> Self {
         LightTracing {
             route: Route::TwoLevel(query),
-            sort_ms: 0.0,
+            prepare_ms: 0.0,
         }
     }
 
@@ -164,7 +167,7 @@ pub fn light_tracing<'a>(
         };
         return LightTracing {
             route,
-            sort_ms: l.ms,
+            prepare_ms: l.ms,
         };
     }
     let per_tree_ms = |ms: f64| {
@@ -209,6 +212,6 @@ pub fn light_tracing<'a>(
     };
     LightTracing {
         route,
-        sort_ms: per_tree_ms(ms),
+        prepare_ms: per_tree_ms(ms),
     }
 }

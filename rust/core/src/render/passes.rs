@@ -3,7 +3,7 @@
 
 use super::auto;
 use super::facing::face_shading_normals;
-use super::frame_alpha::{AlphaCamera, AlphaCameraTree, AlphaShadowTracer, FrameAlpha};
+use super::frame_alpha::{AlphaCamera, AlphaCameraTree, AlphaSets, AlphaShadowTracer, FrameAlpha};
 use super::frame_trees::Prepared;
 use super::light_tracer::{LightRays, ShadowTracer};
 use super::policy::{pass_rays, LightMeasurement, LightPlan};
@@ -21,7 +21,7 @@ use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
 use crate::scene::{Scene, TriangleRef};
 use crate::stats::StatsRow;
-use crate::trace::{AlphaStats, NoStats, RayQuery, TraversalStats};
+use crate::trace::{AlphaScenes, AlphaStats, NoStats, RayQuery, TraversalStats};
 use crate::Result;
 
 /// What every statistics row of a frame shares.
@@ -90,7 +90,7 @@ pub(super) fn primary_pass(
 }
 
 /// The camera rays of a frame on the tree its primary pass reads, counted or timed.
-/// With `alpha`, the camera's flat tree through [`AlphaCamera`] (counted in [`AlphaStats`]).
+/// With `alpha`, the camera's tree through [`AlphaCamera`] (counted in [`AlphaStats`]).
 pub(super) fn trace_camera(
     trees: &SceneTrees,
     scene: &Scene,
@@ -105,15 +105,36 @@ pub(super) fn trace_camera(
     let Some(alpha) = alpha else {
         return trace_primary(counted, &rays, &tree, hits, cancel);
     };
+    let tree = AlphaCameraTree::of(&tree);
+    match &alpha.sets {
+        AlphaSets::Flat { camera, .. } => {
+            alpha_primary(counted, &rays, &tree, camera, alpha.clip, hits, cancel)
+        }
+        AlphaSets::TwoLevel(instances) => {
+            alpha_primary(counted, &rays, &tree, instances, alpha.clip, hits, cancel)
+        }
+    }
+}
+
+/// The camera rays through alpha (`counted` in [`AlphaStats`]), each hit read in `scenes`.
+fn alpha_primary(
+    counted: bool,
+    rays: &PrimaryRays,
+    tree: &AlphaCameraTree,
+    scenes: &(impl AlphaScenes + ?Sized),
+    clip: f32,
+    hits: HitGeometry,
+    cancel: &CancelToken,
+) -> Result<PrimaryPass> {
     let camera = AlphaCamera {
-        tree: &AlphaCameraTree::of(&tree)?,
-        alpha: &alpha.camera,
-        clip: alpha.clip,
+        tree,
+        alpha: scenes,
+        clip,
     };
     if counted {
-        PrimaryPass::trace::<AlphaStats>(&rays, &camera, hits, cancel)
+        PrimaryPass::trace::<AlphaStats>(rays, &camera, hits, cancel)
     } else {
-        PrimaryPass::trace::<NoStats>(&rays, &camera, hits, cancel)
+        PrimaryPass::trace::<NoStats>(rays, &camera, hits, cancel)
     }
 }
 
@@ -199,7 +220,7 @@ pub(super) fn shadow_passes(
         out.rays += pass.outcome.rays;
         let columns = trees.shadow_columns(&tracing, rows.prepared.rebuilt, rows.collapse_ms);
         let mut r = rows.row("shadow", &light.name, columns);
-        r.sort_ms = tracing.sort_ms;
+        r.prepare_ms = tracing.prepare_ms;
         if let Some(c) = &order.auto {
             auto::mark_row(&mut r, c, |o| o.name());
             if let Some(o) = order.sample {
@@ -301,7 +322,7 @@ pub(super) fn combine(
     }
 }
 
-/// One light's pass through alpha on its flat tree and order (`counted` in [`AlphaStats`]).
+/// One light's pass through alpha on its tree and order (`counted` in [`AlphaStats`]).
 fn alpha_shadow_pass(
     counted: bool,
     primary: &PrimaryPass,
@@ -311,14 +332,38 @@ fn alpha_shadow_pass(
     plan: SamplePlan,
     cancel: &CancelToken,
 ) -> Result<ShadowPass> {
-    let tracer = AlphaShadowTracer::of(tracer)?;
-    let (scene, max_hits) = (alpha.shadow(), alpha.max_hits);
+    let tracer = AlphaShadowTracer::of(tracer);
+    let max_hits = alpha.max_hits;
+    let t = &tracer;
+    match &alpha.sets {
+        AlphaSets::Flat { camera, shadow } => {
+            let scene = shadow.as_ref().unwrap_or(camera);
+            alpha_light_pass(counted, primary, t, scene, max_hits, sampler, plan, cancel)
+        }
+        AlphaSets::TwoLevel(instances) => alpha_light_pass(
+            counted, primary, t, instances, max_hits, sampler, plan, cancel,
+        ),
+    }
+}
+
+/// One light's pass through alpha with each hit read in `scene`.
+#[allow(clippy::too_many_arguments)]
+fn alpha_light_pass(
+    counted: bool,
+    primary: &PrimaryPass,
+    tracer: &AlphaShadowTracer,
+    scene: &(impl AlphaScenes + ?Sized),
+    max_hits: u32,
+    sampler: &LightSampler,
+    plan: SamplePlan,
+    cancel: &CancelToken,
+) -> Result<ShadowPass> {
     if counted {
         ShadowPass::trace_alpha::<AlphaStats>(
-            primary, &tracer, scene, max_hits, sampler, plan, cancel,
+            primary, tracer, scene, max_hits, sampler, plan, cancel,
         )
     } else {
-        ShadowPass::trace_alpha::<NoStats>(primary, &tracer, scene, max_hits, sampler, plan, cancel)
+        ShadowPass::trace_alpha::<NoStats>(primary, tracer, scene, max_hits, sampler, plan, cancel)
     }
 }
 

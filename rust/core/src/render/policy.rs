@@ -259,8 +259,7 @@ pub const TWO_LEVEL_WORLD_TRIANGLES: u64 = 2_000_000;
 /// flat rebuild outweighs the frame's trace, which frames' counts did not tell reliably
 /// (BENCHMARKS.md, "Flat and two levels"): name `scene_structure=two-level` for it.
 pub(super) fn auto_structure(scene: &Scene, settings: &RenderSettings) -> SceneStructure {
-    // Two levels have no alpha traversal yet: a frame with alpha goes flat.
-    if settings.two_level_conflict().is_some() || settings.alpha_active(scene) {
+    if settings.two_level_conflict().is_some() {
         return SceneStructure::Flat;
     }
     let mut used = vec![false; scene.meshes.len()];

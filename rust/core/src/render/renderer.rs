@@ -6,14 +6,14 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::frame_alpha::{two_level_alpha_error, AlphaCache, AlphaFrameStats, FrameAlpha};
+use super::frame_alpha::{AlphaCache, AlphaFrameStats, FrameAlpha};
 use super::frame_trees::{BvhInfo, FrameTrees, GeometryKey, Prepared};
 use super::passes::{combine, counted_timed, primary_pass, shadow_passes, trace_camera, Rows};
 use super::policy::{mark_build_row, mark_two_level_rows, planned_orders, BuildPlan, Policy};
 use super::scene_trees::SceneTrees;
 use super::two_level_trees::TwoLevelTrees;
 use super::visibility::{trace_visible_set, visibility_flags, visible_set};
-use super::{Pick, VisibilitySource};
+use super::VisibilitySource;
 use super::{RenderSettings, SceneStructure};
 use crate::build::{build_binned_sah, build_with_visibility, BuildMethod};
 use crate::bvh::Bvh;
@@ -186,8 +186,8 @@ impl Renderer {
         Ok(result)
     }
 
-    /// The frame's alpha when it traces through alpha (kept while its inputs hold), on the
-    /// flat trees just prepared; `None` when nothing is flagged; two levels have none yet.
+    /// The frame's alpha when it traces through alpha, on the trees just prepared (a flat
+    /// frame's kept while its inputs hold); `None` when nothing is flagged.
     fn frame_alpha(
         &mut self,
         scene: &Scene,
@@ -196,11 +196,16 @@ impl Renderer {
         if !settings.alpha_active(scene) {
             return Ok(None);
         }
-        let Some(SceneTrees::Flat(t)) = self.trees.as_ref() else {
-            return Err(two_level_alpha_error());
-        };
         let (max_hits, clip) = (settings.shadow_max_hits(), settings.alpha_clip);
-        let alpha = AlphaCache::get(&mut self.alpha_cache, scene, &t.geometry, max_hits, clip)?;
+        let alpha = match self.trees.as_ref() {
+            Some(SceneTrees::Flat(t)) => {
+                AlphaCache::get(&mut self.alpha_cache, scene, &t.geometry, max_hits, clip)?
+            }
+            Some(SceneTrees::TwoLevel(t)) => {
+                Arc::new(FrameAlpha::two_level(scene, t, max_hits, clip)?)
+            }
+            None => unreachable!("the frame's trees are prepared before its alpha"),
+        };
         // Without a flagged triangle the passes call the opaque code, as for an opaque scene.
         Ok((!alpha.flags_nothing()).then_some(alpha))
     }
@@ -220,11 +225,6 @@ impl Renderer {
         settings: &RenderSettings,
         cancel: &CancelToken,
     ) -> Result<(BuildPlan, Prepared)> {
-        if settings.structure == Pick::Fixed(SceneStructure::TwoLevel)
-            && settings.alpha_active(scene)
-        {
-            return Err(two_level_alpha_error());
-        }
         match self.policy.plan_structure(scene, settings) {
             SceneStructure::Flat => {
                 let flat = self.trees.as_ref().and_then(SceneTrees::flat);

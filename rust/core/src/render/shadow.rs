@@ -7,12 +7,11 @@ use rayon::prelude::*;
 use super::lights::LightFrom;
 use super::tiles::{band_pixels, band_tiles, tiles, Tile, TILE_SIDE};
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
-use crate::alpha::AlphaScene;
 use crate::cancel::CancelToken;
 use crate::geometry::{offset_ray_origin, Ray};
 use crate::image::ImagePlane;
 use crate::sampling::{extend_stratified_2d, hash_combine, hash_u32};
-use crate::trace::{AlphaQuery, Counters, NoStats, RayQuery, TraversalStats};
+use crate::trace::{AlphaQuery, AlphaScenes, Counters, NoStats, RayQuery, TraversalStats};
 use crate::Result;
 
 /// What happened to the shadow samples of one light, counted over a frame.
@@ -84,7 +83,7 @@ impl ShadowPass {
     pub fn trace_alpha<C: Counters>(
         primary: &PrimaryPass,
         tracer: &impl AlphaQuery,
-        alpha: &AlphaScene,
+        alpha: &(impl AlphaScenes + ?Sized),
         max_hits: u32,
         light: &LightSampler,
         plan: SamplePlan,

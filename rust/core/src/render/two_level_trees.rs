@@ -29,7 +29,10 @@ use crate::order::{AnyHitOrder, OrderView, PreparedOrder, ShadowOrder};
 use crate::scene::{
     collect, scene_bounds, Mesh, Object, RenderSpace, Scene, TriangleRef, TriangleSet,
 };
-use crate::trace::{forward_ray_query, Counters, Hit, OrderedBinary, RayQuery};
+use crate::trace::{
+    forward_alpha_query, forward_ray_query, AlphaQuery, Counters, Hit, HitFilter, OrderedBinary,
+    RayQuery,
+};
 use crate::two_level::{
     instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel, GROUP,
 };
@@ -163,6 +166,7 @@ macro_rules! with_mesh_query {
     };
 }
 forward_ray_query!(MeshQuery<'_>, with_mesh_query);
+forward_alpha_query!(MeshQuery<'_>, with_mesh_query);
 
 /// A top level with the frame's mesh trees as one order traces them: what a two-level pass
 /// traces (batches go one ray at a time: packets stop at the top level for now).
@@ -187,6 +191,36 @@ impl RayQuery for TwoLevelQuery<'_> {
             meshes: &self.meshes,
         };
         q.closest_hit(ray, stats)
+    }
+}
+
+/// Through alpha, as [`TwoLevel`]'s alpha face: each instance's hits read its own scene.
+impl AlphaQuery for TwoLevelQuery<'_> {
+    #[inline]
+    fn stopped<C: Counters, F: HitFilter>(
+        &self,
+        ray: &crate::geometry::Ray,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> bool {
+        let q = TwoLevel {
+            top: self.top,
+            meshes: &self.meshes,
+        };
+        q.stopped(ray, filter, stats)
+    }
+    #[inline]
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &crate::geometry::Ray,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        let q = TwoLevel {
+            top: self.top,
+            meshes: &self.meshes,
+        };
+        q.closest_hit_filtered(ray, filter, stats)
     }
 }
 
@@ -364,6 +398,18 @@ impl TwoLevelTrees {
             build_ms: start.elapsed().as_secs_f64() * 1e3,
             meshes_built,
         })
+    }
+
+    /// The mesh tree an object outside the group places, and its index in the top levels'
+    /// instances (`None` for a grouped object).
+    pub(super) fn object_tree(&self, object: &Object) -> Option<(u32, &MeshTree)> {
+        let index = *self.by_scene_mesh.get(object.mesh)?;
+        Some((index, &self.meshes.get(index as usize)?.tree))
+    }
+
+    /// The static group's tree, if the frame has one.
+    pub(super) fn group_tree(&self) -> Option<&MeshTree> {
+        self.group.map(|g| &self.meshes[g as usize].tree)
     }
 
     /// Mesh trees this frame built (the others were kept from the frame before).

@@ -17,7 +17,7 @@ use crate::geometry::{Aabb, Ray, RayBoxPrecomp};
 use crate::order::SrdhSettings;
 use crate::order::{Kernel, PackedKernels};
 use crate::trace::{
-    closest_hit_filtered, occluded_with, occluding_leaf_filtered, AlphaQuery, Counters, Hit,
+    closest_hit_filtered, occluding_leaf, occluding_leaf_filtered, AlphaQuery, Counters, Hit,
     HitFilter, RayQuery,
 };
 
@@ -38,7 +38,7 @@ pub struct SrdhBvh {
 impl RayQuery for SrdhBvh {
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
-        occluded_with(&self.bvh, &self.kernels, ray, stats)
+        occluding_leaf(&self.bvh, &self.kernels, ray, stats).is_some()
     }
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {

@@ -5,10 +5,9 @@
 
 use super::wide::{BoxKernel, WideQueries};
 use super::{
-    closest_hit_filtered, occluding_leaf_filtered, AlphaClip, Counters, Hit, HitFilter,
-    OrderedBinary, OrderedWide, Transmission,
+    closest_hit_filtered, occluding_leaf_filtered, AlphaClip, AlphaScenes, Counters, Hit,
+    HitFilter, OrderedBinary, OrderedWide, Transmission,
 };
-use crate::alpha::AlphaScene;
 use crate::bvh::{Bvh, WideBvh};
 use crate::geometry::Ray;
 use crate::order::{AnyHitOrder, FrontToBack, OrderView, Stored};
@@ -59,10 +58,10 @@ pub trait AlphaQuery: Sync {
     /// transparent triangles are; otherwise the product of (1 - alpha) over the distinct
     /// transparent hits in (t, triangle) order (see [`Transmission`]).
     #[inline]
-    fn transmission<C: Counters>(
+    fn transmission<C: Counters, S: AlphaScenes + ?Sized>(
         &self,
         ray: &Ray,
-        alpha: &AlphaScene,
+        alpha: &S,
         max_hits: u32,
         stats: &mut C,
     ) -> f32 {
@@ -75,10 +74,10 @@ pub trait AlphaQuery: Sync {
     }
 
     /// `out[i] = transmission(&rays[i])`, counted into `counters[i]`; one hit list reused.
-    fn transmission_batch<C: Counters>(
+    fn transmission_batch<C: Counters, S: AlphaScenes + ?Sized>(
         &self,
         rays: &[Ray],
-        alpha: &AlphaScene,
+        alpha: &S,
         max_hits: u32,
         out: &mut [f32],
         counters: &mut [C],
@@ -98,14 +97,14 @@ pub trait AlphaQuery: Sync {
     /// The closest hit that is not transparent: an unflagged triangle, or a flagged one whose
     /// alpha is at least `clip` (see [`AlphaClip`]).
     #[inline]
-    fn closest_hit_alpha<C: Counters>(
+    fn closest_hit_alpha<C: Counters, S: AlphaScenes + ?Sized>(
         &self,
         ray: &Ray,
-        alpha: &AlphaScene,
+        alpha: &S,
         clip: f32,
         stats: &mut C,
     ) -> Option<Hit> {
-        self.closest_hit_filtered(ray, &mut AlphaClip { alpha, clip }, stats)
+        self.closest_hit_filtered(ray, &mut AlphaClip::new(alpha, clip), stats)
     }
 }
 

@@ -10,23 +10,16 @@ use crate::order::{centre, AnyHitOrder, ChildOrder, Children, FrontToBack, Order
 
 /// True if any triangle intersects the ray in (t_min, t_max], visiting children in `order`.
 #[inline]
-pub fn occluded<C: Counters>(bvh: &Bvh, ray: &Ray, order: AnyHitOrder, stats: &mut C) -> bool {
+pub(crate) fn occluded<C: Counters>(
+    bvh: &Bvh,
+    ray: &Ray,
+    order: AnyHitOrder,
+    stats: &mut C,
+) -> bool {
     match order {
         AnyHitOrder::Stored => occluding_leaf(bvh, &Stored, ray, stats).is_some(),
         AnyHitOrder::NearFirst => occluding_leaf(bvh, &FrontToBack, ray, stats).is_some(),
     }
-}
-
-/// True if any triangle intersects the ray in (t_min, t_max], children in `order` (the name
-/// SRDH's kernel-guided traversal had; the argument order is kept).
-#[inline]
-pub fn occluded_with<O: ChildOrder, C: Counters>(
-    bvh: &Bvh,
-    order: &O,
-    ray: &Ray,
-    stats: &mut C,
-) -> bool {
-    occluding_leaf(bvh, order, ray, stats).is_some()
 }
 
 /// Two sibling nodes as an order reads them.
@@ -67,7 +60,7 @@ pub fn occluding_leaf<O: ChildOrder, C: Counters>(
 /// `OPAQUE` constant removes the other branch); any other filter is handed every hit with its
 /// triangle id and barycentrics.
 #[inline(always)]
-pub fn occluding_leaf_filtered<O: ChildOrder, C: Counters, F: HitFilter>(
+pub(crate) fn occluding_leaf_filtered<O: ChildOrder, C: Counters, F: HitFilter>(
     bvh: &Bvh,
     order: &O,
     ray: &Ray,

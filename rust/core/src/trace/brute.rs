@@ -58,10 +58,18 @@ pub fn brute_transmission(
     alpha: &AlphaScene,
     max_hits: u32,
 ) -> f32 {
+    let hits = brute_all_hits(triangles, ray);
+    transmission_of_hits(hits.iter().map(|&(_, id, b)| alpha.alpha(id, b)), max_hits)
+}
+
+/// The transmission of a ray's hits in order, each given as its alpha (`None`: unflagged):
+/// 0 when one is opaque or more than `max_hits` are transparent, else the product of
+/// (1 - alpha) in that order.
+pub fn transmission_of_hits(alphas: impl IntoIterator<Item = Option<f32>>, max_hits: u32) -> f32 {
     let mut product = 1.0f32;
     let mut transparent = 0u32;
-    for (_, id, b) in brute_all_hits(triangles, ray) {
-        match alpha.alpha(id, b) {
+    for alpha in alphas {
+        match alpha {
             Some(a) if a < 1.0 => {
                 transparent += 1;
                 product *= 1.0 - a;

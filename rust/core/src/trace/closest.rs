@@ -8,7 +8,7 @@ use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 /// (see `RayBoxPrecomp::t_margin`), so a triangle at exactly the current distance with a smaller
 /// id is still found.
 #[inline]
-pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<Hit> {
+pub(crate) fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<Hit> {
     closest_hit_filtered(bvh, ray, &mut Opaque, stats)
 }
 
@@ -16,7 +16,7 @@ pub fn closest_hit<C: Counters>(bvh: &Bvh, ray: &Ray, stats: &mut C) -> Option<H
 /// shortens the ray. With [`Opaque`] this is today's traversal (the filter call is a constant
 /// true); the filter is asked only about hits closer than the best so far.
 #[inline(always)]
-pub fn closest_hit_filtered<C: Counters, F: HitFilter>(
+pub(crate) fn closest_hit_filtered<C: Counters, F: HitFilter>(
     bvh: &Bvh,
     ray: &Ray,
     filter: &mut F,
@@ -55,7 +55,7 @@ pub fn closest_hit_filtered<C: Counters, F: HitFilter>(
 /// box margin, see `RayBoxPrecomp::t_margin`) is culled when it comes off the stack. The one
 /// loop of the binary closest hit and of the top level over instances.
 #[inline(always)]
-pub fn walk_near_first<C: Counters>(
+pub(crate) fn walk_near_first<C: Counters>(
     nodes: &[BvhNode],
     ray: &Ray,
     stats: &mut C,

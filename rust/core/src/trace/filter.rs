@@ -7,10 +7,29 @@
 use super::Counters;
 use crate::alpha::AlphaScene;
 
+/// Where the alpha filters read a triangle's alpha: one scene whose ids are a flat tree's, or
+/// (two levels) a scene per instance whose ids are its mesh tree's.
+pub trait AlphaScenes: Sync {
+    /// The alpha of the triangles of `instance` (the object a two-level query enters).
+    fn for_instance(&self, instance: u32) -> &AlphaScene;
+}
+
+/// A flat tree's ids: one scene for every hit.
+impl AlphaScenes for AlphaScene {
+    #[inline(always)]
+    fn for_instance(&self, _: u32) -> &AlphaScene {
+        self
+    }
+}
+
 /// A traversal's rule for triangle hits.
 pub trait HitFilter {
     /// True for [`Opaque`]: the traversal takes today's path (no barycentrics, no call).
     const OPAQUE: bool;
+    /// A two-level query is about to trace `instance`'s mesh tree: the triangle ids of the
+    /// hits that follow are that tree's.
+    #[inline(always)]
+    fn enter_instance(&mut self, _instance: u32) {}
     /// Any hit: `triangle` (its id) was hit at `t` with barycentrics `b`; true stops the ray.
     fn stops<C: Counters>(&mut self, triangle: u32, t: f32, b: [f32; 3], stats: &mut C) -> bool;
     /// Closest hit: whether the hit counts (false: the ray goes on through it).
@@ -35,14 +54,30 @@ impl HitFilter for Opaque {
 
 /// Camera rays: a flagged triangle's hit counts only where its alpha is at least `clip`
 /// (EEVEE's alpha clip; Cycles' camera rays pass stochastically instead, see `docs/alpha.md`).
-#[derive(Clone, Copy, Debug)]
-pub struct AlphaClip<'a> {
-    pub alpha: &'a AlphaScene,
+#[derive(Clone, Copy)]
+pub struct AlphaClip<'a, S: ?Sized = AlphaScene> {
+    source: &'a S,
+    /// The scene of the instance being traced (`source`'s only scene on a flat tree).
+    alpha: &'a AlphaScene,
     pub clip: f32,
 }
 
-impl HitFilter for AlphaClip<'_> {
+impl<'a, S: AlphaScenes + ?Sized> AlphaClip<'a, S> {
+    pub fn new(source: &'a S, clip: f32) -> Self {
+        AlphaClip {
+            source,
+            alpha: source.for_instance(0),
+            clip,
+        }
+    }
+}
+
+impl<S: AlphaScenes + ?Sized> HitFilter for AlphaClip<'_, S> {
     const OPAQUE: bool = false;
+    #[inline(always)]
+    fn enter_instance(&mut self, instance: u32) {
+        self.alpha = self.source.for_instance(instance);
+    }
     #[inline(always)]
     fn stops<C: Counters>(&mut self, triangle: u32, _: f32, b: [f32; 3], stats: &mut C) -> bool {
         self.accepts(triangle, b, stats)
@@ -61,6 +96,8 @@ impl HitFilter for AlphaClip<'_> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TransparentHit {
     pub t: f32,
+    /// The instance whose mesh tree `triangle` is in (0 on a flat tree).
+    pub instance: u32,
     pub triangle: u32,
     /// 1 - alpha.
     pub transmission: f32,
@@ -71,41 +108,55 @@ pub struct TransparentHit {
 /// finds a triangle in each leaf that references it, as Embree may call Cycles' filter twice);
 /// more than `max_hits` distinct transparent hits stop the ray (Cycles' filter sets
 /// `opaque_hit` once `num_hits >= max_hits`). The answer, [`Transmission::value`], multiplies the
-/// recorded hits in (t, triangle) order, so every traversal order gives the same bits.
-#[derive(Clone, Debug)]
-pub struct Transmission<'a> {
-    pub alpha: &'a AlphaScene,
+/// recorded hits in (t, instance, triangle) order, so every traversal order gives the same bits.
+#[derive(Clone)]
+pub struct Transmission<'a, S: ?Sized = AlphaScene> {
+    source: &'a S,
+    /// The scene of the instance being traced (`source`'s only scene on a flat tree).
+    alpha: &'a AlphaScene,
+    instance: u32,
     pub max_hits: u32,
     pub hits: Vec<TransparentHit>,
 }
 
-impl<'a> Transmission<'a> {
-    pub fn new(alpha: &'a AlphaScene, max_hits: u32) -> Self {
+impl<'a, S: AlphaScenes + ?Sized> Transmission<'a, S> {
+    pub fn new(source: &'a S, max_hits: u32) -> Self {
         Transmission {
-            alpha,
+            source,
+            alpha: source.for_instance(0),
+            instance: 0,
             max_hits,
             hits: Vec::new(),
         }
     }
 
     /// The transmission of a ray that was not stopped: the product of the recorded hits'
-    /// transmissions in (t, triangle) order (1 with none). Sorts `hits`.
+    /// transmissions in (t, instance, triangle) order (1 with none). Sorts `hits`.
     pub fn value(&mut self) -> f32 {
-        self.hits
-            .sort_unstable_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
+        self.hits.sort_unstable_by(|a, b| {
+            (a.t.total_cmp(&b.t))
+                .then(a.instance.cmp(&b.instance))
+                .then(a.triangle.cmp(&b.triangle))
+        });
         self.hits.iter().fold(1.0, |p, h| p * h.transmission)
     }
 }
 
-impl HitFilter for Transmission<'_> {
+impl<S: AlphaScenes + ?Sized> HitFilter for Transmission<'_, S> {
     const OPAQUE: bool = false;
+    #[inline(always)]
+    fn enter_instance(&mut self, instance: u32) {
+        self.alpha = self.source.for_instance(instance);
+        self.instance = instance;
+    }
     #[inline]
     fn stops<C: Counters>(&mut self, triangle: u32, t: f32, b: [f32; 3], stats: &mut C) -> bool {
         if self.alpha.triangles().rank(triangle).is_none() {
             return true;
         }
         // A triangle seen in another leaf of a split tree: same test, same values; once only.
-        if self.hits.iter().any(|h| h.triangle == triangle) {
+        let instance = self.instance;
+        if (self.hits.iter()).any(|h| h.triangle == triangle && h.instance == instance) {
             return false;
         }
         stats.alpha_lookups(1);
@@ -116,6 +167,7 @@ impl HitFilter for Transmission<'_> {
         }
         self.hits.push(TransparentHit {
             t,
+            instance,
             triangle,
             transmission,
         });

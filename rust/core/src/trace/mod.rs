@@ -17,13 +17,17 @@ pub mod wide;
 
 pub(crate) use alpha_query::forward_alpha_query;
 pub use alpha_query::AlphaQuery;
-pub use any_hit::{occluded, occluded_with, occluding_leaf, occluding_leaf_filtered};
-pub use brute::{brute_closest_hit, brute_closest_hit_alpha, brute_occluded, brute_transmission};
-pub use closest::{closest_hit, closest_hit_filtered, walk_near_first};
+pub use any_hit::occluding_leaf;
+pub(crate) use any_hit::occluding_leaf_filtered;
+pub use brute::{
+    brute_closest_hit, brute_closest_hit_alpha, brute_occluded, brute_transmission,
+    transmission_of_hits,
+};
+pub(crate) use closest::{closest_hit_filtered, walk_near_first};
 pub use counters::{AlphaStats, Counters, NoStats, TraversalStats};
-pub use filter::{AlphaClip, HitFilter, Opaque, Transmission, TransparentHit};
+pub use filter::{AlphaClip, AlphaScenes, HitFilter, Opaque, Transmission, TransparentHit};
 pub(crate) use query::forward_ray_query;
-pub use query::{OrderedBinary, OrderedWide, RayMode, RayQuery};
+pub use query::{BinaryInOrder, OrderedBinary, OrderedWide, RayMode, RayQuery};
 
 /// A closest hit: the ray parameter, the triangle id (in the `TriangleSet` the BVH was built
 /// from, or in the hit instance's mesh tree) and the barycentric weights of its vertices.

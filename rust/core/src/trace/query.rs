@@ -2,11 +2,13 @@
 //! a light's SRDH tree, and what a pass traces), for one ray and for a batch. A new kernel
 //! (packets) or a new tree (a top level over instances) is one more implementation of it.
 
+use super::any_hit::{occluded, occluding_leaf};
+use super::closest::closest_hit;
 use super::wide::{BoxKernel, WideQueries};
-use super::{closest_hit, occluded, Counters, Hit};
+use super::{Counters, Hit};
 use crate::bvh::{Bvh, WideBvh};
 use crate::geometry::Ray;
-use crate::order::{AnyHitOrder, OrderView};
+use crate::order::{AnyHitOrder, ChildOrder, OrderView};
 
 /// Implements [`RayQuery`] for a type that holds one of several queries by handing every call,
 /// single ray or batch, to the query `$with!(self, q => ...)` picks: the choice is made once per
@@ -129,6 +131,25 @@ impl RayQuery for OrderedBinary<'_> {
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
         occluded(self.bvh, ray, self.order, stats)
+    }
+    #[inline]
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        closest_hit(self.bvh, ray, stats)
+    }
+}
+
+/// The binary tree with any child order type: the research orders (a light's SRDH kernels
+/// over another tree, RTSAH, random, one kernel everywhere) that [`AnyHitOrder`] does not name.
+#[derive(Clone, Copy)]
+pub struct BinaryInOrder<'a, O> {
+    pub bvh: &'a Bvh,
+    pub order: &'a O,
+}
+
+impl<O: ChildOrder + Sync> RayQuery for BinaryInOrder<'_, O> {
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        occluding_leaf(self.bvh, self.order, ray, stats).is_some()
     }
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {

@@ -5,13 +5,17 @@
 //! the render-space ray's; hits carry the object ([`crate::trace::Hit::instance`]).
 //!
 //! Answers are exact against [`brute`], which tests every triangle of every instance through
-//! the same ray transform: the closest hit is the least (t, object, triangle).
+//! the same ray transform: the closest hit is the least (t, object, triangle). Through alpha,
+//! each instance reads its own scene ([`InstanceAlpha`]); a filter hears which instance it is
+//! in ([`crate::trace::HitFilter::enter_instance`]).
 
+mod alpha;
 pub mod brute;
 mod instance;
 mod mesh_tree;
 mod top_level;
 
+pub use alpha::InstanceAlpha;
 pub use instance::{instance_box, render_from_mesh, Instance};
 pub use mesh_tree::MeshTree;
 pub use top_level::{TopLevel, TwoLevel};

@@ -1,7 +1,7 @@
 use crate::build::{build_over_boxes, BuildSettings};
 use crate::bvh::Bvh;
 use crate::geometry::{Aabb, Ray};
-use crate::trace::{walk_near_first, Counters, Hit, RayQuery};
+use crate::trace::{walk_near_first, AlphaQuery, Counters, Hit, HitFilter, RayQuery};
 
 use super::Instance;
 
@@ -55,7 +55,7 @@ pub struct TwoLevel<'a, Q> {
     pub meshes: &'a [Q],
 }
 
-impl<Q: RayQuery> TwoLevel<'_, Q> {
+impl<Q> TwoLevel<'_, Q> {
     /// Walks the top level near child first ([`walk_near_first`]), handing each instance of
     /// an entered leaf to `visit` with its mesh query and the ray's current `t_max`; `visit`
     /// returns the new `t_max` (lowered by a closest hit), or `None` to stop (an any-hit query
@@ -115,6 +115,50 @@ impl<Q: RayQuery> RayQuery for TwoLevel<'_, Q> {
                 ..instance.ray_to_mesh(ray)
             };
             if let Some(mut h) = mesh.closest_hit(&local, stats) {
+                h.instance = instance.object;
+                if closer(&h, &best) {
+                    best = Some(h);
+                }
+            }
+            Some(best.map_or(t_max, |b| b.t))
+        });
+        best
+    }
+}
+
+/// Through alpha: the filter enters each instance before its mesh tree's hits (its scene and
+/// its ids), and its hits carry the object as the opaque queries' do.
+impl<Q: AlphaQuery> AlphaQuery for TwoLevel<'_, Q> {
+    #[inline]
+    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
+        let mut stopped = false;
+        self.walk(ray, stats, |instance, mesh, t_max, stats| {
+            filter.enter_instance(instance.object);
+            if mesh.stopped(&instance.ray_to_mesh(ray), filter, stats) {
+                stopped = true;
+                None
+            } else {
+                Some(t_max)
+            }
+        });
+        stopped
+    }
+
+    #[inline]
+    fn closest_hit_filtered<C: Counters, F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+        stats: &mut C,
+    ) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        self.walk(ray, stats, |instance, mesh, t_max, stats| {
+            let local = Ray {
+                t_max,
+                ..instance.ray_to_mesh(ray)
+            };
+            filter.enter_instance(instance.object);
+            if let Some(mut h) = mesh.closest_hit_filtered(&local, filter, stats) {
                 h.instance = instance.object;
                 if closer(&h, &best) {
                     best = Some(h);

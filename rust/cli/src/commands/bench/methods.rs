@@ -7,12 +7,11 @@ use antumbra_core::build::{build_binned_sah, build_with_visibility, BuildMethod,
 use antumbra_core::bvh::Bvh;
 use antumbra_core::cancel::CancelToken;
 use antumbra_core::geometry::Ray;
-use antumbra_core::order::AnyHitOrder;
 use antumbra_core::render::{
     shadow_rays, visibility_flags, PrimaryPass, PrimaryRays, RenderSettings,
 };
 use antumbra_core::scene::{FrameGeometry, Resolution, Scene, TriangleRef, TriangleSet};
-use antumbra_core::trace::{occluded, NoStats, TraversalStats};
+use antumbra_core::trace::{NoStats, RayQuery, TraversalStats};
 use anyhow::{anyhow, Result};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -225,7 +224,7 @@ impl View {
         let shadow_sah = build_binned_sah(&shadow_set.vertices, build);
         let shadow_answers = shadow
             .par_iter()
-            .map(|r| occluded(&shadow_sah, r, AnyHitOrder::NearFirst, &mut NoStats))
+            .map(|r| shadow_sah.occluded(r, &mut NoStats))
             .collect();
         Ok(View {
             label,
@@ -320,7 +319,7 @@ impl View {
             .par_iter()
             .map(|r| {
                 let mut w = TraversalStats::default();
-                let a = occluded(bvh, r, AnyHitOrder::NearFirst, &mut w);
+                let a = bvh.occluded(r, &mut w);
                 (w, a)
             })
             .collect::<(Vec<_>, Vec<_>)>();
@@ -333,7 +332,7 @@ impl View {
         }
         let ms = best_of(repeat, || {
             self.shadow.par_iter().with_min_len(256).for_each(|r| {
-                std::hint::black_box(occluded(bvh, r, AnyHitOrder::NearFirst, &mut NoStats));
+                std::hint::black_box(bvh.occluded(r, &mut NoStats));
             })
         });
         let s = self.shadow.len() as f64;

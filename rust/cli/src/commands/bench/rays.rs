@@ -49,7 +49,7 @@ pub struct BenchRow {
     /// Per light, logging + sorting ms of a sorted order (one thread for the sorting, the
     /// pool for the logging rays); for `srdh`, ray selection + hit lists + SRDH build (all
     /// threads).
-    pub sort_ms_per_light: Vec<f64>,
+    pub prepare_ms_per_light: Vec<f64>,
     /// `srdh`: bytes of the lights' SRDH trees (0 for a light that traces the SAH tree).
     pub srdh_bytes_per_light: Vec<usize>,
     pub embree_build_ms: Option<f64>,
@@ -317,10 +317,10 @@ impl<'a> Frame<'a> {
             primary_work: PassWork::of(&self.primary_work, self.primary.len()),
             shadow_work: PassWork::of(&self.shadow_work, self.shadow.len()),
             collapse_ms,
-            sort_ms_per_light: self
+            prepare_ms_per_light: self
                 .lights
                 .iter()
-                .map(|l| l.tracing.sort_ms)
+                .map(|l| l.tracing.prepare_ms)
                 .filter(|ms| *ms > 0.0)
                 .collect(),
             srdh_bytes_per_light: self
