@@ -15,8 +15,8 @@ mod filter;
 mod query;
 pub mod wide;
 
-pub(crate) use alpha_query::forward_alpha_query;
 pub use alpha_query::AlphaQuery;
+pub(crate) use alpha_query::{alpha_query_for, forward_alpha_query};
 pub use any_hit::{occluded, occluded_with, occluding_leaf, occluding_leaf_filtered};
 pub use brute::{brute_closest_hit, brute_closest_hit_alpha, brute_occluded, brute_transmission};
 pub use closest::{closest_hit, closest_hit_filtered, walk_near_first};
