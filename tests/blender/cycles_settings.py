@@ -1,6 +1,7 @@
 """Cycles set up as a ray caster for the agreement tests (``cycles_scene.py``,
-``leaf_cards_scene.py``): one sample at each pixel centre, direct light only, the shadow catcher
-pass, a multilayer EXR of 32-bit floats. Loaded from its path by the scripts beside it."""
+``leaf_cards_scene.py``, ``scripts/alpha_cycles_check.py``): one sample at each pixel centre,
+direct light only, the shadow catcher pass, a multilayer EXR of 32-bit floats. Loaded by those
+scripts from this folder."""
 
 from __future__ import annotations
 
