@@ -117,40 +117,13 @@ def build_scene(width: int, height: int):
 
 
 def configure_cycles(scene):
-    """Cycles as a ray caster: one sample per pixel at the pixel centre, direct light only."""
-    scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device = "CPU"
-    c.samples = 1
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    # Pixel filter importance sampling draws the sample's offset from the filter: a 0.01-pixel
-    # box puts every camera ray within 0.005 px of the pixel centre, where antumbra's rays go.
-    c.pixel_filter_type = "BOX"
-    c.filter_width = 0.01
-    c.max_bounces = 0
-    for attribute in (
-        "diffuse_bounces",
-        "glossy_bounces",
-        "transmission_bounces",
-        "volume_bounces",
-        "transparent_max_bounces",
-    ):
-        setattr(c, attribute, 0)
-    c.caustics_reflective = c.caustics_refractive = False
-    c.seed = 0
-    scene.render.film_transparent = True
-    scene.render.use_compositing = False
-    scene.render.use_sequencer = False
-    view_layer = scene.view_layers[0]
-    view_layer.use_pass_object_index = True
-    view_layer.cycles.use_pass_shadow_catcher = True
-    settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):  # 5.0: choose multilayer before the format
-        settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.file_format = "OPEN_EXR_MULTILAYER"
-    settings.color_depth = "32"
-    settings.exr_codec = "ZIP"
+    """``cycles_settings.py``'s Cycles (no transparent bounces), with the object-index pass."""
+    path = Path(__file__).resolve().with_name("cycles_settings.py")
+    spec = importlib.util.spec_from_file_location("cycles_settings", path)
+    settings = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(settings)
+    settings.configure_cycles(scene, transparent_bounces=0)
+    scene.view_layers[0].use_pass_object_index = True
 
 
 def render_antumbra(scene, client):

@@ -35,6 +35,7 @@ shadows where the camera sees the ground itself.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
 import sys
 from pathlib import Path
@@ -289,36 +290,12 @@ def build(variant: str, size: int):
 
 
 def configure_cycles(scene) -> None:
-    """Cycles casting transparent shadows, direct light only, one sample at each pixel centre
-    (``cycles_scene.py``'s settings, but with transparent bounces for the cards)."""
-    scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device = "CPU"
-    c.samples = 1
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    c.pixel_filter_type = "BOX"
-    c.filter_width = 0.01
-    c.max_bounces = 0
-    for attribute in ("diffuse_bounces", "glossy_bounces", "transmission_bounces"):
-        setattr(c, attribute, 0)
-    c.volume_bounces = 0
-    c.transparent_max_bounces = TRANSPARENT_BOUNCES
-    if hasattr(c, "use_transparent_shadows"):  # gone in 4.x: always on there
-        c.use_transparent_shadows = True
-    c.caustics_reflective = c.caustics_refractive = False
-    c.seed = 0
-    scene.render.film_transparent = True
-    scene.render.use_compositing = False
-    scene.render.use_sequencer = False
-    view_layer = scene.view_layers[0]
-    view_layer.cycles.use_pass_shadow_catcher = True
-    settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):  # 5.0: choose multilayer before the format
-        settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.file_format = "OPEN_EXR_MULTILAYER"
-    settings.color_depth = "32"
-    settings.exr_codec = "ZIP"
+    """``cycles_settings.py``'s Cycles, casting transparent shadows through the cards."""
+    path = Path(__file__).resolve().with_name("cycles_settings.py")
+    spec = importlib.util.spec_from_file_location("cycles_settings", path)
+    settings = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(settings)
+    settings.configure_cycles(scene, transparent_bounces=TRANSPARENT_BOUNCES)
 
 
 def render(scene, folder: Path) -> None:

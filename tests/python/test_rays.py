@@ -362,3 +362,21 @@ def test_counters_orders_kernels_and_threads_change_no_answer():
 def test_bad_input_is_named(call, message):
     with pytest.raises(antumbra.InvalidInput, match=message):
         call()
+
+
+@pytest.mark.parametrize("threads", [-1, -(2**40), 1025])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda threads: Scene(np.eye(3), [[0, 1, 2]], threads=threads),
+        lambda threads: Scene(np.eye(3), [[0, 1, 2]]).intersect(
+            np.zeros((1, 3)), np.ones((1, 3)), threads=threads
+        ),
+        lambda threads: Scene(np.eye(3), [[0, 1, 2]]).occluded(
+            np.zeros((1, 3)), np.ones((1, 3)), threads=threads
+        ),
+    ],
+)
+def test_a_thread_count_out_of_range_is_a_value_error_naming_the_limit(call, threads):
+    with pytest.raises(ValueError, match=rf"threads: must be in 0\.\.=1024, got {threads}$"):
+        call(threads)

@@ -35,10 +35,11 @@ pub use compare::{
     CompareRowState, MismatchState, COMPARE_STAGE, DEFAULT_REPEAT,
 };
 pub use convert::{
-    frame_image_hashes, frame_mesh_hashes, frame_result_reply, frame_update_from_scene,
-    image_from_upload, image_label, mesh_from_upload, missing_images, missing_meshes,
-    planes_from_reply, render_settings, scene_from_frame, scene_to_messages, stats_from_reply,
-    upload_from_image, upload_from_mesh, visible_from_reply, warm_up_reply, MeshStore,
+    distinct_lacking, frame_image_hashes, frame_mesh_hashes, frame_result_reply,
+    frame_update_from_scene, image_from_upload, image_label, mesh_from_upload, missing_images,
+    missing_meshes, planes_from_reply, render_settings, scene_from_frame, scene_to_messages,
+    stats_from_reply, upload_from_image, upload_from_mesh, visible_from_reply, warm_up_reply,
+    MeshStore,
 };
 pub use error::{FrameError, ProtocolError};
 pub use frame::{

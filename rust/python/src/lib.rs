@@ -24,6 +24,7 @@ mod result;
 mod scene;
 mod settings;
 mod trade;
+mod uploads;
 
 use std::path::Path;
 

@@ -4,7 +4,6 @@
 //! process, so both sessions give the same replies. The client-side checks are the socket
 //! client's; what this file adds is the Python face (progress callbacks, Ctrl-C, statistics).
 
-use std::collections::HashSet;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::time::Instant;
@@ -30,6 +29,7 @@ use crate::result::{daemon_stats, frame_result_to_py, limits as limits_dict};
 use crate::scene;
 use crate::settings::RenderSettings;
 use crate::trade::{trade_reply_to_py, trade_request};
+use crate::uploads::{and_unrecorded, frame_missing, Kind, Upload};
 
 /// Renders counted as the daemon counts them (`DaemonStats`).
 #[derive(Default)]
@@ -71,6 +71,22 @@ impl LocalState {
             Handled::Reply(reply @ Reply::Error { .. }) => Err(ClientError::local(reply)),
             Handled::Reply(reply) => Ok(reply),
             Handled::Refused(_) | Handled::Job(_) | Handled::Control(_) => wrong_reply(),
+        }
+    }
+
+    /// Stores an upload in the session (decoded and checked without the GIL) and writes it to
+    /// the recording, if one is running.
+    fn store(&mut self, py: Python<'_>, upload: Upload) -> ClientResult<()> {
+        let recorded = self.recorder.is_some().then(|| upload.clone());
+        let session = &mut self.session;
+        match py.detach(|| session.handle(upload.into_request())) {
+            Handled::Reply(Reply::MeshStored { .. } | Reply::ImageStored { .. }) => {}
+            Handled::Reply(reply @ Reply::Error { .. }) => return Err(ClientError::local(reply)),
+            _ => return wrong_reply(),
+        }
+        match (self.recorder.as_mut(), recorded) {
+            (Some(rec), Some(upload)) => rec.upload(&upload),
+            _ => Ok(()),
         }
     }
 
@@ -196,6 +212,28 @@ impl LocalSession {
         }
     }
 
+    /// Which of `hashes` the session lacks; while recording, those the file lacks too, as the
+    /// socket session asks.
+    fn missing(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>, kind: Kind) -> PyResult<Vec<u64>> {
+        (|| {
+            let hashes = scene::hashes(hashes)?;
+            let request = kind.missing_request(hashes.clone());
+            check_limits(&request, &self.limits)
+                .map_err(|e| ClientError::invalid(e.to_string()))?;
+            let mut state = self.lock()?;
+            let Reply::Missing { hashes: lacking } = state.answer(request)? else {
+                return wrong_reply();
+            };
+            Ok(and_unrecorded(
+                lacking,
+                hashes,
+                state.recorder.as_ref(),
+                kind,
+            ))
+        })()
+        .py_result(py)
+    }
+
     fn lock(&self) -> ClientResult<MutexGuard<'_, LocalState>> {
         let guard = match self.state.try_lock() {
             Ok(g) => g,
@@ -249,51 +287,11 @@ impl LocalSession {
     }
 
     fn missing_meshes(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>) -> PyResult<Vec<u64>> {
-        (|| {
-            let hashes = scene::hashes(hashes)?;
-            let request = Request::MissingMeshes {
-                hashes: hashes.clone(),
-            };
-            check_limits(&request, &self.limits)
-                .map_err(|e| ClientError::invalid(e.to_string()))?;
-            let mut state = self.lock()?;
-            let Reply::Missing { hashes: lacking } = state.answer(request)? else {
-                return wrong_reply();
-            };
-            // A recording lacking a mesh asks for it again, as the socket session does.
-            let lacking: HashSet<u64> = lacking.into_iter().collect();
-            let in_file = |h| !matches!(&state.recorder, Some(r) if !r.has_mesh(h));
-            let mut seen = HashSet::new();
-            Ok(hashes
-                .into_iter()
-                .filter(|&h| (lacking.contains(&h) || !in_file(h)) && seen.insert(h))
-                .collect())
-        })()
-        .py_result(py)
+        self.missing(py, hashes, Kind::Mesh)
     }
 
     fn missing_images(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>) -> PyResult<Vec<u64>> {
-        (|| {
-            let hashes = scene::hashes(hashes)?;
-            let request = Request::MissingImages {
-                hashes: hashes.clone(),
-            };
-            check_limits(&request, &self.limits)
-                .map_err(|e| ClientError::invalid(e.to_string()))?;
-            let mut state = self.lock()?;
-            let Reply::Missing { hashes: lacking } = state.answer(request)? else {
-                return wrong_reply();
-            };
-            // A recording lacking an image asks for it again, as the socket session does.
-            let lacking: HashSet<u64> = lacking.into_iter().collect();
-            let in_file = |h| !matches!(&state.recorder, Some(r) if !r.has_image(h));
-            let mut seen = HashSet::new();
-            Ok(hashes
-                .into_iter()
-                .filter(|&h| (lacking.contains(&h) || !in_file(h)) && seen.insert(h))
-                .collect())
-        })()
-        .py_result(py)
+        self.missing(py, hashes, Kind::Image)
     }
 
     /// As the socket session's: stores the image unless the session holds it already.
@@ -302,21 +300,16 @@ impl LocalSession {
             let (image, hash) = image_from_array(py, texels, self.limits.max_image_texels)?;
             let mut state = self.lock()?;
             let state = &mut *state;
-            let recording = state.recorder.as_ref().is_some_and(|r| !r.has_image(hash));
-            let held = state.cache.contains_image(hash);
-            if held && !recording {
+            let recording = state
+                .recorder
+                .as_ref()
+                .is_some_and(|r| !r.has(Kind::Image, hash));
+            if state.cache.contains_image(hash) && !recording {
                 return Ok(hash);
             }
-            let upload = py.detach(|| upload_from_image(&image));
+            let upload = Upload::Image(py.detach(|| upload_from_image(&image)));
             drop(image);
-            let recorded = recording.then(|| upload.clone());
-            match state.answer(Request::UploadImage(upload))? {
-                Reply::ImageStored { .. } => {}
-                _ => return wrong_reply(),
-            }
-            if let (Some(rec), Some(upload)) = (state.recorder.as_mut(), recorded) {
-                rec.image(&upload)?;
-            }
+            state.store(py, upload)?;
             Ok(hash)
         })()
         .py_result(py)
@@ -346,22 +339,10 @@ impl LocalSession {
             drop(mesh);
             check_limits(&request, &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
-            let mut state = self.lock()?;
-            let state = &mut *state;
-            let recorded = match (&state.recorder, &request) {
-                (Some(_), Request::UploadMesh(upload)) => Some(upload.clone()),
-                _ => None,
+            let Request::UploadMesh(upload) = request else {
+                unreachable!("built above")
             };
-            let session = &mut state.session;
-            let reply = py.detach(|| session.handle(request));
-            match reply {
-                Handled::Reply(Reply::MeshStored { .. }) => {}
-                Handled::Reply(reply) => return Err(ClientError::local(reply)),
-                _ => return wrong_reply(),
-            }
-            if let (Some(rec), Some(upload)) = (state.recorder.as_mut(), recorded) {
-                rec.mesh(&upload)?;
-            }
+            self.lock()?.store(py, Upload::Mesh(upload))?;
             Ok(hash)
         })()
         .py_result(py)
@@ -394,25 +375,14 @@ impl LocalSession {
             scene::check_frame(&update, &self.limits)?;
             let mut state = self.lock()?;
             let Reply::FrameAccepted {
-                meshes_missing: mut missing,
-                images_missing: mut images,
+                meshes_missing: missing,
+                images_missing: images,
                 ..
             } = state.answer(Request::FrameUpdate(update.clone()))?
             else {
                 return wrong_reply();
             };
-            if let Some(rec) = state.recorder.as_mut() {
-                let mut seen: HashSet<u64> = missing.iter().copied().collect();
-                missing.extend(rec.missing(&update).into_iter().filter(|h| seen.insert(*h)));
-                let mut seen: HashSet<u64> = images.iter().copied().collect();
-                images.extend(
-                    rec.missing_images(&update)
-                        .into_iter()
-                        .filter(|h| seen.insert(*h)),
-                );
-                rec.frame(&update)?;
-            }
-            Ok((missing, images))
+            frame_missing(state.recorder.as_mut(), &update, missing, images)
         })()
         .py_result(py)
     }

@@ -4,7 +4,7 @@
 
 use antumbra_rays::{
     BoxKernel, BuildMethod, BuildOptions, BvhWidth, CollapseMethod, CollapseSettings, Interval,
-    Ray, Scene, ShadowOrder, TraceOptions, TraversalStats,
+    Ray, Scene, ShadowOrder, TraceOptions, TraversalStats, MAX_THREADS,
 };
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -99,11 +99,21 @@ fn batch(
         .collect())
 }
 
+/// The `threads` keyword as a count. Taken signed, so that a negative count is refused here with
+/// the limit, as antumbra-rays refuses one above it, instead of Python's OverflowError.
+fn thread_count(value: i64) -> ClientResult<usize> {
+    usize::try_from(value).map_err(|_| {
+        ClientError::invalid(format!(
+            "threads: must be in 0..={MAX_THREADS}, got {value}"
+        ))
+    })
+}
+
 fn trace_options(
     closed: bool,
     order: &str,
     kernel_name: &str,
-    threads: usize,
+    threads: i64,
 ) -> ClientResult<TraceOptions> {
     Ok(TraceOptions {
         interval: if closed {
@@ -113,7 +123,7 @@ fn trace_options(
         },
         kernel: kernel(kernel_name)?,
         order: parse::<ShadowOrder>(order)?,
-        threads,
+        threads: thread_count(threads)?,
     })
 }
 
@@ -140,7 +150,7 @@ impl RayScene {
         method: &str,
         width: u32,
         collapse: &str,
-        threads: usize,
+        threads: i64,
         visible: Option<PyReadonlyArray1<'_, bool>>,
     ) -> PyResult<Self> {
         let build = || -> ClientResult<Scene> {
@@ -156,7 +166,7 @@ impl RayScene {
                     ),
                     None => None,
                 },
-                threads,
+                threads: thread_count(threads)?,
                 ..BuildOptions::default()
             };
             let v = rows(&vertices, "vertices")?;
@@ -181,7 +191,7 @@ impl RayScene {
         t_far: PyReadonlyArray1<'py, f32>,
         closed: bool,
         kernel: &str,
-        threads: usize,
+        threads: i64,
         counters: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let run = || -> ClientResult<_> {
@@ -235,7 +245,7 @@ impl RayScene {
         closed: bool,
         order: &str,
         kernel: &str,
-        threads: usize,
+        threads: i64,
         counters: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let run = || -> ClientResult<_> {

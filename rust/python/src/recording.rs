@@ -6,9 +6,10 @@ use std::collections::HashSet;
 use std::fs::File;
 use std::io::BufWriter;
 
-use antumbra_protocol::{FrameUpdate, RecordingWriter, Request, UploadImage, UploadMesh};
+use antumbra_protocol::{FrameUpdate, RecordingWriter, Request};
 
 use crate::error::{ClientError, ClientResult};
+use crate::uploads::{Kind, Upload};
 
 pub struct Recorder {
     path: String,
@@ -36,12 +37,12 @@ impl Recorder {
         })
     }
 
-    pub fn has_mesh(&self, hash: u64) -> bool {
-        self.meshes.contains(&hash)
-    }
-
-    pub fn has_image(&self, hash: u64) -> bool {
-        self.images.contains(&hash)
+    /// Whether the file holds the mesh or image `hash`.
+    pub fn has(&self, kind: Kind, hash: u64) -> bool {
+        match kind {
+            Kind::Mesh => self.meshes.contains(&hash),
+            Kind::Image => self.images.contains(&hash),
+        }
     }
 
     fn append(&mut self, request: &Request) -> ClientResult<()> {
@@ -50,28 +51,17 @@ impl Recorder {
             .map_err(|e| ClientError::invalid(format!("recording {}: {e}", self.path)))
     }
 
-    pub fn mesh(&mut self, upload: &UploadMesh) -> ClientResult<()> {
-        if self.meshes.insert(upload.hash) {
-            self.append(&Request::UploadMesh(upload.clone()))?;
+    /// Writes an upload unless the file holds it already.
+    pub fn upload(&mut self, upload: &Upload) -> ClientResult<()> {
+        let new = match upload {
+            Upload::Mesh(u) => self.meshes.insert(u.hash),
+            Upload::Image(u) => self.images.insert(u.hash),
+        };
+        if new {
+            self.append(&upload.clone().into_request())?;
             self.flush_ready()?;
         }
         Ok(())
-    }
-
-    pub fn image(&mut self, upload: &UploadImage) -> ClientResult<()> {
-        if self.images.insert(upload.hash) {
-            self.append(&Request::UploadImage(upload.clone()))?;
-            self.flush_ready()?;
-        }
-        Ok(())
-    }
-
-    /// Alpha images a frame's materials read that the file lacks (distinct, first use order).
-    pub fn missing_images(&self, update: &FrameUpdate) -> Vec<u64> {
-        let mut seen = HashSet::new();
-        antumbra_protocol::frame_image_hashes(update)
-            .filter(|h| seen.insert(*h) && !self.images.contains(h))
-            .collect()
     }
 
     /// Records a frame now if the file holds its meshes, else once they have been uploaded.
@@ -82,19 +72,18 @@ impl Recorder {
         self.flush_ready()
     }
 
-    /// Meshes a frame uses that the file lacks (distinct, in order of first use).
-    pub fn missing(&self, update: &FrameUpdate) -> Vec<u64> {
-        let mut seen = HashSet::new();
-        antumbra_protocol::frame_mesh_hashes(update)
-            .filter(|h| seen.insert(*h) && !self.meshes.contains(h))
-            .collect()
+    /// Whether the file holds every mesh and image a frame uses.
+    fn ready(&self, update: &FrameUpdate) -> bool {
+        [Kind::Mesh, Kind::Image]
+            .into_iter()
+            .all(|kind| kind.in_frame(update).into_iter().all(|h| self.has(kind, h)))
     }
 
     fn flush_ready(&mut self) -> ClientResult<()> {
         let mut i = 0;
         while i < self.pending.len() {
             let pending = &self.pending[i];
-            if self.missing(pending).is_empty() && self.missing_images(pending).is_empty() {
+            if self.ready(pending) {
                 let update = self.pending.remove(i);
                 self.append(&Request::FrameUpdate(update))?;
                 self.frames += 1;

@@ -25,6 +25,8 @@ import bpy
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
+from cycles_settings import configure_cycles  # noqa: E402
 from materials_check import math, new_material, texture, write_png  # noqa: E402
 
 #: A 4 x 4 RGBA image, rows top first (PNG order): every texel a different alpha, colours
@@ -220,27 +222,7 @@ def build(image_path: Path):
     r = scene.render
     r.resolution_x = r.resolution_y = SIZE
     r.resolution_percentage = 100
-    scene.render.engine = "CYCLES"
-    c = scene.cycles
-    c.device = "CPU"
-    c.samples = 1
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    c.pixel_filter_type = "BOX"
-    c.filter_width = 0.01
-    c.max_bounces = 0
-    c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = c.volume_bounces = 0
-    c.transparent_max_bounces = 8
-    c.seed = 0
-    scene.render.film_transparent = True
-    scene.render.use_compositing = False
-    scene.render.use_sequencer = False
-    scene.view_layers[0].cycles.use_pass_shadow_catcher = True
-    settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):
-        settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.file_format = "OPEN_EXR_MULTILAYER"
-    settings.color_depth = "32"
+    configure_cycles(scene, transparent_bounces=8)
     return scene, image, cards
 
 

@@ -17,8 +17,8 @@ use crate::geometry::{Aabb, Ray, RayBoxPrecomp};
 use crate::order::SrdhSettings;
 use crate::order::{Kernel, PackedKernels};
 use crate::trace::{
-    closest_hit_filtered, occluding_leaf, occluding_leaf_filtered, AlphaQuery, Counters, Hit,
-    HitFilter, RayQuery,
+    alpha_query_for, closest_hit_filtered, occluding_leaf, occluding_leaf_filtered, Counters, Hit,
+    RayQuery,
 };
 
 /// A binary BVH for one light's shadow rays with a traversal kernel per node.
@@ -46,24 +46,15 @@ impl RayQuery for SrdhBvh {
     }
 }
 
-/// The light's tree through alpha: transmission follows its kernels, as its any hit does.
-/// Its triangle ids are those of the set it was built over (the frame's shadow set), so the
-/// frame's alpha applies as is.
-impl AlphaQuery for SrdhBvh {
-    #[inline]
-    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
-        occluding_leaf_filtered(&self.bvh, &self.kernels, ray, filter, stats).is_some()
-    }
-    #[inline]
-    fn closest_hit_filtered<C: Counters, F: HitFilter>(
-        &self,
-        ray: &Ray,
-        filter: &mut F,
-        stats: &mut C,
-    ) -> Option<Hit> {
-        closest_hit_filtered(&self.bvh, ray, filter, stats)
-    }
-}
+alpha_query_for!(
+    /// The light's tree through alpha: transmission follows its kernels, as its any hit does.
+    /// Its triangle ids are those of the set it was built over (the frame's shadow set), so the
+    /// frame's alpha applies as is.
+    impl[] SrdhBvh,
+    |tree, ray, filter, stats|
+    stopped: occluding_leaf_filtered(&tree.bvh, &tree.kernels, ray, filter, stats),
+    closest: closest_hit_filtered(&tree.bvh, ray, filter, stats),
+);
 
 impl SrdhBvh {
     /// Nodes, triangles, ids and the kernel bits.

@@ -40,6 +40,45 @@ macro_rules! forward_alpha_query {
 }
 pub(crate) use forward_alpha_query;
 
+/// Implements [`AlphaQuery`] for one tree from its two searches under a filter, written as
+/// expressions of `|tree, ray, filter, stats|`: `stopped`, the leaf that stopped the ray (an
+/// `Option`), and `closest`, the closest hit the filter accepts. Generics go in `impl[...]`,
+/// bounds in `where [...]`, doc comments before `impl`.
+macro_rules! alpha_query_for {
+    (
+        $(#[$attr:meta])*
+        impl[$($gen:tt)*] $ty:ty $(where [$($bound:tt)*])?,
+        |$tree:ident, $ray:ident, $filter:ident, $stats:ident|
+        stopped: $stopped:expr,
+        closest: $closest:expr $(,)?
+    ) => {
+        $(#[$attr])*
+        impl<$($gen)*> $crate::trace::AlphaQuery for $ty $(where $($bound)*)? {
+            #[inline]
+            fn stopped<C: $crate::trace::Counters, F: $crate::trace::HitFilter>(
+                &self,
+                $ray: &$crate::geometry::Ray,
+                $filter: &mut F,
+                $stats: &mut C,
+            ) -> bool {
+                let $tree = self;
+                $stopped.is_some()
+            }
+            #[inline]
+            fn closest_hit_filtered<C: $crate::trace::Counters, F: $crate::trace::HitFilter>(
+                &self,
+                $ray: &$crate::geometry::Ray,
+                $filter: &mut F,
+                $stats: &mut C,
+            ) -> Option<$crate::trace::Hit> {
+                let $tree = self;
+                $closest
+            }
+        }
+    };
+}
+pub(crate) use alpha_query_for;
+
 /// Queries with a rule for hits ([`HitFilter`]), and the two alpha queries built on them.
 pub trait AlphaQuery: Sync {
     /// Any hit under `filter`: true when the filter stopped the ray.
@@ -108,85 +147,46 @@ pub trait AlphaQuery: Sync {
     }
 }
 
-/// The binary tree alone: front to back, as its [`super::RayQuery`].
-impl AlphaQuery for Bvh {
-    #[inline]
-    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
-        occluding_leaf_filtered(self, &FrontToBack, ray, filter, stats).is_some()
-    }
-    #[inline]
-    fn closest_hit_filtered<C: Counters, F: HitFilter>(
-        &self,
-        ray: &Ray,
-        filter: &mut F,
-        stats: &mut C,
-    ) -> Option<Hit> {
-        closest_hit_filtered(self, ray, filter, stats)
-    }
-}
+alpha_query_for!(
+    /// The binary tree alone: front to back, as its [`super::RayQuery`].
+    impl[] Bvh,
+    |tree, ray, filter, stats|
+    stopped: occluding_leaf_filtered(tree, &FrontToBack, ray, filter, stats),
+    closest: closest_hit_filtered(tree, ray, filter, stats),
+);
 
-impl AlphaQuery for OrderedBinary<'_> {
-    #[inline]
-    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
-        match self.order {
-            AnyHitOrder::Stored => occluding_leaf_filtered(self.bvh, &Stored, ray, filter, stats),
-            AnyHitOrder::NearFirst => {
-                occluding_leaf_filtered(self.bvh, &FrontToBack, ray, filter, stats)
-            }
+alpha_query_for!(
+    impl[] OrderedBinary<'_>,
+    |tree, ray, filter, stats|
+    stopped: match tree.order {
+        AnyHitOrder::Stored => occluding_leaf_filtered(tree.bvh, &Stored, ray, filter, stats),
+        AnyHitOrder::NearFirst => {
+            occluding_leaf_filtered(tree.bvh, &FrontToBack, ray, filter, stats)
         }
-        .is_some()
-    }
-    #[inline]
-    fn closest_hit_filtered<C: Counters, F: HitFilter>(
-        &self,
-        ray: &Ray,
-        filter: &mut F,
-        stats: &mut C,
-    ) -> Option<Hit> {
-        closest_hit_filtered(self.bvh, ray, filter, stats)
-    }
-}
+    },
+    closest: closest_hit_filtered(tree.bvh, ray, filter, stats),
+);
 
-/// A wide tree alone: front to back, the box kernel chosen at run time.
-impl<const N: usize> AlphaQuery for WideBvh<N>
-where
-    WideBvh<N>: WideQueries,
-{
-    #[inline]
-    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
-        let (order, kernel) = (OrderView::FrontToBack, BoxKernel::Auto);
-        self.occluder_leaf_filtered(ray, order, kernel, filter, stats)
-            .is_some()
-    }
-    #[inline]
-    fn closest_hit_filtered<C: Counters, F: HitFilter>(
-        &self,
-        ray: &Ray,
-        filter: &mut F,
-        stats: &mut C,
-    ) -> Option<Hit> {
-        WideQueries::closest_hit_filtered(self, ray, BoxKernel::Auto, filter, stats)
-    }
-}
+alpha_query_for!(
+    /// A wide tree alone: front to back, the box kernel chosen at run time.
+    impl[const N: usize] WideBvh<N> where [WideBvh<N>: WideQueries],
+    |tree, ray, filter, stats|
+    stopped: tree.occluder_leaf_filtered(
+        ray,
+        OrderView::FrontToBack,
+        BoxKernel::Auto,
+        filter,
+        stats,
+    ),
+    closest: WideQueries::closest_hit_filtered(tree, ray, BoxKernel::Auto, filter, stats),
+);
 
-/// A wide tree with its order and kernel; single rays whatever its `rays` mode.
-impl<const N: usize> AlphaQuery for OrderedWide<'_, N>
-where
-    WideBvh<N>: WideQueries,
-{
-    #[inline]
-    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
-        self.bvh
-            .occluder_leaf_filtered(ray, self.order, self.kernel, filter, stats)
-            .is_some()
-    }
-    #[inline]
-    fn closest_hit_filtered<C: Counters, F: HitFilter>(
-        &self,
-        ray: &Ray,
-        filter: &mut F,
-        stats: &mut C,
-    ) -> Option<Hit> {
-        WideQueries::closest_hit_filtered(self.bvh, ray, self.kernel, filter, stats)
-    }
-}
+alpha_query_for!(
+    /// A wide tree with its order and kernel; single rays whatever its `rays` mode.
+    impl[const N: usize] OrderedWide<'_, N> where [WideBvh<N>: WideQueries],
+    |tree, ray, filter, stats|
+    stopped: tree
+        .bvh
+        .occluder_leaf_filtered(ray, tree.order, tree.kernel, filter, stats),
+    closest: WideQueries::closest_hit_filtered(tree.bvh, ray, tree.kernel, filter, stats),
+);

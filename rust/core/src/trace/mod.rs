@@ -15,8 +15,8 @@ mod filter;
 mod query;
 pub mod wide;
 
-pub(crate) use alpha_query::forward_alpha_query;
 pub use alpha_query::AlphaQuery;
+pub(crate) use alpha_query::{alpha_query_for, forward_alpha_query};
 pub use any_hit::occluding_leaf;
 pub(crate) use any_hit::occluding_leaf_filtered;
 pub use brute::{

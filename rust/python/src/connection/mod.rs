@@ -1,20 +1,24 @@
 //! The socket session (`antumbra._native.Connection`): Python values in and out around the
 //! protocol's one client, [`antumbra_protocol::client::Client`], waiting without the GIL.
 
+mod connect;
+mod wait;
+
 use std::collections::HashSet;
-use std::io::ErrorKind;
-use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, MutexGuard, TryLockError};
 use std::time::Duration;
 
-use antumbra_protocol::client::{self, Client, Interrupt, Sender, Wait};
+use antumbra_protocol::client::{Client, Sender};
 use antumbra_protocol::{
-    upload_from_image, upload_from_mesh, ErrorCode, Limits, RenderRequest, Request,
-    PROTOCOL_VERSION,
+    upload_from_image, upload_from_mesh, Limits, RenderRequest, Request, PROTOCOL_VERSION,
 };
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict};
+use pyo3::types::PyDict;
+
+use self::connect::duration;
+pub(crate) use self::wait::check_progress;
+use self::wait::{call_progress, PyWait};
 
 use crate::arrays::{image_from_array, mesh_from_arrays, MeshAlphaArgs};
 use crate::compare::{compare_reply_to_py, compare_request};
@@ -24,108 +28,7 @@ use crate::result::{daemon_stats, frame_result_to_py, limits as limits_dict};
 use crate::scene;
 use crate::settings::RenderSettings;
 use crate::trade::{trade_reply_to_py, trade_request};
-
-/// Longest time spent without the GIL before checking for signals.
-const POLL: Duration = Duration::from_millis(100);
-
-/// Waiting with the GIL released, in slices of at most [`POLL`], checking for Ctrl-C (and so
-/// running progress callbacks) between them.
-struct PyWait<'py> {
-    py: Python<'py>,
-    /// The first Python exception that stopped a wait (KeyboardInterrupt, a callback's error).
-    pending: Option<PyErr>,
-}
-
-impl<'py> PyWait<'py> {
-    fn new(py: Python<'py>) -> Self {
-        PyWait { py, pending: None }
-    }
-
-    fn keep(&mut self, e: PyErr) -> Interrupt {
-        if self.pending.is_none() {
-            self.pending = Some(e);
-        }
-        Interrupt
-    }
-
-    /// The client's error as the Python exception it raises.
-    fn error(&mut self, e: client::ClientError) -> ClientError {
-        use client::ClientError as E;
-        let message = e.to_string();
-        match e {
-            E::Interrupted { .. } => match self.pending.take() {
-                Some(e) => ClientError::Py(e),
-                None => ClientError::Lost(message),
-            },
-            E::Encode { .. } | E::Protocol(_) => ClientError::Invalid(message),
-            E::SendTimeout { .. } | E::Timeout { .. } => ClientError::Timeout(message),
-            E::Read {
-                error: antumbra_protocol::FrameError::Decode(_),
-                ..
-            }
-            | E::Unexpected { .. }
-            | E::Version { .. }
-            | E::Mismatch(_) => ClientError::Mismatch(message),
-            E::Send { .. } | E::Read { .. } | E::Broken(_) | E::Closed | E::Io(_) => {
-                ClientError::Lost(message)
-            }
-            E::Daemon {
-                code,
-                message,
-                session_usable,
-                request_id,
-            } => ClientError::Request {
-                code,
-                message,
-                session_usable,
-                request_id,
-                daemon: true,
-            },
-        }
-    }
-}
-
-impl Wait for PyWait<'_> {
-    fn slice(&self) -> Option<Duration> {
-        Some(POLL)
-    }
-
-    fn block<T: Send>(&mut self, step: impl FnOnce() -> T + Send) -> T {
-        self.py.detach(step)
-    }
-
-    fn between(&mut self) -> Result<(), Interrupt> {
-        self.py.check_signals().map_err(|e| self.keep(e))
-    }
-}
-
-/// A `progress` argument: a callable or None.
-pub(crate) fn check_progress(progress: Option<&Bound<'_, PyAny>>) -> ClientResult<()> {
-    match progress {
-        Some(p) if !p.is_callable() => Err(ClientError::invalid(
-            "progress: expected a callable progress(stage, done, total) or None",
-        )),
-        _ => Ok(()),
-    }
-}
-
-/// Calls a render's or a comparison's progress callback: False from it cancels, an exception
-/// cancels and is raised once the request has ended.
-fn call_progress(
-    progress: Option<&Bound<'_, PyAny>>,
-    wait: &mut PyWait<'_>,
-    stage: &str,
-    done: u32,
-    total: u32,
-) -> Result<bool, Interrupt> {
-    let Some(cb) = progress else {
-        return Ok(true);
-    };
-    let stop = cb
-        .call1((stage, done, total))
-        .and_then(|v| Ok(v.is_instance_of::<PyBool>() && !v.is_truthy()?));
-    stop.map(|stop| !stop).map_err(|e| wait.keep(e))
-}
+use crate::uploads::{and_unrecorded, frame_missing, note_held, Kind, Upload};
 
 /// What the session holds besides the client: the Python API's mesh bookkeeping and recording.
 struct State {
@@ -152,32 +55,52 @@ pub struct Connection {
     next_id: AtomicU64,
 }
 
-fn duration(seconds: Option<f64>, what: &str) -> ClientResult<Option<Duration>> {
-    match seconds {
-        None => Ok(None),
-        Some(s) if s.is_finite() && s > 0.0 => Ok(Some(Duration::from_secs_f64(s))),
-        Some(s) => Err(ClientError::invalid(format!(
-            "{what}: expected a positive number of seconds or None, got {s}"
-        ))),
+impl State {
+    fn known(&mut self, kind: Kind) -> &mut HashSet<u64> {
+        match kind {
+            Kind::Mesh => &mut self.known,
+            Kind::Image => &mut self.known_images,
+        }
     }
-}
 
-fn unavailable(path: &str, e: &std::io::Error) -> ClientError {
-    let how = format!(
-        "start one with `antumbra serve --socket {path}`, or let antumbra.Client.spawn() start \
-         one for this session"
-    );
-    match e.kind() {
-        ErrorKind::NotFound | ErrorKind::ConnectionRefused => ClientError::Unavailable(format!(
-            "no antumbra daemon is listening at {path} ({e}); {how}"
-        )),
-        ErrorKind::PermissionDenied => ClientError::Unavailable(format!(
-            "cannot connect to the antumbra daemon at {path}: permission denied (the socket \
-             belongs to another user?)"
-        )),
-        _ => ClientError::Unavailable(format!(
-            "cannot connect to the antumbra daemon at {path}: {e}; {how}"
-        )),
+    /// Sends an upload, checks the hash the daemon stored it under (a mismatch is worded
+    /// `"{stored} {hash}, this client computed ..."`) and notes it held; returns the upload as
+    /// sent, for a recording.
+    fn send(
+        &mut self,
+        wait: &mut PyWait<'_>,
+        upload: Upload,
+        hash: u64,
+        stored: &str,
+    ) -> ClientResult<Upload> {
+        let (kind, sent) = match upload {
+            Upload::Mesh(u) => {
+                let sent = self.client.upload_mesh(wait, u);
+                (Kind::Mesh, sent.map(|(u, h)| (Upload::Mesh(u), h)))
+            }
+            Upload::Image(u) => {
+                let sent = self.client.upload_image(wait, u);
+                (Kind::Image, sent.map(|(u, h)| (Upload::Image(u), h)))
+            }
+        };
+        let (sent, stored_hash) = sent.map_err(|e| wait.error(e))?;
+        if stored_hash != hash {
+            let noun = if kind == Kind::Mesh { "mesh" } else { "image" };
+            return Err(ClientError::Mismatch(format!(
+                "{stored} {stored_hash:#018x}, this client computed {hash:#018x} (different \
+                 {noun} hash functions?)"
+            )));
+        }
+        self.known(kind).insert(hash);
+        Ok(sent)
+    }
+
+    /// Writes an upload to the recording, if one is running.
+    fn record(&mut self, upload: &Upload) -> ClientResult<()> {
+        match self.recorder.as_mut() {
+            Some(rec) => rec.upload(upload),
+            None => Ok(()),
+        }
     }
 }
 
@@ -206,6 +129,30 @@ impl Connection {
             .usable()
             .map_err(|e| ClientError::Lost(e.to_string()))?;
         Ok(state)
+    }
+
+    /// Which of `hashes` the daemon lacks, noted in what it holds; while recording, those the
+    /// file lacks too.
+    fn missing(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>, kind: Kind) -> PyResult<Vec<u64>> {
+        let mut wait = PyWait::new(py);
+        (|| {
+            let hashes = scene::hashes(hashes)?;
+            let mut guard = self.lock()?;
+            let state = Self::state(&mut guard)?;
+            let missing = match kind {
+                Kind::Mesh => state.client.missing_meshes(&mut wait, hashes.clone()),
+                Kind::Image => state.client.missing_images(&mut wait, hashes.clone()),
+            }
+            .map_err(|e| wait.error(e))?;
+            note_held(state.known(kind), hashes.iter().copied(), &missing);
+            Ok(and_unrecorded(
+                missing,
+                hashes,
+                state.recorder.as_ref(),
+                kind,
+            ))
+        })()
+        .py_result(py)
     }
 
     fn close_inner(&self, py: Python<'_>, request: Option<Request>) -> ClientResult<()> {
@@ -301,68 +248,14 @@ impl Connection {
         }
     }
 
-    /// Which of these mesh hashes the daemon lacks.
+    /// Which of these mesh hashes the daemon lacks (and, while recording, the file).
     fn missing_meshes(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>) -> PyResult<Vec<u64>> {
-        let mut wait = PyWait::new(py);
-        (|| {
-            let hashes = scene::hashes(hashes)?;
-            let mut guard = self.lock()?;
-            let state = Self::state(&mut guard)?;
-            let missing = state
-                .client
-                .missing_meshes(&mut wait, hashes.clone())
-                .map_err(|e| wait.error(e))?;
-            let m: HashSet<u64> = missing.iter().copied().collect();
-            state.known.extend(hashes.iter().filter(|h| !m.contains(h)));
-            for h in &missing {
-                state.known.remove(h);
-            }
-            // While recording, meshes the file lacks count as missing too.
-            let mut out = missing;
-            if let Some(rec) = &state.recorder {
-                let mut seen = m;
-                for h in hashes {
-                    if !rec.has_mesh(h) && seen.insert(h) {
-                        out.push(h);
-                    }
-                }
-            }
-            Ok(out)
-        })()
-        .py_result(py)
+        self.missing(py, hashes, Kind::Mesh)
     }
 
     /// Which of these alpha image hashes the daemon lacks (and, while recording, the file).
     fn missing_images(&self, py: Python<'_>, hashes: &Bound<'_, PyAny>) -> PyResult<Vec<u64>> {
-        let mut wait = PyWait::new(py);
-        (|| {
-            let hashes = scene::hashes(hashes)?;
-            let mut guard = self.lock()?;
-            let state = Self::state(&mut guard)?;
-            let missing = state
-                .client
-                .missing_images(&mut wait, hashes.clone())
-                .map_err(|e| wait.error(e))?;
-            let m: HashSet<u64> = missing.iter().copied().collect();
-            for h in &hashes {
-                if m.contains(h) {
-                    state.known_images.remove(h);
-                } else {
-                    state.known_images.insert(*h);
-                }
-            }
-            let mut out = missing;
-            if let Some(rec) = &state.recorder {
-                let mut seen = m;
-                for h in hashes {
-                    if !rec.has_image(h) && seen.insert(h) {
-                        out.push(h);
-                    }
-                }
-            }
-            Ok(out)
-        })()
-        .py_result(py)
+        self.missing(py, hashes, Kind::Image)
     }
 
     /// Hashes and checks an alpha image; uploads it unless the daemon holds it already (asked
@@ -373,7 +266,10 @@ impl Connection {
             let (image, hash) = image_from_array(py, texels, self.limits.max_image_texels)?;
             let mut guard = self.lock()?;
             let state = Self::state(&mut guard)?;
-            let recording = state.recorder.as_ref().is_some_and(|r| !r.has_image(hash));
+            let recording = state
+                .recorder
+                .as_ref()
+                .is_some_and(|r| !r.has(Kind::Image, hash));
             let held = state.known_images.contains(&hash)
                 || state
                     .client
@@ -384,25 +280,13 @@ impl Connection {
                 state.known_images.insert(hash);
                 return Ok(hash);
             }
-            let mut upload = py.detach(|| upload_from_image(&image));
+            let mut upload = Upload::Image(py.detach(|| upload_from_image(&image)));
             drop(image);
             if !held {
-                let (sent, stored) = state
-                    .client
-                    .upload_image(&mut wait, upload)
-                    .map_err(|e| wait.error(e))?;
-                upload = sent;
-                if stored != hash {
-                    return Err(ClientError::Mismatch(format!(
-                        "the daemon stored image hash {stored:#018x}, this client computed \
-                         {hash:#018x} (different image hash functions?)"
-                    )));
-                }
+                upload = state.send(&mut wait, upload, hash, "the daemon stored image hash")?;
             }
             state.known_images.insert(hash);
-            if let Some(rec) = state.recorder.as_mut() {
-                rec.image(&upload)?;
-            }
+            state.record(&upload)?;
             Ok(hash)
         })()
         .py_result(py)
@@ -435,29 +319,18 @@ impl Connection {
             let request = Request::UploadMesh(upload);
             antumbra_protocol::check_limits(&request, &self.limits)
                 .map_err(|e| ClientError::invalid(e.to_string()))?;
-            let Request::UploadMesh(mut upload) = request else {
+            let Request::UploadMesh(upload) = request else {
                 unreachable!("built above")
             };
+            let mut upload = Upload::Mesh(upload);
             let mut guard = self.lock()?;
             let state = Self::state(&mut guard)?;
             // While recording, a mesh the daemon already holds goes to the file only.
             if !(state.recorder.is_some() && state.known.contains(&hash)) {
-                let (sent, stored) = state
-                    .client
-                    .upload_mesh(&mut wait, upload)
-                    .map_err(|e| wait.error(e))?;
-                upload = sent;
-                if stored != hash {
-                    return Err(ClientError::Mismatch(format!(
-                        "mesh '{name}': the daemon stored hash {stored:#018x}, this client \
-                         computed {hash:#018x} (different mesh hash functions?)"
-                    )));
-                }
-                state.known.insert(hash);
+                let stored = format!("mesh '{name}': the daemon stored hash");
+                upload = state.send(&mut wait, upload, hash, &stored)?;
             }
-            if let Some(rec) = state.recorder.as_mut() {
-                rec.mesh(&upload)?;
-            }
+            state.record(&upload)?;
             Ok(hash)
         })()
         .py_result(py)
@@ -499,27 +372,20 @@ impl Connection {
                 .map_err(|e| wait.error(e))?;
             note_held(
                 &mut state.known,
-                antumbra_protocol::frame_mesh_hashes(&update),
+                Kind::Mesh.in_frame(&update),
                 &missing.meshes,
             );
             note_held(
                 &mut state.known_images,
-                antumbra_protocol::frame_image_hashes(&update),
+                Kind::Image.in_frame(&update),
                 &missing.images,
             );
-            let (mut meshes, mut images) = (missing.meshes, missing.images);
-            if let Some(rec) = state.recorder.as_mut() {
-                let mut seen: HashSet<u64> = meshes.iter().copied().collect();
-                meshes.extend(rec.missing(&update).into_iter().filter(|h| seen.insert(*h)));
-                let mut seen: HashSet<u64> = images.iter().copied().collect();
-                images.extend(
-                    rec.missing_images(&update)
-                        .into_iter()
-                        .filter(|h| seen.insert(*h)),
-                );
-                rec.frame(&update)?;
-            }
-            Ok((meshes, images))
+            frame_missing(
+                state.recorder.as_mut(),
+                &update,
+                missing.meshes,
+                missing.images,
+            )
         })()
         .py_result(py)
     }
@@ -773,69 +639,5 @@ impl Connection {
             self.server,
             if self.closed() { " closed" } else { "" }
         )
-    }
-}
-
-/// Updates what the daemon holds from a frame's hashes and those it reported missing.
-fn note_held(known: &mut HashSet<u64>, used: impl Iterator<Item = u64>, missing: &[u64]) {
-    let missing: HashSet<u64> = missing.iter().copied().collect();
-    for h in used {
-        if missing.contains(&h) {
-            known.remove(&h);
-        } else {
-            known.insert(h);
-        }
-    }
-}
-
-impl Connection {
-    fn connect(
-        py: Python<'_>,
-        socket_path: String,
-        timeout: Option<f64>,
-        client_name: String,
-        token: Option<String>,
-    ) -> ClientResult<Self> {
-        let timeout = duration(timeout, "timeout")?;
-        let mut client = py
-            .detach(|| Client::connect_unix(Path::new(&socket_path)))
-            .map_err(|e| unavailable(&socket_path, &e))?;
-        client
-            .set_timeout(timeout)
-            .map_err(|e| ClientError::Lost(format!("cannot use the socket: {e}")))?;
-        let mut wait = PyWait::new(py);
-        let hello = client.handshake(&mut wait, &client_name, token.as_deref());
-        hello.map_err(|e| match e {
-            client::ClientError::Version { daemon } => ClientError::Mismatch(format!(
-                "the daemon at {socket_path} speaks protocol version {daemon}, this client \
-                 version {PROTOCOL_VERSION}; use matching versions of antumbra and the antumbra \
-                 Python package"
-            )),
-            client::ClientError::Daemon {
-                code: ErrorCode::VersionMismatch,
-                message,
-                ..
-            } => ClientError::Mismatch(message),
-            client::ClientError::Unexpected { reply, .. } => ClientError::Mismatch(format!(
-                "the daemon at {socket_path} answered Hello with {reply} instead of Welcome (is \
-                 it an antumbra daemon?)"
-            )),
-            e => wait.error(e),
-        })?;
-        Ok(Connection {
-            server: client.server().to_string(),
-            limits: client.limits().clone(),
-            sender: client.sender(),
-            socket_path,
-            timeout,
-            state: Mutex::new(Some(State {
-                client,
-                known: HashSet::new(),
-                known_images: HashSet::new(),
-                recorder: None,
-            })),
-            active_render: AtomicU64::new(0),
-            next_id: AtomicU64::new(1),
-        })
     }
 }
