@@ -1,5 +1,6 @@
 use glam::{DVec3, Vec3};
 
+use super::refit::wear_cost;
 use crate::build::{build_binned_sah, BuildSettings};
 use crate::bvh::Bvh;
 use crate::geometry::Aabb;
@@ -24,7 +25,7 @@ pub struct MeshTree {
     pub bounds: Aabb,
     /// Zero-area triangles left out.
     pub degenerate: usize,
-    /// The tree's SAH cost (relative to its root's area) when it was last built, not refit.
+    /// The tree's cost as refits wear it ([`MeshTree::sah_growth`]) when it was last built.
     pub built_cost: f32,
 }
 
@@ -34,7 +35,7 @@ impl MeshTree {
         let placed = MeshSpaceTriangles::of(mesh);
         let bvh = build_binned_sah(&placed.triangles, settings);
         MeshTree {
-            built_cost: sah_cost(&bvh, settings),
+            built_cost: wear_cost(&bvh, &placed.space, settings),
             space: placed.space,
             triangles: placed.triangles,
             primitives: placed.primitives,
@@ -51,7 +52,7 @@ impl MeshTree {
     pub fn of_set(set: TriangleSet, settings: &BuildSettings) -> Self {
         let bvh = build_binned_sah(&set.vertices, settings);
         MeshTree {
-            built_cost: sah_cost(&bvh, settings),
+            built_cost: wear_cost(&bvh, &RenderSpace::IDENTITY, settings),
             space: RenderSpace::IDENTITY,
             bounds: set.bounds(),
             primitives: set.refs.iter().map(|r| r.primitive).collect(),
@@ -68,11 +69,6 @@ impl MeshTree {
             + (self.primitives.len() + self.objects.len()) * 4
             + self.bvh.bytes()
     }
-}
-
-/// The tree's SAH cost relative to its root's area, with the builder's unit costs.
-pub(super) fn sah_cost(bvh: &Bvh, settings: &BuildSettings) -> f32 {
-    bvh.sah_cost(settings.traversal_cost, settings.intersection_cost)
 }
 
 /// A mesh's triangles in its fitted mesh space, the zero-area ones left out: what a tree is
