@@ -357,8 +357,16 @@ fn a_deforming_character_is_refit_until_worn_and_casts_what_a_build_casts() {
         let mut made = Vec::new();
         for frame in 1..=8 {
             let r = renderer.render("room", &room.with_mesh(frame, twisted(frame)), &s);
+            let r = r.unwrap();
             let trees = renderer.scene_trees().unwrap().two_level().unwrap();
             made.push((trees.meshes_built(), trees.meshes_refit()));
+            // The rows say how many trees were refit.
+            let refit = trees.meshes_refit() as u64;
+            assert!(
+                r.stats.iter().all(|row| row.trees_refit == refit),
+                "{:?}",
+                r.stats
+            );
             if frame < 3 {
                 continue;
             }
@@ -373,7 +381,7 @@ fn a_deforming_character_is_refit_until_worn_and_casts_what_a_build_casts() {
             let b = fresh.render("room", &room.with_mesh(frame, twisted(frame)), &s);
             let trees = fresh.scene_trees().unwrap().two_level().unwrap();
             assert_eq!((trees.meshes_built(), trees.meshes_refit()), (2, 0));
-            assert_eq!(differing(&r.unwrap(), &b.unwrap()), (0, 0), "frame {frame}");
+            assert_eq!(differing(&r, &b.unwrap()), (0, 0), "frame {frame}");
         }
         // Frame 2 gives the character its own tree, refit from frame 3 until the twist wears
         // it past the limit, then built again and refit after.

@@ -235,6 +235,8 @@ pub(super) struct TreeColumns {
     pub(super) triangles: u64,
     pub(super) references: u64,
     pub(super) visible: u64,
+    /// Mesh trees refit this frame (reported once, as `build_ms`).
+    pub(super) refit: u64,
 }
 
 /// A two-level frame's trees. Cloning shares them (reference counted), as `compare` needs.
@@ -516,6 +518,11 @@ impl TwoLevelTrees {
         let triangles = self.counts().1 as u64;
         TreeColumns {
             build_ms: if self.reported { 0.0 } else { self.build_ms },
+            refit: if self.reported {
+                0
+            } else {
+                self.meshes_refit as u64
+            },
             nodes,
             bytes,
             triangles,
