@@ -14,6 +14,8 @@ use antumbra_core::scene::Mesh;
 use antumbra_core::trace::{RayQuery, TraversalStats};
 use antumbra_core::two_level::MeshTree;
 use antumbra_scenes::{builtin, SceneParams};
+use std::time::Instant;
+
 use glam::{DQuat, Vec3};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -52,7 +54,42 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (label, frames) in [("gait", &gait), ("gait, twist and bend", &bend)] {
         wear(label, frames);
     }
+    collapse_or_refit(&gait);
     Ok(())
+}
+
+/// Wall-clock time of the second frame's tree made each way: a build and collapse, a refit of
+/// both trees, and a refit of the binary tree with a new collapse of it (best of 20).
+fn collapse_or_refit(frames: &[Mesh]) {
+    let settings = BuildSettings::default();
+    let collapse = CollapseSettings::default();
+    let tree = MeshTree::build(&frames[0], &settings);
+    let wide = WideTree::collapse(&tree.bvh, BvhWidth::Eight, &collapse);
+    let best = |f: &dyn Fn()| {
+        (0..20)
+            .map(|_| {
+                let start = Instant::now();
+                f();
+                start.elapsed().as_secs_f64() * 1e3
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let build = best(&|| {
+        let t = MeshTree::build(&frames[1], &settings);
+        WideTree::collapse(&t.bvh, BvhWidth::Eight, &collapse);
+    });
+    let refit = best(&|| {
+        let t = tree.refit(&frames[0], &frames[1]).unwrap();
+        wide.clone().refit(&t.bvh.triangles);
+    });
+    let recollapse = best(&|| {
+        let t = tree.refit(&frames[0], &frames[1]).unwrap();
+        WideTree::collapse(&t.bvh, BvhWidth::Eight, &collapse);
+    });
+    println!(
+        "frame 2, ms: build and collapse {build:.3}, refit both {refit:.3}, \
+         refit and collapse again {recollapse:.3}"
+    );
 }
 
 /// Refits a tree built over the first frame through the rest, rebuilt where the refit is worn
