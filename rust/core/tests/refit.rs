@@ -28,9 +28,12 @@ fn deformed(mesh: &Mesh, f: impl Fn(Vec3, usize) -> Vec3) -> Mesh {
     Mesh::new("deformed", positions, mesh.triangles.clone())
 }
 
+/// A vertex's new position from its old one and its index.
+type Deformation = Box<dyn Fn(Vec3, usize) -> Vec3>;
+
 /// Large deformations of a unit sphere: a twist, random displacements, a squash, a stretch
 /// that tears it apart, and a move far away at another scale.
-fn deformations() -> Vec<(&'static str, Box<dyn Fn(Vec3, usize) -> Vec3>)> {
+fn deformations() -> Vec<(&'static str, Deformation)> {
     let noise = |i: usize| (common::rand3(i as u32 * 31 + 7) - 0.5).as_vec3();
     vec![
         (
