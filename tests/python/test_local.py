@@ -55,6 +55,7 @@ STATS_COLUMNS = {
     "auto_choice",
     "auto_estimate_ms",
     "alpha_lookups_per_ray",
+    "trees_refit",
 }
 
 

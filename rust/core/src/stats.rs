@@ -30,6 +30,7 @@
 //! | nts_per_ray | N_TS, the OSAH paper's traversal steps: nodes entered, N_B + N_L |
 //! | auto_choice | what `auto` chose for this pass (empty for fixed methods): primary `sah`, `osah` or `keep` (the build); shadow `fbto`, `sato`, `sorted` or `srdh` (the light's order), then `;sample=ORDER` when another order was measured on a sample of its rays; `explore:` first for a build taken to measure it (docs/auto.md) |
 //! | auto_estimate_ms | the cost model's estimate behind that choice, ms (0 when it was never measured) |
+//! | trees_refit | two levels: mesh trees this frame refit (a deforming mesh's tree keeping its topology, new boxes) rather than built; their time is in build_ms (0 when not rebuilt, and on a flat frame) |
 //! | alpha_lookups_per_ray | alpha evaluations per ray: candidate hits on alpha-textured triangles (camera rays' closest-hit candidates, shadow rays' distinct transparent hits; 0 for a frame without alpha or a pass timed without counters) |
 //!
 //! The paper's N_IT (ray/triangle intersection tests) is `nt_per_ray`.
@@ -80,6 +81,7 @@ pub struct StatsRow {
     pub auto_choice: String,
     pub auto_estimate_ms: f64,
     pub alpha_lookups_per_ray: f64,
+    pub trees_refit: u64,
 }
 
 impl StatsRow {
@@ -162,6 +164,7 @@ impl StatsRow {
             ("auto_choice", Text(&self.auto_choice)),
             ("auto_estimate_ms", Real(self.auto_estimate_ms)),
             ("alpha_lookups_per_ray", Real(self.alpha_lookups_per_ray)),
+            ("trees_refit", Count(self.trees_refit)),
         ]
     }
 
@@ -301,6 +304,7 @@ mod tests {
             auto_choice: "explore:srdh".into(),
             auto_estimate_ms: 19.5,
             alpha_lookups_per_ray: 20.5,
+            trees_refit: 21,
         };
         let serde_json::Value::Object(fields) = serde_json::to_value(&row).unwrap() else {
             panic!("a row serialises to a map");

@@ -4,6 +4,7 @@
 
 mod common;
 
+use std::str::FromStr;
 use std::sync::Arc;
 
 use antumbra_core::bvh::BvhWidth;
@@ -133,9 +134,9 @@ fn mesh_trees_are_kept_while_their_mesh_is_and_rebuilt_when_it_changes() {
     let r2 = renderer.render("frames", &second, &s).unwrap();
     let trees = renderer.scene_trees().unwrap().two_level().unwrap();
     assert_eq!(
-        trees.meshes_built(),
-        1,
-        "only the deformed mesh's tree is built"
+        (trees.meshes_built(), trees.meshes_refit()),
+        (0, 1),
+        "only the deformed mesh's tree is made: refit, its triangle list is the same"
     );
     assert_eq!(renderer.builds, builds + 1);
     let primary = |r: &FrameResult| r.stats.iter().find(|row| row.pass == "primary").cloned();
@@ -283,16 +284,21 @@ impl Room {
     }
 
     fn with_character(&self, frame: i32) -> Scene {
+        let mut m = common::sphere("character", 10, 20);
+        for p in &mut m.positions {
+            p.z *= 1.0 + 0.1 * frame as f32;
+        }
+        self.with_mesh(frame, m)
+    }
+
+    /// The room with `m` as the character.
+    fn with_mesh(&self, frame: i32, m: Mesh) -> Scene {
         // 48x36 pixels: few rays for its triangles, so a flat rebuild outweighs the trace.
         let mut s = common::boxes_scene(48);
         s.frame = frame;
         s.meshes = self.meshes.clone();
         for (i, o) in s.objects.iter_mut().enumerate() {
             o.mesh = i;
-        }
-        let mut m = common::sphere("character", 10, 20);
-        for p in &mut m.positions {
-            p.z *= 1.0 + 0.1 * frame as f32;
         }
         s.meshes.push(Arc::new(m));
         let t = frame as f64 * 0.7;
@@ -310,12 +316,13 @@ fn a_moving_character_rebuilds_its_own_tree_not_the_rooms() {
     let s = settings(SceneStructure::TwoLevel, BvhWidth::Eight, ShadowOrder::Fbto);
     let mut renderer = Renderer::new();
     let room = Room::new();
-    let mut built = Vec::new();
+    let (mut built, mut refit) = (Vec::new(), Vec::new());
     for frame in 1..=4 {
         let scene = room.with_character(frame);
         let r = renderer.render("room", &scene, &s).unwrap();
         let trees = renderer.scene_trees().unwrap().two_level().unwrap();
         built.push(trees.meshes_built());
+        refit.push(trees.meshes_refit());
         // The room is the group tree: the flat tree's triangles, so the same shadows but at
         // the character's edges.
         let flat = render(&scene, &RenderSettings::baseline());
@@ -323,6 +330,77 @@ fn a_moving_character_rebuilds_its_own_tree_not_the_rooms() {
         assert!(masks <= 20 && hits <= 10, "frame {frame}: {masks} {hits}");
     }
     // Frame 1: all in the group. Frame 2: the character changed, so it gets its own tree and
-    // the group is rebuilt without it. Then only the character's tree.
-    assert_eq!(built, vec![1, 2, 1, 1]);
+    // the group is rebuilt without it. Then only the character's tree, refit (it deforms).
+    assert_eq!(built, vec![1, 2, 0, 0]);
+    assert_eq!(refit, vec![0, 0, 1, 1]);
+}
+
+/// The character twisted about its X axis, more every frame: its tree wears.
+fn twisted(frame: i32) -> Mesh {
+    let mut m = common::sphere("character", 10, 20);
+    for p in &mut m.positions {
+        let (sin, cos) = (0.5 * frame as f32 * p.x).sin_cos();
+        *p = Vec3::new(p.x, cos * p.y - sin * p.z, sin * p.y + cos * p.z);
+    }
+    m
+}
+
+#[test]
+fn a_deforming_character_is_refit_until_worn_and_casts_what_a_build_casts() {
+    let room = Room::new();
+    let sato = ShadowOrder::from_str("sato").unwrap();
+    for s in [
+        settings(SceneStructure::TwoLevel, BvhWidth::Two, ShadowOrder::Fbto),
+        settings(SceneStructure::TwoLevel, BvhWidth::Eight, sato),
+    ] {
+        let mut renderer = Renderer::new();
+        let mut made = Vec::new();
+        for frame in 1..=8 {
+            let r = renderer.render("room", &room.with_mesh(frame, twisted(frame)), &s);
+            let r = r.unwrap();
+            let trees = renderer.scene_trees().unwrap().two_level().unwrap();
+            made.push((trees.meshes_built(), trees.meshes_refit()));
+            // The rows say how many trees were refit.
+            let refit = trees.meshes_refit() as u64;
+            assert!(
+                r.stats.iter().all(|row| row.trees_refit == refit),
+                "{:?}",
+                r.stats
+            );
+            if frame < 3 {
+                continue;
+            }
+            // A renderer whose last frame had another triangle list builds the character's
+            // tree this frame: the same shadows and hits, exactly.
+            let mut fresh = Renderer::new();
+            let mut other = twisted(frame - 1);
+            other.triangles.reverse();
+            fresh
+                .render("room", &room.with_mesh(frame - 1, other), &s)
+                .unwrap();
+            let b = fresh.render("room", &room.with_mesh(frame, twisted(frame)), &s);
+            let trees = fresh.scene_trees().unwrap().two_level().unwrap();
+            assert_eq!((trees.meshes_built(), trees.meshes_refit()), (2, 0));
+            assert_eq!(differing(&r, &b.unwrap()), (0, 0), "frame {frame}");
+        }
+        // Frame 2 gives the character its own tree, refit from frame 3 until the twist wears
+        // it past the limit, then built again and refit after.
+        assert_eq!(made[..3], [(1, 0), (2, 0), (0, 1)]);
+        let rebuilt = made[3..]
+            .iter()
+            .position(|m| *m == (1, 0))
+            .expect("{made:?}");
+        assert!(
+            made[3..3 + rebuilt].iter().all(|m| *m == (0, 1)),
+            "{made:?}"
+        );
+        // Another triangle list takes a build.
+        let mut other = twisted(9);
+        other.triangles.pop();
+        renderer
+            .render("room", &room.with_mesh(9, other), &s)
+            .unwrap();
+        let trees = renderer.scene_trees().unwrap().two_level().unwrap();
+        assert_eq!((trees.meshes_built(), trees.meshes_refit()), (1, 0));
+    }
 }

@@ -22,7 +22,8 @@ use crate::limits::Limits;
 use crate::trade::{TradeRequest, TradeResultReply};
 
 /// The protocol version this crate speaks; `Hello` must carry it. Version 6: the statistics
-/// column `sort_ms` is `prepare_ms` (it holds every per-light preparation, SRDH builds too).
+/// column `sort_ms` is `prepare_ms` (it holds every per-light preparation, SRDH builds too),
+/// and rows gain `trees_refit`.
 /// Version 5: alpha materials
 /// (meshes' slots and UV maps, `UploadImage`, `FrameUpdate.alpha_materials`, objects' `materials`).
 /// Version 4: `FrameUpdate`

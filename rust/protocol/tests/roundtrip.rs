@@ -297,6 +297,7 @@ fn stats_row() -> impl Strategy<Value = StatsRowState> {
                 auto_choice: format!("explore:{frame}"),
                 auto_estimate_ms: nl,
                 alpha_lookups_per_ray: nt,
+                trees_refit: rays / 3,
             },
         )
 }

@@ -50,6 +50,7 @@ impl Rows<'_> {
             references: columns.references,
             visible_input: columns.visible,
             visibility_ms: self.prepared.visibility_ms,
+            trees_refit: columns.refit,
             ..StatsRow::default()
         }
     }

@@ -143,5 +143,6 @@ fn flat_columns(
         triangles: info.triangles,
         references: bvh.triangles.len() as u64,
         visible: info.visible,
+        refit: 0,
     }
 }

@@ -7,7 +7,8 @@
 //!
 //! An object is dynamic from the first frame it changes (mesh, matrix or flags) on: its mesh
 //! gets a tree of its own, so a character moving in a room rebuilds its own tree and the top
-//! level, not the room's.
+//! level, not the room's. A deforming mesh (a new `Arc`, the same triangle list) refits last
+//! frame's tree of the same scene mesh while it holds its quality, and is rebuilt after.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -102,11 +103,45 @@ impl MeshEntry {
         }
     }
 
+    /// This entry refit to `mesh`, its mesh with new positions, under the same settings (see
+    /// [`MeshTree::refit`]); `None` when the mesh takes a build, as when refits have worn the
+    /// tree past [`crate::two_level::REFIT_LIMIT`].
+    fn refit(&self, mesh: &Arc<Mesh>, settings: &TreeSettings) -> Option<Self> {
+        if self.settings != *settings {
+            return None;
+        }
+        let start = Instant::now();
+        let tree = self.tree.refit(self.mesh.as_deref()?, mesh)?;
+        if tree.is_worn(&settings.build) {
+            return None;
+        }
+        let wide = self.wide.as_ref().map(|w| {
+            let mut w = w.clone();
+            w.refit(&tree.bvh.triangles);
+            w
+        });
+        Some(MeshEntry {
+            mesh: Some(mesh.clone()),
+            ..Self::of_trees(tree, wide, settings, start)
+        })
+    }
+
     /// `tree` with its collapse and per-tree order; `start` is when its build began.
     fn of_tree(tree: MeshTree, settings: &TreeSettings, start: Instant) -> Self {
         let wide = settings
             .wide
             .map(|(width, collapse)| WideTree::collapse(&tree.bvh, width, &collapse));
+        Self::of_trees(tree, wide, settings, start)
+    }
+
+    /// `tree` and its collapse with the per-tree order prepared on it (on a refit tree too:
+    /// SATO and RTSAH weigh children by their boxes, so the order follows the new ones).
+    fn of_trees(
+        tree: MeshTree,
+        wide: Option<WideTree>,
+        settings: &TreeSettings,
+        start: Instant,
+    ) -> Self {
         let per_tree = settings
             .per_tree
             .zip(wide.as_ref())
@@ -234,6 +269,8 @@ pub(super) struct TreeColumns {
     pub(super) triangles: u64,
     pub(super) references: u64,
     pub(super) visible: u64,
+    /// Mesh trees refit this frame (reported once, as `build_ms`).
+    pub(super) refit: u64,
 }
 
 /// A two-level frame's trees. Cloning shares them (reference counted), as `compare` needs.
@@ -259,6 +296,15 @@ pub struct TwoLevelTrees {
     build_ms: f64,
     /// Mesh trees built this frame.
     meshes_built: usize,
+    /// Mesh trees refit this frame.
+    meshes_refit: usize,
+}
+
+/// How a mesh tree of this frame was made.
+#[derive(Clone, Copy)]
+enum Made {
+    Built,
+    Refit,
 }
 
 impl TwoLevelTrees {
@@ -280,6 +326,7 @@ impl TwoLevelTrees {
         }) {
             return Ok(TwoLevelTrees {
                 meshes_built: 0,
+                meshes_refit: 0,
                 ..p.clone()
             });
         }
@@ -323,16 +370,25 @@ impl TwoLevelTrees {
         for (o, g) in scene.objects.iter().zip(&grouped) {
             used[o.mesh] |= !g;
         }
+        // Last frame's tree of each scene mesh, which a deformed mesh (a new `Arc`) refits.
+        let before = |i: usize| -> Option<&MeshEntry> {
+            let p = previous?;
+            let j = *p.by_scene_mesh.get(i).filter(|&&j| j != u32::MAX)?;
+            Some(&p.meshes[j as usize])
+        };
         // New mesh trees in parallel (many small meshes), each build parallel inside.
         let (built, group) = rayon::join(
-            || -> Vec<Option<Arc<MeshEntry>>> {
-                (scene.meshes.par_iter().zip(&used))
-                    .map(|(mesh, &used)| {
+            || -> Vec<Option<(Arc<MeshEntry>, Made)>> {
+                (scene.meshes.par_iter().zip(&used).enumerate())
+                    .map(|(i, (mesh, &used))| {
                         if !used || kept.contains_key(&(Arc::as_ptr(mesh) as usize)) {
-                            None
-                        } else {
-                            Some(Arc::new(MeshEntry::build(mesh, &tree_settings)))
+                            return None;
                         }
+                        let made = match before(i).and_then(|e| e.refit(mesh, &tree_settings)) {
+                            Some(e) => (e, Made::Refit),
+                            None => (MeshEntry::build(mesh, &tree_settings), Made::Built),
+                        };
+                        Some((Arc::new(made.0), made.1))
                     })
                     .collect()
             },
@@ -349,14 +405,17 @@ impl TwoLevelTrees {
         cancel.check()?;
         let mut meshes = Vec::new();
         let mut by_scene_mesh = vec![u32::MAX; scene.meshes.len()];
-        let mut meshes_built = 0;
+        let (mut meshes_built, mut meshes_refit) = (0, 0);
         for (i, (mesh, new)) in scene.meshes.iter().zip(built).enumerate() {
             if !used[i] {
                 continue;
             }
             let entry = match new {
-                Some(e) => {
-                    meshes_built += 1;
+                Some((e, made)) => {
+                    match made {
+                        Made::Built => meshes_built += 1,
+                        Made::Refit => meshes_refit += 1,
+                    }
                     e
                 }
                 None => kept[&(Arc::as_ptr(mesh) as usize)].clone(),
@@ -397,6 +456,7 @@ impl TwoLevelTrees {
             reported: false,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
             meshes_built,
+            meshes_refit,
         })
     }
 
@@ -412,9 +472,14 @@ impl TwoLevelTrees {
         self.group.map(|g| &self.meshes[g as usize].tree)
     }
 
-    /// Mesh trees this frame built (the others were kept from the frame before).
+    /// Mesh trees this frame built (the others were refit or kept from the frame before).
     pub fn meshes_built(&self) -> usize {
         self.meshes_built
+    }
+
+    /// Mesh trees this frame refit: last frame's trees of deformed meshes, new boxes only.
+    pub fn meshes_refit(&self) -> usize {
+        self.meshes_refit
     }
 
     /// Whether `other` kept these top levels (no object changed).
@@ -499,6 +564,11 @@ impl TwoLevelTrees {
         let triangles = self.counts().1 as u64;
         TreeColumns {
             build_ms: if self.reported { 0.0 } else { self.build_ms },
+            refit: if self.reported {
+                0
+            } else {
+                self.meshes_refit as u64
+            },
             nodes,
             bytes,
             triangles,

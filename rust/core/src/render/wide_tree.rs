@@ -1,5 +1,7 @@
 //! A wide BVH of the width chosen at run time, and its queries with an any-hit order.
 
+use glam::Vec3;
+
 use crate::build::CollapseSettings;
 use crate::bvh::{Bvh, BvhWidth, WideBvh};
 use crate::geometry::Ray;
@@ -34,6 +36,12 @@ impl WideTree {
             BvhWidth::Four => WideTree::Four(WideBvh::collapse_with(bvh, settings)),
             BvhWidth::Eight => WideTree::Eight(WideBvh::collapse_with(bvh, settings)),
         }
+    }
+
+    /// Refits the tree to `triangles` in its leaf order (its binary tree's after that refit):
+    /// the same nodes with new boxes, cheaper than a new collapse and the same boxes it would give.
+    pub fn refit(&mut self, triangles: &[[Vec3; 3]]) {
+        with_tree!(self, t => t.refit(triangles))
     }
 
     pub fn width(&self) -> BvhWidth {

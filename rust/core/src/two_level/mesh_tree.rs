@@ -1,5 +1,6 @@
 use glam::{DVec3, Vec3};
 
+use super::refit::wear_cost;
 use crate::build::{build_binned_sah, BuildSettings};
 use crate::bvh::Bvh;
 use crate::geometry::Aabb;
@@ -24,11 +25,64 @@ pub struct MeshTree {
     pub bounds: Aabb,
     /// Zero-area triangles left out.
     pub degenerate: usize,
+    /// The tree's cost as refits wear it ([`MeshTree::sah_growth`]) when it was last built.
+    pub built_cost: f32,
 }
 
 impl MeshTree {
     /// Fits the mesh space, keeps the triangles of non-zero area and builds a SAH tree.
     pub fn build(mesh: &Mesh, settings: &BuildSettings) -> Self {
+        let placed = MeshSpaceTriangles::of(mesh);
+        let bvh = build_binned_sah(&placed.triangles, settings);
+        MeshTree {
+            built_cost: wear_cost(&bvh, &placed.space, settings),
+            space: placed.space,
+            triangles: placed.triangles,
+            primitives: placed.primitives,
+            objects: Vec::new(),
+            bvh,
+            bounds: placed.bounds,
+            degenerate: placed.degenerate,
+        }
+    }
+
+    /// A tree over render-space triangles of several objects (a flat set): its space is render
+    /// space itself, so an instance of it maps rays exactly and its answers are the flat
+    /// tree's over the same triangles.
+    pub fn of_set(set: TriangleSet, settings: &BuildSettings) -> Self {
+        let bvh = build_binned_sah(&set.vertices, settings);
+        MeshTree {
+            built_cost: wear_cost(&bvh, &RenderSpace::IDENTITY, settings),
+            space: RenderSpace::IDENTITY,
+            bounds: set.bounds(),
+            primitives: set.refs.iter().map(|r| r.primitive).collect(),
+            objects: set.refs.iter().map(|r| r.object).collect(),
+            triangles: set.vertices,
+            bvh,
+            degenerate: set.degenerate,
+        }
+    }
+
+    /// Bytes held: the triangles, their primitive indices and the tree.
+    pub fn bytes(&self) -> usize {
+        self.triangles.len() * std::mem::size_of::<[Vec3; 3]>()
+            + (self.primitives.len() + self.objects.len()) * 4
+            + self.bvh.bytes()
+    }
+}
+
+/// A mesh's triangles in its fitted mesh space, the zero-area ones left out: what a tree is
+/// built or refit over.
+pub(super) struct MeshSpaceTriangles {
+    pub(super) space: RenderSpace,
+    pub(super) triangles: Vec<[Vec3; 3]>,
+    pub(super) primitives: Vec<u32>,
+    pub(super) bounds: Aabb,
+    pub(super) degenerate: usize,
+}
+
+impl MeshSpaceTriangles {
+    pub(super) fn of(mesh: &Mesh) -> Self {
         let mut min = DVec3::splat(f64::INFINITY);
         let mut max = DVec3::splat(f64::NEG_INFINITY);
         for p in &mesh.positions {
@@ -57,38 +111,12 @@ impl MeshTree {
             triangles.push(v);
             primitives.push(primitive as u32);
         }
-        let bvh = build_binned_sah(&triangles, settings);
-        MeshTree {
+        MeshSpaceTriangles {
             space,
             triangles,
             primitives,
-            objects: Vec::new(),
-            bvh,
             bounds,
             degenerate,
         }
-    }
-
-    /// A tree over render-space triangles of several objects (a flat set): its space is render
-    /// space itself, so an instance of it maps rays exactly and its answers are the flat
-    /// tree's over the same triangles.
-    pub fn of_set(set: TriangleSet, settings: &BuildSettings) -> Self {
-        let bvh = build_binned_sah(&set.vertices, settings);
-        MeshTree {
-            space: RenderSpace::IDENTITY,
-            bounds: set.bounds(),
-            primitives: set.refs.iter().map(|r| r.primitive).collect(),
-            objects: set.refs.iter().map(|r| r.object).collect(),
-            triangles: set.vertices,
-            bvh,
-            degenerate: set.degenerate,
-        }
-    }
-
-    /// Bytes held: the triangles, their primitive indices and the tree.
-    pub fn bytes(&self) -> usize {
-        self.triangles.len() * std::mem::size_of::<[Vec3; 3]>()
-            + (self.primitives.len() + self.objects.len()) * 4
-            + self.bvh.bytes()
     }
 }

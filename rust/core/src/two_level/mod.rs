@@ -7,17 +7,20 @@
 //! Answers are exact against [`brute`], which tests every triangle of every instance through
 //! the same ray transform: the closest hit is the least (t, object, triangle). Through alpha,
 //! each instance reads its own scene ([`InstanceAlpha`]); a filter hears which instance it is
-//! in ([`crate::trace::HitFilter::enter_instance`]).
+//! in ([`crate::trace::HitFilter::enter_instance`]). A deforming mesh's tree is refit rather
+//! than rebuilt while it keeps its quality ([`REFIT_LIMIT`]).
 
 mod alpha;
 pub mod brute;
 mod instance;
 mod mesh_tree;
+mod refit;
 mod top_level;
 
 pub use alpha::InstanceAlpha;
 pub use instance::{instance_box, render_from_mesh, Instance};
 pub use mesh_tree::MeshTree;
+pub use refit::REFIT_LIMIT;
 pub use top_level::{TopLevel, TwoLevel};
 
 /// The object an instance of a group tree names ([`MeshTree::of_set`]): each of the group's
