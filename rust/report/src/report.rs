@@ -239,7 +239,8 @@ impl Report<'_> {
             let pixels: usize = edges.iter().map(|m| m.pixels).sum();
             verdict += &format!(
                 " Across scene structures (flat against two levels, whose instance transforms \
-                 round differently), {pixels} pixels differ at triangle edges: {}.",
+                 round differently), {pixels} pixels differ where rounding does (triangle \
+                 edges, alpha lookups at hit points): {}.",
                 list(&edges)
             );
         }

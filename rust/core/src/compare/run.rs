@@ -71,7 +71,8 @@ pub struct Mismatch {
     pub pixels: usize,
     /// The method traced another scene structure than the baseline (two levels against the
     /// flat tree): instance transforms round differently from the flat set's, so rays through
-    /// a triangle's edge may differ. Reported, never counted as a wrong answer.
+    /// a triangle's edge may differ, and through alpha a hit's UV (and so its alpha) may differ
+    /// in the last bits. Reported, never counted as a wrong answer.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub across_structures: bool,
 }
@@ -89,7 +90,7 @@ impl std::fmt::Display for Mismatch {
             write!(
                 f,
                 "frame {}: method '{}' (another scene structure than the baseline's) differs \
-                 at triangle edges on {}: {} pixels",
+                 where rounding does (triangle edges, alpha lookups) on {}: {} pixels",
                 self.frame, self.label, self.what, self.pixels
             )
         } else {
