@@ -36,6 +36,9 @@ const INSTANCE_BYTES: u64 = 128;
 const INSTANCE_BUILD_BYTES: u64 = 160;
 /// The process itself: code, thread stacks, allocator caches.
 const PROCESS_BYTES: u64 = 32 << 20;
+/// A flagged triangle's alpha (`AlphaTriangles`): its material, three corner UVs of one set, and
+/// its share of the flag bits and ranks.
+const ALPHA_BYTES_PER_TRIANGLE: u64 = 4 + 24 + 1;
 /// A representative ray of a light's preparation (SRDH, sorting): the ray, its hit list and
 /// the logged nodes, beyond `size_of::<Ray>()`.
 const PREP_BYTES_PER_RAY: u64 = 64;
@@ -279,7 +282,8 @@ pub fn estimate_render_bytes(
     let geometry_bytes = held_triangles
         .saturating_mul(set_bytes)
         .saturating_add(refs(held_triangles).saturating_mul(kept_per_ref))
-        .saturating_add(instances.saturating_mul(INSTANCE_BYTES));
+        .saturating_add(instances.saturating_mul(INSTANCE_BYTES))
+        .saturating_add(alpha_bytes(scene, settings, two_level));
     let build_bytes = held_triangles
         .saturating_mul(set_bytes)
         .saturating_add(
@@ -315,6 +319,28 @@ pub fn estimate_render_bytes(
         build_bytes,
         light_bytes,
     }
+}
+
+/// The frame's alpha (`FrameAlpha`): per triangle of an object with an alpha material, as the
+/// flat sets hold it (camera and shadow set alike, at most), or once per mesh and materials on
+/// two levels. The images are the scene's, shared, and counted by the limits that admit them.
+fn alpha_bytes(scene: &Scene, settings: &RenderSettings, two_level: bool) -> u64 {
+    if !settings.alpha_active(scene) {
+        return 0;
+    }
+    let mut shared = std::collections::HashSet::new();
+    let triangles: u64 = (scene.objects.iter())
+        .filter(|o| o.materials.iter().any(Option::is_some))
+        .filter(|o| !two_level || shared.insert((o.mesh, o.materials.clone())))
+        .map(|o| {
+            scene
+                .meshes
+                .get(o.mesh)
+                .map_or(0, |m| m.triangles.len() as u64)
+        })
+        .sum();
+    let sets = if two_level { 1 } else { 2 };
+    triangles.saturating_mul(sets * ALPHA_BYTES_PER_TRIANGLE)
 }
 
 /// `bytes` and an eighth more for what the per-pixel sizes leave out (parallel collection,
@@ -452,6 +478,35 @@ mod tests {
         huge.resolution.percentage = u32::MAX;
         assert!(estimate_render_bytes(&huge, &s, u64::MAX).total() > 1 << 60);
         assert!(big.to_string().contains("8192x8192 pixels"), "{big}");
+    }
+
+    #[test]
+    fn alpha_materials_count_per_flagged_triangle() {
+        let s = RenderSettings::baseline();
+        let mut with = scene(1000, 64, 64);
+        for o in &mut with.objects[..500] {
+            o.materials = vec![Some(0)];
+        }
+        let opaque = estimate_render_bytes(&scene(1000, 64, 64), &s, 1);
+        let flat = estimate_render_bytes(&with, &s, 1);
+        let alpha = flat.geometry_bytes - opaque.geometry_bytes;
+        assert_eq!(alpha, 500 * 2 * ALPHA_BYTES_PER_TRIANGLE);
+        // Two levels hold one mesh's alpha per materials, however many objects share it.
+        let two = RenderSettings {
+            structure: Pick::Fixed(SceneStructure::TwoLevel),
+            ..s.clone()
+        };
+        let opaque_two = estimate_render_bytes(&scene(1000, 64, 64), &two, 1);
+        let shared = estimate_render_bytes(&with, &two, 1);
+        assert_eq!(
+            shared.geometry_bytes - opaque_two.geometry_bytes,
+            ALPHA_BYTES_PER_TRIANGLE
+        );
+        let off = RenderSettings { alpha: false, ..s };
+        assert_eq!(
+            estimate_render_bytes(&with, &off, 1).geometry_bytes,
+            estimate_render_bytes(&scene(1000, 64, 64), &off, 1).geometry_bytes
+        );
     }
 
     #[test]
