@@ -311,3 +311,112 @@ fn objects_scaled_to_nothing_are_left_out() {
     assert!(!instance_box(&fine, &tree.bounds).is_empty());
     assert_eq!(instance_box(&fine, &Aabb::EMPTY), Aabb::EMPTY);
 }
+
+#[test]
+fn rays_at_an_instance_boxs_faces_still_enter_it() {
+    // A flat square placed by rotated, stretched and moved instances; rays aimed at points of
+    // its edges and corners (placed in f64, then rounded to f32): the top level culls no hit
+    // the reference finds, and closest hits at edges equal the reference's bit for bit. (The
+    // box test's own margin, 1/65536 of the ray's magnitude, is wider than the boxes' padding,
+    // so these rays would pass without it: the next test pins the padding itself.)
+    let square = Mesh::new(
+        "square",
+        vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        ],
+        vec![[0, 1, 2], [0, 2, 3]],
+    );
+    let settings = BuildSettings::default();
+    let meshes = vec![MeshTree::build(&square, &settings)];
+    let space = RenderSpace::fit(DVec3::splat(-40.0), DVec3::splat(40.0));
+    let (mut instances, mut boxes, mut maps) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..64u32 {
+        let s = 7 + i * 31;
+        let axis = (common::rand3(s) - 0.5).normalize_or(DVec3::Z);
+        let rotation = glam::DQuat::from_axis_angle(axis, common::rand(s + 1) * 6.3);
+        let scale = DVec3::new(0.1, 0.1, 0.1) + common::rand3(s + 2) * 4.0;
+        let at = (common::rand3(s + 3) - 0.5) * 60.0;
+        let world = DMat4::from_scale_rotation_translation(scale, rotation, at);
+        let m = render_from_mesh(&space, &world, &meshes[0].space);
+        let instance = Instance::new(&m, 0, i).unwrap();
+        instances.push(instance);
+        boxes.push(instance_box(&m, &meshes[0].bounds));
+        maps.push(m);
+    }
+    let top = TopLevel::build(&instances, &boxes, &settings);
+    let trees: Vec<_> = meshes.iter().map(|m| m.bvh.clone()).collect();
+    let q = TwoLevel {
+        top: &top,
+        meshes: &trees,
+    };
+    let corners = meshes[0].triangles[0]
+        .iter()
+        .chain(&meshes[0].triangles[1])
+        .map(|v| v.as_dvec3())
+        .collect::<Vec<_>>();
+    let (mut hits, mut culled) = (0, 0);
+    for (k, m) in maps.iter().enumerate() {
+        for e in 0..corners.len() {
+            let (a, b) = (corners[e], corners[(e + 1) % corners.len()]);
+            for j in 0..=16 {
+                let target = m.transform_point3(a.lerp(b, j as f64 / 16.0)).as_vec3();
+                let seed = (k * 1000 + e * 20 + j) as u32;
+                let origin = target + ((common::rand3(seed) - 0.5) * 8.0).as_vec3();
+                let ray = Ray::new(origin, target - origin, 0.0, 1.5);
+                let want = brute::brute_occluded(&instances, &meshes, &ray);
+                hits += want as u32;
+                culled += (want && !q.occluded(&ray, &mut NoStats)) as u32;
+                assert_eq!(
+                    q.closest_hit(&ray, &mut NoStats),
+                    brute::brute_closest_hit(&instances, &meshes, &ray),
+                    "instance {k}, edge {e}, point {j}"
+                );
+            }
+        }
+    }
+    assert_eq!(
+        culled, 0,
+        "{culled} of {hits} hits culled by an instance box"
+    );
+    assert!(hits > 2000, "{hits} rays hit an edge");
+}
+
+#[test]
+fn instance_boxes_are_widened_past_their_corners() {
+    // `instance_box` holds the mesh box's corners (placed in f64) with 2^-20 of the box's size
+    // and magnitude to spare, rounded outward: at least half of that must show on every side.
+    let bounds = Aabb::new(Vec3::new(-1.0, -0.5, -0.25), Vec3::new(1.0, 0.75, 0.5));
+    let space = RenderSpace::fit(DVec3::splat(-40.0), DVec3::splat(40.0));
+    for i in 0..200u32 {
+        let s = 11 + i * 37;
+        let axis = (common::rand3(s) - 0.5).normalize_or(DVec3::Z);
+        let rotation = glam::DQuat::from_axis_angle(axis, common::rand(s + 1) * 6.3);
+        let scale = DVec3::splat(1e-3) + common::rand3(s + 2) * 4.0;
+        let at = (common::rand3(s + 3) - 0.5) * 60.0;
+        let world = DMat4::from_scale_rotation_translation(scale, rotation, at);
+        let m = render_from_mesh(&space, &world, &RenderSpace::IDENTITY);
+        let (mut min, mut max) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for corner in 0..8 {
+            let pick =
+                |bit: usize, lo: f32, hi: f32| if corner & bit == 0 { lo } else { hi } as f64;
+            let c = DVec3::new(
+                pick(1, bounds.min.x, bounds.max.x),
+                pick(2, bounds.min.y, bounds.max.y),
+                pick(4, bounds.min.z, bounds.max.z),
+            );
+            let p = m.transform_point3(c);
+            min = min.min(p);
+            max = max.max(p);
+        }
+        let magnitude = min.abs().max(max.abs()).max_element();
+        let spare = ((max - min).max_element() + magnitude) * 2f64.powi(-21);
+        let b = instance_box(&m, &bounds);
+        assert!(
+            b.min.as_dvec3().cmple(min - spare).all() && b.max.as_dvec3().cmpge(max + spare).all(),
+            "instance {i}: {b:?} against {min}..{max}, spare {spare}"
+        );
+    }
+}
