@@ -13,11 +13,9 @@ use antumbra_core::bvh::BvhWidth;
 use antumbra_core::geometry::Ray;
 use antumbra_core::order::OrderView;
 use antumbra_core::render::WideTree;
-use antumbra_core::scene::{FrameGeometry, Mesh, Scene};
+use antumbra_core::scene::{Mesh, Scene};
 use antumbra_core::trace::{NoStats, RayQuery};
-use antumbra_core::two_level::{
-    brute, instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel, REFIT_LIMIT,
-};
+use antumbra_core::two_level::{brute, Instance, MeshTree, TopLevel, TwoLevel, REFIT_LIMIT};
 use glam::{DMat4, DQuat, DVec3, Vec3};
 
 /// A mesh with `f` applied to every vertex (its index passed along).
@@ -83,18 +81,7 @@ struct Built {
 }
 
 fn two_level(scene: &Scene, meshes: Vec<MeshTree>) -> Built {
-    let space = FrameGeometry::from_scene(scene).unwrap().space;
-    let mut instances = Vec::new();
-    let mut boxes = Vec::new();
-    for (i, o) in scene.objects.iter().enumerate() {
-        let mesh = &meshes[o.mesh];
-        let m = render_from_mesh(&space, &o.world_from_object, &mesh.space);
-        if let Some(instance) = Instance::new(&m, o.mesh as u32, i as u32) {
-            instances.push(instance);
-            boxes.push(instance_box(&m, &mesh.bounds));
-        }
-    }
-    let top = TopLevel::build(&instances, &boxes, &BuildSettings::default());
+    let (instances, top) = common::place_instances(scene, &meshes);
     Built {
         meshes,
         instances,
@@ -102,18 +89,7 @@ fn two_level(scene: &Scene, meshes: Vec<MeshTree>) -> Built {
     }
 }
 
-/// Rays between random points of render space, segments and unbounded.
-fn rays(n: u32, seed: u32) -> Vec<Ray> {
-    (0..n)
-        .map(|i| {
-            let s = seed.wrapping_add(i * 104_729);
-            let a = ((common::rand3(s) - 0.5) * 2.4).as_vec3();
-            let b = ((common::rand3(s + 5) - 0.5) * 2.4).as_vec3();
-            let t_max = if i % 2 == 0 { 1.0 } else { f32::INFINITY };
-            Ray::new(a, b - a, 0.0, t_max)
-        })
-        .collect()
-}
+use common::render_space_rays as rays;
 
 /// The binary trees and the wide ones (`wide`, refit alongside) answer what brute force
 /// answers over the meshes' triangles, ray for ray.

@@ -31,22 +31,10 @@ struct Built {
 fn two_level(scene: &Scene) -> Built {
     let space = FrameGeometry::from_scene(scene).unwrap().space;
     let settings = BuildSettings::default();
-    let meshes: Vec<MeshTree> = scene
-        .meshes
-        .iter()
+    let meshes: Vec<MeshTree> = (scene.meshes.iter())
         .map(|m| MeshTree::build(m, &settings))
         .collect();
-    let mut instances = Vec::new();
-    let mut boxes = Vec::new();
-    for (i, o) in scene.objects.iter().enumerate() {
-        let mesh = &meshes[o.mesh];
-        let m = render_from_mesh(&space, &o.world_from_object, &mesh.space);
-        if let Some(instance) = Instance::new(&m, o.mesh as u32, i as u32) {
-            instances.push(instance);
-            boxes.push(instance_box(&m, &mesh.bounds));
-        }
-    }
-    let top = TopLevel::build(&instances, &boxes, &settings);
+    let (instances, top) = common::place_instances(scene, &meshes);
     Built {
         space,
         meshes,
@@ -55,21 +43,7 @@ fn two_level(scene: &Scene) -> Built {
     }
 }
 
-/// Rays between random points of render space (segments, t in (0, 1]) and unbounded rays.
-fn rays(n: u32, seed: u32) -> Vec<Ray> {
-    (0..n)
-        .map(|i| {
-            let s = seed.wrapping_add(i * 104_729);
-            let a = ((common::rand3(s) - 0.5) * 2.4).as_vec3();
-            let b = ((common::rand3(s + 5) - 0.5) * 2.4).as_vec3();
-            if i % 2 == 0 {
-                Ray::new(a, b - a, 0.0, 1.0)
-            } else {
-                Ray::new(a, b - a, 0.0, f32::INFINITY)
-            }
-        })
-        .collect()
-}
+use common::render_space_rays as rays;
 
 /// Every query agrees with the brute-force reference exactly on `rays`; returns the counters of
 /// the wide query (to check that work is counted).

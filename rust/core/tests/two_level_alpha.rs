@@ -15,11 +15,9 @@ use antumbra_core::geometry::Ray;
 use antumbra_core::order::OrderView;
 use antumbra_core::render::WideTree;
 use antumbra_core::sampling::{hash_u32, unit_float};
-use antumbra_core::scene::{FrameGeometry, Scene};
+use antumbra_core::scene::Scene;
 use antumbra_core::trace::{AlphaQuery, AlphaStats, NoStats};
-use antumbra_core::two_level::{
-    brute, instance_box, render_from_mesh, Instance, InstanceAlpha, MeshTree, TopLevel, TwoLevel,
-};
+use antumbra_core::two_level::{brute, Instance, InstanceAlpha, MeshTree, TopLevel, TwoLevel};
 
 fn r(seed: u32) -> f32 {
     unit_float(hash_u32(seed))
@@ -74,7 +72,6 @@ struct Built {
 /// The two levels of `scene`'s objects; per mesh two alpha scenes, object `i` reading its
 /// mesh's first (i % 3 == 0), second (1) or none (2: opaque).
 fn built(scene: &Scene) -> Built {
-    let space = FrameGeometry::from_scene(scene).unwrap().space;
     let settings = BuildSettings::default();
     let meshes: Vec<MeshTree> = (scene.meshes.iter())
         .map(|m| MeshTree::build(m, &settings))
@@ -87,21 +84,13 @@ fn built(scene: &Scene) -> Built {
             ]
         })
         .collect();
-    let mut by_object = Vec::new();
-    let (mut instances, mut boxes) = (Vec::new(), Vec::new());
-    for (i, o) in scene.objects.iter().enumerate() {
-        by_object.push(match i % 3 {
+    let by_object: Vec<Option<u32>> = (scene.objects.iter().enumerate())
+        .map(|(i, o)| match i % 3 {
             2 => None,
             k => Some((2 * o.mesh + k) as u32),
-        });
-        let mesh = &meshes[o.mesh];
-        let m = render_from_mesh(&space, &o.world_from_object, &mesh.space);
-        if let Some(instance) = Instance::new(&m, o.mesh as u32, i as u32) {
-            instances.push(instance);
-            boxes.push(instance_box(&m, &mesh.bounds));
-        }
-    }
-    let top = TopLevel::build(&instances, &boxes, &settings);
+        })
+        .collect();
+    let (instances, top) = common::place_instances(scene, &meshes);
     Built {
         meshes,
         instances,
@@ -110,18 +99,7 @@ fn built(scene: &Scene) -> Built {
     }
 }
 
-/// Rays between random points of render space (segments, t in (0, 1]) and unbounded rays.
-fn rays(n: u32, seed: u32) -> Vec<Ray> {
-    (0..n)
-        .map(|i| {
-            let s = seed.wrapping_add(i * 104_729);
-            let a = ((common::rand3(s) - 0.5) * 2.4).as_vec3();
-            let b = ((common::rand3(s + 5) - 0.5) * 2.4).as_vec3();
-            let t_max = if i % 2 == 0 { 1.0 } else { f32::INFINITY };
-            Ray::new(a, b - a, 0.0, t_max)
-        })
-        .collect()
-}
+use common::render_space_rays as rays;
 
 /// Every layout's two-level transmission and clipped closest hit equal the reference bit for
 /// bit; returns how many rays came out fractional (neither 0 nor 1).

@@ -193,3 +193,43 @@ pub fn instanced_scene(count: u32) -> Scene {
     scene.objects = objects;
     scene
 }
+
+/// Rays between random points of render space: even ones segments (t in (0, 1]), odd ones
+/// unbounded.
+pub fn render_space_rays(n: u32, seed: u32) -> Vec<antumbra_core::geometry::Ray> {
+    (0..n)
+        .map(|i| {
+            let s = seed.wrapping_add(i * 104_729);
+            let a = ((rand3(s) - 0.5) * 2.4).as_vec3();
+            let b = ((rand3(s + 5) - 0.5) * 2.4).as_vec3();
+            let t_max = if i % 2 == 0 { 1.0 } else { f32::INFINITY };
+            antumbra_core::geometry::Ray::new(a, b - a, 0.0, t_max)
+        })
+        .collect()
+}
+
+/// `scene`'s objects as instances of `meshes` (by the object's mesh index) in the flat frame's
+/// render space, and the top level over them; objects scaled to nothing are left out.
+pub fn place_instances(
+    scene: &Scene,
+    meshes: &[antumbra_core::two_level::MeshTree],
+) -> (
+    Vec<antumbra_core::two_level::Instance>,
+    antumbra_core::two_level::TopLevel,
+) {
+    use antumbra_core::two_level::{instance_box, render_from_mesh, Instance, TopLevel};
+    let space = antumbra_core::scene::FrameGeometry::from_scene(scene)
+        .unwrap()
+        .space;
+    let (mut instances, mut boxes) = (Vec::new(), Vec::new());
+    for (i, o) in scene.objects.iter().enumerate() {
+        let mesh = &meshes[o.mesh];
+        let m = render_from_mesh(&space, &o.world_from_object, &mesh.space);
+        if let Some(instance) = Instance::new(&m, o.mesh as u32, i as u32) {
+            instances.push(instance);
+            boxes.push(instance_box(&m, &mesh.bounds));
+        }
+    }
+    let top = TopLevel::build(&instances, &boxes, &Default::default());
+    (instances, top)
+}
