@@ -370,11 +370,37 @@ impl TwoLevelTrees {
         for (o, g) in scene.objects.iter().zip(&grouped) {
             used[o.mesh] |= !g;
         }
-        // Last frame's tree of each scene mesh, which a deformed mesh (a new `Arc`) refits.
+        // Last frame's tree of each scene mesh, which a deformed mesh (a new `Arc`) refits: the
+        // tree of the mesh of the same name where the name is unique in both frames (a
+        // reordered mesh list keeps its pairs), otherwise of the mesh at the same index.
+        let named_before = previous.map(|p| {
+            unique_names(
+                p.meshes
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(j, e)| e.mesh.as_deref().map(|m| (m.name.as_str(), j))),
+            )
+        });
+        let named_now = unique_names(
+            scene
+                .meshes
+                .iter()
+                .map(|m| m.name.as_str())
+                .enumerate()
+                .map(|(i, n)| (n, i)),
+        );
         let before = |i: usize| -> Option<&MeshEntry> {
             let p = previous?;
-            let j = *p.by_scene_mesh.get(i).filter(|&&j| j != u32::MAX)?;
-            Some(&p.meshes[j as usize])
+            let name = scene.meshes[i].name.as_str();
+            let by_name = named_now
+                .contains_key(name)
+                .then(|| named_before.as_ref()?.get(name))
+                .flatten();
+            let j = match by_name {
+                Some(&j) => j,
+                None => *p.by_scene_mesh.get(i).filter(|&&j| j != u32::MAX)? as usize,
+            };
+            Some(&p.meshes[j])
         };
         // New mesh trees in parallel (many small meshes), each build parallel inside.
         let (built, group) = rayon::join(
@@ -646,4 +672,17 @@ fn group_key(space: &RenderSpace, changes: &ObjectChanges, grouped: &[bool]) -> 
         h.update(&changes.signature(i).to_le_bytes());
     }
     h.digest128()
+}
+
+/// The names that occur once among `items` (name, index), with their index.
+fn unique_names<'a>(items: impl Iterator<Item = (&'a str, usize)>) -> HashMap<&'a str, usize> {
+    let mut seen: HashMap<&str, Option<usize>> = HashMap::new();
+    for (name, index) in items {
+        seen.entry(name)
+            .and_modify(|e| *e = None)
+            .or_insert(Some(index));
+    }
+    seen.into_iter()
+        .filter_map(|(name, index)| Some((name, index?)))
+        .collect()
 }
