@@ -56,6 +56,9 @@ STATS_COLUMNS = {
     "auto_estimate_ms",
     "alpha_lookups_per_ray",
     "trees_refit",
+    "packets",
+    "steps_per_packet",
+    "handoffs_per_ray",
 }
 
 

@@ -32,6 +32,9 @@
 //! | auto_estimate_ms | the cost model's estimate behind that choice, ms (0 when it was never measured) |
 //! | trees_refit | two levels: mesh trees this frame refit (a deforming mesh's tree keeping its topology, new boxes) rather than built; their time is in build_ms (0 when not rebuilt, and on a flat frame) |
 //! | alpha_lookups_per_ray | alpha evaluations per ray: candidate hits on alpha-textured triangles (camera rays' closest-hit candidates, shadow rays' distinct transparent hits; 0 for a frame without alpha or a pass timed without counters) |
+//! | packets | packets of neighbouring rays traced together (`rays=packet`; 0 for single rays) |
+//! | steps_per_packet | interior nodes a packet took together, per packet (a node counts one step whatever its active lanes; the per-ray columns count it once per active lane) |
+//! | handoffs_per_ray | per ray, lane hand-offs from a packet to the single-ray traversal (at a subtree where few lanes stayed active; a lane may be handed off at several) |
 //!
 //! The paper's N_IT (ray/triangle intersection tests) is `nt_per_ray`.
 
@@ -82,6 +85,9 @@ pub struct StatsRow {
     pub auto_estimate_ms: f64,
     pub alpha_lookups_per_ray: f64,
     pub trees_refit: u64,
+    pub packets: u64,
+    pub steps_per_packet: f64,
+    pub handoffs_per_ray: f64,
 }
 
 impl StatsRow {
@@ -93,6 +99,9 @@ impl StatsRow {
         self.nt_per_ray = totals.triangles as f64 / r;
         self.nbox_per_ray = totals.boxes as f64 / r;
         self.nts_per_ray = (totals.inner + totals.leaves) as f64 / r;
+        self.packets = totals.packets;
+        self.steps_per_packet = totals.packet_steps as f64 / totals.packets.max(1) as f64;
+        self.handoffs_per_ray = totals.handoffs as f64 / r;
     }
 
     /// The row with its wall-clock columns zeroed (build, trace, Mrays/s, preparation and
@@ -165,6 +174,9 @@ impl StatsRow {
             ("auto_estimate_ms", Real(self.auto_estimate_ms)),
             ("alpha_lookups_per_ray", Real(self.alpha_lookups_per_ray)),
             ("trees_refit", Count(self.trees_refit)),
+            ("packets", Count(self.packets)),
+            ("steps_per_packet", Real(self.steps_per_packet)),
+            ("handoffs_per_ray", Real(self.handoffs_per_ray)),
         ]
     }
 
@@ -305,6 +317,9 @@ mod tests {
             auto_estimate_ms: 19.5,
             alpha_lookups_per_ray: 20.5,
             trees_refit: 21,
+            packets: 22,
+            steps_per_packet: 23.5,
+            handoffs_per_ray: 24.5,
         };
         let serde_json::Value::Object(fields) = serde_json::to_value(&row).unwrap() else {
             panic!("a row serialises to a map");

@@ -40,6 +40,7 @@ fn stats(inner: u64, leaves: u64, triangles: u64, boxes: u64) -> TraversalStats 
         leaves,
         triangles,
         boxes,
+        ..TraversalStats::default()
     }
 }
 

@@ -10,6 +10,7 @@ use antumbra_core::order::{AnyHitOrder, OrderView, ShadowOrder, SrdhSettings};
 use antumbra_core::render::{ShadowTracer, WideTree};
 use antumbra_core::sampling::{hash_u32, unit_float};
 use antumbra_core::srdh::{build_srdh, RaySet};
+use antumbra_core::trace::wide::PACKET_LANES;
 use antumbra_core::trace::{
     brute_closest_hit, brute_occluded, Hit, NoStats, OrderedBinary, OrderedWide, RayMode, RayQuery,
     TraversalStats,
@@ -159,8 +160,8 @@ fn every_layout_answers_through_one_face_for_a_ray_and_a_batch() {
 /// for bit (t, triangle, barycentrics), counted and uncounted. A ray no triangle occludes
 /// enters every box it meets whatever the order, so its packet counts equal its single-ray
 /// counts exactly; an occluded ray may stop elsewhere in another order. Returns the rays
-/// occluded.
-fn check_packets(name: &str, q: &impl RayQuery, rays: &[Ray]) -> usize {
+/// occluded and the lanes handed to single rays.
+fn check_packets(name: &str, q: &impl RayQuery, rays: &[Ray]) -> (usize, u64) {
     let n = rays.len();
     let (mut single_occ, mut single_any, mut single_hits) = (vec![], vec![], vec![]);
     for ray in rays {
@@ -175,10 +176,12 @@ fn check_packets(name: &str, q: &impl RayQuery, rays: &[Ray]) -> usize {
     same(&occluded, &single_occ, name, "packets, occluded");
     for i in (0..n).filter(|&i| !single_occ[i]) {
         assert_eq!(
-            counted[i], single_any[i],
+            per_ray(counted[i]),
+            single_any[i],
             "{name}: ray {i}: an unoccluded ray's counts"
         );
     }
+    let handoffs = check_packet_counts(name, rays, &counted, "any hit");
     let mut uncounted = vec![true; n];
     q.occluded_batch(rays, &mut uncounted, &mut vec![NoStats; n]);
     same(
@@ -188,8 +191,10 @@ fn check_packets(name: &str, q: &impl RayQuery, rays: &[Ray]) -> usize {
         "packets, occluded, no counters",
     );
     let mut hits = vec![None; n];
-    q.closest_hit_batch(rays, &mut hits, &mut vec![TraversalStats::default(); n]);
+    let mut counted = vec![TraversalStats::default(); n];
+    q.closest_hit_batch(rays, &mut hits, &mut counted);
     same(&hits, &single_hits, name, "packets, closest hits");
+    let handoffs = handoffs + check_packet_counts(name, rays, &counted, "closest hit");
     let mut hits = vec![None; n];
     q.closest_hit_batch(rays, &mut hits, &mut vec![NoStats; n]);
     same(
@@ -198,7 +203,56 @@ fn check_packets(name: &str, q: &impl RayQuery, rays: &[Ray]) -> usize {
         name,
         "packets, closest hits, no counters",
     );
-    single_occ.iter().filter(|o| **o).count()
+    (single_occ.iter().filter(|o| **o).count(), handoffs)
+}
+
+/// A ray's own counts, without the packet counters its packet's first ray carries.
+fn per_ray(s: TraversalStats) -> TraversalStats {
+    TraversalStats {
+        packets: 0,
+        packet_steps: 0,
+        handoffs: 0,
+        ..s
+    }
+}
+
+/// The packet counters of a batch: one packet per octant present in each run of 16 rays,
+/// counted on its first ray; a step takes at least two active lanes (a lane alone goes on as
+/// a single ray), each counting the node.
+fn check_packet_counts(name: &str, rays: &[Ray], counted: &[TraversalStats], what: &str) -> u64 {
+    use antumbra_core::trace::wide::WideRay;
+    let mut want = 0;
+    let mut firsts = Vec::new();
+    for (c, chunk) in rays.chunks(PACKET_LANES).enumerate() {
+        let mut seen = [false; 8];
+        for (k, ray) in chunk.iter().enumerate() {
+            let octant = WideRay::<8>::octant(ray);
+            if !seen[octant] {
+                seen[octant] = true;
+                want += 1;
+                firsts.push(c * PACKET_LANES + k);
+            }
+        }
+    }
+    let total = counted.iter().fold(TraversalStats::default(), |mut t, c| {
+        t += *c;
+        t
+    });
+    assert_eq!(total.packets, want, "{name} {what}: packets");
+    for (i, c) in counted.iter().enumerate() {
+        assert_eq!(
+            c.packets,
+            firsts.contains(&i) as u64,
+            "{name} {what}: ray {i}'s packets"
+        );
+    }
+    assert!(
+        2 * total.packet_steps <= total.inner,
+        "{name} {what}: {} steps, {} nodes",
+        total.packet_steps,
+        total.inner
+    );
+    total.handoffs
 }
 
 /// Coherent rays as the passes make them: a grid of camera rays from one point, and shadow
@@ -237,7 +291,7 @@ fn packets_answer_as_single_rays_on_every_width_order_and_kernel() {
     // A short last chunk and a single ray.
     ray_sets.push(("coherent, 37", coherent_rays()[..37].to_vec()));
     let collapse = CollapseSettings::default();
-    let mut occluded = 0;
+    let (mut occluded, mut handoffs) = (0, 0);
     for width in [BvhWidth::Two, BvhWidth::Four, BvhWidth::Eight] {
         let tree = WideTree::collapse(&bvh, width, &collapse);
         let tables = tree.sort_tables();
@@ -255,12 +309,18 @@ fn packets_answer_as_single_rays_on_every_width_order_and_kernel() {
                     let mut q = tree.ordered(prepared.view()).with_rays(RayMode::Packet);
                     q.kernel = kernel;
                     let name = format!("{width:?} {order:?} {kernel:?} {set}");
-                    occluded += check_packets(&name, &q, rays);
+                    let (o, h) = check_packets(&name, &q, rays);
+                    occluded += o;
+                    handoffs += h;
                 }
             }
         }
     }
     assert!(occluded > 1000, "{occluded} occluded rays in all");
+    assert!(
+        handoffs > 1000,
+        "{handoffs} lanes handed to single rays in all"
+    );
     // The packets' answers are brute force's (not only the single rays').
     let tree = WideTree::collapse(&bvh, BvhWidth::Eight, &collapse);
     let q = tree

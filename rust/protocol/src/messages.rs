@@ -23,7 +23,8 @@ use crate::trade::{TradeRequest, TradeResultReply};
 
 /// The protocol version this crate speaks; `Hello` must carry it. Version 6: the statistics
 /// column `sort_ms` is `prepare_ms` (it holds every per-light preparation, SRDH builds too),
-/// and rows gain `trees_refit`.
+/// and rows gain `trees_refit`. Rows gained `packets`, `steps_per_packet` and
+/// `handoffs_per_ray` within version 6 (added columns: a reader skips or defaults them).
 /// Version 5: alpha materials
 /// (meshes' slots and UV maps, `UploadImage`, `FrameUpdate.alpha_materials`, objects' `materials`).
 /// Version 4: `FrameUpdate`

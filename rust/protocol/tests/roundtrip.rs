@@ -298,6 +298,9 @@ fn stats_row() -> impl Strategy<Value = StatsRowState> {
                 auto_estimate_ms: nl,
                 alpha_lookups_per_ray: nt,
                 trees_refit: rays / 3,
+                packets: rays / 16,
+                steps_per_packet: nbox,
+                handoffs_per_ray: nt,
             },
         )
 }

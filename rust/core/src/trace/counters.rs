@@ -25,6 +25,11 @@ pub trait Counters: Copy + Default + Send + AddAssign + Into<TraversalStats> {
     fn lookups(&self) -> u64 {
         0
     }
+    /// One packet traced (see [`TraversalStats::packets`]): `steps` interior nodes the packet
+    /// took together, `to_single` lane hand-offs to the single-ray traversal. Counted on
+    /// the counters of the packet's first ray, so that a pass's sum counts each packet once.
+    #[inline(always)]
+    fn packet(&mut self, _steps: u32, _to_single: u32) {}
 }
 
 /// No counting.
@@ -62,12 +67,27 @@ impl Counters for NoStats {
 /// - `leaves` (N_L): leaves entered, same rule;
 /// - `triangles` (N_T): ray/triangle tests;
 /// - `boxes` (N_box): ray/box tests, including the root's.
+///
+/// Rays traced in packets count the above per ray (a ray counts a node, its boxes and a leaf
+/// where it is active in its packet), and the packets apart, on each packet's first ray:
+/// - `packets`: packets traced;
+/// - `packet_steps`: interior nodes a packet took together (a node taken by the packet counts
+///   one step, whatever its active lanes);
+/// - `handoffs`: lanes a packet handed to the single-ray traversal at a subtree where few
+///   lanes stayed active (a lane not occluded there stays in the packet's other subtrees and
+///   may be handed off again).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TraversalStats {
     pub inner: u64,
     pub leaves: u64,
     pub triangles: u64,
     pub boxes: u64,
+    #[serde(default)]
+    pub packets: u64,
+    #[serde(default)]
+    pub packet_steps: u64,
+    #[serde(default)]
+    pub handoffs: u64,
 }
 
 impl Counters for TraversalStats {
@@ -87,6 +107,12 @@ impl Counters for TraversalStats {
     fn boxes(&mut self, n: u32) {
         self.boxes += n as u64;
     }
+    #[inline(always)]
+    fn packet(&mut self, steps: u32, to_single: u32) {
+        self.packets += 1;
+        self.packet_steps += steps as u64;
+        self.handoffs += to_single as u64;
+    }
 }
 
 impl AddAssign for TraversalStats {
@@ -95,6 +121,9 @@ impl AddAssign for TraversalStats {
         self.leaves += o.leaves;
         self.triangles += o.triangles;
         self.boxes += o.boxes;
+        self.packets += o.packets;
+        self.packet_steps += o.packet_steps;
+        self.handoffs += o.handoffs;
     }
 }
 
@@ -123,6 +152,10 @@ impl Counters for AlphaStats {
     #[inline(always)]
     fn boxes(&mut self, n: u32) {
         self.traversal.boxes(n);
+    }
+    #[inline(always)]
+    fn packet(&mut self, steps: u32, to_single: u32) {
+        self.traversal.packet(steps, to_single);
     }
     #[inline(always)]
     fn alpha_lookups(&mut self, n: u32) {

@@ -139,6 +139,7 @@ mod tests {
             leaves: 1,
             triangles: 4,
             boxes: 8,
+            ..TraversalStats::default()
         };
         for kernel in Traversal::ALL {
             let ns = WEIGHTS.trace_ns(kernel, &w, 2);

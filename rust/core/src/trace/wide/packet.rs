@@ -185,6 +185,7 @@ pub(crate) fn occluded_packet<
     let mut stack = Stack::<(ChildRef, u32)>::new();
     stack.push((ChildRef::ROOT, valid));
     let (mut masks, mut keys, mut t_lanes) = ([0u32; N], [0f32; N], [[0f32; LANES]; N]);
+    let (mut steps, mut to_single) = (0u32, 0u32);
     'pop: while let Some((mut current, mask)) = stack.pop() {
         let mut active = mask & !occluded;
         loop {
@@ -192,6 +193,7 @@ pub(crate) fn occluded_packet<
                 continue 'pop;
             }
             if active.count_ones() <= P::SWITCH_TO_SINGLE {
+                to_single += active.count_ones();
                 for lane in lanes(active) {
                     let i = packet.index[lane] as usize;
                     let ray = packet.ray(lane);
@@ -219,6 +221,7 @@ pub(crate) fn occluded_packet<
             }
             let index = current.child as usize;
             let node = &bvh.nodes[index];
+            steps += 1;
             count_node(packet, active, node.arity() as u32, counters);
             let slots = enter_children::<N, P>(&p, node, active, &mut masks, &mut t_lanes);
             if slots == 0 {
@@ -252,6 +255,7 @@ pub(crate) fn occluded_packet<
             break;
         }
     }
+    counters[packet.index[0] as usize].packet(steps, to_single);
     for lane in lanes(occluded) {
         out[packet.index[lane] as usize] = true;
     }
@@ -294,6 +298,7 @@ pub(crate) fn closest_packet<
         t_near: p.t_min,
     });
     let (mut masks, mut keys, mut t_lanes) = ([0u32; N], [0f32; N], [[0f32; LANES]; N]);
+    let (mut steps, mut to_single) = (0u32, 0u32);
     while let Some(entry) = stack.pop() {
         // Lanes whose closest hit so far lies before the child's entry need not go in.
         let mut active = P::within_reach(&p, &entry.t_near, entry.mask);
@@ -303,6 +308,7 @@ pub(crate) fn closest_packet<
                 break;
             }
             if active.count_ones() <= P::SWITCH_TO_SINGLE {
+                to_single += active.count_ones();
                 for lane in lanes(active) {
                     let i = packet.index[lane] as usize;
                     let ray = packet.ray(lane);
@@ -339,6 +345,7 @@ pub(crate) fn closest_packet<
                 break;
             }
             let node = &bvh.nodes[current.child as usize];
+            steps += 1;
             count_node(packet, active, node.arity() as u32, counters);
             let slots = enter_children::<N, P>(&p, node, active, &mut masks, &mut t_lanes);
             if slots == 0 {
@@ -371,6 +378,7 @@ pub(crate) fn closest_packet<
             active = masks[visit[0] as usize];
         }
     }
+    counters[packet.index[0] as usize].packet(steps, to_single);
     for lane in lanes(valid) {
         out[packet.index[lane] as usize] = best[lane];
     }
