@@ -12,7 +12,7 @@ use glam::{DAffine3, DMat4, DVec3};
 
 use crate::params::SceneParams;
 use crate::rng::Pcg32;
-use crate::shapes::{fit_density, Parts};
+use crate::shapes::{fit_density, span as b, Parts};
 use crate::stage::{add_object, aimed, camera, ease, lerp3, sun, Clock, Stage};
 
 const SEED: u64 = 0x0042_4544_524f_4f4d;
@@ -29,28 +29,25 @@ const SLAT_X: f64 = HX - 0.08;
 const SLAT_PITCH: f64 = 0.04;
 const FAN_HUB: DVec3 = DVec3::new(0.0, 0.0, 2.3);
 
-fn b(min: [f64; 3], max: [f64; 3]) -> (DVec3, DVec3) {
-    (DVec3::from_array(min), DVec3::from_array(max))
-}
-
 fn shell(p: &mut Parts) {
     let id = DAffine3::IDENTITY;
     let (ox, oy) = (HX + THICK, HY + THICK);
     // Floor and ceiling run under and over the walls, and the walls overlap at the corners, so
     // the room is closed to shadow rays everywhere but the window.
-    for (min, max) in [
-        b([-ox, -oy, -THICK], [ox, oy, 0.0]),
-        b([-ox, -oy, HEIGHT], [ox, oy, HEIGHT + THICK]),
-        b([-ox, -oy, 0.0], [-HX, oy, HEIGHT]),
-        b([-HX, -oy, 0.0], [HX, -HY, HEIGHT]),
-        b([-HX, HY, 0.0], [HX, oy, HEIGHT]),
-        b([HX, -oy, 0.0], [ox, oy, SILL]),
-        b([HX, -oy, LINTEL], [ox, oy, HEIGHT]),
-        b([HX, -oy, SILL], [ox, -WY, LINTEL]),
-        b([HX, WY, SILL], [ox, oy, LINTEL]),
-    ] {
-        p.cuboid(id, min, max, 0.15);
-    }
+    p.cuboids(
+        [
+            b([-ox, -oy, -THICK], [ox, oy, 0.0]),
+            b([-ox, -oy, HEIGHT], [ox, oy, HEIGHT + THICK]),
+            b([-ox, -oy, 0.0], [-HX, oy, HEIGHT]),
+            b([-HX, -oy, 0.0], [HX, -HY, HEIGHT]),
+            b([-HX, HY, 0.0], [HX, oy, HEIGHT]),
+            b([HX, -oy, 0.0], [ox, oy, SILL]),
+            b([HX, -oy, LINTEL], [ox, oy, HEIGHT]),
+            b([HX, -oy, SILL], [ox, -WY, LINTEL]),
+            b([HX, WY, SILL], [ox, oy, LINTEL]),
+        ],
+        0.15,
+    );
     let (min, max) = b([HX - 0.15, -WY - 0.1, SILL - 0.04], [HX, WY + 0.1, SILL]);
     p.cuboid(id, min, max, 0.5);
     // Head rail and ladder cords of the blinds.
@@ -78,16 +75,17 @@ fn shell(p: &mut Parts) {
 fn bed(p: &mut Parts) {
     let id = DAffine3::IDENTITY;
     let (x0, x1, y0, y1) = (-1.2, 0.4, -0.1, 2.0);
-    for (min, max) in [
-        b([x0 + 0.05, y0 + 0.05, 0.2], [x1 - 0.05, y1 - 0.05, 0.45]),
-        b([x0 + 0.08, y0 + 0.08, 0.45], [x1 - 0.08, y1 - 0.08, 0.7]),
-        b([x0, y0, 0.7], [x1, 1.3, 0.78]),
-        b([x0 + 0.1, 1.45, 0.7], [-0.45, 1.9, 0.85]),
-        b([-0.35, 1.45, 0.7], [x1 - 0.1, 1.9, 0.85]),
-        b([x0 - 0.05, y1 - 0.06, 0.0], [x1 + 0.05, y1, 1.2]),
-    ] {
-        p.cuboid(id, min, max, 1.0);
-    }
+    p.cuboids(
+        [
+            b([x0 + 0.05, y0 + 0.05, 0.2], [x1 - 0.05, y1 - 0.05, 0.45]),
+            b([x0 + 0.08, y0 + 0.08, 0.45], [x1 - 0.08, y1 - 0.08, 0.7]),
+            b([x0, y0, 0.7], [x1, 1.3, 0.78]),
+            b([x0 + 0.1, 1.45, 0.7], [-0.45, 1.9, 0.85]),
+            b([-0.35, 1.45, 0.7], [x1 - 0.1, 1.9, 0.85]),
+            b([x0 - 0.05, y1 - 0.06, 0.0], [x1 + 0.05, y1, 1.2]),
+        ],
+        1.0,
+    );
     for (x, y) in [
         (x0 + 0.1, y0 + 0.1),
         (x1 - 0.1, y0 + 0.1),
@@ -164,13 +162,14 @@ fn bookshelf(p: &mut Parts) {
     let id = DAffine3::IDENTITY;
     let (x0, x1, y0, y1) = (1.0, 2.2, 1.7, HY);
     let shelves = [0.0, 0.45, 0.9, 1.35, 1.78];
-    for (min, max) in [
-        b([x0, y0, 0.0], [x0 + 0.02, y1, 1.8]),
-        b([x1 - 0.02, y0, 0.0], [x1, y1, 1.8]),
-        b([x0 + 0.02, y1 - 0.02, 0.0], [x1 - 0.02, y1, 1.8]),
-    ] {
-        p.cuboid(id, min, max, 1.0);
-    }
+    p.cuboids(
+        [
+            b([x0, y0, 0.0], [x0 + 0.02, y1, 1.8]),
+            b([x1 - 0.02, y0, 0.0], [x1, y1, 1.8]),
+            b([x0 + 0.02, y1 - 0.02, 0.0], [x1 - 0.02, y1, 1.8]),
+        ],
+        1.0,
+    );
     for z in shelves {
         let (min, max) = b([x0 + 0.02, y0, z], [x1 - 0.02, y1 - 0.02, z + 0.02]);
         p.cuboid(id, min, max, 1.0);

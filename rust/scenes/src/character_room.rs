@@ -15,7 +15,7 @@ use crate::bedroom::chair;
 use crate::builder::MeshBuilder;
 use crate::params::SceneParams;
 use crate::rng::Pcg32;
-use crate::shapes::{fit_density, Parts, Shape};
+use crate::shapes::{fit_density, span as b, Parts, Shape};
 use crate::stage::{add_deforming, aimed, camera, point, sun, sun_direction, Clock, Stage};
 
 const SEED: u64 = 0x4348_4152_524f_4f4d;
@@ -41,28 +41,25 @@ const SPEED: f64 = 1.3;
 /// Metres per full gait cycle (two steps).
 const STRIDE: f64 = 1.4;
 
-fn b(min: [f64; 3], max: [f64; 3]) -> (DVec3, DVec3) {
-    (DVec3::from_array(min), DVec3::from_array(max))
-}
-
 /// Floor, ceiling and walls (overlapping at the corners, so closed but for the window), with
 /// the window's sill and mullions.
 fn shell(p: &mut Parts) {
     let id = DAffine3::IDENTITY;
     let (ox, oy) = (HX + THICK, HY + THICK);
-    for (min, max) in [
-        b([-ox, -oy, -THICK], [ox, oy, 0.0]),
-        b([-ox, -oy, HEIGHT], [ox, oy, HEIGHT + THICK]),
-        b([-ox, -oy, 0.0], [-HX, oy, HEIGHT]),
-        b([HX, -oy, 0.0], [ox, oy, HEIGHT]),
-        b([-HX, HY, 0.0], [HX, oy, HEIGHT]),
-        b([-HX, -oy, 0.0], [HX, -HY, SILL]),
-        b([-HX, -oy, LINTEL], [HX, -HY, HEIGHT]),
-        b([-HX, -oy, SILL], [-WX, -HY, LINTEL]),
-        b([WX, -oy, SILL], [HX, -HY, LINTEL]),
-    ] {
-        p.cuboid(id, min, max, 0.15);
-    }
+    p.cuboids(
+        [
+            b([-ox, -oy, -THICK], [ox, oy, 0.0]),
+            b([-ox, -oy, HEIGHT], [ox, oy, HEIGHT + THICK]),
+            b([-ox, -oy, 0.0], [-HX, oy, HEIGHT]),
+            b([HX, -oy, 0.0], [ox, oy, HEIGHT]),
+            b([-HX, HY, 0.0], [HX, oy, HEIGHT]),
+            b([-HX, -oy, 0.0], [HX, -HY, SILL]),
+            b([-HX, -oy, LINTEL], [HX, -HY, HEIGHT]),
+            b([-HX, -oy, SILL], [-WX, -HY, LINTEL]),
+            b([WX, -oy, SILL], [HX, -HY, LINTEL]),
+        ],
+        0.15,
+    );
     let (min, max) = b([-WX - 0.1, -HY, SILL - 0.04], [WX + 0.1, -HY + 0.2, SILL]);
     p.cuboid(id, min, max, 1.0);
     let mullion_y = (-HY - 0.12, -HY - 0.08);
@@ -99,7 +96,6 @@ fn table(p: &mut Parts, min: DVec3, max: DVec3) {
 }
 
 fn furniture(p: &mut Parts) {
-    let id = DAffine3::IDENTITY;
     // Dining table with four chairs, a desk with one, by the window wall.
     table(p, DVec3::new(4.0, -4.5, 0.0), DVec3::new(6.0, -3.5, 0.76));
     table(p, DVec3::new(-6.0, -5.7, 0.0), DVec3::new(-4.0, -5.0, 0.78));
@@ -116,14 +112,15 @@ fn furniture(p: &mut Parts) {
         p.extend(c.transformed(xf));
     }
     // Sofa against the west wall, and a low table in front of it.
-    for (min, max) in [
-        b([-9.95, -1.5, 0.0], [-9.0, 1.5, 0.42]),
-        b([-9.95, -1.5, 0.42], [-9.7, 1.5, 0.9]),
-        b([-9.95, -1.7, 0.0], [-9.0, -1.5, 0.65]),
-        b([-9.95, 1.5, 0.0], [-9.0, 1.7, 0.65]),
-    ] {
-        p.cuboid(id, min, max, 1.0);
-    }
+    p.cuboids(
+        [
+            b([-9.95, -1.5, 0.0], [-9.0, 1.5, 0.42]),
+            b([-9.95, -1.5, 0.42], [-9.7, 1.5, 0.9]),
+            b([-9.95, -1.7, 0.0], [-9.0, -1.5, 0.65]),
+            b([-9.95, 1.5, 0.0], [-9.0, 1.7, 0.65]),
+        ],
+        1.0,
+    );
     table(p, DVec3::new(-8.5, -0.6, 0.0), DVec3::new(-7.9, 0.6, 0.45));
 }
 

@@ -13,7 +13,7 @@ use glam::{DAffine3, DMat4, DVec3};
 use crate::bedroom::chair;
 use crate::params::SceneParams;
 use crate::rng::Pcg32;
-use crate::shapes::{fit_density, Parts, Shape};
+use crate::shapes::{fit_density, span as b, Parts, Shape};
 use crate::stage::{add_object, camera, ease, lerp3, point, sun, sun_direction, Clock, Stage};
 
 const SEED: u64 = 0x494e_444f_4f52_5321;
@@ -50,30 +50,27 @@ const LAMP_PATH: [DVec3; 4] = [
 ];
 const ROCKS: u64 = 40;
 
-fn b(min: [f64; 3], max: [f64; 3]) -> (DVec3, DVec3) {
-    (DVec3::from_array(min), DVec3::from_array(max))
-}
-
 /// Walls, roof and floor of the house: closed to shadow rays but for the door and the window.
 fn shell(p: &mut Parts) {
     let id = DAffine3::IDENTITY;
     let (ox, oy) = (HX + THICK, HY + THICK);
-    for (min, max) in [
-        b([-ox, -oy, HEIGHT], [ox, oy, HEIGHT + THICK]),
-        b([-ox, -oy, 0.0], [-HX, oy, HEIGHT]),
-        b([-HX, HY, 0.0], [HX, oy, HEIGHT]),
-        // South wall around the door.
-        b([-HX, -oy, 0.0], [-DOOR, -HY, HEIGHT]),
-        b([DOOR, -oy, 0.0], [HX, -HY, HEIGHT]),
-        b([-DOOR, -oy, DOOR_TOP], [DOOR, -HY, HEIGHT]),
-        // East wall around the window.
-        b([HX, -oy, 0.0], [ox, oy, SILL]),
-        b([HX, -oy, LINTEL], [ox, oy, HEIGHT]),
-        b([HX, -oy, SILL], [ox, -WY, LINTEL]),
-        b([HX, WY, SILL], [ox, oy, LINTEL]),
-    ] {
-        p.cuboid(id, min, max, 0.15);
-    }
+    p.cuboids(
+        [
+            b([-ox, -oy, HEIGHT], [ox, oy, HEIGHT + THICK]),
+            b([-ox, -oy, 0.0], [-HX, oy, HEIGHT]),
+            b([-HX, HY, 0.0], [HX, oy, HEIGHT]),
+            // South wall around the door.
+            b([-HX, -oy, 0.0], [-DOOR, -HY, HEIGHT]),
+            b([DOOR, -oy, 0.0], [HX, -HY, HEIGHT]),
+            b([-DOOR, -oy, DOOR_TOP], [DOOR, -HY, HEIGHT]),
+            // East wall around the window.
+            b([HX, -oy, 0.0], [ox, oy, SILL]),
+            b([HX, -oy, LINTEL], [ox, oy, HEIGHT]),
+            b([HX, -oy, SILL], [ox, -WY, LINTEL]),
+            b([HX, WY, SILL], [ox, oy, LINTEL]),
+        ],
+        0.15,
+    );
     // Floorboards a little above the garden's ground, and the blinds' head rail and cords.
     let (min, max) = b([-HX, -HY, 0.0], [HX, HY, 0.02]);
     p.cuboid(id, min, max, 0.3);
@@ -114,14 +111,15 @@ fn furniture(p: &mut Parts) {
         p.extend(c.transformed(xf));
     }
     // Sofa under the west wall.
-    for (min, max) in [
-        b([-HX, -1.8, 0.0], [-HX + 0.9, -0.2, 0.42]),
-        b([-HX, -1.8, 0.42], [-HX + 0.25, -0.2, 0.85]),
-        b([-HX + 0.25, -1.8, 0.42], [-HX + 0.9, -1.6, 0.62]),
-        b([-HX + 0.25, -0.4, 0.42], [-HX + 0.9, -0.2, 0.62]),
-    ] {
-        p.cuboid(id, min, max, 1.0);
-    }
+    p.cuboids(
+        [
+            b([-HX, -1.8, 0.0], [-HX + 0.9, -0.2, 0.42]),
+            b([-HX, -1.8, 0.42], [-HX + 0.25, -0.2, 0.85]),
+            b([-HX + 0.25, -1.8, 0.42], [-HX + 0.9, -1.6, 0.62]),
+            b([-HX + 0.25, -0.4, 0.42], [-HX + 0.9, -0.2, 0.62]),
+        ],
+        1.0,
+    );
     bookshelf(p, 0.6, 2.6);
 }
 
@@ -129,12 +127,13 @@ fn bookshelf(p: &mut Parts, x0: f64, x1: f64) {
     let id = DAffine3::IDENTITY;
     let (y0, y1) = (HY - 0.32, HY);
     let shelves = [0.0, 0.42, 0.84, 1.26, 1.68, 2.0];
-    for (min, max) in [
-        b([x0, y0, 0.0], [x0 + 0.02, y1, 2.02]),
-        b([x1 - 0.02, y0, 0.0], [x1, y1, 2.02]),
-    ] {
-        p.cuboid(id, min, max, 1.0);
-    }
+    p.cuboids(
+        [
+            b([x0, y0, 0.0], [x0 + 0.02, y1, 2.02]),
+            b([x1 - 0.02, y0, 0.0], [x1, y1, 2.02]),
+        ],
+        1.0,
+    );
     for z in shelves {
         let (min, max) = b([x0 + 0.02, y0, z], [x1 - 0.02, y1, z + 0.02]);
         p.cuboid(id, min, max, 1.0);

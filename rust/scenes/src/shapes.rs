@@ -186,6 +186,11 @@ impl Part {
     }
 }
 
+/// The box with corners `min` and `max`, as [`Parts::cuboid`] takes it.
+pub(crate) fn span(min: [f64; 3], max: [f64; 3]) -> (DVec3, DVec3) {
+    (DVec3::from_array(min), DVec3::from_array(max))
+}
+
 /// A list of parts that becomes one mesh.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Parts(pub Vec<Part>);
@@ -201,6 +206,13 @@ impl Parts {
 
     pub fn cuboid(&mut self, xf: DAffine3, min: DVec3, max: DVec3, weight: f64) {
         self.add(Shape::Box { min, max }, xf, weight);
+    }
+
+    /// Untransformed boxes of one weight, each given by its corners (a room's walls).
+    pub fn cuboids(&mut self, boxes: impl IntoIterator<Item = (DVec3, DVec3)>, weight: f64) {
+        for (min, max) in boxes {
+            self.cuboid(DAffine3::IDENTITY, min, max, weight);
+        }
     }
 
     /// A cylinder standing on `base` (in the frame `xf`), straight or tapered.
