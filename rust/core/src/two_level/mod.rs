@@ -15,6 +15,7 @@ pub mod brute;
 mod instance;
 mod mesh_tree;
 mod refit;
+mod runs;
 mod top_level;
 
 pub use alpha::InstanceAlpha;

@@ -1,0 +1,371 @@
+//! Batches through the top level in runs: each run of [`LANES`] consecutive rays (the passes
+//! order a tile's rays so these are neighbours, as the packet kernel's `each_packet` reads
+//! them) walks the binary top level once, a lane mask per node. At each instance reached, the
+//! active lanes' rays are mapped into mesh space and traced together by the mesh query's own
+//! batch method, so a mesh tree's packets (re-split there by octant) see the run's coherence.
+//!
+//! Answers equal the single-ray walk's ([`TwoLevel`]'s `occluded` and `closest_hit`) and the
+//! brute-force reference's bit for bit: a lane enters a node only when its own single-ray box
+//! test (`RayBoxPrecomp::hit_packed`, its `t_max` plus `t_margin`) passes, a stacked node is
+//! culled per lane as the single-ray walk culls it, and closest hits keep the (t, object,
+//! triangle) rule of [`closer`], which no visiting order changes.
+//!
+//! Counters stay per ray: a ray counts the root's box, and an interior node (and its two boxes)
+//! or a leaf wherever it is active in its run; the mesh query counts into the ray's counters
+//! as its batch method counts. The run's shared child order may differ from a lone ray's, so
+//! the counts (not the answers) may differ from the single-ray walk's.
+
+use crate::bvh::{BvhNode, MAX_DEPTH};
+use crate::geometry::{Ray, RayBoxPrecomp};
+use crate::trace::wide::PACKET_LANES as LANES;
+use crate::trace::{Counters, Hit, RayQuery};
+use glam::Vec3;
+
+use super::top_level::{closer, TwoLevel};
+use super::Instance;
+
+/// Iterates the set bits of a lane mask, lowest first.
+#[inline(always)]
+fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            lane
+        })
+    })
+}
+
+/// One run's rays and what their walk keeps per lane.
+struct Run<'r> {
+    rays: &'r [Ray],
+    pre: [RayBoxPrecomp; LANES],
+    /// Per lane: the segment's end, lowered by closest hits.
+    t_max: [f32; LANES],
+    /// Lanes answered (occluded): they enter nothing more.
+    done: u32,
+}
+
+impl<'r> Run<'r> {
+    /// `rays` holds 1 to [`LANES`] rays.
+    #[inline(always)]
+    fn new(rays: &'r [Ray]) -> Self {
+        let last = rays.len() - 1;
+        Run {
+            rays,
+            pre: std::array::from_fn(|i| RayBoxPrecomp::new(&rays[i.min(last)])),
+            t_max: std::array::from_fn(|i| rays[i.min(last)].t_max),
+            done: 0,
+        }
+    }
+
+    #[inline(always)]
+    fn all(&self) -> u32 {
+        ((1u64 << self.rays.len()) - 1) as u32
+    }
+
+    /// The lane's entry into `node`'s box, as the single-ray walk tests it.
+    #[inline(always)]
+    fn enter(&self, lane: usize, node: &BvhNode) -> Option<f32> {
+        let pre = &self.pre[lane];
+        let reach = self.t_max[lane] + pre.t_margin;
+        pre.hit_packed(node.packed(), self.rays[lane].t_min, reach)
+    }
+
+    /// The lanes of `mask` entering `node`, each lane's entry in `t_entry`.
+    #[inline(always)]
+    fn entering(&self, mask: u32, node: &BvhNode, t_entry: &mut [f32; LANES]) -> u32 {
+        let mut entered = 0;
+        for lane in lanes(mask) {
+            if let Some(t) = self.enter(lane, node) {
+                t_entry[lane] = t;
+                entered |= 1 << lane;
+            }
+        }
+        entered
+    }
+
+    /// The lanes of `entry` still to enter it when it comes off the stack: not answered, and
+    /// entering it before their (perhaps lowered) `t_max` plus margin, the single-ray cull.
+    #[inline(always)]
+    fn still_entering(&self, entry: &Stacked) -> u32 {
+        let mut live = 0;
+        for lane in lanes(entry.mask & !self.done) {
+            let reach = self.t_max[lane] + self.pre[lane].t_margin;
+            live |= ((entry.t_entry[lane] <= reach) as u32) << lane;
+        }
+        live
+    }
+}
+
+/// A top-level node waiting on the stack: the lanes that entered it and where.
+#[derive(Clone, Copy)]
+struct Stacked {
+    node: u32,
+    mask: u32,
+    t_entry: [f32; LANES],
+}
+
+/// The active lanes' rays in an instance's mesh space: the small batch a mesh query traces.
+struct Local<C> {
+    rays: [Ray; LANES],
+    /// The run lane of each local ray.
+    lane: [u8; LANES],
+    counters: [C; LANES],
+    occluded: [bool; LANES],
+    hits: [Option<Hit>; LANES],
+    len: usize,
+}
+
+impl<C: Counters> Local<C> {
+    fn new() -> Self {
+        Local {
+            rays: [Ray::new(Vec3::ZERO, Vec3::ZERO, 0.0, 0.0); LANES],
+            lane: [0; LANES],
+            counters: [C::default(); LANES],
+            occluded: [false; LANES],
+            hits: [None; LANES],
+            len: 0,
+        }
+    }
+
+    /// The rays of the lanes of `mask` through `instance`, each to the lane's current `t_max`
+    /// (its best hit so far for closest hits), with fresh counters.
+    #[inline(always)]
+    fn gather(&mut self, run: &Run, instance: &Instance, mask: u32) {
+        self.len = 0;
+        for lane in lanes(mask) {
+            let k = self.len;
+            self.rays[k] = Ray {
+                t_max: run.t_max[lane],
+                ..instance.ray_to_mesh(&run.rays[lane])
+            };
+            self.lane[k] = lane as u8;
+            self.counters[k] = C::default();
+            self.len += 1;
+        }
+    }
+
+    /// Adds the mesh query's counts back into the run's counters.
+    #[inline(always)]
+    fn count_back(&self, counters: &mut [C]) {
+        if C::COUNTING {
+            for k in 0..self.len {
+                counters[self.lane[k] as usize] += self.counters[k];
+            }
+        }
+    }
+}
+
+/// What a run's walk reuses across runs: the stack and the local batch.
+struct Scratch<C> {
+    stack: Vec<Stacked>,
+    local: Local<C>,
+}
+
+impl<C: Counters> Scratch<C> {
+    fn new() -> Self {
+        Scratch {
+            stack: Vec::with_capacity(MAX_DEPTH),
+            local: Local::new(),
+        }
+    }
+}
+
+/// Counts `f` into the counters of the lanes of `mask`.
+#[inline(always)]
+fn count<C: Counters>(mask: u32, counters: &mut [C], f: impl Fn(&mut C)) {
+    if C::COUNTING {
+        for lane in lanes(mask) {
+            f(&mut counters[lane]);
+        }
+    }
+}
+
+/// Walks the top level once for `run`, near child first by the lowest lane entering both,
+/// handing each entered leaf's range (`first`, `count`) to `leaf` with the lanes in it.
+/// `counters[lane]` is the lane's ray's. Stops when every lane that entered the root is done.
+#[inline(always)]
+fn walk_run<C: Counters>(
+    nodes: &[BvhNode],
+    run: &mut Run,
+    counters: &mut [C],
+    stack: &mut Vec<Stacked>,
+    mut leaf: impl FnMut(usize, usize, u32, &mut Run, &mut [C]),
+) {
+    let Some(root) = nodes.first() else {
+        return;
+    };
+    count(run.all(), counters, |c| c.boxes(1));
+    let mut t_entry = [0f32; LANES];
+    let valid = run.entering(run.all(), root, &mut t_entry);
+    let (mut node, mut active) = (root, valid);
+    stack.clear();
+    loop {
+        if active != 0 && node.is_leaf() {
+            count(active, counters, |c| c.leaf());
+            leaf(
+                node.first as usize,
+                node.count as usize,
+                active,
+                run,
+                counters,
+            );
+            if valid & !run.done == 0 {
+                return;
+            }
+        } else if active != 0 {
+            count(active, counters, |c| {
+                c.inner();
+                c.boxes(2);
+            });
+            let l = node.first as usize;
+            let (mut ta, mut tb) = ([0f32; LANES], [0f32; LANES]);
+            let ma = run.entering(active, &nodes[l], &mut ta);
+            let mb = run.entering(active, &nodes[l + 1], &mut tb);
+            if ma != 0 && mb != 0 {
+                // The single-ray rule (b first when nearer) for the lowest lane entering both;
+                // lanes entering one child each take a first.
+                let both = ma & mb;
+                let key = both.trailing_zeros() as usize;
+                let b_first = both != 0 && tb[key] < ta[key];
+                let (near, far) = if b_first {
+                    ((l + 1, mb), (l, ma, ta))
+                } else {
+                    ((l, ma), (l + 1, mb, tb))
+                };
+                stack.push(Stacked {
+                    node: far.0 as u32,
+                    mask: far.1,
+                    t_entry: far.2,
+                });
+                (node, active) = (&nodes[near.0], near.1);
+                continue;
+            }
+            if ma | mb != 0 {
+                let i = if ma != 0 { l } else { l + 1 };
+                (node, active) = (&nodes[i], ma | mb);
+                continue;
+            }
+        }
+        // The next stacked node some lane may still hold a closer (or equal) hit in.
+        loop {
+            let Some(entry) = stack.pop() else {
+                return;
+            };
+            let live = run.still_entering(&entry);
+            if live != 0 {
+                (node, active) = (&nodes[entry.node as usize], live);
+                break;
+            }
+        }
+    }
+}
+
+/// `TwoLevel::occluded_batch`: any hit per ray, in runs of [`LANES`].
+pub(super) fn occluded_runs<Q: RayQuery, C: Counters>(
+    q: &TwoLevel<Q>,
+    rays: &[Ray],
+    out: &mut [bool],
+    counters: &mut [C],
+) {
+    debug_assert!(out.len() == rays.len() && counters.len() == rays.len());
+    out.fill(false);
+    let mut scratch = Scratch::<C>::new();
+    let runs = rays.chunks(LANES).zip(out.chunks_mut(LANES));
+    for ((run_rays, out), counters) in runs.zip(counters.chunks_mut(LANES)) {
+        let mut run = Run::new(run_rays);
+        let local = &mut scratch.local;
+        let leaf = |first: usize, n: usize, active: u32, run: &mut Run, counters: &mut [C]| {
+            for instance in &q.top.instances[first..first + n] {
+                let live = active & !run.done;
+                if live == 0 {
+                    return;
+                }
+                local.gather(run, instance, live);
+                let k = local.len;
+                let mesh = &q.meshes[instance.mesh as usize];
+                mesh.occluded_batch(
+                    &local.rays[..k],
+                    &mut local.occluded[..k],
+                    &mut local.counters[..k],
+                );
+                local.count_back(counters);
+                for (&lane, &occluded) in local.lane[..k].iter().zip(&local.occluded[..k]) {
+                    run.done |= (occluded as u32) << lane;
+                }
+            }
+        };
+        walk_run(
+            &q.top.bvh.nodes,
+            &mut run,
+            counters,
+            &mut scratch.stack,
+            leaf,
+        );
+        for lane in lanes(run.done) {
+            out[lane] = true;
+        }
+    }
+}
+
+/// `TwoLevel::closest_hit_batch`: the closest hit per ray by (t, object, triangle), in runs of
+/// [`LANES`].
+pub(super) fn closest_runs<Q: RayQuery, C: Counters>(
+    q: &TwoLevel<Q>,
+    rays: &[Ray],
+    out: &mut [Option<Hit>],
+    counters: &mut [C],
+) {
+    debug_assert!(out.len() == rays.len() && counters.len() == rays.len());
+    out.fill(None);
+    let mut scratch = Scratch::<C>::new();
+    let runs = rays.chunks(LANES).zip(out.chunks_mut(LANES));
+    for ((run_rays, out), counters) in runs.zip(counters.chunks_mut(LANES)) {
+        let mut run = Run::new(run_rays);
+        let local = &mut scratch.local;
+        let leaf = |first: usize, n: usize, active: u32, run: &mut Run, counters: &mut [C]| {
+            for instance in &q.top.instances[first..first + n] {
+                local.gather(run, instance, active);
+                let k = local.len;
+                let mesh = &q.meshes[instance.mesh as usize];
+                mesh.closest_hit_batch(
+                    &local.rays[..k],
+                    &mut local.hits[..k],
+                    &mut local.counters[..k],
+                );
+                local.count_back(counters);
+                for (&lane, hit) in local.lane[..k].iter().zip(&local.hits[..k]) {
+                    keep_closer(hit, instance, lane as usize, run, out);
+                }
+            }
+        };
+        walk_run(
+            &q.top.bvh.nodes,
+            &mut run,
+            counters,
+            &mut scratch.stack,
+            leaf,
+        );
+    }
+}
+
+/// Keeps a mesh's hit for `lane` where it is closer by (t, object, triangle) than the lane's
+/// best, and lowers the lane's `t_max` to it.
+#[inline(always)]
+fn keep_closer(
+    hit: &Option<Hit>,
+    instance: &Instance,
+    lane: usize,
+    run: &mut Run,
+    best: &mut [Option<Hit>],
+) {
+    let Some(mut h) = *hit else {
+        return;
+    };
+    h.instance = instance.object;
+    if closer(&h, &best[lane]) {
+        best[lane] = Some(h);
+        run.t_max[lane] = h.t;
+    }
+}
