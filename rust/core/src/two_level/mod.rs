@@ -13,6 +13,7 @@
 mod alpha;
 pub mod brute;
 mod instance;
+mod lane_boxes;
 mod mesh_tree;
 mod refit;
 mod runs;

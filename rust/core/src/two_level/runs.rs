@@ -6,7 +6,8 @@
 //!
 //! Answers equal the single-ray walk's ([`TwoLevel`]'s `occluded` and `closest_hit`) and the
 //! brute-force reference's bit for bit: a lane enters a node only when its own single-ray box
-//! test (`RayBoxPrecomp::hit_packed`, its `t_max` plus `t_margin`) passes, a stacked node is
+//! test (`RayBoxPrecomp::hit_packed`'s arithmetic, to its `t_max` plus `t_margin`; run across
+//! lanes by [`LaneBoxes`]) passes, a stacked node is
 //! culled per lane as the single-ray walk culls it, and closest hits keep the (t, object,
 //! triangle) rule of [`closer`], which no visiting order changes.
 //!
@@ -16,13 +17,18 @@
 //! the counts (not the answers) may differ from the single-ray walk's.
 
 use crate::bvh::{BvhNode, MAX_DEPTH};
-use crate::geometry::{Ray, RayBoxPrecomp};
+use crate::geometry::Ray;
 use crate::trace::wide::PACKET_LANES as LANES;
 use crate::trace::{Counters, Hit, RayQuery};
 use glam::Vec3;
 
+use super::lane_boxes::LaneBoxes;
 use super::top_level::{closer, TwoLevel};
 use super::Instance;
+
+/// At most this many rays reaching an instance trace its mesh one at a time: a packet's set-up
+/// costs more than it saves there (the packet kernels go on alone below 2 to 5 lanes).
+const FEW: usize = 4;
 
 /// Iterates the set bits of a lane mask, lowest first.
 #[inline(always)]
@@ -39,7 +45,7 @@ fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
 /// One run's rays and what their walk keeps per lane.
 struct Run<'r> {
     rays: &'r [Ray],
-    pre: [RayBoxPrecomp; LANES],
+    boxes: LaneBoxes,
     /// Per lane: the segment's end, lowered by closest hits.
     t_max: [f32; LANES],
     /// Lanes answered (occluded): they enter nothing more.
@@ -53,7 +59,7 @@ impl<'r> Run<'r> {
         let last = rays.len() - 1;
         Run {
             rays,
-            pre: std::array::from_fn(|i| RayBoxPrecomp::new(&rays[i.min(last)])),
+            boxes: LaneBoxes::new(rays),
             t_max: std::array::from_fn(|i| rays[i.min(last)].t_max),
             done: 0,
         }
@@ -64,25 +70,18 @@ impl<'r> Run<'r> {
         ((1u64 << self.rays.len()) - 1) as u32
     }
 
-    /// The lane's entry into `node`'s box, as the single-ray walk tests it.
-    #[inline(always)]
-    fn enter(&self, lane: usize, node: &BvhNode) -> Option<f32> {
-        let pre = &self.pre[lane];
-        let reach = self.t_max[lane] + pre.t_margin;
-        pre.hit_packed(node.packed(), self.rays[lane].t_min, reach)
-    }
-
-    /// The lanes of `mask` entering `node`, each lane's entry in `t_entry`.
+    /// The lanes of `mask` entering `node` as their single-ray tests do (to `t_max` plus
+    /// margin), each lane's entry in `t_entry`.
     #[inline(always)]
     fn entering(&self, mask: u32, node: &BvhNode, t_entry: &mut [f32; LANES]) -> u32 {
-        let mut entered = 0;
-        for lane in lanes(mask) {
-            if let Some(t) = self.enter(lane, node) {
-                t_entry[lane] = t;
-                entered |= 1 << lane;
-            }
-        }
-        entered
+        self.boxes.test(node, mask, t_entry)
+    }
+
+    /// The lane's segment now ends at a closer hit's `t`.
+    #[inline(always)]
+    fn lower(&mut self, lane: usize, t: f32) {
+        self.t_max[lane] = t;
+        self.boxes.set_t_max(lane, t);
     }
 
     /// The lanes of `entry` still to enter it when it comes off the stack: not answered, and
@@ -91,8 +90,7 @@ impl<'r> Run<'r> {
     fn still_entering(&self, entry: &Stacked) -> u32 {
         let mut live = 0;
         for lane in lanes(entry.mask & !self.done) {
-            let reach = self.t_max[lane] + self.pre[lane].t_margin;
-            live |= ((entry.t_entry[lane] <= reach) as u32) << lane;
+            live |= ((entry.t_entry[lane] <= self.boxes.reach(lane)) as u32) << lane;
         }
         live
     }
@@ -143,6 +141,43 @@ impl<C: Counters> Local<C> {
             self.lane[k] = lane as u8;
             self.counters[k] = C::default();
             self.len += 1;
+        }
+    }
+
+    /// Any hit for the gathered rays through `mesh`: as one batch, or one ray at a time when
+    /// they are [`FEW`].
+    #[inline(always)]
+    fn occluded_in<Q: RayQuery>(&mut self, mesh: &Q) {
+        let k = self.len;
+        let (rays, out, counters) = (
+            &self.rays[..k],
+            &mut self.occluded[..k],
+            &mut self.counters[..k],
+        );
+        if k <= FEW {
+            for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+                *o = mesh.occluded(ray, c);
+            }
+        } else {
+            mesh.occluded_batch(rays, out, counters);
+        }
+    }
+
+    /// Closest hits for the gathered rays through `mesh`, as [`Self::occluded_in`].
+    #[inline(always)]
+    fn closest_in<Q: RayQuery>(&mut self, mesh: &Q) {
+        let k = self.len;
+        let (rays, out, counters) = (
+            &self.rays[..k],
+            &mut self.hits[..k],
+            &mut self.counters[..k],
+        );
+        if k <= FEW {
+            for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+                *o = mesh.closest_hit(ray, c);
+            }
+        } else {
+            mesh.closest_hit_batch(rays, out, counters);
         }
     }
 
@@ -283,14 +318,9 @@ pub(super) fn occluded_runs<Q: RayQuery, C: Counters>(
                     return;
                 }
                 local.gather(run, instance, live);
-                let k = local.len;
-                let mesh = &q.meshes[instance.mesh as usize];
-                mesh.occluded_batch(
-                    &local.rays[..k],
-                    &mut local.occluded[..k],
-                    &mut local.counters[..k],
-                );
+                local.occluded_in(&q.meshes[instance.mesh as usize]);
                 local.count_back(counters);
+                let k = local.len;
                 for (&lane, &occluded) in local.lane[..k].iter().zip(&local.occluded[..k]) {
                     run.done |= (occluded as u32) << lane;
                 }
@@ -327,14 +357,9 @@ pub(super) fn closest_runs<Q: RayQuery, C: Counters>(
         let leaf = |first: usize, n: usize, active: u32, run: &mut Run, counters: &mut [C]| {
             for instance in &q.top.instances[first..first + n] {
                 local.gather(run, instance, active);
-                let k = local.len;
-                let mesh = &q.meshes[instance.mesh as usize];
-                mesh.closest_hit_batch(
-                    &local.rays[..k],
-                    &mut local.hits[..k],
-                    &mut local.counters[..k],
-                );
+                local.closest_in(&q.meshes[instance.mesh as usize]);
                 local.count_back(counters);
+                let k = local.len;
                 for (&lane, hit) in local.lane[..k].iter().zip(&local.hits[..k]) {
                     keep_closer(hit, instance, lane as usize, run, out);
                 }
@@ -366,6 +391,6 @@ fn keep_closer(
     h.instance = instance.object;
     if closer(&h, &best[lane]) {
         best[lane] = Some(h);
-        run.t_max[lane] = h.t;
+        run.lower(lane, h.t);
     }
 }
