@@ -37,11 +37,11 @@ impl LaneBoxes {
             let ray = &rays[lane.min(last)];
             let pre = RayBoxPrecomp::new(ray);
             let neg = [pre.neg.x, pre.neg.y, pre.neg.z];
-            for axis in 0..3 {
+            for (axis, negative) in neg.into_iter().enumerate() {
                 b.origin[axis][lane] = pre.origin[axis];
                 b.inv[axis][lane] = pre.inv_dir[axis];
                 b.inv_far[axis][lane] = pre.inv_dir_far[axis];
-                b.neg[axis][lane] = f32::from_bits(if neg[axis] { u32::MAX } else { 0 });
+                b.neg[axis][lane] = f32::from_bits(if negative { u32::MAX } else { 0 });
             }
             b.t_min[lane] = ray.t_min;
             b.t_margin[lane] = pre.t_margin;
