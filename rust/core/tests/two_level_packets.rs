@@ -247,6 +247,22 @@ fn batches_through_extreme_instance_transforms_answer_exactly() {
     }
 }
 
+#[test]
+fn batches_break_ties_between_twin_instances_by_the_object() {
+    // Every object twice, the twin placed exactly alike: every hit ties in t with its twin's,
+    // and the lower object must win whichever the run's walk reaches first.
+    let mut twins = common::instanced_scene(80);
+    let copies = twins.objects.clone();
+    twins.objects.extend(copies);
+    let b = two_level(&twins);
+    let camera = tile_ordered_camera_rays(32);
+    assert_every_query(&b, &camera, "twins, camera");
+    let expected = Expected::of(&b, &camera);
+    let first_copy = expected.closest.iter().flatten().all(|h| h[1] < 80);
+    assert!(first_copy, "the reference keeps the lower object");
+    assert_every_query(&b, &common::render_space_rays(500, 9), "twins, random");
+}
+
 /// The counters of a batch of one ray (its run has one lane) on single-ray mesh queries.
 fn alone<C: Counters, Q: RayQuery>(q: &TwoLevel<Q>, ray: &Ray) -> (C, C) {
     let (mut any, mut closest) = ([C::default()], [C::default()]);
