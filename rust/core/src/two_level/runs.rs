@@ -232,69 +232,77 @@ fn walk_run<C: Counters>(
         return;
     };
     count(run.all(), counters, |c| c.boxes(1));
-    let mut t_entry = [0f32; LANES];
-    let valid = run.entering(run.all(), root, &mut t_entry);
-    let (mut node, mut active) = (root, valid);
+    let valid = run.entering(run.all(), root, &mut [0f32; LANES]);
     stack.clear();
-    loop {
-        if active != 0 && node.is_leaf() {
+    let mut at = (valid != 0).then_some((0, valid));
+    while let Some((index, active)) = at.or_else(|| next_stacked(stack, run)) {
+        let node = &nodes[index];
+        if node.is_leaf() {
             count(active, counters, |c| c.leaf());
-            leaf(
-                node.first as usize,
-                node.count as usize,
-                active,
-                run,
-                counters,
-            );
+            let (first, n) = (node.first as usize, node.count as usize);
+            leaf(first, n, active, run, counters);
             if valid & !run.done == 0 {
                 return;
             }
-        } else if active != 0 {
+            at = None;
+        } else {
             count(active, counters, |c| {
                 c.inner();
                 c.boxes(2);
             });
-            let l = node.first as usize;
-            let (mut ta, mut tb) = ([0f32; LANES], [0f32; LANES]);
-            let ma = run.entering(active, &nodes[l], &mut ta);
-            let mb = run.entering(active, &nodes[l + 1], &mut tb);
-            if ma != 0 && mb != 0 {
-                // The single-ray rule (b first when nearer) for the lowest lane entering both;
-                // lanes entering one child each take a first.
-                let both = ma & mb;
-                let key = both.trailing_zeros() as usize;
-                let b_first = both != 0 && tb[key] < ta[key];
-                let (near, far) = if b_first {
-                    ((l + 1, mb), (l, ma, ta))
-                } else {
-                    ((l, ma), (l + 1, mb, tb))
-                };
-                stack.push(Stacked {
-                    node: far.0 as u32,
-                    mask: far.1,
-                    t_entry: far.2,
-                });
-                (node, active) = (&nodes[near.0], near.1);
-                continue;
-            }
-            if ma | mb != 0 {
-                let i = if ma != 0 { l } else { l + 1 };
-                (node, active) = (&nodes[i], ma | mb);
-                continue;
-            }
-        }
-        // The next stacked node some lane may still hold a closer (or equal) hit in.
-        loop {
-            let Some(entry) = stack.pop() else {
-                return;
-            };
-            let live = run.still_entering(&entry);
-            if live != 0 {
-                (node, active) = (&nodes[entry.node as usize], live);
-                break;
-            }
+            at = enter_children(nodes, node, active, run, stack);
         }
     }
+}
+
+/// The children of interior `node` the lanes of `active` enter: the one to go on with and its
+/// lanes (`None`: neither), the other stacked with its lanes' entries when both are entered.
+/// The near child is the single-ray rule's (b first when nearer) for the lowest lane entering
+/// both; where no lane enters both, a goes first.
+#[inline(always)]
+fn enter_children(
+    nodes: &[BvhNode],
+    node: &BvhNode,
+    active: u32,
+    run: &Run,
+    stack: &mut Vec<Stacked>,
+) -> Option<(usize, u32)> {
+    let l = node.first as usize;
+    let (mut ta, mut tb) = ([0f32; LANES], [0f32; LANES]);
+    let ma = run.entering(active, &nodes[l], &mut ta);
+    let mb = run.entering(active, &nodes[l + 1], &mut tb);
+    match (ma, mb) {
+        (0, 0) => None,
+        (m, 0) => Some((l, m)),
+        (0, m) => Some((l + 1, m)),
+        _ => {
+            let both = ma & mb;
+            let key = both.trailing_zeros() as usize;
+            let (near, far) = if both != 0 && tb[key] < ta[key] {
+                ((l + 1, mb), (l, ma, ta))
+            } else {
+                ((l, ma), (l + 1, mb, tb))
+            };
+            stack.push(Stacked {
+                node: far.0 as u32,
+                mask: far.1,
+                t_entry: far.2,
+            });
+            Some(near)
+        }
+    }
+}
+
+/// The next stacked node some lane may still hold a closer (or equal) hit in, and those lanes.
+#[inline(always)]
+fn next_stacked(stack: &mut Vec<Stacked>, run: &Run) -> Option<(usize, u32)> {
+    while let Some(entry) = stack.pop() {
+        let live = run.still_entering(&entry);
+        if live != 0 {
+            return Some((entry.node as usize, live));
+        }
+    }
+    None
 }
 
 /// `TwoLevel::occluded_batch`: any hit per ray, in runs of [`LANES`].

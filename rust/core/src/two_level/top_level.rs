@@ -45,9 +45,10 @@ impl TopLevel {
 }
 
 /// The two levels as one query: the top level, and the mesh trees its instances name, each
-/// traced by its own query `Q` (any layout, order and kernel). A mesh tree's work counts into
-/// the ray's counters as its own traversal counts it; the top level's nodes count as interior
-/// nodes and leaves, its box tests as box tests.
+/// traced by its own query `Q` (any layout, order and kernel; its batch methods see each
+/// instance's rays of a run together). A mesh tree's work counts into the ray's counters as its
+/// own traversal counts it; the top level's nodes count as interior nodes and leaves, its box
+/// tests as box tests, per ray in batches too (see `runs`).
 #[derive(Clone, Copy)]
 pub struct TwoLevel<'a, Q> {
     pub top: &'a TopLevel,
