@@ -1,6 +1,7 @@
 //! Two-level frames through the renderer: the same shadows as the flat tree but at triangle
 //! edges, the same answers for every width and order on two levels, mesh trees kept across
-//! frames, positions far from the origin, `auto`'s structure and the memory estimate.
+//! frames, positions far from the origin, packets through instances as single rays, `auto`'s
+//! structure and the memory estimate.
 
 mod common;
 
@@ -13,6 +14,7 @@ use antumbra_core::render::{
     estimate_render_bytes, FrameResult, Pick, RenderSettings, Renderer, SceneStructure,
 };
 use antumbra_core::scene::{Mesh, Object, Resolution, Scene, TriangleRef};
+use antumbra_core::trace::RayMode;
 use glam::{DMat4, DVec3, Vec3};
 
 fn scene(count: u32) -> Scene {
@@ -110,6 +112,39 @@ fn every_width_order_and_count_mode_on_two_levels_gives_the_same_answers() {
         }
     }
     assert_eq!(checked, 15);
+}
+
+#[test]
+fn packets_through_instances_give_the_single_rays_frames_bit_for_bit() {
+    let scene = scene(200);
+    let bits = |r: &FrameResult| -> Vec<Vec<u32>> {
+        (r.masks.iter())
+            .map(|m| m.data.iter().map(|v| v.to_bits()).collect())
+            .collect()
+    };
+    for width in [BvhWidth::Two, BvhWidth::Four, BvhWidth::Eight] {
+        for order in [ShadowOrder::Fbto, ShadowOrder::Sato] {
+            let mut single = settings(SceneStructure::TwoLevel, width, order);
+            single.rays = Pick::Fixed(RayMode::Single);
+            single.stats = antumbra_core::render::StatsMode::CountsAndTiming;
+            let packet = RenderSettings {
+                rays: Pick::Fixed(RayMode::Packet),
+                ..single.clone()
+            };
+            let (a, b) = (render(&scene, &single), render(&scene, &packet));
+            assert_eq!(b.structure, SceneStructure::TwoLevel);
+            assert!(bits(&a) == bits(&b), "{width} {order}: masks differ");
+            assert!(
+                a.primary_hits == b.primary_hits,
+                "{width} {order}: hits differ"
+            );
+            assert_eq!(a.visible, b.visible, "{width} {order}");
+            // Packets count work per ray too.
+            for row in b.stats.iter().filter(|row| row.pass == "shadow") {
+                assert!(row.nb_per_ray > 0.0 && row.nt_per_ray > 0.0, "{row:?}");
+            }
+        }
+    }
 }
 
 #[test]

@@ -9,7 +9,7 @@ use glam::Vec3;
 
 use super::shadow::{representative_rays, SamplePlan};
 use super::srdh_light::srdh_for_light;
-use super::two_level_trees::TwoLevelQuery;
+use super::two_level_trees::{TwoLevelQuery, TwoLevelTrees};
 use super::wide_tree::{OrderedWideTree, WideTree};
 use super::{LightSampler, PrimaryPass};
 use crate::build::BuildSettings;
@@ -27,7 +27,7 @@ pub enum ShadowTracer<'a> {
     /// A light's SRDH tree with its kernels.
     Srdh(&'a SrdhBvh),
     /// A top level over instances of mesh trees.
-    TwoLevel(&'a TwoLevelQuery<'a>),
+    TwoLevel(TwoLevelQuery<'a>),
 }
 
 /// Calls `$f` with the query `$tracer` holds.
@@ -81,20 +81,22 @@ enum Route<'a> {
         order: Cow<'a, PreparedOrder>,
     },
     Srdh(SrdhBvh),
-    TwoLevel(TwoLevelQuery<'a>),
+    /// The two-level trees and the order on every mesh tree: the query is made by
+    /// [`LightTracing::tracer`], which knows the ray mode.
+    TwoLevel(&'a TwoLevelTrees, ShadowOrder),
 }
 
 impl<'a> LightTracing<'a> {
-    /// A two-level frame's query for the light (nothing prepared per light).
-    pub fn two_level(query: TwoLevelQuery<'a>) -> Self {
+    /// A two-level frame's tracing for the light with `order` (nothing prepared per light).
+    pub fn two_level(trees: &'a TwoLevelTrees, order: &ShadowOrder) -> Self {
         LightTracing {
-            route: Route::TwoLevel(query),
+            route: Route::TwoLevel(trees, *order),
             prepare_ms: 0.0,
         }
     }
 
-    /// What the light's pass traces, its batches as `rays` on a wide tree (the binary and
-    /// SRDH trees trace single rays).
+    /// What the light's pass traces, its batches as `rays` on a wide tree and on two levels
+    /// (the binary and SRDH trees trace single rays).
     pub fn tracer(&self, rays: RayMode) -> ShadowTracer<'_> {
         match &self.route {
             Route::Binary(b) => ShadowTracer::Binary(*b),
@@ -102,7 +104,9 @@ impl<'a> LightTracing<'a> {
                 ShadowTracer::Wide(tree.ordered(order.view()).with_rays(rays))
             }
             Route::Srdh(t) => ShadowTracer::Srdh(t),
-            Route::TwoLevel(q) => ShadowTracer::TwoLevel(q),
+            Route::TwoLevel(trees, order) => {
+                ShadowTracer::TwoLevel(trees.shadow_query(order, rays))
+            }
         }
     }
 

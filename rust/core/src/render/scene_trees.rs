@@ -30,11 +30,11 @@ impl SceneTrees {
         }
     }
 
-    /// What camera rays trace, a flat wide tree's batches as `rays`.
+    /// What camera rays trace, batches as `rays` on a flat wide tree and on two levels.
     pub fn camera_query(&self, rays: RayMode) -> CameraQuery<'_> {
         match self {
             SceneTrees::Flat(t) => t.camera().traced_as(rays),
-            SceneTrees::TwoLevel(t) => CameraQuery::TwoLevel(t.camera_query()),
+            SceneTrees::TwoLevel(t) => CameraQuery::TwoLevel(t.camera_query(rays)),
         }
     }
 
@@ -50,7 +50,7 @@ impl SceneTrees {
     }
 
     /// One light's tree and order (on two levels: `order` on every mesh tree, the top level
-    /// near child first; nothing is prepared per light).
+    /// near child first; nothing is prepared per light, the ray mode is the tracer's).
     pub fn for_light(
         &self,
         order: &ShadowOrder,
@@ -59,7 +59,7 @@ impl SceneTrees {
     ) -> LightTracing<'_> {
         match self {
             SceneTrees::Flat(t) => t.for_light(order, width, light),
-            SceneTrees::TwoLevel(t) => LightTracing::two_level(t.shadow_query(order)),
+            SceneTrees::TwoLevel(t) => LightTracing::two_level(t, order),
         }
     }
 

@@ -25,14 +25,14 @@ use super::RenderSettings;
 use crate::build::{BuildSettings, CollapseSettings};
 use crate::bvh::BvhWidth;
 use crate::cancel::CancelToken;
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, Ray};
 use crate::order::{AnyHitOrder, OrderView, PreparedOrder, ShadowOrder};
 use crate::scene::{
     collect, scene_bounds, Mesh, Object, RenderSpace, Scene, TriangleRef, TriangleSet,
 };
 use crate::trace::{
     forward_alpha_query, forward_ray_query, AlphaQuery, Counters, Hit, HitFilter, OrderedBinary,
-    RayQuery,
+    RayMode, RayQuery,
 };
 use crate::two_level::{
     instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel, GROUP,
@@ -169,14 +169,18 @@ impl MeshEntry {
     }
 
     /// The mesh tree as a pass traces it: the collapse with the prepared per-tree order (or
-    /// front to back), else the binary tree with its own order for `order`.
-    fn query(&self, order: &ShadowOrder) -> MeshQuery<'_> {
+    /// front to back) and its batches as `rays`, else the binary tree with its own order for
+    /// `order` (one ray at a time).
+    fn query(&self, order: &ShadowOrder, rays: RayMode) -> MeshQuery<'_> {
         match &self.wide {
-            Some(w) => MeshQuery::Wide(w.ordered(match &self.per_tree {
-                Some(p) if Some(*order) == self.settings.per_tree => p.view(),
-                _ if *order == ShadowOrder::Stored => OrderView::Stored,
-                _ => OrderView::FrontToBack,
-            })),
+            Some(w) => MeshQuery::Wide(
+                w.ordered(match &self.per_tree {
+                    Some(p) if Some(*order) == self.settings.per_tree => p.view(),
+                    _ if *order == ShadowOrder::Stored => OrderView::Stored,
+                    _ => OrderView::FrontToBack,
+                })
+                .with_rays(rays),
+            ),
             None => MeshQuery::Binary(OrderedBinary {
                 bvh: &self.tree.bvh,
                 order: order.binary().unwrap_or(AnyHitOrder::NearFirst),
@@ -203,59 +207,81 @@ macro_rules! with_mesh_query {
 forward_ray_query!(MeshQuery<'_>, with_mesh_query);
 forward_alpha_query!(MeshQuery<'_>, with_mesh_query);
 
-/// A top level with the frame's mesh trees as one order traces them: what a two-level pass
-/// traces (batches go one ray at a time: packets stop at the top level for now).
+/// A top level with the frame's mesh trees as one order traces them, and how batches are
+/// traced: what a two-level pass traces. In packet mode a batch goes through the top level in
+/// runs of neighbouring rays and each instance's rays reach its wide mesh tree as packets (see
+/// [`TwoLevel`]'s batch methods); in single mode one ray at a time, as before.
 pub struct TwoLevelQuery<'a> {
     top: &'a TopLevel,
     meshes: Vec<MeshQuery<'a>>,
+    rays: RayMode,
+}
+
+impl TwoLevelQuery<'_> {
+    #[inline(always)]
+    fn levels(&self) -> TwoLevel<'_, MeshQuery<'_>> {
+        TwoLevel {
+            top: self.top,
+            meshes: &self.meshes,
+        }
+    }
 }
 
 impl RayQuery for TwoLevelQuery<'_> {
     #[inline]
-    fn occluded<C: Counters>(&self, ray: &crate::geometry::Ray, stats: &mut C) -> bool {
-        let q = TwoLevel {
-            top: self.top,
-            meshes: &self.meshes,
-        };
-        q.occluded(ray, stats)
+    fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
+        self.levels().occluded(ray, stats)
     }
     #[inline]
-    fn closest_hit<C: Counters>(&self, ray: &crate::geometry::Ray, stats: &mut C) -> Option<Hit> {
-        let q = TwoLevel {
-            top: self.top,
-            meshes: &self.meshes,
-        };
-        q.closest_hit(ray, stats)
+    fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
+        self.levels().closest_hit(ray, stats)
+    }
+    #[inline]
+    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
+        let q = self.levels();
+        match self.rays {
+            RayMode::Single => {
+                for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+                    *o = q.occluded(ray, c);
+                }
+            }
+            RayMode::Packet => q.occluded_batch(rays, out, counters),
+        }
+    }
+    #[inline]
+    fn closest_hit_batch<C: Counters>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    ) {
+        let q = self.levels();
+        match self.rays {
+            RayMode::Single => {
+                for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+                    *o = q.closest_hit(ray, c);
+                }
+            }
+            RayMode::Packet => q.closest_hit_batch(rays, out, counters),
+        }
     }
 }
 
-/// Through alpha, as [`TwoLevel`]'s alpha face: each instance's hits read its own scene.
+/// Through alpha, as [`TwoLevel`]'s alpha face: each instance's hits read its own scene. One
+/// ray at a time in either ray mode (the trait's default batches).
 impl AlphaQuery for TwoLevelQuery<'_> {
     #[inline]
-    fn stopped<C: Counters, F: HitFilter>(
-        &self,
-        ray: &crate::geometry::Ray,
-        filter: &mut F,
-        stats: &mut C,
-    ) -> bool {
-        let q = TwoLevel {
-            top: self.top,
-            meshes: &self.meshes,
-        };
-        q.stopped(ray, filter, stats)
+    fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
+        self.levels().stopped(ray, filter, stats)
     }
     #[inline]
     fn closest_hit_filtered<C: Counters, F: HitFilter>(
         &self,
-        ray: &crate::geometry::Ray,
+        ray: &Ray,
         filter: &mut F,
         stats: &mut C,
     ) -> Option<Hit> {
-        let q = TwoLevel {
-            top: self.top,
-            meshes: &self.meshes,
-        };
-        q.closest_hit_filtered(ray, filter, stats)
+        self.levels().closest_hit_filtered(ray, filter, stats)
     }
 }
 
@@ -517,21 +543,28 @@ impl TwoLevelTrees {
         self.shadow.as_deref().unwrap_or(&self.camera)
     }
 
-    fn query<'a>(&'a self, top: &'a TopLevel, order: &ShadowOrder) -> TwoLevelQuery<'a> {
+    fn query<'a>(
+        &'a self,
+        top: &'a TopLevel,
+        order: &ShadowOrder,
+        rays: RayMode,
+    ) -> TwoLevelQuery<'a> {
         TwoLevelQuery {
             top,
-            meshes: self.meshes.iter().map(|m| m.query(order)).collect(),
+            meshes: self.meshes.iter().map(|m| m.query(order, rays)).collect(),
+            rays,
         }
     }
 
-    /// What camera rays trace (closest hits read no order).
-    pub fn camera_query(&self) -> TwoLevelQuery<'_> {
-        self.query(&self.camera, &ShadowOrder::Fbto)
+    /// What camera rays trace (closest hits read no order), batches as `rays`.
+    pub fn camera_query(&self, rays: RayMode) -> TwoLevelQuery<'_> {
+        self.query(&self.camera, &ShadowOrder::Fbto, rays)
     }
 
-    /// What a light's shadow rays trace with `order` (fbto, stored or the per-tree order).
-    pub fn shadow_query(&self, order: &ShadowOrder) -> TwoLevelQuery<'_> {
-        self.query(self.shadow_top(), order)
+    /// What a light's shadow rays trace with `order` (fbto, stored or the per-tree order),
+    /// batches as `rays`.
+    pub fn shadow_query(&self, order: &ShadowOrder, rays: RayMode) -> TwoLevelQuery<'_> {
+        self.query(self.shadow_top(), order, rays)
     }
 
     /// The render-space vertices and the reference of a hit's triangle.

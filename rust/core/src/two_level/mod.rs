@@ -2,7 +2,9 @@
 //! every object that places the mesh, under a top-level tree over the objects' render-space
 //! boxes ([`TopLevel`]). A ray crosses the top level in render space and enters a mesh tree
 //! through its instance's inverse transform ([`Instance::ray_to_mesh`]), whose parameter `t` is
-//! the render-space ray's; hits carry the object ([`crate::trace::Hit::instance`]).
+//! the render-space ray's; hits carry the object ([`crate::trace::Hit::instance`]). A batch
+//! crosses the top level in runs of 16 rays and reaches each mesh tree as one batch (`runs`), so
+//! a wide mesh tree traces packets.
 //!
 //! Answers are exact against [`brute`], which tests every triangle of every instance through
 //! the same ray transform: the closest hit is the least (t, object, triangle). Through alpha,
@@ -13,8 +15,10 @@
 mod alpha;
 pub mod brute;
 mod instance;
+mod lane_boxes;
 mod mesh_tree;
 mod refit;
+mod runs;
 mod top_level;
 
 pub use alpha::InstanceAlpha;

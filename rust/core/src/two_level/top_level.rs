@@ -45,9 +45,10 @@ impl TopLevel {
 }
 
 /// The two levels as one query: the top level, and the mesh trees its instances name, each
-/// traced by its own query `Q` (any layout, order and kernel). A mesh tree's work counts into
-/// the ray's counters as its own traversal counts it; the top level's nodes count as interior
-/// nodes and leaves, its box tests as box tests.
+/// traced by its own query `Q` (any layout, order and kernel; its batch methods see each
+/// instance's rays of a run together). A mesh tree's work counts into the ray's counters as its
+/// own traversal counts it; the top level's nodes count as interior nodes and leaves, its box
+/// tests as box tests, per ray in batches too (see `runs`).
 #[derive(Clone, Copy)]
 pub struct TwoLevel<'a, Q> {
     pub top: &'a TopLevel,
@@ -124,10 +125,29 @@ impl<Q: RayQuery> RayQuery for TwoLevel<'_, Q> {
         });
         best
     }
+
+    /// In runs of 16 neighbouring rays through the top level, each instance's rays traced as
+    /// one batch of its mesh query (see `runs`): the answers of [`Self::occluded`].
+    #[inline]
+    fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
+        super::runs::occluded_runs(self, rays, out, counters);
+    }
+
+    /// In runs, as [`Self::occluded_batch`]: the answers of [`Self::closest_hit`].
+    #[inline]
+    fn closest_hit_batch<C: Counters>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut [C],
+    ) {
+        super::runs::closest_runs(self, rays, out, counters);
+    }
 }
 
 /// Through alpha: the filter enters each instance before its mesh tree's hits (its scene and
-/// its ids), and its hits carry the object as the opaque queries' do.
+/// its ids), and its hits carry the object as the opaque queries' do. Alpha batches stay one
+/// ray at a time (the trait's default `transmission_batch`): a filter follows one ray's hits.
 impl<Q: AlphaQuery> AlphaQuery for TwoLevel<'_, Q> {
     #[inline]
     fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
