@@ -7,6 +7,7 @@
 //! valgrind --tool=callgrind --dump-instr=no --collect-atstart=no \
 //!   --toggle-collect='*trace_profile*trace_*' target/release/examples/trace_profile bedroom 350000 256x256 1 [greedy|sah]
 //! target/release/examples/trace_profile bedroom 350000 512x512 5 [sah|greedy] [auto,avx2]   # wall clock, best of 5
+//! target/release/examples/trace_profile bedroom 350000 512x512 5 --packets   # packets of 16 rays
 //! ```
 //!
 //! Arguments: scene, triangles, size, timed repetitions (1 under callgrind), and the collapse
@@ -40,6 +41,34 @@ fn trace_closest(bvh: &WideBvh<8>, rays: &[Ray], kernel: BoxKernel) -> usize {
         .count()
 }
 
+#[inline(never)]
+fn trace_shadow_packets(
+    bvh: &WideBvh<8>,
+    rays: &[Ray],
+    order: OrderView,
+    kernel: BoxKernel,
+) -> usize {
+    let mut out = vec![false; rays.len()];
+    bvh.occluded_packets(
+        rays,
+        order,
+        kernel,
+        &mut out,
+        &mut vec![NoStats; rays.len()],
+    );
+    out.iter().filter(|&&o| o).count()
+}
+
+#[inline(never)]
+fn trace_closest_packets(bvh: &WideBvh<8>, rays: &[Ray], kernel: BoxKernel) -> usize {
+    let mut out = vec![None; rays.len()];
+    bvh.closest_hit_packets(rays, kernel, &mut out, &mut vec![NoStats; rays.len()]);
+    out.iter().filter(|h| h.is_some()).count()
+}
+
+type ShadowFn = fn(&WideBvh<8>, &[Ray], OrderView, BoxKernel) -> usize;
+type ClosestFn = fn(&WideBvh<8>, &[Ray], BoxKernel) -> usize;
+
 /// Runs `f` `repeat` times; its (last) result and the best time in ms.
 fn best_of<T>(repeat: usize, mut f: impl FnMut() -> T) -> (T, f64) {
     let mut best = f64::INFINITY;
@@ -65,6 +94,10 @@ struct Cli {
     /// Box kernels to time in turn, e.g. auto,avx2 (AVX-512 where present beside AVX2).
     #[arg(default_value = "auto", value_delimiter = ',', value_parser = parse_kernel)]
     kernels: Vec<BoxKernel>,
+    /// Trace in packets of 16 neighbouring rays (camera rays in 4x4 pixel blocks) instead of
+    /// one ray at a time.
+    #[arg(long)]
+    packets: bool,
 }
 
 fn parse_kernel(k: &str) -> anyhow::Result<BoxKernel> {
@@ -101,10 +134,24 @@ fn main() -> anyhow::Result<()> {
         geometry: g,
     } = frame;
     let (w, h) = (size.width, size.height);
-    let primary: Vec<Ray> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
+    // Pixels in 4x4 blocks, so that each 16 consecutive camera rays are a packet's neighbours.
+    let primary: Vec<Ray> = (0..h.div_ceil(4) * w.div_ceil(4))
+        .flat_map(|b| {
+            (0..16).map(move |k| {
+                (
+                    (b % w.div_ceil(4)) * 4 + k % 4,
+                    (b / w.div_ceil(4)) * 4 + k / 4,
+                )
+            })
+        })
+        .filter(|&(x, y)| x < w && y < h)
         .map(|(x, y)| camera.ray(x, y))
         .collect();
+    let (shadow_fn, closest_fn): (ShadowFn, ClosestFn) = if cli.packets {
+        (trace_shadow_packets, trace_closest_packets)
+    } else {
+        (trace_shadow, trace_closest)
+    };
     let w8 = WideBvh::<8>::collapse_with(&bvh, &collapse);
     let s8 = WideBvh::<8>::collapse_with(&shadow_bvh, &collapse);
     let order: ShadowOrder = "sorted".parse().expect("order");
@@ -125,10 +172,10 @@ fn main() -> anyhow::Result<()> {
             let (o, shadow_ms) = best_of(1, || {
                 lights
                     .iter()
-                    .map(|(rays, p)| trace_shadow(&s8, rays, p.view(), kernel))
+                    .map(|(rays, p)| shadow_fn(&s8, rays, p.view(), kernel))
                     .sum::<usize>()
             });
-            let (h, closest_ms) = best_of(1, || trace_closest(&w8, &primary, kernel));
+            let (h, closest_ms) = best_of(1, || closest_fn(&w8, &primary, kernel));
             (occluded, hits) = (o, h);
             best[k] = (best[k].0.min(shadow_ms), best[k].1.min(closest_ms));
         }
