@@ -31,8 +31,8 @@ use crate::scene::{
     collect, scene_bounds, Mesh, Object, RenderSpace, Scene, TriangleRef, TriangleSet,
 };
 use crate::trace::{
-    forward_alpha_query, forward_ray_query, AlphaQuery, Counters, Hit, HitFilter, OrderedBinary,
-    RayMode, RayQuery,
+    closest_hit_each, forward_alpha_query, forward_ray_query, occluded_each, AlphaQuery, Counters,
+    Hit, HitFilter, OrderedBinary, RayMode, RayQuery,
 };
 use crate::two_level::{
     instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel, GROUP,
@@ -240,11 +240,7 @@ impl RayQuery for TwoLevelQuery<'_> {
     fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
         let q = self.levels();
         match self.rays {
-            RayMode::Single => {
-                for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
-                    *o = q.occluded(ray, c);
-                }
-            }
+            RayMode::Single => occluded_each(&q, rays, out, counters),
             RayMode::Packet => q.occluded_batch(rays, out, counters),
         }
     }
@@ -257,11 +253,7 @@ impl RayQuery for TwoLevelQuery<'_> {
     ) {
         let q = self.levels();
         match self.rays {
-            RayMode::Single => {
-                for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
-                    *o = q.closest_hit(ray, c);
-                }
-            }
+            RayMode::Single => closest_hit_each(&q, rays, out, counters),
             RayMode::Packet => q.closest_hit_batch(rays, out, counters),
         }
     }

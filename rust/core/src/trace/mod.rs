@@ -26,7 +26,7 @@ pub use brute::{
 pub(crate) use closest::{closest_hit_filtered, walk_near_first};
 pub use counters::{AlphaStats, Counters, NoStats, TraversalStats};
 pub use filter::{AlphaClip, AlphaScenes, HitFilter, Opaque, Transmission, TransparentHit};
-pub(crate) use query::forward_ray_query;
+pub(crate) use query::{closest_hit_each, forward_ray_query, occluded_each};
 pub use query::{BinaryInOrder, OrderedBinary, OrderedWide, RayMode, RayQuery};
 
 /// A closest hit: the ray parameter, the triangle id (in the `TriangleSet` the BVH was built

@@ -72,10 +72,7 @@ pub trait RayQuery: Sync {
     /// `out[i] = occluded(&rays[i])`, counted into `counters[i]`.
     #[inline]
     fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
-        debug_assert!(out.len() == rays.len() && counters.len() == rays.len());
-        for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
-            *o = self.occluded(ray, c);
-        }
+        occluded_each(self, rays, out, counters);
     }
 
     /// `out[i] = closest_hit(&rays[i])`, counted into `counters[i]`.
@@ -86,10 +83,36 @@ pub trait RayQuery: Sync {
         out: &mut [Option<Hit>],
         counters: &mut [C],
     ) {
-        debug_assert!(out.len() == rays.len() && counters.len() == rays.len());
-        for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
-            *o = self.closest_hit(ray, c);
-        }
+        closest_hit_each(self, rays, out, counters);
+    }
+}
+
+/// A batch's any hits one ray at a time: the default batch, and what an implementation
+/// with a packet mode does in single mode.
+#[inline]
+pub(crate) fn occluded_each<Q: RayQuery + ?Sized, C: Counters>(
+    q: &Q,
+    rays: &[Ray],
+    out: &mut [bool],
+    counters: &mut [C],
+) {
+    debug_assert!(out.len() == rays.len() && counters.len() == rays.len());
+    for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+        *o = q.occluded(ray, c);
+    }
+}
+
+/// A batch's closest hits one ray at a time, as [`occluded_each`].
+#[inline]
+pub(crate) fn closest_hit_each<Q: RayQuery + ?Sized, C: Counters>(
+    q: &Q,
+    rays: &[Ray],
+    out: &mut [Option<Hit>],
+    counters: &mut [C],
+) {
+    debug_assert!(out.len() == rays.len() && counters.len() == rays.len());
+    for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
+        *o = q.closest_hit(ray, c);
     }
 }
 
@@ -224,11 +247,7 @@ where
     #[inline]
     fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
         match self.rays {
-            RayMode::Single => {
-                for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
-                    *o = self.occluded(ray, c);
-                }
-            }
+            RayMode::Single => occluded_each(self, rays, out, counters),
             RayMode::Packet => {
                 self.bvh
                     .occluded_packets(rays, self.order, self.kernel, out, counters)
@@ -243,11 +262,7 @@ where
         counters: &mut [C],
     ) {
         match self.rays {
-            RayMode::Single => {
-                for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
-                    *o = self.closest_hit(ray, c);
-                }
-            }
+            RayMode::Single => closest_hit_each(self, rays, out, counters),
             RayMode::Packet => self
                 .bvh
                 .closest_hit_packets(rays, self.kernel, out, counters),

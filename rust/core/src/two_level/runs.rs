@@ -18,8 +18,8 @@
 
 use crate::bvh::{BvhNode, MAX_DEPTH};
 use crate::geometry::Ray;
-use crate::trace::wide::PACKET_LANES as LANES;
-use crate::trace::{Counters, Hit, RayQuery};
+use crate::trace::wide::{lanes, PACKET_LANES as LANES};
+use crate::trace::{closest_hit_each, occluded_each, Counters, Hit, RayQuery};
 use glam::Vec3;
 
 use super::lane_boxes::LaneBoxes;
@@ -29,18 +29,6 @@ use super::Instance;
 /// At most this many rays reaching an instance trace its mesh one at a time: a packet's set-up
 /// costs more than it saves there (the packet kernels go on alone below 2 to 5 lanes).
 const FEW: usize = 4;
-
-/// Iterates the set bits of a lane mask, lowest first.
-#[inline(always)]
-fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (mask != 0).then(|| {
-            let lane = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            lane
-        })
-    })
-}
 
 /// One run's rays and what their walk keeps per lane.
 struct Run<'r> {
@@ -155,9 +143,7 @@ impl<C: Counters> Local<C> {
             &mut self.counters[..k],
         );
         if k <= FEW {
-            for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
-                *o = mesh.occluded(ray, c);
-            }
+            occluded_each(mesh, rays, out, counters);
         } else {
             mesh.occluded_batch(rays, out, counters);
         }
@@ -173,9 +159,7 @@ impl<C: Counters> Local<C> {
             &mut self.counters[..k],
         );
         if k <= FEW {
-            for ((ray, o), c) in rays.iter().zip(out).zip(counters) {
-                *o = mesh.closest_hit(ray, c);
-            }
+            closest_hit_each(mesh, rays, out, counters);
         } else {
             mesh.closest_hit_batch(rays, out, counters);
         }

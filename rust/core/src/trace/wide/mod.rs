@@ -13,6 +13,7 @@ mod packet_boxes;
 mod stack;
 
 pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay, ANY_OCTANT};
+pub(crate) use packet::lanes;
 pub use packet_boxes::LANES as PACKET_LANES;
 
 use super::{Counters, Hit, HitFilter, NoStats};

@@ -23,7 +23,7 @@ use crate::trace::{Counters, Hit};
 
 /// Iterates the set bits of a lane mask, lowest first.
 #[inline(always)]
-fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+pub(crate) fn lanes(mut mask: u32) -> impl Iterator<Item = usize> {
     std::iter::from_fn(move || {
         (mask != 0).then(|| {
             let lane = mask.trailing_zeros() as usize;
