@@ -19,7 +19,8 @@ pub struct ObjectChanges {
 
 impl ObjectChanges {
     /// Advances to `scene`: an object is dynamic once its state differs from the last frame's.
-    pub fn advance(&mut self, scene: &Scene) {
+    /// Returns whether any object changed since the last frame (or the objects did).
+    pub fn advance(&mut self, scene: &Scene) -> bool {
         let signatures: Vec<u64> = (scene.objects.par_iter())
             .map(|o| signature(scene, o))
             .collect();
@@ -31,8 +32,29 @@ impl ObjectChanges {
         } else {
             vec![false; signatures.len()]
         };
+        let moved = *self.signatures != signatures;
         self.signatures = Arc::new(signatures);
         self.dynamic = Arc::new(dynamic);
+        moved
+    }
+
+    /// Triangles of the objects that render (seen or casting shadows) and have not changed so
+    /// far, and of those that have.
+    pub fn static_and_dynamic_triangles(&self, scene: &Scene) -> (u64, u64) {
+        let mut split = (0, 0);
+        let rendered = scene.objects.iter().enumerate();
+        for (i, o) in rendered.filter(|(_, o)| o.visible_to_camera || o.casts_shadow) {
+            let triangles = scene
+                .meshes
+                .get(o.mesh)
+                .map_or(0, |m| m.triangles.len() as u64);
+            if self.is_dynamic(i) {
+                split.1 += triangles;
+            } else {
+                split.0 += triangles;
+            }
+        }
+        split
     }
 
     /// Whether object `i` has changed in some frame so far.

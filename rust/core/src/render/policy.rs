@@ -13,7 +13,7 @@ use super::{LightSampler, Pick, PrimaryPass, RenderSettings, SceneStructure, Vis
 use crate::build::BuildMethod;
 use crate::bvh::BvhWidth;
 use crate::order::ShadowOrder;
-use crate::scene::Scene;
+use crate::scene::{RenderSpace, Scene};
 use crate::stats::StatsRow;
 use crate::trace::{RayMode, TraversalStats};
 
@@ -74,20 +74,56 @@ pub(super) struct Policy {
     history: History,
     /// Which objects have changed so far (two levels and `auto`'s structure read it).
     pub(super) changes: ObjectChanges,
+    /// The rays of the last frame, rendered or warmed up ([`auto::frame_rays`]).
+    last_rays: u64,
+    /// The structure `auto` chose for the last frame.
+    structure: Option<SceneStructure>,
 }
 
 impl Policy {
-    /// The frame's structure: the setting, or `auto`'s rule ([`auto_structure`]), after
-    /// noting which objects changed since the last frame.
+    /// The frame's structure: the setting, or `auto`'s rules ([`auto_structure`], then
+    /// [`auto::choose_structure`]), after noting which objects changed since the last frame.
     pub(super) fn plan_structure(
         &mut self,
         scene: &Scene,
         settings: &RenderSettings,
     ) -> SceneStructure {
-        self.changes.advance(scene);
-        match settings.structure {
-            Pick::Fixed(s) => s,
-            Pick::Auto => auto_structure(scene, settings),
+        let moved = self.changes.advance(scene);
+        let chosen = match settings.structure {
+            Pick::Fixed(s) => return s,
+            Pick::Auto => match auto_structure(scene, settings) {
+                SceneStructure::TwoLevel => SceneStructure::TwoLevel,
+                SceneStructure::Flat if settings.two_level_conflict().is_some() => {
+                    SceneStructure::Flat
+                }
+                SceneStructure::Flat => {
+                    let (static_triangles, dynamic_triangles) =
+                        self.changes.static_and_dynamic_triangles(scene);
+                    auto::choose_structure(&auto::StructureContext {
+                        static_triangles,
+                        dynamic_triangles,
+                        moved,
+                        rays: self.last_rays,
+                        current: self.structure,
+                    })
+                }
+            },
+        };
+        self.structure = Some(chosen);
+        chosen
+    }
+
+    /// Notes a frame's rays (rendered or warmed up) for the next frame's structure: counted
+    /// from its primary pass alike, so a warm-up leaves what a render does.
+    pub(super) fn note_frame(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        space: &RenderSpace,
+        primary: &PrimaryPass,
+    ) {
+        if settings.structure.is_auto() {
+            self.last_rays = auto::frame_rays(scene, space, primary, settings.spp);
         }
     }
 
@@ -252,12 +288,11 @@ impl Policy {
 /// levels trace slower where instances overlap (BENCHMARKS.md, "Flat and two levels").
 pub const TWO_LEVEL_WORLD_TRIANGLES: u64 = 2_000_000;
 
-/// `auto`'s structure (docs/auto.md), where the settings leave two levels possible: two levels
-/// where instancing holds at least half of more than [`TWO_LEVEL_WORLD_TRIANGLES`] world
-/// triangles (the used meshes hold at most half of what a flat tree would); else the flat
-/// tree. A small moving part (a character in a room) renders faster on two levels only where a
-/// flat rebuild outweighs the frame's trace, which frames' counts did not tell reliably
-/// (BENCHMARKS.md, "Flat and two levels"): name `scene_structure=two-level` for it.
+/// `auto`'s structure from the scene alone (docs/auto.md), where the settings leave two levels
+/// possible: two levels where instancing holds at least half of more than
+/// [`TWO_LEVEL_WORLD_TRIANGLES`] world triangles (the used meshes hold at most half of what a
+/// flat tree would); else the flat tree. The memory estimate reads this; a frame's plan adds
+/// the rule for moving parts ([`auto::choose_structure`]), which needs the frames before.
 pub(super) fn auto_structure(scene: &Scene, settings: &RenderSettings) -> SceneStructure {
     if settings.two_level_conflict().is_some() {
         return SceneStructure::Flat;

@@ -155,6 +155,8 @@ impl Renderer {
         };
         let (primary, mut primary_row) =
             primary_pass(trees, scene, settings, alpha, &rows, cancel)?;
+        self.policy
+            .note_frame(scene, settings, trees.space(), &primary);
         let lights = self
             .policy
             .plan_lights(scene, &primary, settings, trees, frame);
@@ -279,6 +281,8 @@ impl Renderer {
             .as_ref()
             .expect("prepare leaves the frame's trees");
         let primary = trace_camera(trees, scene, settings, alpha.as_deref(), false, cancel)?;
+        self.policy
+            .note_frame(scene, settings, trees.space(), &primary);
         let visible = visible_set(
             &primary.surfaces,
             trees.flat().map(|t| &t.geometry().camera),

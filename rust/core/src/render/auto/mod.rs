@@ -4,6 +4,7 @@
 mod cost;
 mod history;
 mod policy;
+mod structure;
 
 pub use cost::{Traversal, Weights, WEIGHTS};
 pub use history::{BuildChoice, History, Measured, OrderChoice};
@@ -11,6 +12,9 @@ pub use policy::{
     build_candidates, build_ns, choose_build, choose_order, order_candidates, order_estimate,
     prep_ns, BuildContext, Choice, LightContext, Moment, OrderPlan, EXPLORE_ONE_IN, MIN_PREP_RAYS,
     SAMPLE_SHARE, STALE_FRAMES,
+};
+pub use structure::{
+    choose_structure, StructureContext, ENTER_TRIANGLES_PER_RAY, LEAVE_TRIANGLES_PER_RAY,
 };
 
 use super::shadow::{samples_for, SamplePlan};
@@ -30,6 +34,22 @@ pub fn light_rays(primary: &PrimaryPass, light: &LightSampler, spp: u32) -> u64 
         .filter(|s| light.reaches(s.position))
         .count() as u64;
     reached * samples_for(light, spp) as u64
+}
+
+/// The rays a frame traces, from its primary pass: a ray per pixel, and every shadow-casting
+/// light's samples at the surfaces it reaches ([`light_rays`]).
+pub fn frame_rays(
+    scene: &crate::scene::Scene,
+    space: &crate::scene::RenderSpace,
+    primary: &PrimaryPass,
+    spp: u32,
+) -> u64 {
+    let camera = primary.width as u64 * primary.height as u64;
+    let lights = scene.lights.iter().filter(|l| l.casts_shadow);
+    camera
+        + lights
+            .map(|l| light_rays(primary, &LightSampler::new(l, space), spp))
+            .sum::<u64>()
 }
 
 /// Representative rays of a light's sorting and SRDH build at their default options, from the
