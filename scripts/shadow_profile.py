@@ -62,12 +62,19 @@ def main():
             # The innermost frame of our own code names where the time went.
             own = next((f for f in frames if "antumbra" in f), frames[0])
             outside[short(own)] += 1
-    pct = lambda n, d: 100.0 * n / max(d, 1)
+
+    def pct(n, d):
+        return 100.0 * n / max(d, 1)
+
     print(f"samples {total}")
-    print(f"shadow pass {shadow}: traversal {traversal}, outside traversal {shadow - traversal} "
-          f"({pct(shadow - traversal, shadow):.1f}% of the pass)")
-    print(f"order preparation {prep} ({pct(prep, shadow):.1f}% of the shadow pass), "
-          f"of which choosing representative rays {representative}")
+    print(
+        f"shadow pass {shadow}: traversal {traversal}, outside traversal {shadow - traversal} "
+        f"({pct(shadow - traversal, shadow):.1f}% of the pass)"
+    )
+    print(
+        f"order preparation {prep} ({pct(prep, shadow):.1f}% of the shadow pass), "
+        f"of which choosing representative rays {representative}"
+    )
     print("outside traversal, by innermost own frame:")
     for name, n in outside.most_common(12):
         print(f"  {pct(n, shadow):5.1f}%  {name}")

@@ -22,8 +22,8 @@ echo "== python client: build, lint, test"
 rm -rf target/wheels
 .venv/bin/maturin build --release --strip -q -m rust/python/Cargo.toml -o target/wheels
 .venv/bin/pip install -q --disable-pip-version-check --no-deps --force-reinstall target/wheels/antumbra-*.whl
-.venv/bin/ruff format --check --config rust/python/pyproject.toml rust/python/python tests/python
-.venv/bin/ruff check --config rust/python/pyproject.toml rust/python/python tests/python
+.venv/bin/ruff format --check --config rust/python/pyproject.toml rust/python/python tests/python scripts
+.venv/bin/ruff check --config rust/python/pyproject.toml rust/python/python tests/python scripts
 .venv/bin/ruff format --check --config blender_addon/ruff.toml blender_addon farm tests/blender
 .venv/bin/ruff check --config blender_addon/ruff.toml blender_addon farm tests/blender
 # The daemon the Python tests talk to: the debug binary `cargo test` just built.

@@ -93,7 +93,11 @@ impl Policy {
             Pick::Fixed(s) => return s,
             Pick::Auto => match auto_structure(scene, settings) {
                 SceneStructure::TwoLevel => SceneStructure::TwoLevel,
-                SceneStructure::Flat if settings.two_level_conflict().is_some() => {
+                // Keeping the static part's tree is a way of having the frame's trees: a named
+                // build (the papers' forms, compared as published) keeps the flat tree.
+                SceneStructure::Flat
+                    if settings.two_level_conflict().is_some() || !settings.build.is_auto() =>
+                {
                     SceneStructure::Flat
                 }
                 SceneStructure::Flat => {
