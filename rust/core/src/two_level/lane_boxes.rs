@@ -1,10 +1,12 @@
-//! A binary top-level node's box against a run's lanes at once (SIMD across lanes, four a step
-//! with SSE2): each lane's arithmetic is `RayBoxPrecomp::hit_packed`'s, operation for operation
-//! and operand for operand (NaN planes and all), so a lane enters exactly the nodes its
-//! single-ray test enters, at the same entry distance.
+//! One box (a wide top-level node's child slot, or the root's box) against a run's lanes at once
+//! (SIMD across lanes, four a step with SSE2). The run mixes ray octants, so each lane picks
+//! its own near and far planes. Each lane's arithmetic is `RayBoxPrecomp::hit_packed`'s,
+//! operation for operation and operand for operand (NaN planes and all): a lane enters exactly
+//! the boxes its single-ray test enters, at the same entry distance (the wide kernels' `hit`
+//! order gives the same maximum and minimum).
 
-use crate::bvh::BvhNode;
-use crate::geometry::{Ray, RayBoxPrecomp};
+use crate::bvh::WideNode;
+use crate::geometry::{Aabb, Ray, RayBoxPrecomp};
 use crate::trace::wide::PACKET_LANES as LANES;
 
 /// Per lane, by axis: the values of its [`RayBoxPrecomp`], and how far its box tests reach.
@@ -62,15 +64,15 @@ impl LaneBoxes {
         self.reach[lane]
     }
 
-    /// The lanes of `mask` whose box test passes on `node`, each one's entry in `t_entry`
-    /// (other lanes' entries are left as any value).
+    /// The lanes of `mask` whose box test passes on `b` (a [`packed`] box), each one's entry
+    /// in `t_entry` (other lanes' entries are left as any value).
     #[inline(always)]
-    pub(super) fn test(&self, node: &BvhNode, mask: u32, t_entry: &mut [f32; LANES]) -> u32 {
+    pub(super) fn test(&self, b: &[f32; 8], mask: u32, t_entry: &mut [f32; LANES]) -> u32 {
         let mut hits = 0;
         for group in 0..LANES / 4 {
             let lanes = (mask >> (4 * group)) & 0xF;
             if lanes != 0 {
-                hits |= (self.test4(node.packed(), 4 * group, t_entry) & lanes) << (4 * group);
+                hits |= (self.test4(b, 4 * group, t_entry) & lanes) << (4 * group);
             }
         }
         hits
@@ -133,6 +135,23 @@ impl LaneBoxes {
     }
 }
 
+/// A box as `hit_packed` reads it: `[min.x, min.y, min.z, _, max.x, max.y, max.z, _]`.
+#[inline(always)]
+pub(super) fn packed(b: &Aabb) -> [f32; 8] {
+    [
+        b.min.x, b.min.y, b.min.z, 0.0, b.max.x, b.max.y, b.max.z, 0.0,
+    ]
+}
+
+/// Child `slot` of a wide node as a [`packed`] box.
+#[inline(always)]
+pub(super) fn slot_box<const N: usize>(node: &WideNode<N>, slot: usize) -> [f32; 8] {
+    let b = &node.bounds;
+    [
+        b[0][slot], b[1][slot], b[2][slot], 0.0, b[3][slot], b[4][slot], b[5][slot], 0.0,
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,20 +181,31 @@ mod tests {
             let n = 1 + seed % LANES;
             let boxes = LaneBoxes::new(&rays[..n]);
             let lo = Vec3::new(pick(seed, 1), pick(seed, 3), pick(seed, 5));
-            let hi = lo + Vec3::new(1.5, 2.0, 1.25);
-            let node = BvhNode {
-                min: lo.to_array(),
-                first: 0,
-                max: hi.to_array(),
-                count: 1,
-            };
+            // Every third box is flat on one axis (a zero-width slab).
+            let mut size = Vec3::new(1.5, 2.0, 1.25);
+            if seed % 3 == 0 {
+                size[seed / 3 % 3] = 0.0;
+            }
+            // A wide node's slot, read as the walk reads it.
+            let mut node = WideNode::<8>::default();
+            let slot = seed % 8;
+            node.set_child_bounds(slot, &Aabb::new(lo, lo + size));
+            let b = slot_box(&node, slot);
             let mut t_entry = [0f32; LANES];
             // Some lanes left out of the mask (they must not enter).
             let mask = ((1u32 << n) - 1) & !((seed as u32).wrapping_mul(0x9e37_79b9) >> 20);
-            let hits = boxes.test(&node, mask, &mut t_entry);
+            let hits = boxes.test(&b, mask, &mut t_entry);
             for (lane, ray) in rays[..n].iter().enumerate() {
                 let pre = RayBoxPrecomp::new(ray);
-                let single = pre.hit_packed(node.packed(), ray.t_min, ray.t_max + pre.t_margin);
+                let single = pre.hit_packed(&b, ray.t_min, ray.t_max + pre.t_margin);
+                // The wide single-ray kernels' reference test (`hit`) agrees.
+                let (lo, hi) = (lo, lo + size);
+                let reference = pre.hit(lo, hi, ray.t_min, ray.t_max + pre.t_margin);
+                assert_eq!(
+                    single.is_some(),
+                    reference.is_some(),
+                    "seed {seed}, lane {lane}"
+                );
                 let entered = hits & (1 << lane) != 0;
                 if mask & (1 << lane) == 0 {
                     assert!(!entered, "lane {lane} outside the mask");

@@ -1,6 +1,8 @@
 //! Batches through the top level in runs: each run of [`LANES`] consecutive rays (the passes
 //! order a tile's rays so these are neighbours, as the packet kernel's `each_packet` reads
-//! them) walks the binary top level once, a lane mask per node. At each instance reached, the
+//! them) walks the wide top level once, a lane mask per child entered: each used slot of a
+//! node is tested across the run's lanes ([`LaneBoxes`]; the run mixes octants, so each lane
+//! reads its own near and far planes). At each instance reached, the
 //! active lanes' rays are mapped into mesh space and traced together by the mesh query's own
 //! batch method, so a mesh tree's packets (re-split there by octant) see the run's coherence.
 //!
@@ -11,19 +13,21 @@
 //! culled per lane as the single-ray walk culls it, and closest hits keep the (t, object,
 //! triangle) rule of [`closer`], which no visiting order changes.
 //!
-//! Counters stay per ray: a ray counts the root's box, and an interior node (and its two boxes)
-//! or a leaf wherever it is active in its run; the mesh query counts into the ray's counters
-//! as its batch method counts. The run's shared child order may differ from a lone ray's, so
-//! the counts (not the answers) may differ from the single-ray walk's.
+//! Counters stay per ray, as the wide trees count: a ray counts the root's box, and an interior
+//! node (and a box test per used slot) or a leaf slot wherever it is active in its run; the
+//! mesh query counts into the ray's counters as its batch method counts. The children are
+//! entered near to far by the lowest lane entering any, which is a lone ray's own order; a
+//! ray in a larger run may enter them in another order, so its counts (not its answers) may
+//! differ from the single-ray walk's.
 
-use crate::bvh::{BvhNode, MAX_DEPTH};
+use crate::bvh::{WideNode, EMPTY_CHILD, MAX_DEPTH};
 use crate::geometry::Ray;
-use crate::trace::wide::{lanes, PACKET_LANES as LANES};
+use crate::trace::wide::{lanes, near_to_far, PACKET_LANES as LANES};
 use crate::trace::{closest_hit_each, occluded_each, Counters, Hit, RayQuery};
 use glam::Vec3;
 
-use super::lane_boxes::LaneBoxes;
-use super::top_level::{closer, TwoLevel};
+use super::lane_boxes::{packed, slot_box, LaneBoxes};
+use super::top_level::{closer, TwoLevel, TOP_WIDTH as WIDTH};
 use super::Instance;
 
 /// At most this many rays reaching an instance trace its mesh one at a time: a packet's set-up
@@ -58,11 +62,11 @@ impl<'r> Run<'r> {
         ((1u64 << self.rays.len()) - 1) as u32
     }
 
-    /// The lanes of `mask` entering `node` as their single-ray tests do (to `t_max` plus
-    /// margin), each lane's entry in `t_entry`.
+    /// The lanes of `mask` entering box `b` ([`packed`]) as their single-ray tests do (to
+    /// `t_max` plus margin), each lane's entry in `t_entry`.
     #[inline(always)]
-    fn entering(&self, mask: u32, node: &BvhNode, t_entry: &mut [f32; LANES]) -> u32 {
-        self.boxes.test(node, mask, t_entry)
+    fn entering(&self, mask: u32, b: &[f32; 8], t_entry: &mut [f32; LANES]) -> u32 {
+        self.boxes.test(b, mask, t_entry)
     }
 
     /// The lane's segment now ends at a closer hit's `t`.
@@ -84,10 +88,29 @@ impl<'r> Run<'r> {
     }
 }
 
-/// A top-level node waiting on the stack: the lanes that entered it and where.
+/// A top-level child: a node's index (`count` 0) or a leaf's first instance and size.
+#[derive(Clone, Copy)]
+struct Child {
+    index: u32,
+    count: u32,
+}
+
+impl Child {
+    const ROOT: Child = Child { index: 0, count: 0 };
+
+    #[inline(always)]
+    fn of(node: &WideNode<WIDTH>, slot: usize) -> Self {
+        Child {
+            index: node.child[slot],
+            count: node.count[slot] as u32,
+        }
+    }
+}
+
+/// A top-level child waiting on the stack: the lanes that entered it and where.
 #[derive(Clone, Copy)]
 struct Stacked {
-    node: u32,
+    child: Child,
     mask: u32,
     t_entry: [f32; LANES],
 }
@@ -185,7 +208,8 @@ struct Scratch<C> {
 impl<C: Counters> Scratch<C> {
     fn new() -> Self {
         Scratch {
-            stack: Vec::with_capacity(MAX_DEPTH),
+            // A node stacks at most WIDTH - 1 children per level.
+            stack: Vec::with_capacity((WIDTH - 1) * MAX_DEPTH + 1),
             local: Local::new(),
         }
     }
@@ -201,89 +225,112 @@ fn count<C: Counters>(mask: u32, counters: &mut [C], f: impl Fn(&mut C)) {
     }
 }
 
-/// Walks the top level once for `run`, near child first by the lowest lane entering both,
+/// Walks the top level once for `run`, near child first by the lowest lane entering any,
 /// handing each entered leaf's range (`first`, `count`) to `leaf` with the lanes in it.
 /// `counters[lane]` is the lane's ray's. Stops when every lane that entered the root is done.
 #[inline(always)]
 fn walk_run<C: Counters>(
-    nodes: &[BvhNode],
+    top: &super::TopLevel,
     run: &mut Run,
     counters: &mut [C],
     stack: &mut Vec<Stacked>,
     mut leaf: impl FnMut(usize, usize, u32, &mut Run, &mut [C]),
 ) {
-    let Some(root) = nodes.first() else {
+    let nodes = &top.bvh.nodes;
+    if nodes.is_empty() {
         return;
-    };
+    }
     count(run.all(), counters, |c| c.boxes(1));
-    let valid = run.entering(run.all(), root, &mut [0f32; LANES]);
+    let root_box = packed(&top.bvh.root_bounds);
+    let valid = run.entering(run.all(), &root_box, &mut [0f32; LANES]);
     stack.clear();
-    let mut at = (valid != 0).then_some((0, valid));
-    while let Some((index, active)) = at.or_else(|| next_stacked(stack, run)) {
-        let node = &nodes[index];
-        if node.is_leaf() {
+    let mut at = (valid != 0).then_some((Child::ROOT, valid));
+    while let Some((child, active)) = at.or_else(|| next_stacked(stack, run)) {
+        if child.count > 0 {
             count(active, counters, |c| c.leaf());
-            let (first, n) = (node.first as usize, node.count as usize);
-            leaf(first, n, active, run, counters);
+            leaf(
+                child.index as usize,
+                child.count as usize,
+                active,
+                run,
+                counters,
+            );
             if valid & !run.done == 0 {
                 return;
             }
             at = None;
         } else {
-            count(active, counters, |c| {
-                c.inner();
-                c.boxes(2);
-            });
-            at = enter_children(nodes, node, active, run, stack);
+            let node = &nodes[child.index as usize];
+            if C::COUNTING {
+                let arity = node.arity() as u32;
+                count(active, counters, |c| {
+                    c.inner();
+                    c.boxes(arity);
+                });
+            }
+            at = enter_children(node, active, run, stack);
         }
     }
 }
 
-/// The children of interior `node` the lanes of `active` enter: the one to go on with and its
-/// lanes (`None`: neither), the other stacked with its lanes' entries when both are entered.
-/// The near child is the single-ray rule's (b first when nearer) for the lowest lane entering
-/// both; where no lane enters both, a goes first.
+/// The children of `node` the lanes of `active` enter: the one to go on with and its lanes
+/// (`None`: none), the others stacked with their lanes' entries. The order is the single-ray
+/// walk's (near to far, equal entries by slot) for the lowest lane entering any child; the
+/// children that lane misses are stacked below, to come last.
 #[inline(always)]
 fn enter_children(
-    nodes: &[BvhNode],
-    node: &BvhNode,
+    node: &WideNode<WIDTH>,
     active: u32,
     run: &Run,
     stack: &mut Vec<Stacked>,
-) -> Option<(usize, u32)> {
-    let l = node.first as usize;
-    let (mut ta, mut tb) = ([0f32; LANES], [0f32; LANES]);
-    let ma = run.entering(active, &nodes[l], &mut ta);
-    let mb = run.entering(active, &nodes[l + 1], &mut tb);
-    match (ma, mb) {
-        (0, 0) => None,
-        (m, 0) => Some((l, m)),
-        (0, m) => Some((l + 1, m)),
-        _ => {
-            let both = ma & mb;
-            let key = both.trailing_zeros() as usize;
-            let (near, far) = if both != 0 && tb[key] < ta[key] {
-                ((l + 1, mb), (l, ma, ta))
-            } else {
-                ((l, ma), (l + 1, mb, tb))
-            };
-            stack.push(Stacked {
-                node: far.0 as u32,
-                mask: far.1,
-                t_entry: far.2,
-            });
-            Some(near)
+) -> Option<(Child, u32)> {
+    let mut masks = [0u32; WIDTH];
+    let mut t_entry = [[0f32; LANES]; WIDTH];
+    let mut entered = 0;
+    for slot in 0..WIDTH {
+        if node.child[slot] == EMPTY_CHILD {
+            continue;
+        }
+        masks[slot] = run.entering(active, &slot_box(node, slot), &mut t_entry[slot]);
+        entered |= masks[slot];
+    }
+    if entered == 0 {
+        return None;
+    }
+    let key = entered.trailing_zeros() as usize;
+    let (mut keyed, mut key_t) = (0u32, [0f32; WIDTH]);
+    for slot in 0..WIDTH {
+        keyed |= ((masks[slot] >> key) & 1) << slot;
+        key_t[slot] = t_entry[slot][key];
+    }
+    let push = |stack: &mut Vec<Stacked>, slot: usize| {
+        stack.push(Stacked {
+            child: Child::of(node, slot),
+            mask: masks[slot],
+            t_entry: t_entry[slot],
+        })
+    };
+    for slot in (0..WIDTH).rev() {
+        if masks[slot] != 0 && keyed & (1 << slot) == 0 {
+            push(stack, slot);
         }
     }
+    let mut order = [0u8; WIDTH];
+    let n = near_to_far(node, keyed, &key_t, &mut order);
+    for &slot in order[1..n].iter().rev() {
+        push(stack, slot as usize);
+    }
+    let near = order[0] as usize;
+    Some((Child::of(node, near), masks[near]))
 }
 
-/// The next stacked node some lane may still hold a closer (or equal) hit in, and those lanes.
+/// The next stacked child some lane may still hold a closer (or equal) hit in, and those lanes.
 #[inline(always)]
-fn next_stacked(stack: &mut Vec<Stacked>, run: &Run) -> Option<(usize, u32)> {
+fn next_stacked(stack: &mut Vec<Stacked>, run: &Run) -> Option<(Child, u32)> {
     while let Some(entry) = stack.pop() {
         let live = run.still_entering(&entry);
         if live != 0 {
-            return Some((entry.node as usize, live));
+            return Some((entry.child, live));
         }
     }
     None
@@ -318,13 +365,7 @@ pub(super) fn occluded_runs<Q: RayQuery, C: Counters>(
                 }
             }
         };
-        walk_run(
-            &q.top.bvh.nodes,
-            &mut run,
-            counters,
-            &mut scratch.stack,
-            leaf,
-        );
+        walk_run(q.top, &mut run, counters, &mut scratch.stack, leaf);
         for lane in lanes(run.done) {
             out[lane] = true;
         }
@@ -357,13 +398,7 @@ pub(super) fn closest_runs<Q: RayQuery, C: Counters>(
                 }
             }
         };
-        walk_run(
-            &q.top.bvh.nodes,
-            &mut run,
-            counters,
-            &mut scratch.stack,
-            leaf,
-        );
+        walk_run(q.top, &mut run, counters, &mut scratch.stack, leaf);
     }
 }
 

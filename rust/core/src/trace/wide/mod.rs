@@ -11,10 +11,13 @@ mod leaf;
 mod packet;
 mod packet_boxes;
 mod stack;
+mod walk;
 
+pub(crate) use any_hit::near_to_far;
 pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay, ANY_OCTANT};
 pub(crate) use packet::lanes;
 pub use packet_boxes::LANES as PACKET_LANES;
+pub(crate) use walk::walk_near_first;
 
 use super::{Counters, Hit, HitFilter, NoStats};
 use crate::bvh::WideBvh;
