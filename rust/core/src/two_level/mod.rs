@@ -15,9 +15,10 @@
 mod alpha;
 pub mod brute;
 mod instance;
-mod lane_boxes;
 mod mesh_tree;
 mod refit;
+mod run_boxes;
+mod run_walk;
 mod runs;
 mod top_level;
 

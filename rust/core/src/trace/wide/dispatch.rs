@@ -231,8 +231,11 @@ unsafe fn with_avx512<T: Traversal<8>, const OCT: usize>(t: T) -> T::Out {
 /// alone and the leaf tests), a packet box test `P` and an octant, chosen by
 /// [`PacketDispatch`].
 pub(crate) trait PacketTraversal<const N: usize> {
-    /// False when the counters compile away (only then are per-octant instances used).
+    /// False when the counters compile away.
     const COUNTING: bool;
+    /// Whether the 8-wide SIMD kernels run an instance per packet octant: by default when the
+    /// counters compile away (counting traversals are not timed).
+    const PER_OCTANT: bool = !Self::COUNTING;
     /// The packet's octant when every ray in it has that fixed octant.
     fn fixed_octant(&self) -> Option<usize>;
     fn run<K: ChildBoxTest<N>, P: PacketBoxTest, const OCT: usize>(self);
@@ -334,13 +337,14 @@ macro_rules! packet_dispatch {
 }
 
 /// Calls `$f::<T, OCT>($t)` with the packet's fixed octant as `OCT` (`per_octant`, as
-/// `per_octant!`; counting traversals take `ANY_OCTANT`), or always with `ANY_OCTANT`.
+/// `per_octant!`; traversals without `PER_OCTANT` take `ANY_OCTANT`), or always with
+/// `ANY_OCTANT`.
 #[cfg(target_arch = "x86_64")]
 macro_rules! packet_per_octant {
     (per_octant, $f:ident::<$ty:ident>($t:expr)) => {{
         let t = $t;
         match t.fixed_octant() {
-            _ if $ty::COUNTING => $f::<$ty, ANY_OCTANT>(t),
+            _ if !$ty::PER_OCTANT => $f::<$ty, ANY_OCTANT>(t),
             Some(0) => $f::<$ty, 0>(t),
             Some(1) => $f::<$ty, 1>(t),
             Some(2) => $f::<$ty, 2>(t),
