@@ -60,18 +60,9 @@ impl RunBoxes {
                 rays,
             });
         }
-        for (lane, ray) in rays.iter().enumerate() {
-            self.reach[lane] = self.group(lane).t_reach[lane];
-            debug_assert_eq!(self.reach[lane].to_bits(), {
-                let pre = crate::geometry::RayBoxPrecomp::new(ray);
-                (ray.t_max + pre.t_margin).to_bits()
-            });
+        for lane in 0..rays.len() {
+            self.reach[lane] = self.groups[self.group_of[lane] as usize].rays.t_reach[lane];
         }
-    }
-
-    #[inline(always)]
-    fn group(&self, lane: usize) -> &PacketRays {
-        &self.groups[self.group_of[lane] as usize].rays
     }
 
     /// The lane's segment now ends at `t_max` (a closer hit).
