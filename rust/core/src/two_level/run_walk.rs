@@ -107,7 +107,7 @@ pub(super) struct Stacked {
 
 /// Counts `f` into the counters of the lanes of `mask`.
 #[inline(always)]
-pub(super) fn count<C: Counters>(mask: u32, counters: &mut [C], f: impl Fn(&mut C)) {
+fn count<C: Counters>(mask: u32, counters: &mut [C], f: impl Fn(&mut C)) {
     if C::COUNTING {
         for lane in lanes(mask) {
             f(&mut counters[lane]);
