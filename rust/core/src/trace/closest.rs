@@ -52,10 +52,11 @@ pub(crate) fn closest_hit_filtered<C: Counters, F: HitFilter>(
 /// Walks a binary tree near child first from its root, handing each entered leaf's range
 /// (`first`, `count`) to `leaf` with the ray's current `t_max`; `leaf` returns the new `t_max`
 /// (lowered by a closer hit), or `None` to stop. A node whose entry lies past `t_max` (plus the
-/// box margin, see `RayBoxPrecomp::t_margin`) is culled when it comes off the stack. The one
-/// loop of the binary closest hit and of the top level over instances.
+/// box margin, see `RayBoxPrecomp::t_margin`) is culled when it comes off the stack. The loop
+/// of the binary closest hit (the wide top level over instances has its own,
+/// `wide::walk_near_first`).
 #[inline(always)]
-pub(crate) fn walk_near_first<C: Counters>(
+fn walk_near_first<C: Counters>(
     nodes: &[BvhNode],
     ray: &Ray,
     stats: &mut C,

@@ -23,7 +23,7 @@ pub use brute::{
     brute_closest_hit, brute_closest_hit_alpha, brute_occluded, brute_transmission,
     transmission_of_hits,
 };
-pub(crate) use closest::{closest_hit_filtered, walk_near_first};
+pub(crate) use closest::closest_hit_filtered;
 pub use counters::{AlphaStats, Counters, NoStats, TraversalStats};
 pub use filter::{AlphaClip, AlphaScenes, HitFilter, Opaque, Transmission, TransparentHit};
 pub(crate) use query::{closest_hit_each, forward_ray_query, occluded_each};

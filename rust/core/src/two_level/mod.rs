@@ -1,10 +1,12 @@
 //! Two-level scenes: one tree per unique mesh, in the mesh's own space ([`MeshTree`]), shared by
 //! every object that places the mesh, under a top-level tree over the objects' render-space
-//! boxes ([`TopLevel`]). A ray crosses the top level in render space and enters a mesh tree
-//! through its instance's inverse transform ([`Instance::ray_to_mesh`]), whose parameter `t` is
-//! the render-space ray's; hits carry the object ([`crate::trace::Hit::instance`]). A batch
-//! crosses the top level in runs of 16 rays and reaches each mesh tree as one batch (`runs`), so
-//! a wide mesh tree traces packets.
+//! boxes ([`TopLevel`]: 8-wide, its child boxes tested at once by the wide trees' SIMD kernels;
+//! a ray counts a top-level node as it counts a wide mesh tree's, one interior node and a box
+//! test per used slot, and a leaf per leaf slot entered). A ray crosses the top level in render
+//! space and enters a mesh tree through its instance's inverse transform
+//! ([`Instance::ray_to_mesh`]), whose parameter `t` is the render-space ray's; hits carry the
+//! object ([`crate::trace::Hit::instance`]). A batch crosses the top level in runs of 16 rays and
+//! reaches each mesh tree as one batch (`runs`), so a wide mesh tree traces packets.
 //!
 //! Answers are exact against [`brute`], which tests every triangle of every instance through
 //! the same ray transform: the closest hit is the least (t, object, triangle). Through alpha,
@@ -15,9 +17,10 @@
 mod alpha;
 pub mod brute;
 mod instance;
-mod lane_boxes;
 mod mesh_tree;
 mod refit;
+mod run_boxes;
+mod run_walk;
 mod runs;
 mod top_level;
 

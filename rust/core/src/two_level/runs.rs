@@ -1,96 +1,40 @@
 //! Batches through the top level in runs: each run of [`LANES`] consecutive rays (the passes
 //! order a tile's rays so these are neighbours, as the packet kernel's `each_packet` reads
-//! them) walks the binary top level once, a lane mask per node. At each instance reached, the
-//! active lanes' rays are mapped into mesh space and traced together by the mesh query's own
-//! batch method, so a mesh tree's packets (re-split there by octant) see the run's coherence.
+//! them) walks the wide top level once (`run_walk`), a lane mask per child entered, each child
+//! box tested across the run's lanes by the packet box kernels grouped by octant
+//! (`run_boxes`). At each instance reached, the active lanes' rays are mapped into mesh space
+//! and traced together by the mesh query's own batch method, so a mesh tree's packets
+//! (re-split there by octant) see the run's coherence.
 //!
 //! Answers equal the single-ray walk's ([`TwoLevel`]'s `occluded` and `closest_hit`) and the
 //! brute-force reference's bit for bit: a lane enters a node only when its own single-ray box
-//! test (`RayBoxPrecomp::hit_packed`'s arithmetic, to its `t_max` plus `t_margin`; run across
-//! lanes by [`LaneBoxes`]) passes, a stacked node is
-//! culled per lane as the single-ray walk culls it, and closest hits keep the (t, object,
-//! triangle) rule of [`closer`], which no visiting order changes.
+//! test (to its `t_max` plus `t_margin`) passes, a stacked node is culled per lane as the
+//! single-ray walk culls it, and closest hits keep the (t, object, triangle) rule of
+//! [`closer`], which no visiting order changes.
 //!
-//! Counters stay per ray: a ray counts the root's box, and an interior node (and its two boxes)
-//! or a leaf wherever it is active in its run; the mesh query counts into the ray's counters
-//! as its batch method counts. The run's shared child order may differ from a lone ray's, so
-//! the counts (not the answers) may differ from the single-ray walk's.
+//! Counters stay per ray, as the wide trees count: a ray counts the root's box, and an interior
+//! node (and a box test per used slot) or a leaf slot wherever it is active in its run; the
+//! mesh query counts into the ray's counters as its batch method counts. A lone ray enters the
+//! children in its single-ray order; a ray in a larger run may enter them in another order,
+//! so its counts (not its answers) may differ from the single-ray walk's.
 
-use crate::bvh::{BvhNode, MAX_DEPTH};
+use crate::bvh::MAX_DEPTH;
 use crate::geometry::Ray;
-use crate::trace::wide::{lanes, PACKET_LANES as LANES};
+use crate::trace::wide::{
+    lanes, BoxKernel, ChildBoxTest, Kernels, PacketBoxTest, PacketDispatch, PacketTraversal,
+    PACKET_LANES as LANES,
+};
 use crate::trace::{closest_hit_each, occluded_each, Counters, Hit, RayQuery};
 use glam::Vec3;
 
-use super::lane_boxes::LaneBoxes;
-use super::top_level::{closer, TwoLevel};
+use super::run_boxes::RunBoxes;
+use super::run_walk::{walk_run, Run, Stacked};
+use super::top_level::{closer, TwoLevel, TOP_WIDTH as WIDTH};
 use super::Instance;
 
 /// At most this many rays reaching an instance trace its mesh one at a time: a packet's set-up
 /// costs more than it saves there (the packet kernels go on alone below 2 to 5 lanes).
 const FEW: usize = 4;
-
-/// One run's rays and what their walk keeps per lane.
-struct Run<'r> {
-    rays: &'r [Ray],
-    boxes: LaneBoxes,
-    /// Per lane: the segment's end, lowered by closest hits.
-    t_max: [f32; LANES],
-    /// Lanes answered (occluded): they enter nothing more.
-    done: u32,
-}
-
-impl<'r> Run<'r> {
-    /// `rays` holds 1 to [`LANES`] rays.
-    #[inline(always)]
-    fn new(rays: &'r [Ray]) -> Self {
-        let last = rays.len() - 1;
-        Run {
-            rays,
-            boxes: LaneBoxes::new(rays),
-            t_max: std::array::from_fn(|i| rays[i.min(last)].t_max),
-            done: 0,
-        }
-    }
-
-    #[inline(always)]
-    fn all(&self) -> u32 {
-        ((1u64 << self.rays.len()) - 1) as u32
-    }
-
-    /// The lanes of `mask` entering `node` as their single-ray tests do (to `t_max` plus
-    /// margin), each lane's entry in `t_entry`.
-    #[inline(always)]
-    fn entering(&self, mask: u32, node: &BvhNode, t_entry: &mut [f32; LANES]) -> u32 {
-        self.boxes.test(node, mask, t_entry)
-    }
-
-    /// The lane's segment now ends at a closer hit's `t`.
-    #[inline(always)]
-    fn lower(&mut self, lane: usize, t: f32) {
-        self.t_max[lane] = t;
-        self.boxes.set_t_max(lane, t);
-    }
-
-    /// The lanes of `entry` still to enter it when it comes off the stack: not answered, and
-    /// entering it before their (perhaps lowered) `t_max` plus margin, the single-ray cull.
-    #[inline(always)]
-    fn still_entering(&self, entry: &Stacked) -> u32 {
-        let mut live = 0;
-        for lane in lanes(entry.mask & !self.done) {
-            live |= ((entry.t_entry[lane] <= self.boxes.reach(lane)) as u32) << lane;
-        }
-        live
-    }
-}
-
-/// A top-level node waiting on the stack: the lanes that entered it and where.
-#[derive(Clone, Copy)]
-struct Stacked {
-    node: u32,
-    mask: u32,
-    t_entry: [f32; LANES],
-}
 
 /// The active lanes' rays in an instance's mesh space: the small batch a mesh query traces.
 struct Local<C> {
@@ -176,121 +120,27 @@ impl<C: Counters> Local<C> {
     }
 }
 
-/// What a run's walk reuses across runs: the stack and the local batch.
+/// What a run's walk reuses across runs: the stack, the local batch and the box set-up.
 struct Scratch<C> {
     stack: Vec<Stacked>,
     local: Local<C>,
+    boxes: RunBoxes,
 }
 
 impl<C: Counters> Scratch<C> {
     fn new() -> Self {
         Scratch {
-            stack: Vec::with_capacity(MAX_DEPTH),
+            // A node stacks at most WIDTH - 1 children per level.
+            stack: Vec::with_capacity((WIDTH - 1) * MAX_DEPTH + 1),
             local: Local::new(),
+            boxes: RunBoxes::new(),
         }
     }
 }
 
-/// Counts `f` into the counters of the lanes of `mask`.
+/// `TwoLevel::occluded_batch`: any hit per ray, in runs of [`LANES`], with box kernel `P`.
 #[inline(always)]
-fn count<C: Counters>(mask: u32, counters: &mut [C], f: impl Fn(&mut C)) {
-    if C::COUNTING {
-        for lane in lanes(mask) {
-            f(&mut counters[lane]);
-        }
-    }
-}
-
-/// Walks the top level once for `run`, near child first by the lowest lane entering both,
-/// handing each entered leaf's range (`first`, `count`) to `leaf` with the lanes in it.
-/// `counters[lane]` is the lane's ray's. Stops when every lane that entered the root is done.
-#[inline(always)]
-fn walk_run<C: Counters>(
-    nodes: &[BvhNode],
-    run: &mut Run,
-    counters: &mut [C],
-    stack: &mut Vec<Stacked>,
-    mut leaf: impl FnMut(usize, usize, u32, &mut Run, &mut [C]),
-) {
-    let Some(root) = nodes.first() else {
-        return;
-    };
-    count(run.all(), counters, |c| c.boxes(1));
-    let valid = run.entering(run.all(), root, &mut [0f32; LANES]);
-    stack.clear();
-    let mut at = (valid != 0).then_some((0, valid));
-    while let Some((index, active)) = at.or_else(|| next_stacked(stack, run)) {
-        let node = &nodes[index];
-        if node.is_leaf() {
-            count(active, counters, |c| c.leaf());
-            let (first, n) = (node.first as usize, node.count as usize);
-            leaf(first, n, active, run, counters);
-            if valid & !run.done == 0 {
-                return;
-            }
-            at = None;
-        } else {
-            count(active, counters, |c| {
-                c.inner();
-                c.boxes(2);
-            });
-            at = enter_children(nodes, node, active, run, stack);
-        }
-    }
-}
-
-/// The children of interior `node` the lanes of `active` enter: the one to go on with and its
-/// lanes (`None`: neither), the other stacked with its lanes' entries when both are entered.
-/// The near child is the single-ray rule's (b first when nearer) for the lowest lane entering
-/// both; where no lane enters both, a goes first.
-#[inline(always)]
-fn enter_children(
-    nodes: &[BvhNode],
-    node: &BvhNode,
-    active: u32,
-    run: &Run,
-    stack: &mut Vec<Stacked>,
-) -> Option<(usize, u32)> {
-    let l = node.first as usize;
-    let (mut ta, mut tb) = ([0f32; LANES], [0f32; LANES]);
-    let ma = run.entering(active, &nodes[l], &mut ta);
-    let mb = run.entering(active, &nodes[l + 1], &mut tb);
-    match (ma, mb) {
-        (0, 0) => None,
-        (m, 0) => Some((l, m)),
-        (0, m) => Some((l + 1, m)),
-        _ => {
-            let both = ma & mb;
-            let key = both.trailing_zeros() as usize;
-            let (near, far) = if both != 0 && tb[key] < ta[key] {
-                ((l + 1, mb), (l, ma, ta))
-            } else {
-                ((l, ma), (l + 1, mb, tb))
-            };
-            stack.push(Stacked {
-                node: far.0 as u32,
-                mask: far.1,
-                t_entry: far.2,
-            });
-            Some(near)
-        }
-    }
-}
-
-/// The next stacked node some lane may still hold a closer (or equal) hit in, and those lanes.
-#[inline(always)]
-fn next_stacked(stack: &mut Vec<Stacked>, run: &Run) -> Option<(usize, u32)> {
-    while let Some(entry) = stack.pop() {
-        let live = run.still_entering(&entry);
-        if live != 0 {
-            return Some((entry.node as usize, live));
-        }
-    }
-    None
-}
-
-/// `TwoLevel::occluded_batch`: any hit per ray, in runs of [`LANES`].
-pub(super) fn occluded_runs<Q: RayQuery, C: Counters>(
+fn occluded_with<P: PacketBoxTest, Q: RayQuery, C: Counters>(
     q: &TwoLevel<Q>,
     rays: &[Ray],
     out: &mut [bool],
@@ -301,7 +151,7 @@ pub(super) fn occluded_runs<Q: RayQuery, C: Counters>(
     let mut scratch = Scratch::<C>::new();
     let runs = rays.chunks(LANES).zip(out.chunks_mut(LANES));
     for ((run_rays, out), counters) in runs.zip(counters.chunks_mut(LANES)) {
-        let mut run = Run::new(run_rays);
+        let mut run = Run::new(run_rays, &mut scratch.boxes);
         let local = &mut scratch.local;
         let leaf = |first: usize, n: usize, active: u32, run: &mut Run, counters: &mut [C]| {
             for instance in &q.top.instances[first..first + n] {
@@ -318,13 +168,7 @@ pub(super) fn occluded_runs<Q: RayQuery, C: Counters>(
                 }
             }
         };
-        walk_run(
-            &q.top.bvh.nodes,
-            &mut run,
-            counters,
-            &mut scratch.stack,
-            leaf,
-        );
+        walk_run::<P, C>(q.top, &mut run, counters, &mut scratch.stack, leaf);
         for lane in lanes(run.done) {
             out[lane] = true;
         }
@@ -332,8 +176,9 @@ pub(super) fn occluded_runs<Q: RayQuery, C: Counters>(
 }
 
 /// `TwoLevel::closest_hit_batch`: the closest hit per ray by (t, object, triangle), in runs of
-/// [`LANES`].
-pub(super) fn closest_runs<Q: RayQuery, C: Counters>(
+/// [`LANES`], with box kernel `P`.
+#[inline(always)]
+fn closest_with<P: PacketBoxTest, Q: RayQuery, C: Counters>(
     q: &TwoLevel<Q>,
     rays: &[Ray],
     out: &mut [Option<Hit>],
@@ -344,7 +189,7 @@ pub(super) fn closest_runs<Q: RayQuery, C: Counters>(
     let mut scratch = Scratch::<C>::new();
     let runs = rays.chunks(LANES).zip(out.chunks_mut(LANES));
     for ((run_rays, out), counters) in runs.zip(counters.chunks_mut(LANES)) {
-        let mut run = Run::new(run_rays);
+        let mut run = Run::new(run_rays, &mut scratch.boxes);
         let local = &mut scratch.local;
         let leaf = |first: usize, n: usize, active: u32, run: &mut Run, counters: &mut [C]| {
             for instance in &q.top.instances[first..first + n] {
@@ -357,13 +202,7 @@ pub(super) fn closest_runs<Q: RayQuery, C: Counters>(
                 }
             }
         };
-        walk_run(
-            &q.top.bvh.nodes,
-            &mut run,
-            counters,
-            &mut scratch.stack,
-            leaf,
-        );
+        walk_run::<P, C>(q.top, &mut run, counters, &mut scratch.stack, leaf);
     }
 }
 
@@ -384,5 +223,81 @@ fn keep_closer(
     if closer(&h, &best[lane]) {
         best[lane] = Some(h);
         run.lower(lane, h.t);
+    }
+}
+
+/// `TwoLevel::occluded_batch`: any hit per ray, in runs of [`LANES`], through the packet box
+/// kernel the CPU has (the dispatch of the wide packets).
+pub(super) fn occluded_runs<Q: RayQuery, C: Counters>(
+    q: &TwoLevel<Q>,
+    rays: &[Ray],
+    out: &mut [bool],
+    counters: &mut [C],
+) {
+    let call = Occluded {
+        q,
+        rays,
+        out,
+        counters,
+    };
+    <Kernels as PacketDispatch<WIDTH>>::dispatch_packet(call, BoxKernel::Auto);
+}
+
+/// `TwoLevel::closest_hit_batch`, as [`occluded_runs`].
+pub(super) fn closest_runs<Q: RayQuery, C: Counters>(
+    q: &TwoLevel<Q>,
+    rays: &[Ray],
+    out: &mut [Option<Hit>],
+    counters: &mut [C],
+) {
+    let call = Closest {
+        q,
+        rays,
+        out,
+        counters,
+    };
+    <Kernels as PacketDispatch<WIDTH>>::dispatch_packet(call, BoxKernel::Auto);
+}
+
+/// A batch's runs as one packet traversal of the dispatch (which picks the kernel `P`).
+struct Occluded<'a, 'q, Q, C> {
+    q: &'a TwoLevel<'q, Q>,
+    rays: &'a [Ray],
+    out: &'a mut [bool],
+    counters: &'a mut [C],
+}
+
+impl<Q: RayQuery, C: Counters> PacketTraversal<WIDTH> for Occluded<'_, '_, Q, C> {
+    const COUNTING: bool = C::COUNTING;
+    // Runs mix octants (`run_boxes` groups them): one instance per kernel.
+    const PER_OCTANT: bool = false;
+    #[inline(always)]
+    fn fixed_octant(&self) -> Option<usize> {
+        None
+    }
+    #[inline(always)]
+    fn run<K: ChildBoxTest<WIDTH>, P: PacketBoxTest, const OCT: usize>(self) {
+        occluded_with::<P, Q, C>(self.q, self.rays, self.out, self.counters)
+    }
+}
+
+/// [`Occluded`] for closest hits.
+struct Closest<'a, 'q, Q, C> {
+    q: &'a TwoLevel<'q, Q>,
+    rays: &'a [Ray],
+    out: &'a mut [Option<Hit>],
+    counters: &'a mut [C],
+}
+
+impl<Q: RayQuery, C: Counters> PacketTraversal<WIDTH> for Closest<'_, '_, Q, C> {
+    const COUNTING: bool = C::COUNTING;
+    const PER_OCTANT: bool = false;
+    #[inline(always)]
+    fn fixed_octant(&self) -> Option<usize> {
+        None
+    }
+    #[inline(always)]
+    fn run<K: ChildBoxTest<WIDTH>, P: PacketBoxTest, const OCT: usize>(self) {
+        closest_with::<P, Q, C>(self.q, self.rays, self.out, self.counters)
     }
 }

@@ -6,15 +6,17 @@ use super::any_hit::{near_to_far, ChildRef};
 use super::boxes::{ChildBoxTest, WideRay};
 use super::leaf::{each_hit, LeafLanes};
 use super::stack::Stack;
-use crate::bvh::WideBvh;
+use crate::bvh::{WideBvh, WideNode};
 use crate::geometry::{intersect_triangle, Ray, RayBoxPrecomp, WatertightRay};
 use crate::trace::{Counters, Hit, HitFilter, Opaque};
 
+/// A child waiting on the stack: a node index (`count` 0) or a leaf's first slot and size, and
+/// where the ray enters it.
 #[derive(Clone, Copy, Default)]
-struct Entry {
-    child: u32,
-    count: u32,
-    t_entry: f32,
+pub(crate) struct Entry {
+    pub child: u32,
+    pub count: u32,
+    pub t_entry: f32,
 }
 
 /// The closest hit of the ray. `OCT` is the ray's octant or `ANY_OCTANT` (see
@@ -119,56 +121,74 @@ pub(crate) fn closest_from_filtered<
             }
             let mask = K::test(&wray, node, t_min, t_max + margin, &mut t_near);
             if mask != 0 {
-                let e = |s: u8| Entry {
-                    child: node.child[s as usize],
-                    count: node.count[s as usize] as u32,
-                    t_entry: t_near[s as usize],
-                };
-                // One or two children hit (most nodes) skip the general ordering loop.
-                let (child_a, child_b) = K::lowest_children(node, mask);
-                let first = mask.trailing_zeros() as usize;
-                let rest = mask & (mask - 1);
-                let entry = |s: usize, child: u32| Entry {
-                    child,
-                    count: node.count[s] as u32,
-                    t_entry: t_near[s],
-                };
-                if rest == 0 {
-                    current = entry(first, child_a);
-                    continue;
-                }
-                if rest & (rest - 1) == 0 {
-                    // Two children: the nearer first, the lower slot on a tie (as near_to_far).
-                    let second = rest.trailing_zeros() as usize;
-                    let (a, b) = (entry(first, child_a), entry(second, child_b));
-                    let (near, far) = if a.t_entry > b.t_entry {
-                        (b, a)
-                    } else {
-                        (a, b)
-                    };
-                    stack.push(far);
-                    current = near;
-                    continue;
-                }
-                let mut visit = [0u8; N];
-                let hits = near_to_far(node, mask, &t_near, &mut visit);
-                for &s in visit[1..hits].iter().rev() {
-                    stack.push(e(s));
-                }
-                current = e(visit[0]);
+                current = enter_near_first::<N, K>(node, mask, &t_near, &mut stack);
                 continue;
             }
         }
         // The next stacked child that can still hold a closer (or equally close) triangle.
-        loop {
-            match stack.pop() {
-                None => return best,
-                Some(e) if e.t_entry <= t_max + margin => {
-                    current = e;
-                    break;
-                }
-                Some(_) => {}
-            }
+        match pop_within(&mut stack, t_max + margin) {
+            Some(e) => current = e,
+            None => return best,
+        }
+    }
+}
+
+/// The children of `node` in `mask` (at least one; entries in `t_near`) visited near to far:
+/// the nearest is returned, the others stacked so the next nearest comes off first (equal
+/// entries by the lower slot, as [`near_to_far`]). The descent of every near-first walk.
+#[inline(always)]
+pub(crate) fn enter_near_first<const N: usize, K: ChildBoxTest<N>>(
+    node: &WideNode<N>,
+    mask: u32,
+    t_near: &[f32; N],
+    stack: &mut Stack<Entry>,
+) -> Entry {
+    let e = |s: u8| Entry {
+        child: node.child[s as usize],
+        count: node.count[s as usize] as u32,
+        t_entry: t_near[s as usize],
+    };
+    // One or two children hit (most nodes) skip the general ordering loop.
+    let (child_a, child_b) = K::lowest_children(node, mask);
+    let first = mask.trailing_zeros() as usize;
+    let rest = mask & (mask - 1);
+    let entry = |s: usize, child: u32| Entry {
+        child,
+        count: node.count[s] as u32,
+        t_entry: t_near[s],
+    };
+    if rest == 0 {
+        return entry(first, child_a);
+    }
+    if rest & (rest - 1) == 0 {
+        // Two children: the nearer first, the lower slot on a tie (as near_to_far).
+        let second = rest.trailing_zeros() as usize;
+        let (a, b) = (entry(first, child_a), entry(second, child_b));
+        let (near, far) = if a.t_entry > b.t_entry {
+            (b, a)
+        } else {
+            (a, b)
+        };
+        stack.push(far);
+        return near;
+    }
+    let mut visit = [0u8; N];
+    let hits = near_to_far(node, mask, t_near, &mut visit);
+    for &s in visit[1..hits].iter().rev() {
+        stack.push(e(s));
+    }
+    e(visit[0])
+}
+
+/// The next stacked entry that can still hold a hit at or before `reach` (`t_max` plus the box
+/// margin); the ones past it are dropped.
+#[inline(always)]
+pub(crate) fn pop_within(stack: &mut Stack<Entry>, reach: f32) -> Option<Entry> {
+    loop {
+        match stack.pop() {
+            None => return None,
+            Some(e) if e.t_entry <= reach => return Some(e),
+            Some(_) => {}
         }
     }
 }

@@ -18,8 +18,11 @@ use crate::trace::{Counters, Hit, HitFilter};
 /// One query on one tree, run with a box kernel and a ray octant chosen by [`Dispatch`].
 pub(crate) trait Traversal<const N: usize> {
     type Out;
-    /// False when the counters compile away (only then are per-octant instances used).
+    /// False when the counters compile away.
     const COUNTING: bool;
+    /// Whether the 8-wide SIMD kernels run an instance per ray octant: by default when the
+    /// counters compile away (counting traversals are not timed).
+    const PER_OCTANT: bool = !Self::COUNTING;
     fn ray(&self) -> &Ray;
     fn run<K: ChildBoxTest<N>, const OCT: usize>(self) -> Self::Out;
 }
@@ -171,14 +174,15 @@ fn avx512() -> bool {
 
 /// Calls `$f::<T, OCT>($t)` with the ray's octant as `OCT`: the 8-wide AVX2 and AVX-512
 /// traversals are instantiated per octant, so each node's plane rows are loaded at constant
-/// offsets and no slab distance is NaN (see `WideRay::fixed_octant`). Counting traversals
-/// (not timed) and rays with a zero direction component take the `ANY_OCTANT` instance.
+/// offsets and no slab distance is NaN (see `WideRay::fixed_octant`). Traversals without
+/// [`Traversal::PER_OCTANT`] and rays with a zero direction component take the `ANY_OCTANT`
+/// instance.
 #[cfg(target_arch = "x86_64")]
 macro_rules! per_octant {
     ($f:ident::<$ty:ident>($t:expr)) => {{
         let t = $t;
         match WideRay::<8>::fixed_octant(t.ray()) {
-            _ if $ty::COUNTING => $f::<$ty, ANY_OCTANT>(t),
+            _ if !$ty::PER_OCTANT => $f::<$ty, ANY_OCTANT>(t),
             Some(0) => $f::<$ty, 0>(t),
             Some(1) => $f::<$ty, 1>(t),
             Some(2) => $f::<$ty, 2>(t),
@@ -227,8 +231,11 @@ unsafe fn with_avx512<T: Traversal<8>, const OCT: usize>(t: T) -> T::Out {
 /// alone and the leaf tests), a packet box test `P` and an octant, chosen by
 /// [`PacketDispatch`].
 pub(crate) trait PacketTraversal<const N: usize> {
-    /// False when the counters compile away (only then are per-octant instances used).
+    /// False when the counters compile away.
     const COUNTING: bool;
+    /// Whether the 8-wide SIMD kernels run an instance per packet octant: by default when the
+    /// counters compile away (counting traversals are not timed).
+    const PER_OCTANT: bool = !Self::COUNTING;
     /// The packet's octant when every ray in it has that fixed octant.
     fn fixed_octant(&self) -> Option<usize>;
     fn run<K: ChildBoxTest<N>, P: PacketBoxTest, const OCT: usize>(self);
@@ -330,13 +337,14 @@ macro_rules! packet_dispatch {
 }
 
 /// Calls `$f::<T, OCT>($t)` with the packet's fixed octant as `OCT` (`per_octant`, as
-/// `per_octant!`; counting traversals take `ANY_OCTANT`), or always with `ANY_OCTANT`.
+/// `per_octant!`; traversals without `PER_OCTANT` take `ANY_OCTANT`), or always with
+/// `ANY_OCTANT`.
 #[cfg(target_arch = "x86_64")]
 macro_rules! packet_per_octant {
     (per_octant, $f:ident::<$ty:ident>($t:expr)) => {{
         let t = $t;
         match t.fixed_octant() {
-            _ if $ty::COUNTING => $f::<$ty, ANY_OCTANT>(t),
+            _ if !$ty::PER_OCTANT => $f::<$ty, ANY_OCTANT>(t),
             Some(0) => $f::<$ty, 0>(t),
             Some(1) => $f::<$ty, 1>(t),
             Some(2) => $f::<$ty, 2>(t),

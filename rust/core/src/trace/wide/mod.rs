@@ -11,10 +11,19 @@ mod leaf;
 mod packet;
 mod packet_boxes;
 mod stack;
+mod walk;
 
+pub(crate) use any_hit::near_to_far;
 pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay, ANY_OCTANT};
+pub(crate) use dispatch::{Kernels, PacketDispatch, PacketTraversal};
 pub(crate) use packet::lanes;
+#[cfg(test)]
+pub(crate) use packet_boxes::ScalarPacket;
 pub use packet_boxes::LANES as PACKET_LANES;
+#[cfg(all(test, target_arch = "x86_64"))]
+pub(crate) use packet_boxes::{Avx2Packet, Avx512Packet};
+pub(crate) use packet_boxes::{PacketBoxTest, PacketRays};
+pub(crate) use walk::walk_near_first;
 
 use super::{Counters, Hit, HitFilter, NoStats};
 use crate::bvh::WideBvh;
@@ -22,7 +31,6 @@ use crate::geometry::Ray;
 use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
 use dispatch::{
     AnyHit, AnyHitFiltered, AnyHitPacket, Closest, ClosestFiltered, ClosestPacket, Dispatch,
-    Kernels, PacketDispatch,
 };
 
 /// The queries of a wide BVH of one width, dispatched to a box kernel.

@@ -1,0 +1,130 @@
+//! A near-first walk of a wide tree whose leaves the caller handles: the top level of two-level
+//! scenes, whose leaves hold instances rather than triangles. The descent, stack and culling are
+//! the closest-hit traversal's ([`enter_near_first`], [`pop_within`]), so a walk enters exactly
+//! the nodes and leaves the wide closest hit would, in the same order.
+
+use super::boxes::{BoxKernel, ChildBoxTest, WideRay};
+use super::closest::{enter_near_first, pop_within, Entry};
+use super::dispatch::{Dispatch, Kernels, Traversal};
+use super::stack::Stack;
+use crate::bvh::WideBvh;
+use crate::geometry::{Ray, RayBoxPrecomp};
+use crate::trace::Counters;
+
+/// Walks `tree` near child first with `kernel`, handing each entered leaf's range (`first`,
+/// `count`) to `leaf` with the ray's current `t_max`; `leaf` returns the new `t_max` (lowered
+/// by a closer hit), or `None` to stop. A child whose entry lies past `t_max` plus the box
+/// margin (see `RayBoxPrecomp::t_margin`) is culled when it comes off the stack. Counts as the
+/// wide traversals count: the root box, and per node entered one interior node and a box test
+/// per used slot, per leaf entered one leaf.
+#[inline(always)]
+pub(crate) fn walk_near_first<const N: usize, C, L>(
+    tree: &WideBvh<N>,
+    ray: &Ray,
+    kernel: BoxKernel,
+    stats: &mut C,
+    leaf: L,
+) where
+    Kernels: Dispatch<N>,
+    C: Counters,
+    L: FnMut(usize, usize, f32, &mut C) -> Option<f32>,
+{
+    let walk = Walk {
+        tree,
+        ray,
+        stats,
+        leaf,
+    };
+    Kernels::dispatch(walk, kernel)
+}
+
+/// One walk as a [`Traversal`], so the box kernel is chosen as for the wide queries.
+struct Walk<'a, const N: usize, C, L> {
+    tree: &'a WideBvh<N>,
+    ray: &'a Ray,
+    stats: &'a mut C,
+    leaf: L,
+}
+
+impl<const N: usize, C, L> Traversal<N> for Walk<'_, N, C, L>
+where
+    C: Counters,
+    L: FnMut(usize, usize, f32, &mut C) -> Option<f32>,
+{
+    type Out = ();
+    const COUNTING: bool = C::COUNTING;
+    // The leaf calls (a whole mesh traversal each) keep no box constants in registers, which
+    // is what per-octant instances would save: one instance per kernel is enough.
+    const PER_OCTANT: bool = false;
+    #[inline(always)]
+    fn ray(&self) -> &Ray {
+        self.ray
+    }
+    #[inline(always)]
+    fn run<K: ChildBoxTest<N>, const OCT: usize>(self) {
+        walk::<N, K, C, L, OCT>(self.tree, self.ray, self.stats, self.leaf)
+    }
+}
+
+#[inline(always)]
+fn walk<const N: usize, K: ChildBoxTest<N>, C: Counters, L, const OCT: usize>(
+    tree: &WideBvh<N>,
+    ray: &Ray,
+    stats: &mut C,
+    mut leaf: L,
+) where
+    L: FnMut(usize, usize, f32, &mut C) -> Option<f32>,
+{
+    if tree.nodes.is_empty() {
+        return;
+    }
+    // The root box only when counting (see `any_hit`: the root node's test rejects the same
+    // rays).
+    if C::COUNTING {
+        stats.boxes(1);
+        let pre = RayBoxPrecomp::new(ray);
+        let r = &tree.root_bounds;
+        if pre
+            .hit(r.min, r.max, ray.t_min, ray.t_max + pre.t_margin)
+            .is_none()
+        {
+            return;
+        }
+    }
+    let wray = WideRay::<N>::for_octant::<OCT>(ray);
+    let margin = wray.pre.t_margin;
+    let t_min = ray.t_min;
+    let mut t_max = ray.t_max;
+    let mut stack = Stack::<Entry>::new();
+    // The root node.
+    let mut current = Entry {
+        child: 0,
+        count: 0,
+        t_entry: 0.0,
+    };
+    let mut t_near = [0f32; N];
+    loop {
+        if current.count > 0 {
+            stats.leaf();
+            match leaf(current.child as usize, current.count as usize, t_max, stats) {
+                Some(t) => t_max = t,
+                None => return,
+            }
+        } else {
+            stats.inner();
+            let node = &tree.nodes[current.child as usize];
+            if C::COUNTING {
+                stats.boxes(node.arity() as u32);
+            }
+            let mask = K::test(&wray, node, t_min, t_max + margin, &mut t_near);
+            if mask != 0 {
+                current = enter_near_first::<N, K>(node, mask, &t_near, &mut stack);
+                continue;
+            }
+        }
+        match pop_within(&mut stack, t_max + margin) {
+            Some(e) => current = e,
+            None => return,
+        }
+    }
+}
