@@ -1,5 +1,5 @@
 //! `auto`'s scene structure on a moving part in a large static set (`character-room`): two
-//! levels from the first frame that moves where the static triangles are many per traced ray,
+//! levels from the first frame that moves where the kept triangles are many per traced ray,
 //! the flat tree where they are few, and a farm chunk after its warm-up choosing as one run.
 
 use antumbra_core::render::{FrameResult, RenderSettings, Renderer, SceneStructure};
@@ -55,7 +55,7 @@ fn assert_same_answers(a: &FrameResult, b: &FrameResult, what: &str) {
 
 #[test]
 fn many_static_triangles_per_ray_take_two_levels_from_the_first_frame_that_moves() {
-    // 40k triangles under 64x36 pixels: about two static triangles per traced ray.
+    // 40k triangles under 64x36 pixels (13 rays a pixel): more than one kept triangle a ray.
     let scenes = frames(40_000, 64, 36);
     let auto = render(&scenes, &RenderSettings::default());
     use SceneStructure::{Flat, TwoLevel};
@@ -76,8 +76,8 @@ fn many_static_triangles_per_ray_take_two_levels_from_the_first_frame_that_moves
 }
 
 #[test]
-fn few_static_triangles_per_ray_stay_flat() {
-    // 4k triangles under 160x90 pixels: a few hundredths of a static triangle per ray.
+fn few_kept_triangles_per_ray_stay_flat() {
+    // 4k triangles under 160x90 pixels: about 0.02 kept triangles a ray.
     let scenes = frames(4_000, 160, 90);
     let auto = render(&scenes, &RenderSettings::default());
     assert!(

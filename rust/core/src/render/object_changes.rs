@@ -1,6 +1,7 @@
 //! [`ObjectChanges`]: which of a frame's objects have changed (mesh, matrix or flags) in some
-//! frame so far. Two levels give a dynamic object's mesh a tree of its own and keep the static
-//! rest in one group tree.
+//! frame so far, and which meshes are new. Two levels give a dynamic object's mesh a tree of
+//! its own and keep the static rest in one group tree; `auto`'s structure weighs the triangles
+//! whose trees two levels keep.
 
 use std::sync::Arc;
 
@@ -15,12 +16,23 @@ use crate::scene::{Object, Scene};
 pub struct ObjectChanges {
     signatures: Arc<Vec<u64>>,
     dynamic: Arc<Vec<bool>>,
+    /// The last frame's meshes by identity, sorted.
+    meshes: Arc<Vec<usize>>,
+}
+
+/// What changed since the last frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameChange {
+    /// Whether any object changed (or the objects did): a flat tree is then rebuilt.
+    pub moved: bool,
+    /// Triangles of the rendered objects (seen or casting shadows) whose mesh the last frame
+    /// had too: static or rigidly moved, their trees are kept on two levels.
+    pub kept_triangles: u64,
 }
 
 impl ObjectChanges {
     /// Advances to `scene`: an object is dynamic once its state differs from the last frame's.
-    /// Returns whether any object changed since the last frame (or the objects did).
-    pub fn advance(&mut self, scene: &Scene) -> bool {
+    pub fn advance(&mut self, scene: &Scene) -> FrameChange {
         let signatures: Vec<u64> = (scene.objects.par_iter())
             .map(|o| signature(scene, o))
             .collect();
@@ -33,28 +45,24 @@ impl ObjectChanges {
             vec![false; signatures.len()]
         };
         let moved = *self.signatures != signatures;
+        let mut meshes: Vec<usize> = scene.meshes.iter().map(mesh_id).collect();
+        meshes.sort_unstable();
+        let rendered = scene
+            .objects
+            .iter()
+            .filter(|o| o.visible_to_camera || o.casts_shadow);
+        let kept_triangles = rendered
+            .filter_map(|o| scene.meshes.get(o.mesh))
+            .filter(|m| self.meshes.binary_search(&mesh_id(m)).is_ok())
+            .map(|m| m.triangles.len() as u64)
+            .sum();
         self.signatures = Arc::new(signatures);
         self.dynamic = Arc::new(dynamic);
-        moved
-    }
-
-    /// Triangles of the objects that render (seen or casting shadows) and have not changed so
-    /// far, and of those that have.
-    pub fn static_and_dynamic_triangles(&self, scene: &Scene) -> (u64, u64) {
-        let mut split = (0, 0);
-        let rendered = scene.objects.iter().enumerate();
-        for (i, o) in rendered.filter(|(_, o)| o.visible_to_camera || o.casts_shadow) {
-            let triangles = scene
-                .meshes
-                .get(o.mesh)
-                .map_or(0, |m| m.triangles.len() as u64);
-            if self.is_dynamic(i) {
-                split.1 += triangles;
-            } else {
-                split.0 += triangles;
-            }
+        self.meshes = Arc::new(meshes);
+        FrameChange {
+            moved,
+            kept_triangles,
         }
-        split
     }
 
     /// Whether object `i` has changed in some frame so far.
@@ -73,11 +81,16 @@ fn signature(scene: &Scene, o: &Object) -> u64 {
     xxh3_64(&object_state(scene, o))
 }
 
+/// A mesh's identity: a frame's unchanged mesh is the last frame's `Arc`.
+fn mesh_id(mesh: &Arc<crate::scene::Mesh>) -> usize {
+    Arc::as_ptr(mesh) as usize
+}
+
 /// An object's mesh (by identity), matrix and flags as bytes: what makes it change, for the
 /// per-object signatures and the frame's geometry key alike.
 pub(super) fn object_state(scene: &Scene, o: &Object) -> [u8; 8 + 16 * 8 + 2] {
     let mut bytes = [0u8; 8 + 16 * 8 + 2];
-    let mesh = Arc::as_ptr(&scene.meshes[o.mesh]) as usize as u64;
+    let mesh = mesh_id(&scene.meshes[o.mesh]) as u64;
     bytes[..8].copy_from_slice(&mesh.to_le_bytes());
     for (i, v) in o.world_from_object.to_cols_array().iter().enumerate() {
         bytes[8 + 8 * i..16 + 8 * i].copy_from_slice(&v.to_bits().to_le_bytes());

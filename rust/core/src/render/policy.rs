@@ -88,7 +88,7 @@ impl Policy {
         scene: &Scene,
         settings: &RenderSettings,
     ) -> SceneStructure {
-        let moved = self.changes.advance(scene);
+        let change = self.changes.advance(scene);
         let chosen = match settings.structure {
             Pick::Fixed(s) => return s,
             Pick::Auto => match auto_structure(scene, settings) {
@@ -100,17 +100,12 @@ impl Policy {
                 {
                     SceneStructure::Flat
                 }
-                SceneStructure::Flat => {
-                    let (static_triangles, dynamic_triangles) =
-                        self.changes.static_and_dynamic_triangles(scene);
-                    auto::choose_structure(&auto::StructureContext {
-                        static_triangles,
-                        dynamic_triangles,
-                        moved,
-                        rays: self.last_rays,
-                        current: self.structure,
-                    })
-                }
+                SceneStructure::Flat => auto::choose_structure(&auto::StructureContext {
+                    kept_triangles: change.kept_triangles,
+                    moved: change.moved,
+                    rays: self.last_rays,
+                    current: self.structure,
+                }),
             },
         };
         self.structure = Some(chosen);
