@@ -433,8 +433,8 @@ pub static SCHEMA: &[Setting] = &[
         help: "One tree over every object's triangles (flat), a tree per unique mesh shared by \
                the objects that place it under a top level over the objects (two-level: \
                instances are held once, unchanged meshes keep their trees across frames), or \
-               auto (docs/auto.md). Two levels build with sah and trace the fbto, stored, \
-               sato, rtsah and random orders.",
+               auto (two levels for heavy instancing or moving parts: docs/auto.md). Two levels \
+               build with sah and trace the fbto, stored, sato, rtsah and random orders.",
         get: |s| s.structure.to_string().into(),
         set: |s, v| {
             s.structure = parsed::<Pick<SceneStructure>>("scene_structure", v)?;
