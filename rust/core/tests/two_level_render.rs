@@ -243,20 +243,27 @@ fn auto_takes_two_levels_for_large_instanced_scenes_and_small_moving_parts() {
     // has the character-room); under 36x the pixels (at most 0.053 a ray), the flat tree.
     use SceneStructure::{Flat, TwoLevel};
     let room = Room::new();
-    let structures = |scale: u32| -> Vec<SceneStructure> {
+    let structures = |scale: u32, settings: &RenderSettings| -> Vec<SceneStructure> {
         let mut renderer = Renderer::new();
         (1..=3)
             .map(|f| {
                 let mut scene = room.with_character(f);
                 scene.resolution.x *= scale;
                 scene.resolution.y *= scale;
-                let r = renderer.render("room", &scene, &RenderSettings::default());
+                let r = renderer.render("room", &scene, settings);
                 r.unwrap().structure
             })
             .collect()
     };
-    assert_eq!(structures(1), [Flat, TwoLevel, TwoLevel]);
-    assert_eq!(structures(6), [Flat, Flat, Flat]);
+    let default = RenderSettings::default();
+    assert_eq!(structures(1, &default), [Flat, TwoLevel, TwoLevel]);
+    assert_eq!(structures(6, &default), [Flat, Flat, Flat]);
+    // A named build is a method compared as published: the flat tree.
+    let named = RenderSettings {
+        build: Pick::Fixed("sah".parse().unwrap()),
+        ..RenderSettings::default()
+    };
+    assert_eq!(structures(1, &named), [Flat, Flat, Flat]);
     let instanced = scene(100);
     // Settings two levels lack keep the flat tree.
     let sorted = RenderSettings {

@@ -92,20 +92,15 @@ impl Policy {
         let chosen = match settings.structure {
             Pick::Fixed(s) => return s,
             Pick::Auto => match auto_structure(scene, settings) {
-                SceneStructure::TwoLevel => SceneStructure::TwoLevel,
-                // Keeping the static part's tree is a way of having the frame's trees: a named
-                // build (the papers' forms, compared as published) keeps the flat tree.
-                SceneStructure::Flat
-                    if settings.two_level_conflict().is_some() || !settings.build.is_auto() =>
-                {
-                    SceneStructure::Flat
+                SceneStructure::Flat if weighs_moving_parts(settings) => {
+                    auto::choose_structure(&auto::StructureContext {
+                        kept_triangles: change.kept_triangles,
+                        moved: change.moved,
+                        rays: self.last_rays,
+                        current: self.structure,
+                    })
                 }
-                SceneStructure::Flat => auto::choose_structure(&auto::StructureContext {
-                    kept_triangles: change.kept_triangles,
-                    moved: change.moved,
-                    rays: self.last_rays,
-                    current: self.structure,
-                }),
+                s => s,
             },
         };
         self.structure = Some(chosen);
@@ -121,7 +116,7 @@ impl Policy {
         space: &RenderSpace,
         primary: &PrimaryPass,
     ) {
-        if settings.structure.is_auto() {
+        if weighs_moving_parts(settings) {
             self.last_rays = auto::frame_rays(scene, space, primary, settings.spp);
         }
     }
@@ -312,6 +307,16 @@ pub(super) fn auto_structure(scene: &Scene, settings: &RenderSettings) -> SceneS
     } else {
         SceneStructure::Flat
     }
+}
+
+/// Whether `auto`'s structure weighs moving parts ([`auto::choose_structure`]): with the
+/// structure and the build left to `auto` (keeping the static part's tree is a way of having
+/// the frame's trees; a named build is a method compared as published, on the flat tree) and
+/// settings two levels can trace.
+fn weighs_moving_parts(settings: &RenderSettings) -> bool {
+    settings.structure.is_auto()
+        && settings.build.is_auto()
+        && settings.two_level_conflict().is_none()
 }
 
 /// Every order the lights' plans trace, for the trees to prepare once.
