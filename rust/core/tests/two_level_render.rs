@@ -94,6 +94,8 @@ fn every_width_order_and_count_mode_on_two_levels_gives_the_same_answers() {
             ShadowOrder::Sato,
             ShadowOrder::Rtsah,
             ShadowOrder::Random { seed: 3 },
+            ShadowOrder::from_str("sorted").unwrap(),
+            ShadowOrder::from_str("sorted:logging=fbto:p=area:budget=0.2").unwrap(),
         ] {
             let mut s = settings(SceneStructure::TwoLevel, width, order);
             s.stats = antumbra_core::render::StatsMode::CountsAndTiming;
@@ -107,11 +109,54 @@ fn every_width_order_and_count_mode_on_two_levels_gives_the_same_answers() {
                     row.nb_per_ray > 0.0 && row.nt_per_ray > 0.0,
                     "{width} {order}: {row:?}"
                 );
+                // Sorting for the light is its preparation.
+                let sorted = matches!(order, ShadowOrder::Sorted(_));
+                assert_eq!(row.prepare_ms > 0.0, sorted, "{width} {order}: {row:?}");
             }
             checked += 1;
         }
     }
-    assert_eq!(checked, 15);
+    assert_eq!(checked, 21);
+}
+
+/// `scene` with a mesh of its own per object: every object is then in the static group, whose
+/// tree is the flat tree's.
+fn unshared(scene: &Scene) -> Scene {
+    let mut s = scene.clone();
+    s.meshes = (s.objects.iter())
+        .map(|o| Arc::new((*scene.meshes[o.mesh]).clone()))
+        .collect();
+    for (i, o) in s.objects.iter_mut().enumerate() {
+        o.mesh = i;
+    }
+    s
+}
+
+#[test]
+fn sorting_on_two_levels_sorts_the_group_tree_as_the_flat_tree_is_sorted() {
+    let scene = unshared(&scene(60));
+    let sorted = ShadowOrder::from_str("sorted").unwrap();
+    let counted = |structure, order| {
+        let mut s = settings(structure, BvhWidth::Eight, order);
+        s.stats = antumbra_core::render::StatsMode::Counts;
+        let r = render(&scene, &s);
+        assert_eq!(r.structure, structure);
+        r
+    };
+    let flat = counted(SceneStructure::Flat, sorted);
+    let two = counted(SceneStructure::TwoLevel, sorted);
+    let logging = counted(SceneStructure::TwoLevel, ShadowOrder::Sato);
+    // One tree in the same render space: the same answers bit for bit.
+    assert_eq!(differing(&flat, &two), (0, 0));
+    let shadow = |r: &FrameResult| -> Vec<(String, f64)> {
+        (r.stats.iter().filter(|row| row.pass == "shadow"))
+            .map(|row| (row.light.clone(), row.nt_per_ray))
+            .collect()
+    };
+    // The group tree sorted for each light as the flat tree is: the same triangle tests (the
+    // top level adds nodes, not tests), and not the logging order's.
+    assert_eq!(shadow(&flat), shadow(&two));
+    assert_ne!(shadow(&two), shadow(&logging));
 }
 
 #[test]
@@ -123,7 +168,11 @@ fn packets_through_instances_give_the_single_rays_frames_bit_for_bit() {
             .collect()
     };
     for width in [BvhWidth::Two, BvhWidth::Four, BvhWidth::Eight] {
-        for order in [ShadowOrder::Fbto, ShadowOrder::Sato] {
+        for order in [
+            ShadowOrder::Fbto,
+            ShadowOrder::Sato,
+            ShadowOrder::from_str("sorted").unwrap(),
+        ] {
             let mut single = settings(SceneStructure::TwoLevel, width, order);
             single.rays = Pick::Fixed(RayMode::Single);
             single.stats = antumbra_core::render::StatsMode::CountsAndTiming;
@@ -266,19 +315,31 @@ fn auto_takes_two_levels_for_large_instanced_scenes_and_small_moving_parts() {
     assert_eq!(structures(1, &named), [Flat, Flat, Flat]);
     let instanced = scene(100);
     // Settings two levels lack keep the flat tree.
-    let sorted = RenderSettings {
-        shadow_order: Pick::Fixed("sorted".parse().unwrap()),
+    let srdh = RenderSettings {
+        shadow_order: Pick::Fixed("srdh".parse().unwrap()),
         ..RenderSettings::default()
     };
-    assert_eq!(render(&instanced, &sorted).structure, SceneStructure::Flat);
+    assert_eq!(render(&instanced, &srdh).structure, SceneStructure::Flat);
     let e = RenderSettings {
         structure: Pick::Fixed(SceneStructure::TwoLevel),
-        ..sorted
+        ..srdh
     }
     .validate()
     .unwrap_err()
     .to_string();
-    assert!(e.contains("scene_structure") && e.contains("sorted"), "{e}");
+    assert!(e.contains("scene_structure") && e.contains("srdh"), "{e}");
+    // Sorting is one of them now.
+    let sorted = RenderSettings {
+        shadow_order: Pick::Fixed("sorted".parse().unwrap()),
+        ..RenderSettings::default()
+    };
+    let two_level_sorted = RenderSettings {
+        structure: Pick::Fixed(SceneStructure::TwoLevel),
+        ..sorted
+    };
+    assert!(two_level_sorted.validate().is_ok());
+    let r = render(&instanced, &two_level_sorted);
+    assert_eq!(r.structure, SceneStructure::TwoLevel);
 }
 
 #[test]

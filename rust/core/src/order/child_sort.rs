@@ -114,6 +114,25 @@ impl SortTables {
             blind_cost: [blind(ChildHitModel::One), blind(ChildHitModel::Area)],
         }
     }
+
+    /// The order representative rays are traced in while their occluders are logged, which
+    /// nodes no logged ray reached keep.
+    pub fn logging_view(&self, logging: LoggingOrder) -> OrderView<'_> {
+        match logging {
+            LoggingOrder::Sato => OrderView::Permuted {
+                perms: &self.sato,
+                fallback_fbto: false,
+            },
+            LoggingOrder::Fbto => OrderView::FrontToBack,
+        }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.leaf_position.len() * 4
+            + self.sato.len() * std::mem::size_of::<Permutation>()
+            + (self.blind_cost[0].len() + self.blind_cost[1].len()) * 8
+    }
 }
 
 /// C_SORT of a leaf: one traversal step and one test per triangle (C_t = C_p = 1).
@@ -166,18 +185,31 @@ pub fn sort_for_light<const N: usize>(
     occluder: impl Fn(&Ray, OrderView) -> Option<u32> + Sync,
 ) -> LightOrder {
     let start = Instant::now();
-    let logging_view = match settings.logging {
-        LoggingOrder::Sato => OrderView::Permuted {
-            perms: &tables.sato,
-            fallback_fbto: false,
-        },
-        LoggingOrder::Fbto => OrderView::FrontToBack,
-    };
+    let logging_view = tables.logging_view(settings.logging);
     let stoppers: Vec<u32> = rays
         .par_iter()
         .with_min_len(256)
         .filter_map(|r| occluder(r, logging_view))
         .collect();
+    let logging_ms = start.elapsed().as_secs_f64() * 1e3;
+    LightOrder {
+        representative_rays: rays.len(),
+        logging_ms,
+        ..sort_from_stoppers(bvh, tables, &stoppers, settings)
+    }
+}
+
+/// Sorts the children of `bvh` from the leaves that stopped a light's representative rays in
+/// the logging order (`stoppers`: each stopped ray's leaf, as its first triangle slot): the
+/// counting and sorting half of [`sort_for_light`], for a logging pass traced elsewhere (two
+/// levels log every mesh tree's stoppers in one pass). Its `representative_rays` and
+/// `logging_ms` are left 0 for the caller.
+pub fn sort_from_stoppers<const N: usize>(
+    bvh: &WideBvh<N>,
+    tables: &SortTables,
+    stoppers: &[u32],
+    settings: &SortSettings,
+) -> LightOrder {
     // Nodes are numbered breadth first, so the nodes above the depth limit are a prefix.
     let limit = settings.depth.map_or(u32::MAX, |d| d);
     let counted = bvh.depth.partition_point(|&d| (d as u32) < limit);
@@ -192,7 +224,6 @@ pub fn sort_for_light<const N: usize>(
         }
         counters[pos] += 1;
     }
-    let logging_ms = start.elapsed().as_secs_f64() * 1e3;
 
     let start = Instant::now();
     let model = settings.p;
@@ -235,10 +266,10 @@ pub fn sort_for_light<const N: usize>(
     LightOrder {
         perms,
         fallback_fbto,
-        representative_rays: rays.len(),
+        representative_rays: 0,
         occluded_rays: stoppers.len(),
         nodes_sorted,
-        logging_ms,
+        logging_ms: 0.0,
         sorting_ms: start.elapsed().as_secs_f64() * 1e3,
     }
 }

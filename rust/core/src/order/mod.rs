@@ -15,7 +15,8 @@ pub mod static_orders;
 
 pub use child_order::{ray_key, ChildOrder, Children, FrontToBack, OrderRay, Stored};
 pub use child_sort::{
-    sort_for_light, ChildHitModel, LightOrder, LoggingOrder, SortSettings, SortTables,
+    sort_for_light, sort_from_stoppers, ChildHitModel, LightOrder, LoggingOrder, SortSettings,
+    SortTables,
 };
 pub use kernel::{centre, Kernel, KernelSet, PackedKernels, RandomKernel, Uniform};
 pub use permutation::{OrderView, Permutation};

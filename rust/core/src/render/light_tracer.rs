@@ -9,7 +9,7 @@ use glam::Vec3;
 
 use super::shadow::{representative_rays, SamplePlan};
 use super::srdh_light::srdh_for_light;
-use super::two_level_trees::{TwoLevelQuery, TwoLevelTrees};
+use super::two_level_trees::{TwoLevelQuery, TwoLevelSorted, TwoLevelTrees};
 use super::wide_tree::{OrderedWideTree, WideTree};
 use super::{LightSampler, PrimaryPass};
 use crate::build::BuildSettings;
@@ -84,11 +84,28 @@ enum Route<'a> {
     /// The two-level trees and the order on every mesh tree: the query is made by
     /// [`LightTracing::tracer`], which knows the ray mode.
     TwoLevel(&'a TwoLevelTrees, ShadowOrder),
+    /// The two-level trees with every mesh tree sorted for the light.
+    TwoLevelSorted(&'a TwoLevelTrees, TwoLevelSorted),
 }
 
 impl<'a> LightTracing<'a> {
-    /// A two-level frame's tracing for the light with `order` (nothing prepared per light).
-    pub fn two_level(trees: &'a TwoLevelTrees, order: &ShadowOrder) -> Self {
+    /// A two-level frame's tracing for the light with `order`: the sorted order sorts every
+    /// mesh tree for the light ([`TwoLevelTrees::sort_for_light`]); the others are the trees'
+    /// own, prepared with them.
+    pub fn two_level(trees: &'a TwoLevelTrees, order: &ShadowOrder, light: &LightRays) -> Self {
+        if let ShadowOrder::Sorted(s) = order {
+            let start = Instant::now();
+            let representative =
+                representative_rays(light.primary, light.sampler, light.plan, s.budget);
+            if let Some(sorted) = trees.sort_for_light(&representative, s) {
+                return LightTracing {
+                    route: Route::TwoLevelSorted(trees, sorted),
+                    // The whole preparation, as on a flat tree: choosing the representative
+                    // rays, the sorting tables a mesh tree lacked, logging and sorting.
+                    prepare_ms: start.elapsed().as_secs_f64() * 1e3,
+                };
+            }
+        }
         LightTracing {
             route: Route::TwoLevel(trees, *order),
             prepare_ms: 0.0,
@@ -106,6 +123,9 @@ impl<'a> LightTracing<'a> {
             Route::Srdh(t) => ShadowTracer::Srdh(t),
             Route::TwoLevel(trees, order) => {
                 ShadowTracer::TwoLevel(trees.shadow_query(order, rays))
+            }
+            Route::TwoLevelSorted(trees, sorted) => {
+                ShadowTracer::TwoLevel(trees.sorted_shadow_query(sorted, rays))
             }
         }
     }

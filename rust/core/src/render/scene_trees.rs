@@ -49,8 +49,9 @@ impl SceneTrees {
         }
     }
 
-    /// One light's tree and order (on two levels: `order` on every mesh tree, the top level
-    /// near child first; nothing is prepared per light, the ray mode is the tracer's).
+    /// One light's tree and order (on two levels: `order` on every mesh tree, sorted per light
+    /// where it is the sorted order, the top level near child first; the ray mode is the
+    /// tracer's).
     pub fn for_light(
         &self,
         order: &ShadowOrder,
@@ -59,7 +60,7 @@ impl SceneTrees {
     ) -> LightTracing<'_> {
         match self {
             SceneTrees::Flat(t) => t.for_light(order, width, light),
-            SceneTrees::TwoLevel(t) => LightTracing::two_level(t, order),
+            SceneTrees::TwoLevel(t) => LightTracing::two_level(t, order, light),
         }
     }
 

@@ -191,8 +191,8 @@ impl RenderSettings {
     }
 
     /// Why two levels cannot render with these settings, naming the setting: they build each
-    /// mesh's tree with SAH (no visible set or spatial splits across objects) and trace orders
-    /// made from a tree alone (no per-light sorting or SRDH tree yet).
+    /// mesh's tree with SAH (no visible set or spatial splits across objects) and have no SRDH
+    /// tree per light yet.
     pub fn two_level_conflict(&self) -> Option<crate::Error> {
         if let Pick::Fixed(b) = self.build {
             if b != BuildMethod::Sah {
@@ -202,13 +202,11 @@ impl RenderSettings {
                 ));
             }
         }
-        if let Pick::Fixed(o) = &self.shadow_order {
-            if matches!(o, ShadowOrder::Sorted(_) | ShadowOrder::Srdh(_)) {
-                return Some(crate::Error::invalid(
-                    "scene_structure",
-                    format!("two-level traces the fbto, stored, sato, rtsah and random orders, not '{o}' (set order to one of them or auto, or scene_structure to flat)"),
-                ));
-            }
+        if let Pick::Fixed(o @ ShadowOrder::Srdh(_)) = &self.shadow_order {
+            return Some(crate::Error::invalid(
+                "scene_structure",
+                format!("two-level traces the fbto, stored, sato, rtsah, random and sorted orders, not '{o}' (set order to one of them or auto, or scene_structure to flat)"),
+            ));
         }
         None
     }

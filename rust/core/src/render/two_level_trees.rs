@@ -11,7 +11,7 @@
 //! frame's tree of the same scene mesh while it holds its quality, and is rebuilt after.
 
 use std::collections::HashMap;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 use glam::{DAffine3, Vec3};
@@ -26,7 +26,10 @@ use crate::build::{BuildSettings, CollapseSettings};
 use crate::bvh::BvhWidth;
 use crate::cancel::CancelToken;
 use crate::geometry::{Aabb, Ray};
-use crate::order::{AnyHitOrder, OrderView, PreparedOrder, ShadowOrder};
+use crate::order::{
+    AnyHitOrder, LightOrder, LoggingOrder, OrderView, PreparedOrder, ShadowOrder, SortSettings,
+    SortTables,
+};
 use crate::scene::{
     collect, scene_bounds, Mesh, Object, RenderSpace, Scene, TriangleRef, TriangleSet,
 };
@@ -56,7 +59,9 @@ impl TreeSettings {
             .fixed()
             .filter(|o| o.is_per_tree())
             .copied();
-        let wide = (settings.width != BvhWidth::Two || per_tree.is_some())
+        // Per-light sorting permutes a wide tree's children (at width 2 too, as on a flat frame).
+        let sorted = matches!(settings.shadow_order.fixed(), Some(ShadowOrder::Sorted(_)));
+        let wide = (settings.width != BvhWidth::Two || per_tree.is_some() || sorted)
             .then_some((settings.width, settings.collapse));
         TreeSettings {
             build: settings.build_settings,
@@ -79,6 +84,9 @@ pub(super) struct MeshEntry {
     wide: Option<WideTree>,
     /// The per-tree order prepared on `wide`.
     per_tree: Option<PreparedOrder>,
+    /// What per-light sorting reads of `wide`, made by the first sorted light that needs it
+    /// and kept with the tree.
+    sort_tables: OnceLock<SortTables>,
     /// Build, collapse and order preparation, ms.
     build_ms: f64,
 }
@@ -153,6 +161,7 @@ impl MeshEntry {
             tree,
             wide,
             per_tree,
+            sort_tables: OnceLock::new(),
             build_ms: start.elapsed().as_secs_f64() * 1e3,
         }
     }
@@ -166,6 +175,12 @@ impl MeshEntry {
                 self.tree.bvh.bytes() as u64,
             ),
         }
+    }
+
+    /// The collapse with its sorting tables (made on first use), if the entry has a collapse.
+    fn sortable(&self) -> Option<(&WideTree, &SortTables)> {
+        let wide = self.wide.as_ref()?;
+        Some((wide, self.sort_tables.get_or_init(|| wide.sort_tables())))
     }
 
     /// The mesh tree as a pass traces it: the collapse with the prepared per-tree order (or
@@ -186,6 +201,26 @@ impl MeshEntry {
                 order: order.binary().unwrap_or(AnyHitOrder::NearFirst),
             }),
         }
+    }
+}
+
+/// One light's per-light sorting on two levels ([`TwoLevelTrees::sort_for_light`]).
+pub struct TwoLevelSorted {
+    /// By mesh tree: its sorted order where the light's representative rays stopped in it,
+    /// else `None` (the tree is traced in the logging order, as a flat tree's unreached nodes).
+    per_mesh: Vec<Option<LightOrder>>,
+    logging: LoggingOrder,
+    pub representative_rays: usize,
+    pub occluded_rays: usize,
+    /// The logging pass through both levels, ms (each mesh's sorting is in its order).
+    pub logging_ms: f64,
+}
+
+impl TwoLevelSorted {
+    /// Mesh trees the light sorted, and their nodes sorted.
+    pub fn sorted(&self) -> (usize, usize) {
+        let sorted = self.per_mesh.iter().flatten();
+        (sorted.clone().count(), sorted.map(|o| o.nodes_sorted).sum())
     }
 }
 
@@ -557,6 +592,75 @@ impl TwoLevelTrees {
     /// batches as `rays`.
     pub fn shadow_query(&self, order: &ShadowOrder, rays: RayMode) -> TwoLevelQuery<'_> {
         self.query(self.shadow_top(), order, rays)
+    }
+
+    /// Sorts every mesh tree's children for one light (Ogaki & Derouet-Jourdan per mesh): its
+    /// representative `rays` are traced through both levels once, each mesh tree in the
+    /// logging order, and each mesh's stoppers, from whichever of its instances, sort that
+    /// mesh's tree. The top level is walked near child first. `None` when the mesh trees have
+    /// no wide collapse to permute (the settings did not ask for sorting).
+    pub fn sort_for_light(&self, rays: &[Ray], settings: &SortSettings) -> Option<TwoLevelSorted> {
+        let start = Instant::now();
+        let sortable: Vec<(&WideTree, &SortTables)> = self
+            .meshes
+            .par_iter()
+            .map(|m| m.sortable())
+            .collect::<Option<_>>()?;
+        let logging: Vec<(&WideTree, OrderView)> = (sortable.iter())
+            .map(|(w, t)| (*w, t.logging_view(settings.logging)))
+            .collect();
+        let levels = TwoLevel {
+            top: self.shadow_top(),
+            meshes: &logging,
+        };
+        let stopped: Vec<(u32, u32)> = rays
+            .par_iter()
+            .with_min_len(256)
+            .filter_map(|r| {
+                levels.first_stopper(r, |(w, view), local| w.occluder_leaf(local, *view))
+            })
+            .collect();
+        let mut stoppers = vec![Vec::new(); self.meshes.len()];
+        for &(mesh, first) in &stopped {
+            stoppers[mesh as usize].push(first);
+        }
+        let logging_ms = start.elapsed().as_secs_f64() * 1e3;
+        let per_mesh = (sortable.par_iter().zip(&stoppers))
+            .map(|((w, t), s)| (!s.is_empty()).then(|| w.sort_from_stoppers(t, s, settings)))
+            .collect();
+        Some(TwoLevelSorted {
+            per_mesh,
+            logging: settings.logging,
+            representative_rays: rays.len(),
+            occluded_rays: stopped.len(),
+            logging_ms,
+        })
+    }
+
+    /// What a light's shadow rays trace with the light's sorted mesh trees, batches as `rays`.
+    pub fn sorted_shadow_query<'a>(
+        &'a self,
+        sorted: &'a TwoLevelSorted,
+        rays: RayMode,
+    ) -> TwoLevelQuery<'a> {
+        let meshes = (self.meshes.iter().zip(&sorted.per_mesh))
+            .map(|(m, order)| match (m.sortable(), order) {
+                (Some((wide, _)), Some(o)) => {
+                    MeshQuery::Wide(wide.ordered(o.view()).with_rays(rays))
+                }
+                (Some((wide, tables)), None) => MeshQuery::Wide(
+                    wide.ordered(tables.logging_view(sorted.logging))
+                        .with_rays(rays),
+                ),
+                // Not reached: `sorted` was made on these trees, every one with a collapse.
+                (None, _) => m.query(&ShadowOrder::Fbto, rays),
+            })
+            .collect();
+        TwoLevelQuery {
+            top: self.shadow_top(),
+            meshes,
+            rays,
+        }
     }
 
     /// The render-space vertices and the reference of a hit's triangle.

@@ -5,8 +5,11 @@ use glam::Vec3;
 use crate::build::CollapseSettings;
 use crate::bvh::{Bvh, BvhWidth, WideBvh};
 use crate::geometry::Ray;
-use crate::order::{OrderView, PreparedOrder, ShadowOrder, SortTables};
-use crate::trace::wide::BoxKernel;
+use crate::order::{
+    sort_from_stoppers, LightOrder, OrderView, PreparedOrder, ShadowOrder, SortSettings, SortTables,
+};
+use crate::trace::wide::{BoxKernel, WideQueries};
+use crate::trace::NoStats;
 use crate::trace::{forward_alpha_query, forward_ray_query};
 use crate::trace::{OrderedWide, RayMode};
 
@@ -76,6 +79,23 @@ impl WideTree {
         representative: &[Ray],
     ) -> PreparedOrder {
         with_tree!(self, t => PreparedOrder::new(t, order, tables, representative, BoxKernel::Auto))
+    }
+
+    /// The first triangle slot of the leaf that stops `ray` traced in `order` (the sorted
+    /// order's logging pass, [`crate::order::sort_for_light`]).
+    pub fn occluder_leaf(&self, ray: &Ray, order: OrderView) -> Option<u32> {
+        with_tree!(self, t => t.occluder_leaf(ray, order, BoxKernel::Auto, &mut NoStats))
+    }
+
+    /// Sorts the children for a light from the leaves that stopped its representative rays
+    /// ([`sort_from_stoppers`]).
+    pub fn sort_from_stoppers(
+        &self,
+        tables: &SortTables,
+        stoppers: &[u32],
+        settings: &SortSettings,
+    ) -> LightOrder {
+        with_tree!(self, t => sort_from_stoppers(t, tables, stoppers, settings))
     }
 
     /// This tree with a prepared any-hit order, the box kernel chosen at run time, batches

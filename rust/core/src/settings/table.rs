@@ -434,7 +434,7 @@ pub static SCHEMA: &[Setting] = &[
                the objects that place it under a top level over the objects (two-level: \
                instances are held once, unchanged meshes keep their trees across frames), or \
                auto (two levels for heavy instancing or moving parts: docs/auto.md). Two levels \
-               build with sah and trace the fbto, stored, sato, rtsah and random orders.",
+               build with sah and trace every order but srdh.",
         get: |s| s.structure.to_string().into(),
         set: |s, v| {
             s.structure = parsed::<Pick<SceneStructure>>("scene_structure", v)?;

@@ -4,7 +4,7 @@ use crate::build::{
 use crate::bvh::WideBvh;
 use crate::geometry::{Aabb, Ray};
 use crate::trace::wide::{walk_near_first, BoxKernel};
-use crate::trace::{AlphaQuery, Counters, Hit, HitFilter, RayQuery};
+use crate::trace::{AlphaQuery, Counters, Hit, HitFilter, NoStats, RayQuery};
 
 use super::Instance;
 
@@ -116,6 +116,29 @@ impl<Q> TwoLevel<'_, Q> {
                 Some(t_max)
             },
         );
+    }
+}
+
+impl<Q> TwoLevel<'_, Q> {
+    /// The first instance, near child first, whose mesh-space ray `stops` answers, as its mesh
+    /// index and the answer: a logging pass through both levels, which per-light sorting of
+    /// the mesh trees counts per mesh (`stops` traces the mesh tree in the logging order).
+    pub fn first_stopper<T>(
+        &self,
+        ray: &Ray,
+        mut stops: impl FnMut(&Q, &Ray) -> Option<T>,
+    ) -> Option<(u32, T)> {
+        let mut found = None;
+        self.walk(ray, &mut NoStats, |instance, mesh, t_max, _| {
+            match stops(mesh, &instance.ray_to_mesh(ray)) {
+                Some(answer) => {
+                    found = Some((instance.mesh, answer));
+                    None
+                }
+                None => Some(t_max),
+            }
+        });
+        found
     }
 }
 
