@@ -35,7 +35,7 @@ if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
 .venv/bin/pip install -q --disable-pip-version-check \
-  "maturin==1.16.0" "numpy==1.26.4" "pytest==9.2.0" "ruff==0.17.5" "bpy==5.0.1" "selenium==4.38.0" \
+  "maturin==1.16.0" "numpy==1.26.4" "pytest==9.2.0" "pytest-timeout==2.4.0" "ruff==0.17.5" "bpy==5.0.1" "selenium==4.38.0" \
   "pillow==11.3.0" "embreex==4.4.0.post1" "trimesh==4.12.2"
 
 # The version matrix: each venv needs its Python from pyenv (or PATH); a machine without it gets
@@ -60,10 +60,10 @@ matrix_venv() { # DIR PYTHON_VERSION PACKAGES...
   fi
   "$dir/bin/pip" install -q --disable-pip-version-check "$@"
 }
-matrix_venv .venv-bpy42 3.11 "bpy==4.2.23" "numpy==1.26.4" "pytest==9.2.0"
-matrix_venv .venv-bpy45 3.11 "bpy==4.5.15" "numpy==1.26.4" "pytest==9.2.0"
-matrix_venv .venv-bpy53 3.13 "bpy==5.3.0" "numpy==2.5.5" "pytest==9.2.0"
-matrix_venv .venv-py310 3.10 "numpy==1.23.5" "pytest==9.2.0"
+matrix_venv .venv-bpy42 3.11 "bpy==4.2.23" "numpy==1.26.4" "pytest==9.2.0" "pytest-timeout==2.4.0"
+matrix_venv .venv-bpy45 3.11 "bpy==4.5.15" "numpy==1.26.4" "pytest==9.2.0" "pytest-timeout==2.4.0"
+matrix_venv .venv-bpy53 3.13 "bpy==5.3.0" "numpy==2.5.5" "pytest==9.2.0" "pytest-timeout==2.4.0"
+matrix_venv .venv-py310 3.10 "numpy==1.23.5" "pytest==9.2.0" "pytest-timeout==2.4.0"
 
 # The farm job's local runner (farm/, docs/farm.md): openjd-cli in a venv of its own, on the
 # machine's python3, so its pydantic stays out of the test venvs.

@@ -18,6 +18,10 @@ echo "== cargo test"
 mkdir -p target
 cargo test --workspace --all-features 2>&1 | tee target/test.log
 
+# A test that hangs fails after ten minutes, named, instead of stalling the run (pytest-timeout;
+# the slowest test takes under a minute).
+export PYTEST_TIMEOUT=600
+
 echo "== python client: build, lint, test"
 rm -rf target/wheels
 .venv/bin/maturin build --release --strip -q -m rust/python/Cargo.toml -o target/wheels
