@@ -119,6 +119,44 @@ fn every_width_order_and_count_mode_on_two_levels_gives_the_same_answers() {
     assert_eq!(checked, 21);
 }
 
+#[test]
+fn auto_chooses_each_lights_order_on_two_levels_among_the_orders_they_have() {
+    let scene = scene(200);
+    let fixed = render(
+        &scene,
+        &settings(SceneStructure::TwoLevel, BvhWidth::Eight, ShadowOrder::Fbto),
+    );
+    let mut s = settings(SceneStructure::TwoLevel, BvhWidth::Eight, ShadowOrder::Fbto);
+    s.shadow_order = Pick::Auto;
+    let mut renderer = Renderer::new();
+    let mut choices = Vec::new();
+    for frame in 1..=4 {
+        let mut f = scene.clone();
+        f.frame = frame;
+        let r = renderer.render("t", &f, &s).unwrap();
+        assert_eq!(r.structure, SceneStructure::TwoLevel);
+        assert_eq!(differing(&fixed, &r), (0, 0), "frame {frame}");
+        for row in r.stats.iter().filter(|row| row.pass == "shadow") {
+            choices.push((frame, row.auto_choice.clone(), row.prepare_ms));
+        }
+    }
+    // SATO first where it is a candidate (its tables made by the first light, as its
+    // preparation), then whatever measures fastest; never SRDH, which two levels lack.
+    assert!(choices[0].1.starts_with("sato;"), "{choices:?}");
+    // Sorting is measured on a sample of a light's rays beside the order that traces it.
+    assert!(
+        choices.iter().any(|(_, c, _)| c.contains("sorted")),
+        "{choices:?}"
+    );
+    assert!(choices[0].2 > 0.0, "{choices:?}");
+    assert!(
+        choices
+            .iter()
+            .all(|(_, c, _)| !c.is_empty() && !c.contains("srdh")),
+        "{choices:?}"
+    );
+}
+
 /// `scene` with a mesh of its own per object: every object is then in the static group, whose
 /// tree is the flat tree's.
 fn unshared(scene: &Scene) -> Scene {

@@ -186,35 +186,22 @@ impl Policy {
             .iter()
             .enumerate()
             .filter(|(_, l)| l.casts_shadow);
-        // Two levels trace one order for every light: the fixed one, or front to back (`auto`
-        // has no per-light choice there yet).
-        let trees = match (settings.shadow_order, trees) {
-            (Pick::Auto, SceneTrees::Flat(t)) => t,
-            (order, _) => {
-                let order = order.fixed().copied().unwrap_or(ShadowOrder::Fbto);
-                return lights
-                    .map(|_| LightPlan {
-                        order,
-                        rays: pass_rays(settings),
-                        auto: None,
-                        sample: None,
-                    })
-                    .collect();
-            }
-        };
+        if let Pick::Fixed(order) = settings.shadow_order {
+            return lights
+                .map(|_| LightPlan {
+                    order,
+                    rays: pass_rays(settings),
+                    auto: None,
+                    sample: None,
+                })
+                .collect();
+        }
         let at = moment(settings, frames_rendered);
-        let geometry = trees.geometry();
-        let wide = trees
-            .wide
-            .as_ref()
-            .filter(|_| settings.width != BvhWidth::Two);
+        let shadow = ShadowTreesSummary::of(trees, settings);
         let surfaces = primary.surfaces.iter().flatten().count() as u64;
-        // What a finished frame left prepared; a cancelled render's preparations do not count,
-        // so auto chooses after it as a fresh renderer would.
-        let prepared = wide.filter(|_| trees.reported);
         lights
             .map(|(index, light)| {
-                let sampler = LightSampler::new(light, &geometry.space);
+                let sampler = LightSampler::new(light, trees.space());
                 let rays = auto::light_rays(primary, &sampler, settings.spp);
                 let samples = samples_for(&sampler, settings.spp) as u64;
                 let (log_rays, srdh_rays) = auto::prep_rays(rays, surfaces, samples);
@@ -222,15 +209,14 @@ impl Policy {
                     name: &light.name,
                     index: index as u32,
                     rays,
-                    wide: wide.is_some(),
-                    wide_nodes: wide.map_or(0, |w| w.shadow_tree().node_count() as u64),
-                    triangles: geometry.shadow_set().len() as u64,
+                    wide: shadow.wide,
+                    srdh: shadow.srdh,
+                    wide_nodes: shadow.wide_nodes,
+                    triangles: shadow.triangles,
                     srdh_rays,
                     log_rays,
-                    sato_ready: prepared
-                        .and_then(|w| w.per_tree_order.as_ref())
-                        .is_some_and(|p| p.order == ShadowOrder::Sato),
-                    tables_ready: prepared.is_some_and(|w| w.sort_tables.is_some()),
+                    sato_ready: shadow.sato_ready,
+                    tables_ready: shadow.tables_ready,
                 };
                 let plan = auto::choose_order(&self.history, &context, at);
                 LightPlan {
@@ -319,13 +305,64 @@ fn weighs_moving_parts(settings: &RenderSettings) -> bool {
         && settings.two_level_conflict().is_none()
 }
 
+/// What `auto`'s order choice reads of a frame's shadow trees, flat or two-level.
+struct ShadowTreesSummary {
+    /// Wide trees to order (width 4 or 8).
+    wide: bool,
+    /// A flat frame: a light may have an SRDH tree.
+    srdh: bool,
+    /// Nodes of the wide trees a light's preparation reads.
+    wide_nodes: u64,
+    /// Triangles an SRDH tree would be built over.
+    triangles: u64,
+    /// What a finished frame left prepared: SATO, the sorting tables. A cancelled render's
+    /// preparations do not count, so auto chooses after it as a fresh renderer would.
+    sato_ready: bool,
+    tables_ready: bool,
+}
+
+impl ShadowTreesSummary {
+    fn of(trees: &SceneTrees, settings: &RenderSettings) -> Self {
+        let width_wide = settings.width != BvhWidth::Two;
+        match trees {
+            SceneTrees::Flat(t) => {
+                let wide = t.wide.as_ref().filter(|_| width_wide);
+                let prepared = wide.filter(|_| t.reported);
+                ShadowTreesSummary {
+                    wide: wide.is_some(),
+                    srdh: true,
+                    wide_nodes: wide.map_or(0, |w| w.shadow_tree().node_count() as u64),
+                    triangles: t.geometry().shadow_set().len() as u64,
+                    sato_ready: prepared
+                        .and_then(|w| w.per_tree_order.as_ref())
+                        .is_some_and(|p| p.order == ShadowOrder::Sato),
+                    tables_ready: prepared.is_some_and(|w| w.sort_tables.is_some()),
+                }
+            }
+            // Two levels take SATO from the mesh trees' sorting tables.
+            SceneTrees::TwoLevel(t) => {
+                let wide_nodes = t.wide_nodes().filter(|_| width_wide);
+                let ready = t.reported && t.sort_tables_ready();
+                ShadowTreesSummary {
+                    wide: wide_nodes.is_some(),
+                    srdh: false,
+                    wide_nodes: wide_nodes.unwrap_or(0),
+                    triangles: 0,
+                    sato_ready: ready,
+                    tables_ready: ready,
+                }
+            }
+        }
+    }
+}
+
 /// Every order the lights' plans trace, for the trees to prepare once.
 pub(super) fn planned_orders(lights: &[LightPlan]) -> Vec<ShadowOrder> {
     lights.iter().flat_map(LightPlan::orders).collect()
 }
 
-/// Marks the rows of a frame `auto` put on two levels: the primary row with the structure, and
-/// each light's with the order two levels trace where the order was left to `auto`.
+/// Marks the primary row of a frame `auto` put on two levels with the structure (each light's
+/// row carries its own order choice).
 pub(super) fn mark_two_level_rows(rows: &mut [StatsRow], settings: &RenderSettings) {
     if !settings.structure.is_auto() {
         return;
@@ -333,8 +370,6 @@ pub(super) fn mark_two_level_rows(rows: &mut [StatsRow], settings: &RenderSettin
     for row in rows.iter_mut().filter(|r| r.auto_choice.is_empty()) {
         if row.pass == "primary" {
             row.auto_choice = SceneStructure::TwoLevel.name().to_string();
-        } else if settings.shadow_order.is_auto() {
-            row.auto_choice = ShadowOrder::Fbto.to_string();
         }
     }
 }

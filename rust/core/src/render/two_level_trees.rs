@@ -192,6 +192,11 @@ impl MeshEntry {
                 w.ordered(match &self.per_tree {
                     Some(p) if Some(*order) == self.settings.per_tree => p.view(),
                     _ if *order == ShadowOrder::Stored => OrderView::Stored,
+                    // `auto`'s SATO: the sorting tables' (the per-tree order's where fixed).
+                    _ if *order == ShadowOrder::Sato => match self.sortable() {
+                        Some((_, tables)) => tables.logging_view(LoggingOrder::Sato),
+                        None => OrderView::FrontToBack,
+                    },
                     _ => OrderView::FrontToBack,
                 })
                 .with_rays(rays),
@@ -588,8 +593,30 @@ impl TwoLevelTrees {
         self.query(&self.camera, &ShadowOrder::Fbto, rays)
     }
 
-    /// What a light's shadow rays trace with `order` (fbto, stored or the per-tree order),
-    /// batches as `rays`.
+    /// Nodes of the mesh trees' wide collapses, if every mesh tree has one: what a light's
+    /// sorting reads (`auto`'s estimate of its preparation).
+    pub fn wide_nodes(&self) -> Option<u64> {
+        (self.meshes.iter())
+            .map(|m| m.wide.as_ref().map(|w| w.node_count() as u64))
+            .sum()
+    }
+
+    /// Makes the sorting tables whose SATO `auto`'s SATO traces, in every mesh tree without a
+    /// fixed per-tree SATO; whether any were made now.
+    pub fn prepare_sato(&self) -> bool {
+        (self.meshes.par_iter())
+            .filter(|m| m.settings.per_tree != Some(ShadowOrder::Sato))
+            .map(|m| m.sort_tables.get().is_none() && m.sortable().is_some())
+            .reduce(|| false, |a, b| a | b)
+    }
+
+    /// Whether every mesh tree has its sorting tables (and so SATO) made.
+    pub fn sort_tables_ready(&self) -> bool {
+        self.meshes.iter().all(|m| m.sort_tables.get().is_some())
+    }
+
+    /// What a light's shadow rays trace with `order` (fbto, stored, SATO or the per-tree
+    /// order), batches as `rays`.
     pub fn shadow_query(&self, order: &ShadowOrder, rays: RayMode) -> TwoLevelQuery<'_> {
         self.query(self.shadow_top(), order, rays)
     }
