@@ -215,18 +215,6 @@ pub struct TwoLevelSorted {
     /// else `None` (the tree is traced in the logging order, as a flat tree's unreached nodes).
     per_mesh: Vec<Option<LightOrder>>,
     logging: LoggingOrder,
-    pub representative_rays: usize,
-    pub occluded_rays: usize,
-    /// The logging pass through both levels, ms (each mesh's sorting is in its order).
-    pub logging_ms: f64,
-}
-
-impl TwoLevelSorted {
-    /// Mesh trees the light sorted, and their nodes sorted.
-    pub fn sorted(&self) -> (usize, usize) {
-        let sorted = self.per_mesh.iter().flatten();
-        (sorted.clone().count(), sorted.map(|o| o.nodes_sorted).sum())
-    }
 }
 
 /// One mesh tree as a pass traces it.
@@ -627,7 +615,6 @@ impl TwoLevelTrees {
     /// mesh's tree. The top level is walked near child first. `None` when the mesh trees have
     /// no wide collapse to permute (the settings did not ask for sorting).
     pub fn sort_for_light(&self, rays: &[Ray], settings: &SortSettings) -> Option<TwoLevelSorted> {
-        let start = Instant::now();
         let sortable: Vec<(&WideTree, &SortTables)> = self
             .meshes
             .par_iter()
@@ -651,16 +638,12 @@ impl TwoLevelTrees {
         for &(mesh, first) in &stopped {
             stoppers[mesh as usize].push(first);
         }
-        let logging_ms = start.elapsed().as_secs_f64() * 1e3;
         let per_mesh = (sortable.par_iter().zip(&stoppers))
             .map(|((w, t), s)| (!s.is_empty()).then(|| w.sort_from_stoppers(t, s, settings)))
             .collect();
         Some(TwoLevelSorted {
             per_mesh,
             logging: settings.logging,
-            representative_rays: rays.len(),
-            occluded_rays: stopped.len(),
-            logging_ms,
         })
     }
 
