@@ -157,6 +157,31 @@ fn auto_chooses_each_lights_order_on_two_levels_among_the_orders_they_have() {
     );
 }
 
+#[test]
+fn auto_measures_orders_on_two_levels_apart_from_the_flat_trees() {
+    let scene = scene(200);
+    let mut renderer = Renderer::new();
+    let mut choices = |frame: i32, structure| {
+        let mut s = settings(structure, BvhWidth::Eight, ShadowOrder::Fbto);
+        s.shadow_order = Pick::Auto;
+        let mut f = scene.clone();
+        f.frame = frame;
+        let r = renderer.render("t", &f, &s).unwrap();
+        assert_eq!(r.structure, structure);
+        (r.stats.iter().filter(|row| row.pass == "shadow"))
+            .map(|row| row.auto_choice.clone())
+            .collect::<Vec<_>>()
+    };
+    let first = choices(1, SceneStructure::Flat);
+    assert!(first.iter().all(|c| c == "sato;sample=fbto"), "{first:?}");
+    // The flat frame's measurements are not the two levels' own: the first two-level frame
+    // starts as a first frame does.
+    let two = choices(2, SceneStructure::TwoLevel);
+    assert_eq!(two, first);
+    let flat_again = choices(3, SceneStructure::Flat);
+    assert!(flat_again.iter().all(|c| c != "sato;sample=fbto"), "{flat_again:?}");
+}
+
 /// `scene` with a mesh of its own per object: every object is then in the static group, whose
 /// tree is the flat tree's.
 fn unshared(scene: &Scene) -> Scene {

@@ -14,8 +14,8 @@ use super::shadow::{samples_for, SamplePlan};
 use super::two_level_trees::TreeColumns;
 use super::visibility::visible_set;
 use super::{
-    Facing, HitGeometry, LightSampler, PrimaryPass, PrimaryRays, RenderSettings, SceneStructure,
-    ShadowPass, StatsMode,
+    Facing, HitGeometry, LightSampler, PrimaryPass, PrimaryRays, RenderSettings, ShadowPass,
+    StatsMode,
 };
 use crate::cancel::CancelToken;
 use crate::image::ImagePlane;
@@ -250,7 +250,7 @@ pub(super) fn shadow_passes(
             auto::sample_work(primary, &sampler, plan, &s.tracer(order.rays))
         });
         out.measured.push(LightMeasurement {
-            light: light.name.clone(),
+            light: trees.history_key(&light.name),
             rays: r.rays,
             work: pass.totals,
             own_tree: tracing.own_tree().is_some(),
@@ -315,10 +315,7 @@ pub(super) fn combine(
         visible,
         primary_objects: primary_hits.iter().map(|r| r.object).collect(),
         primary_hits,
-        structure: match trees {
-            SceneTrees::Flat(_) => SceneStructure::Flat,
-            SceneTrees::TwoLevel(_) => SceneStructure::TwoLevel,
-        },
+        structure: trees.structure(),
         stats,
     }
 }

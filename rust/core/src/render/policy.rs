@@ -56,7 +56,7 @@ impl LightPlan {
 
 /// What one light's shadow pass measured for the policy.
 pub(super) struct LightMeasurement {
-    /// The statistics row's light and rays.
+    /// The light's key in `auto`'s history ([`SceneTrees::history_key`]), and its rays.
     pub(super) light: String,
     pub(super) rays: u64,
     /// The work of its rays.
@@ -201,12 +201,13 @@ impl Policy {
         let surfaces = primary.surfaces.iter().flatten().count() as u64;
         lights
             .map(|(index, light)| {
+                let key = trees.history_key(&light.name);
                 let sampler = LightSampler::new(light, trees.space());
                 let rays = auto::light_rays(primary, &sampler, settings.spp);
                 let samples = samples_for(&sampler, settings.spp) as u64;
                 let (log_rays, srdh_rays) = auto::prep_rays(rays, surfaces, samples);
                 let context = auto::LightContext {
-                    name: &light.name,
+                    name: &key,
                     index: index as u32,
                     rays,
                     wide: shadow.wide,

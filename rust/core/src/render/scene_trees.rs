@@ -12,6 +12,8 @@ use crate::order::ShadowOrder;
 use crate::scene::{RenderSpace, Scene};
 use crate::trace::RayMode;
 
+use super::SceneStructure;
+
 /// The frame's trees in the structure the policy chose (one per renderer: the size
 /// difference of the variants costs nothing worth a box).
 #[derive(Clone)]
@@ -22,6 +24,24 @@ pub enum SceneTrees {
 }
 
 impl SceneTrees {
+    /// The structure these trees have.
+    pub fn structure(&self) -> SceneStructure {
+        match self {
+            SceneTrees::Flat(_) => SceneStructure::Flat,
+            SceneTrees::TwoLevel(_) => SceneStructure::TwoLevel,
+        }
+    }
+
+    /// The key of a light's orders in `auto`'s history: its name on a flat frame, its name and
+    /// the structure on two levels, whose cost per ray an order measured on the flat tree is
+    /// not (the top level and each instance's set-up add to every order's).
+    pub(super) fn history_key(&self, light: &str) -> String {
+        match self {
+            SceneTrees::Flat(_) => light.to_string(),
+            SceneTrees::TwoLevel(_) => format!("{light} (two-level)"),
+        }
+    }
+
     /// The render space the frame traces in.
     pub fn space(&self) -> &RenderSpace {
         match self {
