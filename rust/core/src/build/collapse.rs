@@ -277,8 +277,14 @@ impl<const N: usize> SahPlan<N> {
         if len == 0 {
             return plan;
         }
-        // cost[n][i - 1]: cheapest representation of n's subtree in at most i slots.
-        let mut cost = vec![[f64::INFINITY; N]; len];
+        // cost[i - 1]: cheapest representation of a node's subtree in at most i slots. Only a
+        // node's parent reads its costs, and the post order finishes a node's left subtree,
+        // then its right, then the node: the costs of the nodes whose parent is still to come
+        // are a stack (as deep as the tree), not a table over all nodes (64 bytes a node at
+        // N = 8: 106 MB for a million-instance top level).
+        let mut costs: Vec<[f64; N]> = Vec::new();
+        // The root's children's costs, which the root's own choice below reads again.
+        let mut root_children = None;
         for n in post_order(bvh) {
             let node = &bvh.nodes[n];
             let area = node.bounds().half_area() as f64;
@@ -290,15 +296,18 @@ impl<const N: usize> SahPlan<N> {
             };
             if node.is_leaf() {
                 plan.leaf[n] = true;
-                cost[n] = [leaf_cost; N];
+                costs.push([leaf_cost; N]);
                 continue;
             }
-            let (l, r) = (node.first as usize, node.first as usize + 1);
+            let right = costs.pop().expect("the right child precedes its parent");
+            let left = costs
+                .pop()
+                .expect("the left child precedes its right sibling");
             // Best split over at most i slots, for i = 2..=N (non-increasing in i).
             let mut dist = [(f64::INFINITY, 0u8); N];
             for i in 2..=N {
                 for k in 1..i {
-                    let c = cost[l][k - 1] + cost[r][i - k - 1];
+                    let c = left[k - 1] + right[i - k - 1];
                     if c < dist[i - 1].0 {
                         dist[i - 1] = (c, k as u8);
                     }
@@ -307,33 +316,39 @@ impl<const N: usize> SahPlan<N> {
             plan.wide_left[n] = dist[N - 1].1;
             let internal = area * model.node + dist[N - 1].0;
             plan.leaf[n] = leaf_cost <= internal;
-            cost[n][0] = leaf_cost.min(internal);
+            let mut cost = [f64::INFINITY; N];
+            cost[0] = leaf_cost.min(internal);
             for i in 2..=N {
                 let (c, k) = dist[i - 1];
-                if c < cost[n][i - 2] {
-                    cost[n][i - 1] = c;
+                if c < cost[i - 2] {
+                    cost[i - 1] = c;
                     plan.choice[n][i - 1] = Choice {
                         left: k,
                         total: i as u8,
                     };
                 } else {
-                    cost[n][i - 1] = cost[n][i - 2];
+                    cost[i - 1] = cost[i - 2];
                     plan.choice[n][i - 1] = plan.choice[n][i - 2];
                 }
+            }
+            costs.push(cost);
+            if n == 0 {
+                root_children = Some((left, right));
             }
         }
         // The root is always a wide node; its one slot may hold the whole tree as a leaf.
         let root = &bvh.nodes[0];
         let root_area = root.bounds().half_area() as f64;
-        let below = if root.is_leaf() {
-            cost[0][0]
-        } else {
-            let (l, k) = (root.first as usize, plan.wide_left[0] as usize);
-            let split = cost[l][k - 1] + cost[l + 1][N - k - 1];
-            let merged = ranges[0].filter(|&(_, c)| c <= model.max_leaf);
-            let leaf = merged.map_or(f64::INFINITY, |(_, c)| root_area * model.leaf(c));
-            plan.leaf[0] = leaf <= split;
-            leaf.min(split)
+        let below = match root_children {
+            None => costs[0][0],
+            Some((left, right)) => {
+                let k = plan.wide_left[0] as usize;
+                let split = left[k - 1] + right[N - k - 1];
+                let merged = ranges[0].filter(|&(_, c)| c <= model.max_leaf);
+                let leaf = merged.map_or(f64::INFINITY, |(_, c)| root_area * model.leaf(c));
+                plan.leaf[0] = leaf <= split;
+                leaf.min(split)
+            }
         };
         plan.cost = root_area * model.node + below;
         plan

@@ -7,7 +7,7 @@ use super::frame_alpha::{AlphaCamera, AlphaCameraTree, AlphaSets, AlphaShadowTra
 use super::frame_trees::Prepared;
 use super::light_tracer::{LightRays, ShadowTracer};
 use super::policy::{pass_rays, LightMeasurement, LightPlan};
-use super::primary::heat_planes;
+use super::primary::{heat_planes, HeatWork};
 use super::renderer::{FrameResult, HeatMaps};
 use super::scene_trees::SceneTrees;
 use super::shadow::{samples_for, SamplePlan};
@@ -56,8 +56,11 @@ impl Rows<'_> {
     }
 }
 
-/// The primary pass (on the wide tree for widths 4 and 8) and its statistics row; traced a
-/// second time without counters when the row wants both counts and timing.
+/// The primary pass (on the wide tree for widths 4 and 8), its statistics row and, when
+/// counting, its heat maps; traced a second time without counters when the row wants both
+/// counts and timing. The heat maps are made here and the pass's per-pixel work dropped: a
+/// pixel's counters take 56 bytes, its three heat-map values 12, and the shadow passes after
+/// this would otherwise hold them all.
 pub(super) fn primary_pass(
     trees: &SceneTrees,
     scene: &Scene,
@@ -65,7 +68,7 @@ pub(super) fn primary_pass(
     alpha: Option<&FrameAlpha>,
     rows: &Rows,
     cancel: &CancelToken,
-) -> Result<(PrimaryPass, StatsRow)> {
+) -> Result<(PrimaryPass, StatsRow, Option<[ImagePlane; 3]>)> {
     let (counted, timed) = counted_timed(settings);
     let trace = |counted: bool| trace_camera(trees, scene, settings, alpha, counted, cancel);
     let mut primary = trace(counted)?;
@@ -87,7 +90,9 @@ pub(super) fn primary_pass(
         let rays = PrimaryRays::new(&scene.camera, &scene.resolution, trees.space());
         face_shading_normals(&mut primary, &rays, scene, &trees.hit_geometry(scene));
     }
-    Ok((primary, row))
+    let heat = counted.then(|| primary.heat_maps("primary"));
+    primary.work = Vec::new();
+    Ok((primary, row, heat))
 }
 
 /// The camera rays of a frame on the tree its primary pass reads, counted or timed.
@@ -152,7 +157,8 @@ pub(super) fn counted_timed(settings: &RenderSettings) -> (bool, bool) {
 pub(super) struct ShadowPasses {
     pub(super) masks: Vec<ImagePlane>,
     pub(super) rows: Vec<StatsRow>,
-    pub(super) work: Vec<TraversalStats>,
+    /// Per pixel, N_B, N_L and N_T summed over the lights (empty unless counting).
+    pub(super) work: Vec<HeatWork>,
     /// Per light, what the policy learns from.
     pub(super) measured: Vec<LightMeasurement>,
     /// Shadow rays traced, over every pass (counted and timed).
@@ -178,7 +184,7 @@ pub(super) fn shadow_passes(
     let mut out = ShadowPasses {
         masks: Vec::new(),
         rows: Vec::new(),
-        work: vec![TraversalStats::default(); if counted { primary.surfaces.len() } else { 0 }],
+        work: vec![HeatWork::default(); if counted { primary.surfaces.len() } else { 0 }],
         measured: Vec::new(),
         rays: 0,
         alpha_lookups: Vec::new(),
@@ -209,15 +215,16 @@ pub(super) fn shadow_passes(
         let tracing = trees.for_light(&order.order, settings.width, &light_rays);
         cancel.check()?;
         let tracer = tracing.tracer(order.rays);
-        // Chosen per pass: an opaque frame calls today's pass as it was.
-        let pass_of = |counted: bool| match alpha {
-            None if counted => {
-                ShadowPass::trace::<TraversalStats>(primary, &tracer, &sampler, plan, cancel)
-            }
-            None => ShadowPass::trace::<NoStats>(primary, &tracer, &sampler, plan, cancel),
-            Some(a) => alpha_shadow_pass(counted, primary, &tracer, a, &sampler, plan, cancel),
+        // Chosen per pass: an opaque frame calls today's pass as it was. A counted pass adds
+        // its pixels' work into `sums` (the frame's, over lights), a timed one takes none.
+        let pass_of = |sums: Option<&mut [HeatWork]>| match (alpha, sums) {
+            (None, Some(sums)) => ShadowPass::trace_adding::<TraversalStats>(
+                primary, &tracer, &sampler, plan, cancel, sums,
+            ),
+            (None, None) => ShadowPass::trace::<NoStats>(primary, &tracer, &sampler, plan, cancel),
+            (Some(a), sums) => alpha_shadow_pass(sums, primary, &tracer, a, &sampler, plan, cancel),
         };
-        let pass = pass_of(counted)?;
+        let pass = pass_of(counted.then_some(&mut out.work[..]))?;
         out.rays += pass.outcome.rays;
         let columns = trees.shadow_columns(&tracing, rows.prepared.rebuilt, rows.collapse_ms);
         let mut r = rows.row("shadow", &light.name, columns);
@@ -234,15 +241,12 @@ pub(super) fn shadow_passes(
         r.unreached = pass.outcome.unreached;
         r.set_work(&pass.totals);
         if counted && timed {
-            let t = pass_of(false)?;
+            let t = pass_of(None)?;
             out.rays += t.outcome.rays;
             debug_assert_eq!(t.mask, pass.mask);
             r.set_timing(t.trace_ms, true);
         } else {
             r.set_timing(pass.trace_ms, !counted);
-        }
-        for (acc, wk) in out.work.iter_mut().zip(&pass.work) {
-            *acc += *wk;
         }
         // `auto`'s sample: the same in counted and timed frames, so timing includes it.
         let sampled = order.sample.map(|o| {
@@ -273,8 +277,8 @@ pub(super) fn combine(
     trees: &SceneTrees,
     primary: PrimaryPass,
     primary_row: StatsRow,
+    primary_heat: Option<[ImagePlane; 3]>,
     shadows: ShadowPasses,
-    settings: &RenderSettings,
 ) -> FrameResult {
     let (w, h) = (primary.width, primary.height);
     let masks = shadows.masks;
@@ -289,9 +293,8 @@ pub(super) fn combine(
             }
         }
     }
-    let (counted, _) = counted_timed(settings);
-    let heat = counted.then(|| HeatMaps {
-        primary: primary.heat_maps("primary"),
+    let heat = primary_heat.map(|primary| HeatMaps {
+        primary,
         shadow: heat_planes("shadow", w, h, &shadows.work),
     });
     let visible = visible_set(
@@ -320,9 +323,10 @@ pub(super) fn combine(
     }
 }
 
-/// One light's pass through alpha on its tree and order (`counted` in [`AlphaStats`]).
+/// One light's pass through alpha on its tree and order: counted in [`AlphaStats`] (each
+/// pixel's work added into `sums`) or, without `sums`, timed.
 fn alpha_shadow_pass(
-    counted: bool,
+    sums: Option<&mut [HeatWork]>,
     primary: &PrimaryPass,
     tracer: &ShadowTracer,
     alpha: &FrameAlpha,
@@ -336,18 +340,19 @@ fn alpha_shadow_pass(
     match &alpha.sets {
         AlphaSets::Flat { camera, shadow } => {
             let scene = shadow.as_ref().unwrap_or(camera);
-            alpha_light_pass(counted, primary, t, scene, max_hits, sampler, plan, cancel)
+            alpha_light_pass(sums, primary, t, scene, max_hits, sampler, plan, cancel)
         }
-        AlphaSets::TwoLevel(instances) => alpha_light_pass(
-            counted, primary, t, instances, max_hits, sampler, plan, cancel,
-        ),
+        AlphaSets::TwoLevel(instances) => {
+            alpha_light_pass(sums, primary, t, instances, max_hits, sampler, plan, cancel)
+        }
     }
 }
 
-/// One light's pass through alpha with each hit read in `scene`.
+/// One light's pass through alpha with each hit read in `scene`, counted (into `sums`) or
+/// timed.
 #[allow(clippy::too_many_arguments)]
 fn alpha_light_pass(
-    counted: bool,
+    sums: Option<&mut [HeatWork]>,
     primary: &PrimaryPass,
     tracer: &AlphaShadowTracer,
     scene: &(impl AlphaScenes + ?Sized),
@@ -356,12 +361,13 @@ fn alpha_light_pass(
     plan: SamplePlan,
     cancel: &CancelToken,
 ) -> Result<ShadowPass> {
-    if counted {
-        ShadowPass::trace_alpha::<AlphaStats>(
+    match sums {
+        Some(sums) => ShadowPass::trace_alpha_adding::<AlphaStats>(
+            primary, tracer, scene, max_hits, sampler, plan, cancel, sums,
+        ),
+        None => ShadowPass::trace_alpha::<NoStats>(
             primary, tracer, scene, max_hits, sampler, plan, cancel,
-        )
-    } else {
-        ShadowPass::trace_alpha::<NoStats>(primary, tracer, scene, max_hits, sampler, plan, cancel)
+        ),
     }
 }
 

@@ -151,17 +151,22 @@ impl PrimaryPass {
     }
 }
 
-pub(crate) fn heat_planes(
+/// Heat maps of N_B, N_L and N_T per pixel from each pixel's work `W` (empty planes unless
+/// `work` has one element per pixel).
+pub(crate) fn heat_planes<W: Copy>(
     prefix: &str,
     width: u32,
     height: u32,
-    work: &[TraversalStats],
-) -> [ImagePlane; 3] {
-    let plane = |name: &str, f: fn(&TraversalStats) -> u64| {
+    work: &[W],
+) -> [ImagePlane; 3]
+where
+    HeatWork: From<W>,
+{
+    let plane = |name: &str, f: fn(&HeatWork) -> u64| {
         let mut p = ImagePlane::new(format!("{prefix}.{name}"), width, height);
         if work.len() == p.data.len() {
             for (d, w) in p.data.iter_mut().zip(work) {
-                *d = f(w) as f32;
+                *d = f(&HeatWork::from(*w)) as f32;
             }
         }
         p
@@ -171,6 +176,36 @@ pub(crate) fn heat_planes(
         plane("N_L", |w| w.leaves),
         plane("N_T", |w| w.triangles),
     ]
+}
+
+/// What a pixel's heat maps read of its rays' work: N_B, N_L and N_T ([`TraversalStats`]'s
+/// `inner`, `leaves` and `triangles`), 24 bytes where the pixel's [`TraversalStats`] take 56.
+/// A frame's shadow passes sum their lights' work per pixel in these.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct HeatWork {
+    pub inner: u64,
+    pub leaves: u64,
+    pub triangles: u64,
+}
+
+impl From<TraversalStats> for HeatWork {
+    #[inline]
+    fn from(w: TraversalStats) -> Self {
+        HeatWork {
+            inner: w.inner,
+            leaves: w.leaves,
+            triangles: w.triangles,
+        }
+    }
+}
+
+impl std::ops::AddAssign<&TraversalStats> for HeatWork {
+    #[inline]
+    fn add_assign(&mut self, w: &TraversalStats) {
+        self.inner += w.inner;
+        self.leaves += w.leaves;
+        self.triangles += w.triangles;
+    }
 }
 
 /// One thread's buffers for a tile's camera rays, reused from tile to tile.

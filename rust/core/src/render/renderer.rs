@@ -153,7 +153,7 @@ impl Renderer {
             prepared,
             collapse_ms: trees.flat().map_or(0.0, FrameTrees::collapse_ms),
         };
-        let (primary, mut primary_row) =
+        let (primary, mut primary_row, primary_heat) =
             primary_pass(trees, scene, settings, alpha, &rows, cancel)?;
         self.policy
             .note_frame(scene, settings, trees.space(), &primary);
@@ -177,7 +177,7 @@ impl Renderer {
             (self.policy).learn(&build, &primary, &lights, measured, settings, frame);
         }
         self.shadow_rays += shadows.rays;
-        let mut result = combine(scene, trees, primary, primary_row, shadows, settings);
+        let mut result = combine(scene, trees, primary, primary_row, primary_heat, shadows);
         if let Some(stats) = &self.alpha_stats {
             stats.fill_rows(&mut result.stats);
         }

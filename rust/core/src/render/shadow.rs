@@ -5,6 +5,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::lights::LightFrom;
+use super::primary::HeatWork;
 use super::tiles::{band_pixels, band_tiles, tiles, Tile, TILE_SIDE};
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
 use crate::cancel::CancelToken;
@@ -41,7 +42,10 @@ impl std::ops::AddAssign for ShadowRayOutcome {
 pub struct ShadowPass {
     /// 1 = lit, 0 = shadowed; fractions for soft lights. Pixels whose primary ray missed are 1.
     pub mask: ImagePlane,
+    /// Per-pixel work: empty when not counted, and when the pass added it into a frame's sums
+    /// (the renderer's passes).
     pub work: Vec<TraversalStats>,
+    /// The work of all of the pass's rays.
     pub totals: TraversalStats,
     pub outcome: ShadowRayOutcome,
     pub trace_ms: f64,
@@ -70,10 +74,39 @@ impl ShadowPass {
         plan: SamplePlan,
         cancel: &CancelToken,
     ) -> Result<Self> {
-        Self::trace_tiles::<C, _>(primary, light, plan, cancel, |buffers, mask, work| {
-            tracer.occluded_batch(&buffers.rays, &mut buffers.occluded, &mut buffers.counters);
-            buffers.write(plan, mask, work)
+        Self::kept::<C>(primary, |work| {
+            Self::trace_tiles(
+                primary,
+                light,
+                plan,
+                cancel,
+                work,
+                put::<C>,
+                occluded_step(tracer),
+            )
         })
+    }
+
+    /// As [`ShadowPass::trace`] counted, each pixel's N_B, N_L and N_T added into `sums` (one
+    /// per pixel) instead of kept: `work` is then empty. A frame's passes sum their lights so,
+    /// without a per-pixel copy of every counter per light.
+    pub(super) fn trace_adding<C: Counters>(
+        primary: &PrimaryPass,
+        tracer: &impl RayQuery,
+        light: &LightSampler,
+        plan: SamplePlan,
+        cancel: &CancelToken,
+        sums: &mut [HeatWork],
+    ) -> Result<Self> {
+        Self::trace_tiles(
+            primary,
+            light,
+            plan,
+            cancel,
+            sums,
+            add::<C>,
+            occluded_step(tracer),
+        )
     }
 
     /// As [`ShadowPass::trace`] through alpha-textured materials: each ray's transmission
@@ -89,38 +122,68 @@ impl ShadowPass {
         plan: SamplePlan,
         cancel: &CancelToken,
     ) -> Result<Self> {
-        Self::trace_tiles::<C, _>(primary, light, plan, cancel, |buffers, mask, work| {
-            let n = buffers.rays.len();
-            buffers.transmitted.clear();
-            buffers.transmitted.resize(n, 0.0);
-            tracer.transmission_batch(
-                &buffers.rays,
-                alpha,
-                max_hits,
-                &mut buffers.transmitted,
-                &mut buffers.counters,
-            );
-            buffers.write_transmitted(plan, mask, work)
+        let step = transmitted_step(tracer, alpha, max_hits);
+        Self::kept::<C>(primary, |work| {
+            Self::trace_tiles(primary, light, plan, cancel, work, put::<C>, step)
         })
     }
 
-    /// The tile loop of both passes: `step` traces a gathered tile's rays and writes its mask
-    /// values and work (one monomorphised copy per pass, so the opaque pass is today's code).
-    fn trace_tiles<'l, C: Counters, F>(
+    /// As [`ShadowPass::trace_alpha`] counted, each pixel's work added into `sums` as
+    /// [`ShadowPass::trace_adding`] adds it.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn trace_alpha_adding<C: Counters>(
+        primary: &PrimaryPass,
+        tracer: &impl AlphaQuery,
+        alpha: &(impl AlphaScenes + ?Sized),
+        max_hits: u32,
+        light: &LightSampler,
+        plan: SamplePlan,
+        cancel: &CancelToken,
+        sums: &mut [HeatWork],
+    ) -> Result<Self> {
+        let step = transmitted_step(tracer, alpha, max_hits);
+        Self::trace_tiles(primary, light, plan, cancel, sums, add::<C>, step)
+    }
+
+    /// A pass that keeps each pixel's work in `C` (nothing for [`NoStats`]), as `work` when
+    /// counting.
+    fn kept<C: Counters>(
+        primary: &PrimaryPass,
+        pass: impl FnOnce(&mut [C]) -> Result<Self>,
+    ) -> Result<Self> {
+        let mut work = vec![C::default(); primary.surfaces.len()];
+        let mut pass = pass(&mut work)?;
+        if C::COUNTING {
+            pass.work = work.into_iter().map(Into::into).collect();
+        }
+        Ok(pass)
+    }
+
+    /// The tile loop of every pass: `step` traces a gathered tile's rays and writes its mask
+    /// values (one monomorphised copy per pass, so the opaque pass is today's code); each
+    /// traced pixel's work goes into its element of `work` (one per pixel) through `sink`.
+    /// `totals` and `alpha_lookups` sum the traced pixels' work; `work` is left empty.
+    fn trace_tiles<'l, C: Counters, W: Send, F>(
         primary: &PrimaryPass,
         light: &'l LightSampler,
         plan: SamplePlan,
         cancel: &CancelToken,
+        work: &mut [W],
+        sink: fn(&mut W, C),
         step: F,
     ) -> Result<Self>
     where
-        F: Fn(&mut TileRays<'l, C>, &mut [f32], &mut [C]) -> ShadowRayOutcome + Sync,
+        F: Fn(&mut TileRays<'l, C>, &mut [f32]) -> ShadowRayOutcome + Sync,
     {
+        assert_eq!(
+            work.len(),
+            primary.surfaces.len(),
+            "one work sink per pixel"
+        );
         let start = Instant::now();
         let mut mask = ImagePlane::new(light.name.clone(), primary.width, primary.height);
-        let mut work = vec![C::default(); primary.surfaces.len()];
         let band = band_pixels(primary.width).max(1);
-        let outcome = primary
+        let (outcome, totals, alpha_lookups) = primary
             .surfaces
             .par_chunks(band)
             .zip(mask.data.par_chunks_mut(band))
@@ -131,6 +194,8 @@ impl ShadowPass {
                 |buffers, (b, ((surfaces, mask), work))| {
                     let y0 = b as u32 * TILE_SIDE;
                     let mut outcome = ShadowRayOutcome::default();
+                    let mut totals = TraversalStats::default();
+                    let mut lookups = 0;
                     for tile in band_tiles(primary.width, primary.height, y0) {
                         if cancel.is_cancelled() {
                             break;
@@ -141,40 +206,83 @@ impl ShadowPass {
                             width: primary.width,
                         };
                         outcome += buffers.gather(&band, tile, light, plan);
-                        outcome += step(buffers, mask, work);
+                        outcome += step(buffers, mask);
+                        if C::COUNTING {
+                            buffers.pixel_work();
+                            for ((i, _), w) in buffers.points.iter().zip(&buffers.work) {
+                                lookups += w.lookups();
+                                totals += (*w).into();
+                                sink(&mut work[*i as usize], *w);
+                            }
+                        }
                     }
-                    outcome
+                    (outcome, totals, lookups)
                 },
             )
-            .reduce(ShadowRayOutcome::default, |mut a, b| {
-                a += b;
-                a
-            });
+            .reduce(
+                || (ShadowRayOutcome::default(), TraversalStats::default(), 0),
+                |mut a, b| {
+                    a.0 += b.0;
+                    a.1 += b.1;
+                    a.2 += b.2;
+                    a
+                },
+            );
         cancel.check()?;
         let trace_ms = start.elapsed().as_secs_f64() * 1e3;
-        // Read only where counting: an uncounted pass keeps no loop over its pixels for it.
-        let alpha_lookups = if C::COUNTING {
-            work.iter().map(Counters::lookups).sum()
-        } else {
-            0
-        };
-        let work: Vec<TraversalStats> = if C::COUNTING {
-            work.into_iter().map(Into::into).collect()
-        } else {
-            Vec::new()
-        };
-        let mut totals = TraversalStats::default();
-        for w in &work {
-            totals += *w;
-        }
         Ok(ShadowPass {
             mask,
-            work,
+            work: Vec::new(),
             totals,
             outcome,
             trace_ms,
             alpha_lookups,
         })
+    }
+}
+
+/// A pixel's counters kept as they are.
+#[inline(always)]
+fn put<C>(w: &mut C, c: C) {
+    *w = c;
+}
+
+/// A pixel's counters added into its heat-map sums.
+#[inline(always)]
+fn add<C: Counters>(w: &mut HeatWork, c: C) {
+    let c: TraversalStats = c.into();
+    *w += &c;
+}
+
+/// The opaque passes' step: any hit per ray on `tracer`, then the tile's mask values.
+fn occluded_step<'l, C: Counters>(
+    tracer: &impl RayQuery,
+) -> impl Fn(&mut TileRays<'l, C>, &mut [f32]) -> ShadowRayOutcome + Sync + '_ {
+    move |buffers, mask| {
+        tracer.occluded_batch(&buffers.rays, &mut buffers.occluded, &mut buffers.counters);
+        buffers.write(mask)
+    }
+}
+
+/// The alpha passes' step: each ray's transmission through `alpha`, then the tile's mask
+/// values.
+fn transmitted_step<'a, 'l, C: Counters>(
+    tracer: &'a impl AlphaQuery,
+    alpha: &'a (impl AlphaScenes + ?Sized),
+    max_hits: u32,
+) -> impl Fn(&mut TileRays<'l, C>, &mut [f32]) -> ShadowRayOutcome + Sync + 'a {
+    move |buffers, mask| {
+        let n = buffers.rays.len();
+        buffers.transmitted.clear();
+        buffers.transmitted.resize(n, 0.0);
+        tracer.transmission_batch(
+            &buffers.rays,
+            alpha,
+            max_hits,
+            &mut buffers.transmitted,
+            &mut buffers.counters,
+        );
+        buffers.write_transmitted(mask)
     }
 }
 
@@ -204,11 +312,14 @@ struct TileRays<'l, C> {
     targets: Vec<LightSample>,
     /// Pixels whose value needs no ray: no surface (lit) or out of the light's reach (dark).
     settled: Vec<(u32, f32)>,
-    /// Per pixel of `points`: its rays not occluded, and their work.
+    /// Per pixel of `points`: its rays not occluded.
     lit: Vec<u32>,
     /// Per pixel of `points`: the sum of its rays' transmissions (the alpha pass).
     pixel_sums: Vec<f32>,
+    /// Per pixel of `points`: its rays' work.
     work: Vec<C>,
+    /// Samples per pixel of the gathered tile's light.
+    spp: u32,
 }
 
 impl<'l, C: Counters> TileRays<'l, C> {
@@ -223,6 +334,7 @@ impl<'l, C: Counters> TileRays<'l, C> {
         plan: SamplePlan,
     ) -> ShadowRayOutcome {
         let mut outcome = ShadowRayOutcome::default();
+        self.spp = plan.samples;
         self.points.clear();
         self.samples.clear();
         self.settled.clear();
@@ -269,9 +381,18 @@ impl<'l, C: Counters> TileRays<'l, C> {
         outcome
     }
 
-    /// The traced tile's mask values and per-pixel work written into its band; returns its
-    /// rays and how many were occluded.
-    fn write(&mut self, plan: SamplePlan, mask: &mut [f32], work: &mut [C]) -> ShadowRayOutcome {
+    /// Per pixel of `points`, the sum of its rays' counters in `work` (in ray order).
+    fn pixel_work(&mut self) {
+        self.work.clear();
+        self.work.resize(self.points.len(), C::default());
+        for (&k, c) in self.owners.iter().zip(&self.counters) {
+            self.work[k as usize] += *c;
+        }
+    }
+
+    /// The traced tile's mask values written into its band; returns its rays and how many were
+    /// occluded.
+    fn write(&mut self, mask: &mut [f32]) -> ShadowRayOutcome {
         let pixels = self.points.len();
         self.lit.clear();
         self.lit.resize(pixels, 0);
@@ -280,17 +401,7 @@ impl<'l, C: Counters> TileRays<'l, C> {
             self.lit[k as usize] += u32::from(!o);
             occluded += u64::from(o);
         }
-        if C::COUNTING {
-            self.work.clear();
-            self.work.resize(pixels, C::default());
-            for (&k, c) in self.owners.iter().zip(&self.counters) {
-                self.work[k as usize] += *c;
-            }
-            for ((i, _), w) in self.points.iter().zip(&self.work) {
-                work[*i as usize] = *w;
-            }
-        }
-        let samples = plan.samples as f32;
+        let samples = self.spp as f32;
         for ((i, _), &lit) in self.points.iter().zip(&self.lit) {
             mask[*i as usize] = lit as f32 / samples;
         }
@@ -309,12 +420,7 @@ impl<C: Counters> TileRays<'_, C> {
     /// [`TileRays::write`] for transmissions: a pixel's value is the sum of its rays'
     /// transmissions in sample order over the samples; a ray counts as occluded when it lets
     /// less than all light through.
-    fn write_transmitted(
-        &mut self,
-        plan: SamplePlan,
-        mask: &mut [f32],
-        work: &mut [C],
-    ) -> ShadowRayOutcome {
+    fn write_transmitted(&mut self, mask: &mut [f32]) -> ShadowRayOutcome {
         let pixels = self.points.len();
         let mut sums = std::mem::take(&mut self.pixel_sums);
         sums.clear();
@@ -324,17 +430,7 @@ impl<C: Counters> TileRays<'_, C> {
             sums[k as usize] += t;
             occluded += u64::from(t < 1.0);
         }
-        if C::COUNTING {
-            self.work.clear();
-            self.work.resize(pixels, C::default());
-            for (&k, c) in self.owners.iter().zip(&self.counters) {
-                self.work[k as usize] += *c;
-            }
-            for ((i, _), w) in self.points.iter().zip(&self.work) {
-                work[*i as usize] = *w;
-            }
-        }
-        let samples = plan.samples as f32;
+        let samples = self.spp as f32;
         for ((i, _), &sum) in self.points.iter().zip(&sums) {
             mask[*i as usize] = sum / samples;
         }
