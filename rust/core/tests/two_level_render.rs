@@ -179,7 +179,10 @@ fn auto_measures_orders_on_two_levels_apart_from_the_flat_trees() {
     let two = choices(2, SceneStructure::TwoLevel);
     assert_eq!(two, first);
     let flat_again = choices(3, SceneStructure::Flat);
-    assert!(flat_again.iter().all(|c| c != "sato;sample=fbto"), "{flat_again:?}");
+    assert!(
+        flat_again.iter().all(|c| c != "sato;sample=fbto"),
+        "{flat_again:?}"
+    );
 }
 
 /// `scene` with a mesh of its own per object: every object is then in the static group, whose
