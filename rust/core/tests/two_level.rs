@@ -320,7 +320,7 @@ fn rays_at_an_instance_boxs_faces_still_enter_it() {
         boxes.push(instance_box(&m, &meshes[0].bounds));
         maps.push(m);
     }
-    let top = TopLevel::build(&instances, &boxes, &settings);
+    let top = TopLevel::build(instances.clone(), boxes, &settings);
     let trees: Vec<_> = meshes.iter().map(|m| m.bvh.clone()).collect();
     let q = TwoLevel {
         top: &top,

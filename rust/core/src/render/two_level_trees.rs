@@ -795,7 +795,7 @@ impl Placing<'_> {
             }
         }
         let (instances, boxes): (Vec<Instance>, Vec<Aabb>) = placed.into_iter().unzip();
-        TopLevel::build(&instances, &boxes, self.settings)
+        TopLevel::build(instances, boxes, self.settings)
     }
 }
 

@@ -230,6 +230,6 @@ pub fn place_instances(
             boxes.push(instance_box(&m, &mesh.bounds));
         }
     }
-    let top = TopLevel::build(&instances, &boxes, &Default::default());
+    let top = TopLevel::build(instances.clone(), boxes, &Default::default());
     (instances, top)
 }
