@@ -21,7 +21,8 @@ use crate::{Error, Result};
 
 use super::frame_trees::CameraQuery;
 use super::light_tracer::ShadowTracer;
-use super::two_level_trees::{TwoLevelQuery, TwoLevelTrees};
+use super::two_level_query::TwoLevelQuery;
+use super::two_level_trees::TwoLevelTrees;
 use super::wide_tree::OrderedWideTree;
 
 /// A frame's alpha and the limits its passes trace it with.

@@ -11,7 +11,7 @@ use xxhash_rust::xxh3::Xxh3;
 
 use super::light_tracer::{binary_order, light_tracing, LightRays, LightTracing, ShadowTrees};
 use super::object_changes::object_state;
-use super::two_level_trees::TwoLevelQuery;
+use super::two_level_query::TwoLevelQuery;
 use super::wide_tree::{OrderedWideTree, WideTree};
 use super::RenderSettings;
 use crate::build::{BuildMethod, BuildSettings, CollapseSettings};

@@ -7,9 +7,11 @@ use std::time::Instant;
 
 use glam::Vec3;
 
+use super::mesh_entry::TwoLevelSorted;
 use super::shadow::{representative_rays, SamplePlan};
 use super::srdh_light::srdh_for_light;
-use super::two_level_trees::{TwoLevelQuery, TwoLevelSorted, TwoLevelTrees};
+use super::two_level_query::TwoLevelQuery;
+use super::two_level_trees::TwoLevelTrees;
 use super::wide_tree::{OrderedWideTree, WideTree};
 use super::{LightSampler, PrimaryPass};
 use crate::build::BuildSettings;

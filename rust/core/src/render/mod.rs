@@ -10,6 +10,7 @@ mod frame_trees;
 mod light_tracer;
 mod lights;
 mod memory;
+mod mesh_entry;
 mod object_changes;
 mod passes;
 mod pick;
@@ -22,6 +23,7 @@ mod settings;
 mod shadow;
 mod srdh_light;
 pub mod tiles;
+mod two_level_query;
 mod two_level_trees;
 mod visibility;
 mod wide_tree;
@@ -48,6 +50,7 @@ pub use shadow::{
     ShadowPass, ShadowRayOutcome,
 };
 pub use srdh_light::{srdh_for_light, srdh_rays, LightSrdh};
-pub use two_level_trees::{MeshQuery, TwoLevelQuery, TwoLevelTrees};
+pub use two_level_query::{MeshQuery, TwoLevelQuery};
+pub use two_level_trees::TwoLevelTrees;
 pub use visibility::{visibility_flags, VisibilitySource};
 pub use wide_tree::{OrderedWideTree, WideTree};
