@@ -450,7 +450,7 @@ fn two_levels_trace_alpha_per_instance_as_the_flat_tree_does() {
     let flat = Renderer::new().render("t", &scene, &flat_settings).unwrap();
     let mut two_level = None;
     for width in ["2", "4", "8"] {
-        for order in ["fbto", "stored", "sato", "sorted"] {
+        for order in ["fbto", "stored", "sato", "sorted", "srdh:min_occluded=0"] {
             for rays in [RayMode::Single, RayMode::Packet] {
                 let s = RenderSettings {
                     structure: Pick::Fixed(SceneStructure::TwoLevel),

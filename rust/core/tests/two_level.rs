@@ -2,7 +2,8 @@
 //! below it answer exactly what the brute-force reference answers through the same ray
 //! transforms, for mirrored, sheared and extreme instance transforms, on the binary tree and on
 //! the wide trees; they agree with the flat tree of the same objects; closed meshes stay
-//! watertight through instance transforms.
+//! watertight through instance transforms. A light's SRDH tree over the instances answers as
+//! the reference does.
 
 mod common;
 
@@ -11,12 +12,13 @@ use std::sync::Arc;
 use antumbra_core::build::{BuildSettings, CollapseSettings};
 use antumbra_core::bvh::BvhWidth;
 use antumbra_core::geometry::{Aabb, Ray};
-use antumbra_core::order::OrderView;
+use antumbra_core::order::{OrderView, SrdhSettings};
 use antumbra_core::render::WideTree;
 use antumbra_core::scene::{FrameGeometry, Mesh, Object, RenderSpace, Scene};
 use antumbra_core::trace::{brute_occluded, NoStats, RayQuery, TraversalStats};
 use antumbra_core::two_level::{
-    brute, instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel,
+    brute, instance_box, render_from_mesh, Instance, MeshTree, SrdhTop, SrdhTwoLevel, TopLevel,
+    TwoLevel,
 };
 use glam::{DMat4, DVec3, Vec3};
 
@@ -392,5 +394,76 @@ fn instance_boxes_are_widened_past_their_corners() {
             b.min.as_dvec3().cmple(min - spare).all() && b.max.as_dvec3().cmpge(max + spare).all(),
             "instance {i}: {b:?} against {min}..{max}, spare {spare}"
         );
+    }
+}
+
+#[test]
+fn an_srdh_tree_over_instances_answers_as_brute_force_and_lists_every_occluding_instance() {
+    let scene = common::instanced_scene(300);
+    let b = two_level(&scene);
+    let binary: Vec<_> = b.meshes.iter().map(|m| m.bvh.clone()).collect();
+    let levels = TwoLevel {
+        top: &b.top,
+        meshes: &binary,
+    };
+    // The hit lists: every instance of the top level whose triangles the ray hits.
+    let built_from = rays(1500, 5);
+    let set = levels.instance_ray_set(built_from.clone());
+    let mut listed = 0;
+    for (i, ray) in built_from.iter().enumerate() {
+        let expect: Vec<u32> = (0..b.top.len() as u32)
+            .filter(|&k| brute::brute_occluded(&b.top.instances[k as usize..][..1], &b.meshes, ray))
+            .collect();
+        assert_eq!(set.hits(i), &expect[..], "ray {i}");
+        listed += expect.len();
+    }
+    assert!(
+        set.occluded_count() > built_from.len() / 4 && listed > set.occluded_count(),
+        "the rays must be occluded, some by several instances: {listed} listed, {} occluded",
+        set.occluded_count()
+    );
+    // The tree over the instances' render-space boxes, in the top level's order.
+    let boxes: Vec<Aabb> = (b.top.instances.iter())
+        .map(|instance| {
+            let object = &scene.objects[instance.object as usize];
+            let mesh = &b.meshes[instance.mesh as usize];
+            let m = render_from_mesh(&b.space, &object.world_from_object, &mesh.space);
+            instance_box(&m, &mesh.bounds)
+        })
+        .collect();
+    for leaf in [1, 3] {
+        let settings = SrdhSettings {
+            leaf,
+            min_occluded: 0.0,
+            ..SrdhSettings::default()
+        };
+        let srdh = SrdhTop::build(boxes.clone(), &set, &settings, &BuildSettings::default());
+        let mut ids = srdh.tree.bvh.triangle_ids.clone();
+        ids.sort_unstable();
+        assert_eq!(
+            ids,
+            (0..b.top.len() as u32).collect::<Vec<_>>(),
+            "leaf {leaf}"
+        );
+        assert!(srdh.tree.bvh.triangles.is_empty());
+        let q = SrdhTwoLevel {
+            levels: TwoLevel {
+                top: &b.top,
+                meshes: &binary,
+            },
+            srdh: &srdh,
+        };
+        let mut work = TraversalStats::default();
+        // The rays it was built from and others, through binary mesh trees.
+        for (i, ray) in built_from.iter().chain(&rays(1500, 23)).enumerate() {
+            let occluded = brute::brute_occluded(&b.top.instances, &b.meshes, ray);
+            assert_eq!(q.occluded(ray, &mut work), occluded, "leaf {leaf}: ray {i}");
+            assert_eq!(
+                q.closest_hit(ray, &mut NoStats),
+                brute::brute_closest_hit(&b.top.instances, &b.meshes, ray),
+                "leaf {leaf}: ray {i}"
+            );
+        }
+        assert!(work.inner > 0 && work.leaves > 0 && work.triangles > 0);
     }
 }

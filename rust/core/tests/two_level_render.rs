@@ -96,6 +96,9 @@ fn every_width_order_and_count_mode_on_two_levels_gives_the_same_answers() {
             ShadowOrder::Random { seed: 3 },
             ShadowOrder::from_str("sorted").unwrap(),
             ShadowOrder::from_str("sorted:logging=fbto:p=area:budget=0.2").unwrap(),
+            ShadowOrder::from_str("srdh:min_occluded=0").unwrap(),
+            ShadowOrder::from_str("srdh:rays=all:bins=8:leaf=2:kernels=directional:min_occluded=0")
+                .unwrap(),
         ] {
             let mut s = settings(SceneStructure::TwoLevel, width, order);
             s.stats = antumbra_core::render::StatsMode::CountsAndTiming;
@@ -109,14 +112,72 @@ fn every_width_order_and_count_mode_on_two_levels_gives_the_same_answers() {
                     row.nb_per_ray > 0.0 && row.nt_per_ray > 0.0,
                     "{width} {order}: {row:?}"
                 );
-                // Sorting for the light is its preparation.
-                let sorted = matches!(order, ShadowOrder::Sorted(_));
-                assert_eq!(row.prepare_ms > 0.0, sorted, "{width} {order}: {row:?}");
+                // Sorting for the light, or its SRDH tree, is its preparation.
+                let prepared = matches!(order, ShadowOrder::Sorted(_) | ShadowOrder::Srdh(_));
+                assert_eq!(row.prepare_ms > 0.0, prepared, "{width} {order}: {row:?}");
             }
             checked += 1;
         }
     }
-    assert_eq!(checked, 21);
+    assert_eq!(checked, 27);
+}
+
+#[test]
+fn srdh_on_two_levels_builds_each_lights_tree_over_the_instances() {
+    let scene = scene(200);
+    let counted = |order: &str| {
+        let mut s = settings(
+            SceneStructure::TwoLevel,
+            BvhWidth::Eight,
+            ShadowOrder::from_str(order).unwrap(),
+        );
+        s.stats = antumbra_core::render::StatsMode::CountsAndTiming;
+        render(&scene, &s)
+    };
+    let fbto = counted("fbto");
+    let srdh = counted("srdh:rays=all:min_occluded=0");
+    assert_eq!(differing(&fbto, &srdh), (0, 0));
+    let shadow = |r: &FrameResult| -> Vec<_> {
+        (r.stats.iter())
+            .filter(|row| row.pass == "shadow")
+            .cloned()
+            .collect()
+    };
+    for (f, s) in shadow(&fbto).iter().zip(shadow(&srdh)) {
+        // The light's tree in the top level's place: its own node count, the same mesh trees.
+        assert_ne!(f.bvh_nodes, s.bvh_nodes, "{f:?}\n{s:?}");
+        assert_eq!(
+            s.method,
+            "sah/bin8/srdh:rays=all:bins=32:leaf=1:kernels=all:min_occluded=0/two-level"
+        );
+        // Built from every shadow ray of the light, the tree serves them with fewer box tests
+        // than the top level's near-first walk (the same mesh trees below).
+        assert!(
+            s.nbox_per_ray < f.nbox_per_ray,
+            "{} against {}",
+            s.nbox_per_ray,
+            f.nbox_per_ray
+        );
+    }
+    // Where too few of a light's rays are occluded it traces the top level, front to back: the
+    // sun's rays, about half of them occluded, at a threshold of all; the other light's rays
+    // are all occluded, and it has its tree.
+    let all = counted("srdh:min_occluded=1");
+    assert_eq!(differing(&fbto, &all), (0, 0));
+    let (f, a) = (shadow(&fbto), shadow(&all));
+    assert_eq!(f[0].light, "Sun");
+    assert!((0.3..0.7).contains(&f[0].occluded_fraction), "{:?}", f[0]);
+    assert_eq!(
+        (f[0].bvh_nodes, f[0].nb_per_ray),
+        (a[0].bvh_nodes, a[0].nb_per_ray)
+    );
+    assert!(
+        a[0].prepare_ms > 0.0,
+        "its rays were still traced: {:?}",
+        a[0]
+    );
+    assert_eq!(f[1].occluded_fraction, 1.0, "{:?}", f[1]);
+    assert_ne!(f[1].bvh_nodes, a[1].bvh_nodes);
 }
 
 #[test]
@@ -141,7 +202,7 @@ fn auto_chooses_each_lights_order_on_two_levels_among_the_orders_they_have() {
         }
     }
     // SATO first where it is a candidate (its tables made by the first light, as its
-    // preparation), then whatever measures fastest; never SRDH, which two levels lack.
+    // preparation), then whatever measures fastest.
     assert!(choices[0].1.starts_with("sato;"), "{choices:?}");
     // Sorting is measured on a sample of a light's rays beside the order that traces it.
     assert!(
@@ -149,12 +210,7 @@ fn auto_chooses_each_lights_order_on_two_levels_among_the_orders_they_have() {
         "{choices:?}"
     );
     assert!(choices[0].2 > 0.0, "{choices:?}");
-    assert!(
-        choices
-            .iter()
-            .all(|(_, c, _)| !c.is_empty() && !c.contains("srdh")),
-        "{choices:?}"
-    );
+    assert!(choices.iter().all(|(_, c, _)| !c.is_empty()), "{choices:?}");
 }
 
 #[test]
@@ -379,22 +435,33 @@ fn auto_takes_two_levels_for_large_instanced_scenes_and_small_moving_parts() {
         ..RenderSettings::default()
     };
     assert_eq!(structures(1, &named), [Flat, Flat, Flat]);
-    let instanced = scene(100);
-    // Settings two levels lack keep the flat tree.
+    // So is SRDH named as the order; two levels trace it when asked (a tree over instances).
     let srdh = RenderSettings {
         shadow_order: Pick::Fixed("srdh".parse().unwrap()),
         ..RenderSettings::default()
     };
-    assert_eq!(render(&instanced, &srdh).structure, SceneStructure::Flat);
-    let e = RenderSettings {
+    assert_eq!(structures(1, &srdh), [Flat, Flat, Flat]);
+    let instanced = scene(100);
+    let two_level_srdh = RenderSettings {
         structure: Pick::Fixed(SceneStructure::TwoLevel),
         ..srdh
+    };
+    assert!(two_level_srdh.validate().is_ok());
+    assert_eq!(
+        render(&instanced, &two_level_srdh).structure,
+        SceneStructure::TwoLevel
+    );
+    // Settings two levels lack are refused there.
+    let e = RenderSettings {
+        structure: Pick::Fixed(SceneStructure::TwoLevel),
+        build: Pick::Fixed("osah".parse().unwrap()),
+        ..RenderSettings::default()
     }
     .validate()
     .unwrap_err()
     .to_string();
-    assert!(e.contains("scene_structure") && e.contains("srdh"), "{e}");
-    // Sorting is one of them now.
+    assert!(e.contains("scene_structure") && e.contains("osah"), "{e}");
+    // Sorting is one of them too.
     let sorted = RenderSettings {
         shadow_order: Pick::Fixed("sorted".parse().unwrap()),
         ..RenderSettings::default()

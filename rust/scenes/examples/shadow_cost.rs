@@ -96,6 +96,7 @@ fn measured_shadow_passes(
             sampler: &sampler,
             plan,
             sah: &settings.build_settings,
+            objects: &scene.objects,
             first: true,
         };
         let tracing = trees.for_light(&order, settings.width, &light_rays);

@@ -9,7 +9,7 @@ use glam::Vec3;
 
 use super::mesh_entry::TwoLevelSorted;
 use super::shadow::{representative_rays, SamplePlan};
-use super::srdh_light::srdh_for_light;
+use super::srdh_light::{srdh_for_light, srdh_rays};
 use super::two_level_query::TwoLevelQuery;
 use super::two_level_trees::TwoLevelTrees;
 use super::wide_tree::{OrderedWideTree, WideTree};
@@ -18,9 +18,11 @@ use crate::build::BuildSettings;
 use crate::bvh::{Bvh, BvhWidth};
 use crate::geometry::Ray;
 use crate::order::{AnyHitOrder, PreparedOrder, ShadowOrder, SortTables};
+use crate::scene::Object;
 use crate::srdh::SrdhBvh;
 use crate::trace::forward_ray_query;
 use crate::trace::{OrderedBinary, RayMode};
+use crate::two_level::SrdhTop;
 
 /// The tree and order one light's shadow pass traces; a batch reads which once.
 pub enum ShadowTracer<'a> {
@@ -88,13 +90,31 @@ enum Route<'a> {
     TwoLevel(&'a TwoLevelTrees, ShadowOrder),
     /// The two-level trees with every mesh tree sorted for the light.
     TwoLevelSorted(&'a TwoLevelTrees, TwoLevelSorted),
+    /// The two-level trees with the light's SRDH tree over the instances.
+    TwoLevelSrdh(&'a TwoLevelTrees, SrdhTop),
 }
 
 impl<'a> LightTracing<'a> {
     /// A two-level frame's tracing for the light with `order`: the sorted order sorts every
-    /// mesh tree for the light ([`TwoLevelTrees::sort_for_light`]); the others are the trees'
-    /// own, prepared with them.
+    /// mesh tree for the light ([`TwoLevelTrees::sort_for_light`]); SRDH builds the light's
+    /// tree over the instances ([`TwoLevelTrees::srdh_for_light`]; the top level, front to
+    /// back, when too few of its rays are occluded); the others are the trees' own, prepared
+    /// with them.
     pub fn two_level(trees: &'a TwoLevelTrees, order: &ShadowOrder, light: &LightRays) -> Self {
+        if let ShadowOrder::Srdh(s) = order {
+            let start = Instant::now();
+            let rays = srdh_rays(light.primary, light.sampler, light.plan, s.rays);
+            let made = trees.srdh_for_light(light.objects, rays, s, light.sah);
+            let route = match made.tree {
+                Some(t) => Route::TwoLevelSrdh(trees, t),
+                None => Route::TwoLevel(trees, ShadowOrder::Fbto),
+            };
+            return LightTracing {
+                route,
+                // Choosing the rays, their hit lists through both levels and the build.
+                prepare_ms: start.elapsed().as_secs_f64() * 1e3,
+            };
+        }
         if let ShadowOrder::Sorted(s) = order {
             let start = Instant::now();
             let representative =
@@ -136,6 +156,9 @@ impl<'a> LightTracing<'a> {
             Route::TwoLevelSorted(trees, sorted) => {
                 ShadowTracer::TwoLevel(trees.sorted_shadow_query(sorted, rays))
             }
+            Route::TwoLevelSrdh(trees, srdh) => {
+                ShadowTracer::TwoLevel(trees.srdh_shadow_query(srdh))
+            }
         }
     }
 
@@ -147,10 +170,11 @@ impl<'a> LightTracing<'a> {
         }
     }
 
-    /// The light's own tree (SRDH), if it has one.
+    /// The light's own tree (SRDH; on two levels over the instances), if it has one.
     pub fn own_tree(&self) -> Option<&SrdhBvh> {
         match &self.route {
             Route::Srdh(t) => Some(t),
+            Route::TwoLevelSrdh(_, t) => Some(&t.tree),
             _ => None,
         }
     }
@@ -164,6 +188,9 @@ pub struct LightRays<'a> {
     pub plan: SamplePlan,
     /// Settings of the SAH subtrees an SRDH build grafts.
     pub sah: &'a BuildSettings,
+    /// The frame's objects: a two-level SRDH tree is built over their instances' boxes (flat
+    /// trees read none).
+    pub objects: &'a [Object],
     /// The first shadow-casting light of the frame (its row reports a per-tree order's time).
     pub first: bool,
 }

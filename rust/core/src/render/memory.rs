@@ -297,11 +297,13 @@ pub fn estimate_render_bytes(
         0
     } else {
         let per_ray = size_of::<Ray>() as u64 + PREP_BYTES_PER_RAY;
-        // A light's own SRDH tree is built over the shadow set.
-        let own_tree = if settings.shadow_order.may_trace_srdh() && !two_level {
-            (if separate_shadow_set { shadow } else { camera }).saturating_mul(BUILD_BYTES_PER_REF)
-        } else {
-            0
+        // A light's own SRDH tree is built over the shadow set, on two levels over the
+        // instances.
+        let own_tree = match settings.shadow_order.may_trace_srdh() {
+            false => 0,
+            true if two_level => instances.saturating_mul(BUILD_BYTES_PER_REF),
+            true => (if separate_shadow_set { shadow } else { camera })
+                .saturating_mul(BUILD_BYTES_PER_REF),
         };
         rays.saturating_mul(per_ray).saturating_add(own_tree)
     };

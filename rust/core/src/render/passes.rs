@@ -209,6 +209,7 @@ pub(super) fn shadow_passes(
             sampler: &sampler,
             plan,
             sah: &settings.build_settings,
+            objects: &scene.objects,
             first: per_tree_unreported && order.order.is_per_tree(),
         };
         per_tree_unreported &= !order.order.is_per_tree();

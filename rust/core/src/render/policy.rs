@@ -211,9 +211,8 @@ impl Policy {
                     index: index as u32,
                     rays,
                     wide: shadow.wide,
-                    srdh: shadow.srdh,
                     wide_nodes: shadow.wide_nodes,
-                    triangles: shadow.triangles,
+                    triangles: shadow.srdh_primitives,
                     srdh_rays,
                     log_rays,
                     sato_ready: shadow.sato_ready,
@@ -298,11 +297,12 @@ pub(super) fn auto_structure(scene: &Scene, settings: &RenderSettings) -> SceneS
 
 /// Whether `auto`'s structure weighs moving parts ([`auto::choose_structure`]): with the
 /// structure and the build left to `auto` (keeping the static part's tree is a way of having
-/// the frame's trees; a named build is a method compared as published, on the flat tree) and
-/// settings two levels can trace.
+/// the frame's trees; a named build, or SRDH named as the order, is a method compared as
+/// published, on the flat tree) and settings two levels can trace.
 fn weighs_moving_parts(settings: &RenderSettings) -> bool {
     settings.structure.is_auto()
         && settings.build.is_auto()
+        && !matches!(settings.shadow_order, Pick::Fixed(ShadowOrder::Srdh(_)))
         && settings.two_level_conflict().is_none()
 }
 
@@ -310,12 +310,10 @@ fn weighs_moving_parts(settings: &RenderSettings) -> bool {
 struct ShadowTreesSummary {
     /// Wide trees to order (width 4 or 8).
     wide: bool,
-    /// A flat frame: a light may have an SRDH tree.
-    srdh: bool,
     /// Nodes of the wide trees a light's preparation reads.
     wide_nodes: u64,
-    /// Triangles an SRDH tree would be built over.
-    triangles: u64,
+    /// Primitives an SRDH tree would be built over: triangles, or instances on two levels.
+    srdh_primitives: u64,
     /// What a finished frame left prepared: SATO, the sorting tables. A cancelled render's
     /// preparations do not count, so auto chooses after it as a fresh renderer would.
     sato_ready: bool,
@@ -331,9 +329,8 @@ impl ShadowTreesSummary {
                 let prepared = wide.filter(|_| t.reported);
                 ShadowTreesSummary {
                     wide: wide.is_some(),
-                    srdh: true,
                     wide_nodes: wide.map_or(0, |w| w.shadow_tree().node_count() as u64),
-                    triangles: t.geometry().shadow_set().len() as u64,
+                    srdh_primitives: t.geometry().shadow_set().len() as u64,
                     sato_ready: prepared
                         .and_then(|w| w.per_tree_order.as_ref())
                         .is_some_and(|p| p.order == ShadowOrder::Sato),
@@ -346,9 +343,8 @@ impl ShadowTreesSummary {
                 let ready = t.reported && t.sort_tables_ready();
                 ShadowTreesSummary {
                     wide: wide_nodes.is_some(),
-                    srdh: false,
                     wide_nodes: wide_nodes.unwrap_or(0),
-                    triangles: 0,
+                    srdh_primitives: t.shadow_instances() as u64,
                     sato_ready: ready,
                     tables_ready: ready,
                 }

@@ -144,7 +144,7 @@ impl SceneTrees {
                 }
                 c
             }
-            SceneTrees::TwoLevel(t) => t.shadow_columns(),
+            SceneTrees::TwoLevel(t) => t.shadow_columns(tracing.own_tree()),
         }
     }
 }

@@ -191,24 +191,15 @@ impl RenderSettings {
     }
 
     /// Why two levels cannot render with these settings, naming the setting: they build each
-    /// mesh's tree with SAH (no visible set or spatial splits across objects) and have no SRDH
-    /// tree per light yet.
+    /// mesh's tree with SAH (no visible set or spatial splits across objects).
     pub fn two_level_conflict(&self) -> Option<crate::Error> {
-        if let Pick::Fixed(b) = self.build {
-            if b != BuildMethod::Sah {
-                return Some(crate::Error::invalid(
-                    "scene_structure",
-                    format!("two-level builds every mesh tree with sah, not '{b}' (set build to sah or auto, or scene_structure to flat)"),
-                ));
-            }
-        }
-        if let Pick::Fixed(o @ ShadowOrder::Srdh(_)) = &self.shadow_order {
-            return Some(crate::Error::invalid(
+        match self.build {
+            Pick::Fixed(b) if b != BuildMethod::Sah => Some(crate::Error::invalid(
                 "scene_structure",
-                format!("two-level traces the fbto, stored, sato, rtsah, random and sorted orders, not '{o}' (set order to one of them or auto, or scene_structure to flat)"),
-            ));
+                format!("two-level builds every mesh tree with sah, not '{b}' (set build to sah or auto, or scene_structure to flat)"),
+            )),
+            _ => None,
         }
-        None
     }
 
     /// Whether `auto` chooses the build or the shadow order as the frames go (else the method

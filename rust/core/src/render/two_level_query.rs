@@ -1,5 +1,6 @@
-//! What a two-level pass traces: [`TwoLevelQuery`], the top level with each mesh tree as one
-//! order traces it ([`MeshQuery`]), its batches single rays or runs through instances.
+//! What a two-level pass traces: [`TwoLevelQuery`], the top level (or a light's SRDH tree over
+//! its instances) with each mesh tree as one order traces it ([`MeshQuery`]), its batches
+//! single rays or runs through instances.
 
 use super::wide_tree::OrderedWideTree;
 use crate::geometry::Ray;
@@ -7,7 +8,7 @@ use crate::trace::{
     closest_hit_each, forward_alpha_query, forward_ray_query, occluded_each, AlphaQuery, Counters,
     Hit, HitFilter, OrderedBinary, RayMode, RayQuery,
 };
-use crate::two_level::{TopLevel, TwoLevel};
+use crate::two_level::{SrdhTop, SrdhTwoLevel, TopLevel, TwoLevel};
 
 /// One mesh tree as a pass traces it.
 #[derive(Clone, Copy)]
@@ -35,22 +36,36 @@ pub struct TwoLevelQuery<'a> {
     pub(super) top: &'a TopLevel,
     pub(super) meshes: Vec<MeshQuery<'a>>,
     pub(super) rays: RayMode,
+    /// A light's SRDH tree over `top`'s instances: any hits follow it, one ray at a time.
+    pub(super) srdh: Option<&'a SrdhTop>,
 }
 
 impl TwoLevelQuery<'_> {
     #[inline(always)]
-    fn levels(&self) -> TwoLevel<'_, MeshQuery<'_>> {
+    pub(super) fn levels(&self) -> TwoLevel<'_, MeshQuery<'_>> {
         TwoLevel {
             top: self.top,
             meshes: &self.meshes,
         }
+    }
+
+    /// The light's SRDH tree in the top level's place, if it has one.
+    #[inline(always)]
+    fn srdh(&self) -> Option<SrdhTwoLevel<'_, MeshQuery<'_>>> {
+        Some(SrdhTwoLevel {
+            levels: self.levels(),
+            srdh: self.srdh?,
+        })
     }
 }
 
 impl RayQuery for TwoLevelQuery<'_> {
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
-        self.levels().occluded(ray, stats)
+        match self.srdh() {
+            Some(s) => s.occluded(ray, stats),
+            None => self.levels().occluded(ray, stats),
+        }
     }
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
@@ -58,6 +73,9 @@ impl RayQuery for TwoLevelQuery<'_> {
     }
     #[inline]
     fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
+        if let Some(s) = self.srdh() {
+            return occluded_each(&s, rays, out, counters);
+        }
         let q = self.levels();
         match self.rays {
             RayMode::Single => occluded_each(&q, rays, out, counters),
@@ -84,7 +102,10 @@ impl RayQuery for TwoLevelQuery<'_> {
 impl AlphaQuery for TwoLevelQuery<'_> {
     #[inline]
     fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
-        self.levels().stopped(ray, filter, stats)
+        match self.srdh() {
+            Some(s) => s.stopped(ray, filter, stats),
+            None => self.levels().stopped(ray, filter, stats),
+        }
     }
     #[inline]
     fn closest_hit_filtered<C: Counters, F: HitFilter>(

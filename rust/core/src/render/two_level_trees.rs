@@ -27,11 +27,12 @@ use super::RenderSettings;
 use crate::build::BuildSettings;
 use crate::cancel::CancelToken;
 use crate::geometry::{Aabb, Ray};
-use crate::order::{OrderView, ShadowOrder, SortSettings, SortTables};
+use crate::order::{OrderView, ShadowOrder, SortSettings, SortTables, SrdhSettings};
 use crate::scene::{collect, scene_bounds, Object, RenderSpace, Scene, TriangleRef};
+use crate::srdh::SrdhBvh;
 use crate::trace::RayMode;
 use crate::two_level::{
-    instance_box, render_from_mesh, Instance, MeshTree, TopLevel, TwoLevel, GROUP,
+    instance_box, render_from_mesh, Instance, MeshTree, SrdhTop, TopLevel, TwoLevel, GROUP,
 };
 use crate::Result;
 
@@ -303,6 +304,7 @@ impl TwoLevelTrees {
             top,
             meshes: self.meshes.iter().map(|m| m.query(order, rays)).collect(),
             rays,
+            srdh: None,
         }
     }
 
@@ -400,6 +402,50 @@ impl TwoLevelTrees {
             top: self.shadow_top(),
             meshes,
             rays,
+            srdh: None,
+        }
+    }
+
+    /// The render-space boxes of the shadow top level's instances, in its order: the boxes it
+    /// was built over (made as [`Placing`] made them; the top level does not keep them).
+    fn shadow_instance_boxes(&self, objects: &[Object]) -> Vec<Aabb> {
+        (self.shadow_top().instances.par_iter())
+            .map(|instance| {
+                let tree = &self.meshes[instance.mesh as usize].tree;
+                let object = (instance.object != GROUP).then(|| &objects[instance.object as usize]);
+                instance_box(&placement(&self.space, object, tree), &tree.bounds)
+            })
+            .collect()
+    }
+
+    /// One light's SRDH tree over the shadow top level's instances ([`SrdhTop`]) from the hit
+    /// lists of its representative `rays` through both levels (each mesh tree front to back),
+    /// built when at least `settings.min_occluded` of them are occluded.
+    pub fn srdh_for_light(
+        &self,
+        objects: &[Object],
+        rays: Vec<Ray>,
+        settings: &SrdhSettings,
+        sah: &BuildSettings,
+    ) -> LightSrdhTop {
+        let query = self.shadow_query(&ShadowOrder::Fbto, RayMode::Single);
+        let set = query.levels().instance_ray_set(rays);
+        let occluded_fraction = set.occluded_fraction();
+        let tree = (!set.is_empty() && occluded_fraction >= settings.min_occluded as f64)
+            .then(|| SrdhTop::build(self.shadow_instance_boxes(objects), &set, settings, sah));
+        LightSrdhTop {
+            tree,
+            rays: set.len(),
+            occluded_fraction,
+        }
+    }
+
+    /// What a light's shadow rays trace with its SRDH tree over the instances: the tree's
+    /// kernels to the instances, each mesh tree front to back, one ray at a time.
+    pub fn srdh_shadow_query<'a>(&'a self, srdh: &'a SrdhTop) -> TwoLevelQuery<'a> {
+        TwoLevelQuery {
+            srdh: Some(srdh),
+            ..self.shadow_query(&ShadowOrder::Fbto, RayMode::Single)
         }
     }
 
@@ -436,6 +482,11 @@ impl TwoLevelTrees {
         let instances = self.camera.len() + self.shadow.as_ref().map_or(0, |s| s.len());
         let triangles = self.meshes.iter().map(|m| m.tree.triangles.len()).sum();
         (instances, triangles)
+    }
+
+    /// Instances in the top level shadow rays trace.
+    pub fn shadow_instances(&self) -> usize {
+        self.shadow_top().len()
     }
 
     /// Bytes held by the trees: the mesh trees (and their collapses), the top levels.
@@ -476,14 +527,31 @@ impl TwoLevelTrees {
         self.columns(&self.camera)
     }
 
-    pub(super) fn shadow_columns(&self) -> TreeColumns {
-        self.columns(self.shadow_top())
+    /// The columns of the trees a light's rays traced: with its SRDH tree (`own`) in the
+    /// shadow top level's place, that tree's nodes and bytes in the top level's.
+    pub(super) fn shadow_columns(&self, own: Option<&SrdhBvh>) -> TreeColumns {
+        let top = self.shadow_top();
+        let mut c = self.columns(top);
+        if let Some(own) = own {
+            c.nodes = c.nodes - top.bvh.nodes.len() as u64 + own.bvh.nodes.len() as u64;
+            c.bytes = c.bytes - top.bytes() as u64
+                + (own.bytes() + top.instances.len() * size_of::<Instance>()) as u64;
+        }
+        c
     }
 
     /// The mesh trees' own build, collapse and order times, summed (ms), for reports.
     pub fn mesh_build_ms(&self) -> f64 {
         self.meshes.iter().map(|m| m.build_ms).sum()
     }
+}
+
+/// One light's SRDH preparation on two levels.
+pub struct LightSrdhTop {
+    /// `None`: too few occluded representative rays; the light traces the top level.
+    pub tree: Option<SrdhTop>,
+    pub rays: usize,
+    pub occluded_fraction: f64,
 }
 
 /// What the top levels are made of.
@@ -511,7 +579,7 @@ impl Placing<'_> {
                 if tree.triangles.is_empty() {
                     return None;
                 }
-                let m = render_from_mesh(self.space, &o.world_from_object, &tree.space);
+                let m = placement(self.space, Some(o), tree);
                 let instance = Instance::new(&m, index, i as u32)?;
                 Some((instance, instance_box(&m, &tree.bounds)))
             })
@@ -519,13 +587,22 @@ impl Placing<'_> {
         if let Some(g) = self.group {
             let tree = &self.meshes[g as usize].tree;
             if !tree.triangles.is_empty() {
-                let identity = DAffine3::IDENTITY;
+                let identity = placement(self.space, None, tree);
                 let instance = Instance::new(&identity, g, GROUP).expect("invertible");
                 placed.push((instance, instance_box(&identity, &tree.bounds)));
             }
         }
         let (instances, boxes): (Vec<Instance>, Vec<Aabb>) = placed.into_iter().unzip();
         TopLevel::build(instances, boxes, self.settings)
+    }
+}
+
+/// Render space from the mesh space of `tree` as `object` places it; the group's tree
+/// (`None`) is in render space already.
+fn placement(space: &RenderSpace, object: Option<&Object>, tree: &MeshTree) -> DAffine3 {
+    match object {
+        Some(o) => render_from_mesh(space, &o.world_from_object, &tree.space),
+        None => DAffine3::IDENTITY,
     }
 }
 

@@ -432,9 +432,9 @@ pub static SCHEMA: &[Setting] = &[
         group: Group::Build,
         help: "One tree over every object's triangles (flat), a tree per unique mesh shared by \
                the objects that place it under a top level over the objects (two-level: \
-               instances are held once, unchanged meshes keep their trees across frames), or \
-               auto (two levels for heavy instancing or moving parts: docs/auto.md). Two levels \
-               build with sah and trace every order but srdh.",
+               instances held once, unchanged meshes keep their trees), or auto (two levels \
+               for heavy instancing or moving parts: docs/auto.md). Two levels build with sah; \
+               srdh builds a light's tree over the instances.",
         get: |s| s.structure.to_string().into(),
         set: |s, v| {
             s.structure = parsed::<Pick<SceneStructure>>("scene_structure", v)?;

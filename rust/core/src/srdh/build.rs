@@ -159,23 +159,45 @@ pub fn build_srdh(
     sah: &BuildSettings,
 ) -> SrdhBvh {
     let start = Instant::now();
-    if triangles.is_empty() {
+    let boxes: Vec<Aabb> = triangles.par_iter().map(Aabb::of_triangle).collect();
+    let mut tree = build_srdh_over_boxes(boxes, set, settings, sah);
+    tree.bvh.triangles = (tree.bvh.triangle_ids.iter())
+        .map(|&i| triangles[i as usize])
+        .collect();
+    let build_ms = start.elapsed().as_secs_f64() * 1e3;
+    tree.bvh.build_ms = build_ms;
+    tree.build_ms = build_ms;
+    tree
+}
+
+/// The SRDH tree over primitives given by their boxes, for the rays of `set` (their hit ids
+/// index `boxes`): the nodes and kernels, its leaves' ranges indexing `triangle_ids` (the
+/// primitives' indices in leaf order), and no triangles. A child's cost is its count of
+/// primitives, whatever they are (triangles, or the instances of a top level).
+pub fn build_srdh_over_boxes(
+    boxes: Vec<Aabb>,
+    set: &RaySet,
+    settings: &SrdhSettings,
+    sah: &BuildSettings,
+) -> SrdhBvh {
+    let start = Instant::now();
+    if boxes.is_empty() {
         return SrdhBvh::default();
     }
-    let b = Builder::new(triangles, set, settings, sah);
-    let prims: Vec<u32> = (0..triangles.len() as u32).collect();
+    let n = boxes.len() as u32;
+    let b = Builder::new(boxes, set, settings, sah);
+    let prims: Vec<u32> = (0..n).collect();
     let rays = b.root_rays(&b.bounds(&prims));
     let tree = b.node(prims, rays, 0);
     let (nodes, kernels, ids) = flatten(tree);
-    let bvh = Bvh {
-        nodes: NodeArray::from_nodes(&nodes),
-        triangles: ids.iter().map(|&i| triangles[i as usize]).collect(),
-        triangle_ids: ids,
-        build_ms: 0.0,
-    };
     let build_ms = start.elapsed().as_secs_f64() * 1e3;
     SrdhBvh {
-        bvh: Bvh { build_ms, ..bvh },
+        bvh: Bvh {
+            nodes: NodeArray::from_nodes(&nodes),
+            triangles: Vec::new(),
+            triangle_ids: ids,
+            build_ms,
+        },
         kernels: PackedKernels::from_kernels(&kernels),
         build_ms,
         rays: set.len(),
@@ -200,7 +222,8 @@ pub fn root_candidates(
     settings: &SrdhSettings,
     sah: &BuildSettings,
 ) -> Option<RootCandidates> {
-    let b = Builder::new(triangles, set, settings, sah);
+    let boxes = triangles.iter().map(Aabb::of_triangle).collect();
+    let b = Builder::new(boxes, set, settings, sah);
     let prims: Vec<u32> = (0..triangles.len() as u32).collect();
     let rays = b.root_rays(&b.bounds(&prims));
     let (all, binning) = b.score(&prims, &rays)?;
@@ -228,12 +251,11 @@ fn best(all: &[Candidate]) -> Option<Candidate> {
 
 impl<'a> Builder<'a> {
     fn new(
-        triangles: &'a [[Vec3; 3]],
+        boxes: Vec<Aabb>,
         set: &'a RaySet,
         settings: &'a SrdhSettings,
         sah: &'a BuildSettings,
     ) -> Self {
-        let boxes: Vec<Aabb> = triangles.par_iter().map(Aabb::of_triangle).collect();
         Builder {
             centroids: boxes.iter().map(Aabb::center).collect(),
             boxes,

@@ -8,5 +8,8 @@ mod build;
 pub mod cost;
 mod ray_set;
 
-pub use build::{build_srdh, root_candidates, Candidate, RootCandidates, SrdhBvh, DEFAULT_KERNEL};
+pub use build::{
+    build_srdh, build_srdh_over_boxes, root_candidates, Candidate, RootCandidates, SrdhBvh,
+    DEFAULT_KERNEL,
+};
 pub use ray_set::{all_hits, RaySet};

@@ -39,12 +39,8 @@ impl Children for Siblings<'_> {
     }
 }
 
-/// The leaf (node index) whose triangle stopped the ray, `None` if nothing did.
-///
-/// A node is entered once its box is hit. Its box is tested at the parent, both siblings at
-/// once, so that the order may read their entry distances; or, for orders that read none
-/// ([`ChildOrder::TEST_ON_ENTRY`]: the SRDH kernels), only on entering it, so that a ray stopped
-/// in the first child never tests the second's box. N_box counts the tests made either way.
+/// The leaf (node index) whose triangle stopped the ray, `None` if nothing did (the walk is
+/// [`any_hit_walk`]'s).
 #[inline(always)]
 pub fn occluding_leaf<O: ChildOrder, C: Counters>(
     bvh: &Bvh,
@@ -67,10 +63,47 @@ pub(crate) fn occluding_leaf_filtered<O: ChildOrder, C: Counters, F: HitFilter>(
     filter: &mut F,
     stats: &mut C,
 ) -> Option<usize> {
-    let nodes = &bvh.nodes;
+    let wt = WatertightRay::new(ray);
+    let (t_min, t_max) = (ray.t_min, ray.t_max);
+    any_hit_walk(&bvh.nodes, order, ray, stats, |leaf, stats| {
+        let first = leaf.first as usize;
+        for slot in first..first + leaf.count as usize {
+            stats.triangles(1);
+            if F::OPAQUE {
+                if intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max).is_some() {
+                    return true;
+                }
+            } else if let Some(h) = intersect_triangle(&wt, &bvh.triangles[slot], t_min, t_max) {
+                let id = bvh.triangle_ids[slot];
+                if filter.stops(id, h.t, [h.b0, h.b1, h.b2], stats) {
+                    return true;
+                }
+            }
+        }
+        false
+    })
+}
+
+/// The any-hit walk of a binary tree in `order`, whatever its leaves hold: `stops` is handed
+/// each leaf entered (its range) and says whether the ray stopped there; the answer is that
+/// leaf's node index. [`occluding_leaf_filtered`] tests triangles in it; a light's SRDH tree
+/// over a top level's instances enters their mesh trees (`crate::two_level`).
+///
+/// A node is entered once its box is hit. Its box is tested at the parent, both siblings at
+/// once, so that the order may read their entry distances; or, for orders that read none
+/// ([`ChildOrder::TEST_ON_ENTRY`]: the SRDH kernels), only on entering it, so that a ray stopped
+/// in the first child never tests the second's box. N_box counts the tests made either way;
+/// the walk counts N_B and N_L, `stops` what it tests in a leaf.
+#[inline(always)]
+pub(crate) fn any_hit_walk<O: ChildOrder, C: Counters>(
+    nodes: &[BvhNode],
+    order: &O,
+    ray: &Ray,
+    stats: &mut C,
+    mut stops: impl FnMut(&BvhNode, &mut C) -> bool,
+) -> Option<usize> {
     let root = nodes.first()?;
     let pre = RayBoxPrecomp::new(ray);
-    let wt = WatertightRay::new(ray);
     let oray = OrderRay::new::<O>(ray);
     let t_min = ray.t_min;
     // Box tests reach a margin past the segment's end; triangle tests do not (see t_margin).
@@ -86,21 +119,8 @@ pub(crate) fn occluding_leaf_filtered<O: ChildOrder, C: Counters, F: HitFilter>(
     loop {
         if node.is_leaf() {
             stats.leaf();
-            let first = node.first as usize;
-            for slot in first..first + node.count as usize {
-                stats.triangles(1);
-                if F::OPAQUE {
-                    if intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max).is_some() {
-                        return Some(index_of(nodes, node));
-                    }
-                } else if let Some(h) =
-                    intersect_triangle(&wt, &bvh.triangles[slot], t_min, ray.t_max)
-                {
-                    let id = bvh.triangle_ids[slot];
-                    if filter.stops(id, h.t, [h.b0, h.b1, h.b2], stats) {
-                        return Some(index_of(nodes, node));
-                    }
-                }
+            if stops(node, stats) {
+                return Some(index_of(nodes, node));
             }
         } else {
             stats.inner();

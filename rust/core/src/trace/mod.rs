@@ -18,7 +18,7 @@ pub mod wide;
 pub use alpha_query::AlphaQuery;
 pub(crate) use alpha_query::{alpha_query_for, forward_alpha_query};
 pub use any_hit::occluding_leaf;
-pub(crate) use any_hit::occluding_leaf_filtered;
+pub(crate) use any_hit::{any_hit_walk, occluding_leaf_filtered};
 pub use brute::{
     brute_closest_hit, brute_closest_hit_alpha, brute_occluded, brute_transmission,
     transmission_of_hits,

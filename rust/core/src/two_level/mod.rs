@@ -12,7 +12,8 @@
 //! the same ray transform: the closest hit is the least (t, object, triangle). Through alpha,
 //! each instance reads its own scene ([`InstanceAlpha`]); a filter hears which instance it is
 //! in ([`crate::trace::HitFilter::enter_instance`]). A deforming mesh's tree is refit rather
-//! than rebuilt while it keeps its quality ([`REFIT_LIMIT`]).
+//! than rebuilt while it keeps its quality ([`REFIT_LIMIT`]). A light's SRDH tree over the
+//! instances ([`SrdhTop`]) takes the top level's place for its shadow rays.
 
 mod alpha;
 pub mod brute;
@@ -22,12 +23,14 @@ mod refit;
 mod run_boxes;
 mod run_walk;
 mod runs;
+mod srdh_top;
 mod top_level;
 
 pub use alpha::InstanceAlpha;
 pub use instance::{instance_box, render_from_mesh, Instance};
 pub use mesh_tree::MeshTree;
 pub use refit::REFIT_LIMIT;
+pub use srdh_top::{SrdhTop, SrdhTwoLevel};
 pub use top_level::{TopLevel, TwoLevel};
 
 /// The object an instance of a group tree names ([`MeshTree::of_set`]): each of the group's

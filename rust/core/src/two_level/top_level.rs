@@ -18,6 +18,15 @@ pub(super) const TOP_WIDTH: usize = 8;
 /// 99.5 bytes an instance over a million instances (79.3 at 1, 103.2 at 4).
 const INSTANCE_COST: f32 = 2.0;
 
+/// The top level's build settings from the mesh trees': an instance costs [`INSTANCE_COST`]
+/// triangle tests.
+pub(super) fn top_settings(settings: &BuildSettings) -> BuildSettings {
+    BuildSettings {
+        intersection_cost: INSTANCE_COST * settings.intersection_cost,
+        ..*settings
+    }
+}
+
 /// The top level's collapse: the binary build's leaves stay leaves (it already weighed an
 /// instance's cost against a node's), the SAH collapse only picks which nodes fill the slots.
 const TOP_COLLAPSE: CollapseSettings = CollapseSettings {
@@ -48,11 +57,7 @@ impl TopLevel {
     /// another 56 MB at the build's peak).
     pub fn build(mut instances: Vec<Instance>, boxes: Vec<Aabb>, settings: &BuildSettings) -> Self {
         debug_assert_eq!(instances.len(), boxes.len());
-        let settings = BuildSettings {
-            intersection_cost: INSTANCE_COST * settings.intersection_cost,
-            ..*settings
-        };
-        let binary = build_over_boxes(&boxes, &settings);
+        let binary = build_over_boxes(&boxes, &top_settings(settings));
         drop(boxes);
         leaf_order(&mut instances, &binary.triangle_ids);
         let mut bvh = WideBvh::collapse_with(&binary, &TOP_COLLAPSE);
@@ -133,7 +138,7 @@ impl<Q> TwoLevel<'_, Q> {
     /// returns the new `t_max` (lowered by a closest hit), or `None` to stop (an any-hit query
     /// answered).
     #[inline]
-    fn walk<C: Counters>(
+    pub(super) fn walk<C: Counters>(
         &self,
         ray: &Ray,
         stats: &mut C,

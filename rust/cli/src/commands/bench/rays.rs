@@ -216,6 +216,8 @@ impl<'a> Frame<'a> {
                     sampler: &light.sampler,
                     plan: light.plan,
                     sah: &s.build_settings,
+                    // The bench's trees are flat: only two levels read the objects.
+                    objects: &[],
                     first: i == 0,
                 };
                 let prepare = || trees.for_light(order, s.width, &rays);

@@ -71,11 +71,9 @@ pub struct LightContext<'a> {
     pub rays: u64,
     /// A wide tree (width 4 or 8): SATO and sorted are candidates.
     pub wide: bool,
-    /// A flat frame, where a light can have an SRDH tree: SRDH is a candidate (two levels
-    /// have none).
-    pub srdh: bool,
     pub wide_nodes: u64,
-    /// Triangles of the shadow set (an SRDH tree is built over them).
+    /// Primitives an SRDH tree is built over: the shadow set's triangles, on two levels the
+    /// shadow top level's instances.
     pub triangles: u64,
     /// Representative rays of the light's SRDH build.
     pub srdh_rays: u64,
@@ -87,14 +85,13 @@ pub struct LightContext<'a> {
 }
 
 /// The orders `auto` considers for a light: every order on a wide tree, front to back and SRDH
-/// on the binary one, SRDH only on a flat frame; for a light with few rays only those with nothing to prepare this frame
+/// on the binary one; for a light with few rays only those with nothing to prepare this frame
 /// (front to back, and SATO where the tree has it already): its whole pass may cost less than
 /// any preparation, and a sample of its few rays may hold none to measure an order by.
 pub fn order_candidates(c: &LightContext) -> Vec<OrderChoice> {
     OrderChoice::ALL
         .into_iter()
         .filter(|o| c.wide || matches!(o, OrderChoice::Fbto | OrderChoice::Srdh))
-        .filter(|o| c.srdh || *o != OrderChoice::Srdh)
         .filter(|&o| c.rays >= MIN_PREP_RAYS || prep_ns(c, o, true) == 0.0)
         .collect()
 }
@@ -326,7 +323,6 @@ mod tests {
             index: 0,
             rays,
             wide: true,
-            srdh: true,
             wide_nodes: 1000,
             triangles: 5000,
             srdh_rays: 256,
@@ -411,20 +407,6 @@ mod tests {
             order_candidates(&binary),
             vec![OrderChoice::Fbto, OrderChoice::Srdh]
         );
-        // Two levels have no SRDH tree.
-        let two_level = LightContext {
-            srdh: false,
-            ..light(100_000)
-        };
-        assert_eq!(
-            order_candidates(&two_level),
-            vec![OrderChoice::Fbto, OrderChoice::Sato, OrderChoice::Sorted]
-        );
-        let binary_two_level = LightContext {
-            srdh: false,
-            ..binary
-        };
-        assert_eq!(order_candidates(&binary_two_level), vec![OrderChoice::Fbto]);
     }
 
     #[test]
