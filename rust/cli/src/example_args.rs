@@ -47,7 +47,9 @@ impl FrameArgs {
             instances: None,
         };
         let anim = antumbra_scenes::builtin(name.trim_end_matches("-rot45"), &params)?;
-        let mut scene = anim.frame(*anim.frame_range().start());
+        // Its only frame, taken from the scene (then dropped) rather than copied out of it.
+        let first = *anim.frame_range().start();
+        let mut scene = anim.into_frame(first);
         scene.resolution = Resolution::new(size.width, size.height);
         let geometry = FrameGeometry::from_scene(&scene)?;
         Ok(ExampleFrame {

@@ -58,9 +58,47 @@ impl SceneArgs {
     }
 }
 
+impl OpenScene {
+    /// The frames asked for, in order, each at the size asked for. The last is the animation's
+    /// [`Animation::into_frame`], so a built-in scene's objects are not held by the scene and
+    /// by the frame at once while it renders.
+    pub fn into_frames(self) -> SceneFrames {
+        SceneFrames {
+            animation: Some(self.animation),
+            frames: self.frames,
+            size: self.size,
+        }
+    }
+}
+
+/// The frames of an [`OpenScene`], one at a time ([`OpenScene::into_frames`]).
+pub struct SceneFrames {
+    /// Dropped when the last frame is taken from it.
+    animation: Option<Box<dyn Animation>>,
+    frames: RangeInclusive<i32>,
+    size: Option<ImageSize>,
+}
+
+impl Iterator for SceneFrames {
+    type Item = Scene;
+
+    fn next(&mut self) -> Option<Scene> {
+        let frame = self.frames.next()?;
+        let scene = if self.frames.is_empty() {
+            self.animation.take()?.into_frame(frame)
+        } else {
+            self.animation.as_ref()?.frame(frame)
+        };
+        Some(at_size(scene, self.size))
+    }
+}
+
 /// Frame `frame` of `animation`, at `size` (100%) if given.
 pub fn frame_at_size(animation: &dyn Animation, frame: i32, size: Option<ImageSize>) -> Scene {
-    let mut scene = animation.frame(frame);
+    at_size(animation.frame(frame), size)
+}
+
+fn at_size(mut scene: Scene, size: Option<ImageSize>) -> Scene {
     if let Some(size) = size {
         scene.resolution.x = size.width;
         scene.resolution.y = size.height;

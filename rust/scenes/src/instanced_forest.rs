@@ -7,7 +7,7 @@
 use std::f64::consts::TAU;
 use std::ops::RangeInclusive;
 
-use antumbra_core::scene::{Animation, Scene};
+use antumbra_core::scene::{Animation, Camera, Light, Scene};
 use glam::{DMat4, DQuat, DVec3, DVec4};
 
 use crate::builder::MeshBuilder;
@@ -119,18 +119,9 @@ impl InstancedForest {
             extent,
         }
     }
-}
 
-impl Animation for InstancedForest {
-    fn name(&self) -> &str {
-        "instanced-forest"
-    }
-
-    fn frame_range(&self) -> RangeInclusive<i32> {
-        self.clock.range()
-    }
-
-    fn frame(&self, frame: i32) -> Scene {
+    /// What moves: the camera flying over and the sinking sun, with the beacon.
+    fn view(&self, frame: i32) -> (Camera, Vec<Light>) {
         let e = self.extent;
         let u = self.clock.progress(frame);
         let height = 15.0 + 0.02 * e;
@@ -150,6 +141,27 @@ impl Animation for InstancedForest {
             sun("Sun", sun_direction(0.75 - 0.15 * u, 3.6 + 0.25 * u), 0.02),
             point("Beacon", DVec3::new(0.0, 0.0, 14.0), 0.25),
         ];
+        (cam, lights)
+    }
+}
+
+impl Animation for InstancedForest {
+    fn name(&self) -> &str {
+        "instanced-forest"
+    }
+
+    fn frame_range(&self) -> RangeInclusive<i32> {
+        self.clock.range()
+    }
+
+    fn frame(&self, frame: i32) -> Scene {
+        let (cam, lights) = self.view(frame);
         self.stage.scene(frame, cam, lights)
+    }
+
+    /// The stage's objects (a million with `--instances 1000000`) move into the frame.
+    fn into_frame(self: Box<Self>, frame: i32) -> Scene {
+        let (cam, lights) = self.view(frame);
+        self.stage.into_scene(frame, cam, lights)
     }
 }

@@ -54,4 +54,11 @@ impl Animation for Rotated {
         rotate_scene(&mut scene, Rotated::rotation());
         scene
     }
+
+    /// The inner animation's own last frame, so that its static part is not copied either.
+    fn into_frame(self: Box<Self>, frame: i32) -> Scene {
+        let mut scene = self.inner.into_frame(frame);
+        rotate_scene(&mut scene, Rotated::rotation());
+        scene
+    }
 }

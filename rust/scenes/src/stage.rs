@@ -15,7 +15,7 @@ pub(crate) fn default_resolution() -> Resolution {
 
 /// Meshes built once and the objects that place them in every frame. Meshes that only move
 /// rigidly live here too; their objects are added per frame with [`add_object`].
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub(crate) struct Stage {
     meshes: Vec<Arc<Mesh>>,
     objects: Vec<Object>,
@@ -61,10 +61,17 @@ impl Stage {
 
     /// A frame holding the static part (the same `Arc`s every time); callers add what moves.
     pub fn scene(&self, frame: i32, camera: Camera, lights: Vec<Light>) -> Scene {
+        self.clone().into_scene(frame, camera, lights)
+    }
+
+    /// [`Stage::scene`] for the last frame asked for
+    /// ([`Animation::into_frame`](antumbra_core::scene::Animation::into_frame)): the objects
+    /// move into the frame instead of being copied, so a million instances are held once.
+    pub fn into_scene(self, frame: i32, camera: Camera, lights: Vec<Light>) -> Scene {
         Scene {
             frame,
-            meshes: self.meshes.clone(),
-            objects: self.objects.clone(),
+            meshes: self.meshes,
+            objects: self.objects,
             camera,
             lights,
             resolution: default_resolution(),

@@ -7,6 +7,7 @@ use clap::Args;
 
 use super::render::render_frames;
 use crate::method_args::MethodArgs;
+use crate::scene_args::OpenScene;
 use crate::scene_source::open_scene;
 use antumbra_protocol::Limits;
 
@@ -30,17 +31,14 @@ pub struct DemoArgs {
 
 pub fn run(args: DemoArgs) -> Result<()> {
     let frames = args.frames.max(1);
-    let scene = open_scene(&args.scene, args.triangles, None, frames)?;
+    let open = OpenScene {
+        animation: open_scene(&args.scene, args.triangles, None, frames)?,
+        frames: 1..=frames,
+        size: None,
+    };
     let mut settings = args.method.settings()?;
     settings.stats = antumbra_core::render::StatsMode::CountsAndTiming;
-    let rows = render_frames(
-        scene.as_ref(),
-        1..=frames,
-        None,
-        &settings,
-        &args.out,
-        &Limits::default(),
-    )?;
+    let rows = render_frames(open, &settings, &args.out, &Limits::default())?;
     println!(
         "\n{:>5}  {:8} {:14} {:>9} {:>9} {:>9} {:>7} {:>7} {:>7}",
         "frame", "pass", "light", "rays", "Mrays/s", "occluded", "N_B", "N_L", "N_T"

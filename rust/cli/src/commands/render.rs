@@ -3,7 +3,6 @@
 use std::path::{Path, PathBuf};
 
 use antumbra_core::render::{all_output_planes, RenderSettings, Renderer};
-use antumbra_core::scene::{Animation, ImageSize};
 use antumbra_core::stats::{write_csv, write_json, StatsRow};
 use antumbra_protocol::{admit_render, Asked, Limits};
 use anyhow::{Context, Result};
@@ -12,7 +11,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::admission_args::{frame_count, frames_text, refused, AdmissionArgs};
 use crate::method_args::MethodArgs;
-use crate::scene_args::{frame_at_size, SceneArgs};
+use crate::scene_args::{OpenScene, SceneArgs};
 use crate::write::write_frame;
 
 #[derive(Args, Debug)]
@@ -29,12 +28,8 @@ pub struct RenderArgs {
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
-    let open = args.scene.open()?;
-    let (scene, frames, size) = (open.animation, open.frames, open.size);
     let rows = render_frames(
-        scene.as_ref(),
-        frames,
-        size,
+        args.scene.open()?,
         &args.method.settings()?,
         &args.out,
         &args.admission.limits(),
@@ -51,19 +46,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// Renders `frames`, writing images per frame and the statistics of all frames into `out`. A
-/// run or a frame the daemon would refuse under `limits` (too many frames, a frame estimated
-/// to need more memory than the budget) stops before that frame is rendered.
+/// Renders the frames of `open`, writing images per frame and the statistics of all frames
+/// into `out`. A run or a frame the daemon would refuse under `limits` (too many frames, a
+/// frame estimated to need more memory than the budget) stops before that frame is rendered.
 pub fn render_frames(
-    scene: &dyn Animation,
-    frames: std::ops::RangeInclusive<i32>,
-    size: Option<ImageSize>,
+    open: OpenScene,
     settings: &RenderSettings,
     out: &Path,
     limits: &Limits,
 ) -> Result<Vec<StatsRow>> {
-    let what = format!("render of {}", frames_text(&frames));
-    let count = frame_count(&frames);
+    let what = format!("render of {}", frames_text(&open.frames));
+    let count = frame_count(&open.frames);
+    let name = open.animation.name().to_string();
     let admit = |s: &antumbra_core::scene::Scene| {
         let asked = Asked {
             what: &what,
@@ -72,8 +66,12 @@ pub fn render_frames(
         };
         admit_render(asked, settings, all_output_planes(s, settings), limits).map_err(refused)
     };
-    // The run as a whole first: nothing is written for a run that is refused.
-    admit(&frame_at_size(scene, *frames.start(), size))?;
+    // The run as a whole first, on the first frame (built once, then rendered): nothing is
+    // written for a run that is refused.
+    let mut scenes = open.into_frames().peekable();
+    if let Some(first) = scenes.peek() {
+        admit(first)?;
+    }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let bar = ProgressBar::new(count);
     bar.set_style(
@@ -81,14 +79,14 @@ pub fn render_frames(
             .expect("static template")
             .progress_chars("=> "),
     );
-    bar.set_prefix(scene.name().to_string());
+    bar.set_prefix(name.clone());
     let mut renderer = Renderer::new();
     let mut rows = Vec::new();
-    for frame in frames {
-        let s = frame_at_size(scene, frame, size);
+    for s in scenes {
+        let frame = s.frame;
         admit(&s)?;
         let result = renderer
-            .render(scene.name(), &s, settings)
+            .render(&name, &s, settings)
             .with_context(|| format!("frame {frame}"))?;
         let scales = write_frame(out, &result).with_context(|| format!("writing frame {frame}"))?;
         if bar.is_hidden() {

@@ -8,6 +8,13 @@ pub trait Animation: Send + Sync {
     fn name(&self) -> &str;
     fn frame_range(&self) -> RangeInclusive<i32>;
     fn frame(&self, frame: i32) -> Scene;
+
+    /// Frame `frame` from an animation no longer needed afterwards (the last frame a caller
+    /// asks for): one that holds a large static part moves it into the frame rather than
+    /// copying it, so it is not held twice.
+    fn into_frame(self: Box<Self>, frame: i32) -> Scene {
+        self.frame(frame)
+    }
 }
 
 /// A scene that does not move: every frame is the same snapshot.

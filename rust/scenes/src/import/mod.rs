@@ -221,4 +221,12 @@ impl Animation for StaticFile {
         scene.frame = frame;
         scene
     }
+
+    /// The snapshot itself, not a copy of its objects.
+    fn into_frame(self: Box<Self>, frame: i32) -> Scene {
+        Scene {
+            frame,
+            ..self.scene
+        }
+    }
 }
