@@ -106,3 +106,68 @@ fn at_size(mut scene: Scene, size: Option<ImageSize>) -> Scene {
     }
     scene
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::{Arc, Mutex};
+
+    use antumbra_scenes::{builtin, SceneParams};
+
+    use super::*;
+
+    /// A built-in scene that notes each frame asked of it, and whether it was taken.
+    struct Noting {
+        inner: Box<dyn Animation>,
+        asked: Arc<Mutex<Vec<(i32, bool)>>>,
+    }
+
+    impl Animation for Noting {
+        fn name(&self) -> &str {
+            self.inner.name()
+        }
+        fn frame_range(&self) -> RangeInclusive<i32> {
+            self.inner.frame_range()
+        }
+        fn frame(&self, frame: i32) -> Scene {
+            self.asked.lock().unwrap().push((frame, false));
+            self.inner.frame(frame)
+        }
+        fn into_frame(self: Box<Self>, frame: i32) -> Scene {
+            self.asked.lock().unwrap().push((frame, true));
+            self.inner.into_frame(frame)
+        }
+    }
+
+    fn frames_of(frames: RangeInclusive<i32>) -> (Vec<Scene>, Vec<(i32, bool)>) {
+        let params = SceneParams {
+            triangles: 1_000,
+            frames: 4,
+            ..SceneParams::default()
+        };
+        let asked = Arc::new(Mutex::new(Vec::new()));
+        let open = OpenScene {
+            animation: Box::new(Noting {
+                inner: builtin("hairball", &params).unwrap(),
+                asked: asked.clone(),
+            }),
+            frames,
+            size: Some(ImageSize::parse_image("100x50").unwrap()),
+        };
+        let scenes = open.into_frames().collect();
+        let asked = asked.lock().unwrap().clone();
+        (scenes, asked)
+    }
+
+    #[test]
+    fn each_frame_is_asked_once_and_the_last_is_taken() {
+        let (scenes, asked) = frames_of(2..=4);
+        assert_eq!(asked, [(2, false), (3, false), (4, true)]);
+        let numbers: Vec<i32> = scenes.iter().map(|s| s.frame).collect();
+        assert_eq!(numbers, [2, 3, 4]);
+        for s in &scenes {
+            let r = s.resolution;
+            assert_eq!((r.x, r.y, r.percentage), (100, 50, 100));
+        }
+        assert_eq!(frames_of(3..=3).1, [(3, true)]);
+    }
+}

@@ -182,6 +182,24 @@ mod tests {
     }
 
     #[test]
+    fn the_last_frame_takes_the_objects_others_copy_them() {
+        let mut stage = Stage::new();
+        let mesh = stage.add_mesh(Mesh::new("tree", Vec::new(), Vec::new()));
+        for i in 0..100 {
+            let xf = DMat4::from_translation(DVec3::new(i as f64, 0.0, 0.0));
+            stage.place(format!("tree.{i:03}"), mesh, xf);
+        }
+        let cam = camera(DVec3::ONE, DVec3::ZERO, 50.0, (0.1, 100.0));
+        let held = stage.objects.as_ptr();
+        let copied = stage.scene(3, cam.clone(), Vec::new());
+        assert_ne!(copied.objects.as_ptr(), held);
+        let taken = stage.into_scene(3, cam, Vec::new());
+        assert_eq!(taken.objects.as_ptr(), held, "the objects were copied");
+        assert_eq!(taken.objects, copied.objects);
+        assert!(Arc::ptr_eq(&taken.meshes[mesh], &copied.meshes[mesh]));
+    }
+
+    #[test]
     fn progress_spans_the_frames() {
         let c = Clock { frames: 5 };
         assert_eq!(c.progress(1), 0.0);

@@ -100,23 +100,43 @@ fn counts_are_the_same_in_every_frame() {
     }
 }
 
+/// `a` and `b` are the same frame: meshes of the same content, the same objects, camera,
+/// lights, resolution and alpha.
+fn assert_same_frame(name: &str, a: &Scene, b: &Scene) {
+    assert_eq!(a.frame, b.frame, "{name}");
+    assert_eq!(a.meshes.len(), b.meshes.len(), "{name}");
+    for (ma, mb) in a.meshes.iter().zip(&b.meshes) {
+        assert_eq!(ma.name, mb.name);
+        assert_eq!(
+            ma.content_hash(),
+            mb.content_hash(),
+            "{name}: mesh {}",
+            ma.name
+        );
+    }
+    assert_eq!(a.objects, b.objects, "{name}");
+    assert_eq!(a.camera, b.camera, "{name}");
+    assert_eq!(a.lights, b.lights, "{name}");
+    assert_eq!(a.resolution, b.resolution, "{name}");
+    assert_eq!(a.alpha, b.alpha, "{name}");
+}
+
 #[test]
 fn generation_is_deterministic() {
     for name in all_variants() {
         let (a, b) = (make(&name, 10_000).frame(2), make(&name, 10_000).frame(2));
-        assert_eq!(a.meshes.len(), b.meshes.len(), "{name}");
-        for (ma, mb) in a.meshes.iter().zip(&b.meshes) {
-            assert_eq!(ma.name, mb.name);
-            assert_eq!(
-                ma.content_hash(),
-                mb.content_hash(),
-                "{name}: mesh {}",
-                ma.name
-            );
+        assert_same_frame(&name, &a, &b);
+    }
+}
+
+#[test]
+fn a_frame_taken_from_the_scene_is_the_frame_asked_for() {
+    for name in all_variants() {
+        for frame in [1, 6] {
+            let anim = make(&name, 10_000);
+            let asked = anim.frame(frame);
+            assert_same_frame(&name, &asked, &anim.into_frame(frame));
         }
-        assert_eq!(a.objects, b.objects, "{name}");
-        assert_eq!(a.camera, b.camera, "{name}");
-        assert_eq!(a.lights, b.lights, "{name}");
     }
 }
 

@@ -70,6 +70,15 @@ fn obj_loads_as_a_static_scene() {
     assert!(forward.dot(to_centre.normalize()) > 0.95);
     let depth = forward.dot(to_centre);
     assert!(cam.clip_start < depth - 2.5 && cam.clip_end > depth + 2.5);
+    // The last frame is the snapshot itself, numbered as asked.
+    let last = anim.into_frame(5);
+    assert_eq!(last.frame, 5);
+    assert_eq!((last.objects, last.camera), (b.objects, b.camera));
+    assert!(last
+        .meshes
+        .iter()
+        .zip(&b.meshes)
+        .all(|(x, y)| Arc::ptr_eq(x, y)));
 }
 
 fn base64(bytes: &[u8]) -> String {
