@@ -122,3 +122,47 @@ fn the_default_is_geometric_and_ignores_normals() {
         masks(&scene(false, true), Facing::Geometric)
     );
 }
+
+#[test]
+fn each_object_reads_its_own_normal_matrix() {
+    // Strips side by side, every other one turned half round z (its normals then lean towards
+    // -X), under a sun low in the west and one low in the east: under the shading convention a
+    // strip is dark to the sun its normals lean away from, whichever strip came before.
+    let e = 10f64.to_radians();
+    let mut scene = scene(true, false);
+    scene.objects = (0..8)
+        .map(|i| {
+            let turn = if i % 2 == 1 {
+                std::f64::consts::PI
+            } else {
+                0.0
+            };
+            let at = DVec3::new(-7.0 + 2.0 * i as f64, 0.0, 0.0);
+            let xf = DMat4::from_translation(at)
+                * DMat4::from_rotation_z(turn)
+                * DMat4::from_scale(DVec3::new(1.0, 20.0, 1.0));
+            Object::new(format!("strip{i}"), 0, xf)
+        })
+        .collect();
+    scene.lights = vec![
+        sun("West", DVec3::new(-e.cos(), 0.0, e.sin())),
+        sun("East", DVec3::new(e.cos(), 0.0, e.sin())),
+    ];
+    let settings = RenderSettings {
+        facing: Facing::Shading,
+        ..RenderSettings::baseline()
+    };
+    let r = Renderer::new().render("facing", &scene, &settings).unwrap();
+    let mut seen = [0usize; 2];
+    for (pixel, hit) in r.primary_hits.iter().enumerate() {
+        if *hit == TriangleRef::MISS {
+            continue;
+        }
+        let turned = (hit.object % 2) as usize;
+        seen[turned] += 1;
+        let (west, east) = (r.masks[0].data[pixel], r.masks[1].data[pixel]);
+        let expect = if turned == 1 { (1.0, 0.0) } else { (0.0, 1.0) };
+        assert_eq!((west, east), expect, "pixel {pixel}, strip {}", hit.object);
+    }
+    assert!(seen[0] > 100 && seen[1] > 100, "{seen:?}");
+}

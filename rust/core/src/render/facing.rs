@@ -64,15 +64,19 @@ pub(crate) fn face_shading_normals(
     scene: &Scene,
     triangles: &HitGeometry,
 ) {
-    // Normal matrices, and whether the object mirrors (which turns the winding's normal).
-    let objects: Vec<(DMat3, bool)> = scene
-        .objects
-        .iter()
-        .map(|o| {
-            let linear = DMat3::from_mat4(o.world_from_object);
-            (linear.inverse().transpose(), linear.determinant() < 0.0)
-        })
-        .collect();
+    // The normal matrix of the last object hit, and whether it mirrors (which turns the
+    // winding's normal): neighbouring pixels mostly hit one object, and a table for every
+    // object would hold 80 bytes each (80 MB for a million instances).
+    let mut last: Option<(u32, DMat3, bool)> = None;
+    let mut normal_matrix = |object: u32| match last {
+        Some((o, m, mirrors)) if o == object => (m, mirrors),
+        _ => {
+            let linear = DMat3::from_mat4(scene.objects[object as usize].world_from_object);
+            let made = (linear.inverse().transpose(), linear.determinant() < 0.0);
+            last = Some((object, made.0, made.1));
+            made
+        }
+    };
     let width = primary.width as usize;
     for (pixel, surface) in primary.surfaces.iter_mut().enumerate() {
         let Some(s) = surface else { continue };
@@ -88,7 +92,7 @@ pub(crate) fn face_shading_normals(
             continue;
         };
         let local = corners[0] * hit.b0 + corners[1] * hit.b1 + corners[2] * hit.b2;
-        let (normal_matrix, mirrors) = objects[r.object as usize];
+        let (normal_matrix, mirrors) = normal_matrix(r.object);
         let shading = (normal_matrix * local.as_dvec3())
             .as_vec3()
             .normalize_or_zero();
