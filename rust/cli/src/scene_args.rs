@@ -93,11 +93,7 @@ impl Iterator for SceneFrames {
     }
 }
 
-/// Frame `frame` of `animation`, at `size` (100%) if given.
-pub fn frame_at_size(animation: &dyn Animation, frame: i32, size: Option<ImageSize>) -> Scene {
-    at_size(animation.frame(frame), size)
-}
-
+/// `scene` at `size` (100%) if given.
 fn at_size(mut scene: Scene, size: Option<ImageSize>) -> Scene {
     if let Some(size) = size {
         scene.resolution.x = size.width;

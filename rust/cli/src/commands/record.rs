@@ -9,7 +9,7 @@ use antumbra_protocol::RecordingWriter;
 use anyhow::{Context, Result};
 use clap::Args;
 
-use crate::scene_args::{frame_at_size, SceneArgs};
+use crate::scene_args::SceneArgs;
 
 #[derive(Args, Debug)]
 pub struct RecordArgs {
@@ -30,8 +30,9 @@ pub fn run(args: RecordArgs) -> Result<()> {
     let mut writer =
         RecordingWriter::new(file).with_context(|| format!("writing {}", args.out.display()))?;
     let mut count = 0;
-    for frame in open.frames.clone() {
-        let s = frame_at_size(open.animation.as_ref(), frame, open.size);
+    let name = open.animation.name().to_string();
+    for s in open.into_frames() {
+        let frame = s.frame;
         writer
             .append_scene(&s)
             .with_context(|| format!("frame {frame}"))?;
@@ -42,8 +43,7 @@ pub fn run(args: RecordArgs) -> Result<()> {
         .with_context(|| format!("writing {}", args.out.display()))?
         .commit()?;
     println!(
-        "recorded {count} frames of {} to {}",
-        open.animation.name(),
+        "recorded {count} frames of {name} to {}",
         args.out.display()
     );
     Ok(())

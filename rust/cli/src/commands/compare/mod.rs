@@ -14,7 +14,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::admission_args::{frame_count, frames_text, refused, AdmissionArgs};
 use crate::method_args::MethodArgs;
-use crate::scene_args::{frame_at_size, SceneArgs};
+use crate::scene_args::SceneArgs;
 
 #[derive(Args, Debug)]
 pub struct CompareArgs {
@@ -59,7 +59,8 @@ pub fn run(args: CompareArgs) -> Result<()> {
         args.repeat,
     )?;
     let open = args.scene.open()?;
-    let animation = open.animation.as_ref();
+    let name = open.animation.name().to_string();
+    let count = frame_count(&open.frames);
     let (what, limits) = (
         format!("compare of {}", frames_text(&open.frames)),
         args.admission.limits(),
@@ -70,29 +71,30 @@ pub fn run(args: CompareArgs) -> Result<()> {
         let asked = Asked {
             what: &what,
             scene,
-            frames: frame_count(&open.frames),
+            frames: count,
         };
         admit_compare(asked, comparison, true, &limits).map_err(refused)
     };
-    admit(
-        &frame_at_size(animation, *open.frames.start(), open.size),
-        &comparison,
-    )?;
+    // The first frame (built once, then compared) admits the run; the last takes the scene's
+    // objects (`OpenScene::into_frames`).
+    let mut scenes = open.into_frames().peekable();
+    if let Some(first) = scenes.peek() {
+        admit(first, &comparison)?;
+    }
     // Every frame is compared anew, so frames recorded there by an earlier run are dropped.
-    let mut folder =
-        ReportFolder::create(&args.out, ReportSetup::of(animation.name(), &comparison))?;
-    let bar = ProgressBar::new(frame_count(&open.frames));
+    let mut folder = ReportFolder::create(&args.out, ReportSetup::of(&name, &comparison))?;
+    let bar = ProgressBar::new(count);
     bar.set_style(
         ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {msg}")
             .expect("static template")
             .progress_chars("=> "),
     );
-    bar.set_prefix(format!("compare {}", animation.name()));
-    for frame in open.frames.clone() {
-        let scene = frame_at_size(animation, frame, open.size);
+    bar.set_prefix(format!("compare {name}"));
+    for scene in scenes {
+        let frame = scene.frame;
         admit(&scene, &comparison)?;
         let result = comparison
-            .frame(animation.name(), &scene)
+            .frame(&name, &scene)
             .with_context(|| format!("frame {frame}"))?;
         folder.add(ComparedFrame::of(&comparison, result))?;
         bar.set_message(format!("frame {frame}"));

@@ -15,7 +15,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::admission_args::{frame_count, frames_text, refused, AdmissionArgs};
 use crate::method_args::MethodArgs;
-use crate::scene_args::{frame_at_size, SceneArgs};
+use crate::scene_args::SceneArgs;
 
 #[derive(Args, Debug)]
 pub struct TradeArgs {
@@ -50,8 +50,8 @@ pub fn run(args: TradeArgs) -> Result<()> {
     // Every value checked before the first frame is rendered.
     let mut trade = Trade::new(&choices, common, args.repeat)?;
     let open = args.scene.open()?;
-    let animation = open.animation.as_ref();
-    let name = animation.name();
+    let name = open.animation.name().to_string();
+    let count = frame_count(&open.frames);
     let (what, limits) = (
         format!("trade of {}", frames_text(&open.frames)),
         args.admission.limits(),
@@ -62,15 +62,17 @@ pub fn run(args: TradeArgs) -> Result<()> {
         let asked = Asked {
             what: &what,
             scene,
-            frames: frame_count(&open.frames),
+            frames: count,
         };
         admit_trade(asked, trade, &limits).map_err(refused)
     };
-    admit(
-        &frame_at_size(animation, *open.frames.start(), open.size),
-        &trade,
-    )?;
-    let bar = ProgressBar::new(frame_count(&open.frames));
+    // The first frame (built once, then traded) admits the run; the last takes the scene's
+    // objects (`OpenScene::into_frames`).
+    let mut scenes = open.into_frames().peekable();
+    if let Some(first) = scenes.peek() {
+        admit(first, &trade)?;
+    }
+    let bar = ProgressBar::new(count);
     bar.set_style(
         ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames {msg}")
             .expect("static template")
@@ -81,11 +83,11 @@ pub fn run(args: TradeArgs) -> Result<()> {
     // Frame by frame, every knob on each (as a daemon session runs a Trade), so that one
     // frame's scene and reference are held at a time.
     let mut records = Vec::new();
-    for frame in open.frames.clone() {
-        let scene = frame_at_size(animation, frame, open.size);
+    for scene in scenes {
+        let frame = scene.frame;
         admit(&scene, &trade)?;
         let done = trade
-            .frame(name, &scene, &cancel, &mut |_| {})
+            .frame(&name, &scene, &cancel, &mut |_| {})
             .with_context(|| format!("frame {frame}"))?;
         records.push(done);
         bar.set_message(format!("frame {frame}"));
@@ -93,7 +95,7 @@ pub fn run(args: TradeArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     let knobs = knob_texts(&args.knobs)?;
-    let mut folder = TradeFolder::create(&args.out, TradeSetup::new(name, &knobs, args.repeat)?)?;
+    let mut folder = TradeFolder::create(&args.out, TradeSetup::new(&name, &knobs, args.repeat)?)?;
     for done in records {
         folder.add(TradeRecord {
             frame: done.frame,
