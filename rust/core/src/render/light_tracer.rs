@@ -104,8 +104,7 @@ impl<'a> LightTracing<'a> {
         if let ShadowOrder::Srdh(s) = order {
             let start = Instant::now();
             let rays = srdh_rays(light.primary, light.sampler, light.plan, s.rays);
-            let made = trees.srdh_for_light(light.objects, rays, s, light.sah);
-            let route = match made.tree {
+            let route = match trees.srdh_for_light(light.objects, rays, s, light.sah) {
                 Some(t) => Route::TwoLevelSrdh(trees, t),
                 None => Route::TwoLevel(trees, ShadowOrder::Fbto),
             };

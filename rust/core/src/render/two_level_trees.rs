@@ -419,25 +419,19 @@ impl TwoLevelTrees {
     }
 
     /// One light's SRDH tree over the shadow top level's instances ([`SrdhTop`]) from the hit
-    /// lists of its representative `rays` through both levels (each mesh tree front to back),
-    /// built when at least `settings.min_occluded` of them are occluded.
+    /// lists of its representative `rays` through both levels (each mesh tree front to back);
+    /// `None` when fewer than `settings.min_occluded` of them are occluded.
     pub fn srdh_for_light(
         &self,
         objects: &[Object],
         rays: Vec<Ray>,
         settings: &SrdhSettings,
         sah: &BuildSettings,
-    ) -> LightSrdhTop {
+    ) -> Option<SrdhTop> {
         let query = self.shadow_query(&ShadowOrder::Fbto, RayMode::Single);
         let set = query.levels().instance_ray_set(rays);
-        let occluded_fraction = set.occluded_fraction();
-        let tree = (!set.is_empty() && occluded_fraction >= settings.min_occluded as f64)
-            .then(|| SrdhTop::build(self.shadow_instance_boxes(objects), &set, settings, sah));
-        LightSrdhTop {
-            tree,
-            rays: set.len(),
-            occluded_fraction,
-        }
+        (!set.is_empty() && set.occluded_fraction() >= settings.min_occluded as f64)
+            .then(|| SrdhTop::build(self.shadow_instance_boxes(objects), &set, settings, sah))
     }
 
     /// What a light's shadow rays trace with its SRDH tree over the instances: the tree's
@@ -534,8 +528,7 @@ impl TwoLevelTrees {
         let mut c = self.columns(top);
         if let Some(own) = own {
             c.nodes = c.nodes - top.bvh.nodes.len() as u64 + own.bvh.nodes.len() as u64;
-            c.bytes = c.bytes - top.bytes() as u64
-                + (own.bytes() + top.instances.len() * size_of::<Instance>()) as u64;
+            c.bytes = c.bytes - top.bvh.bytes() as u64 + own.bytes() as u64;
         }
         c
     }
@@ -544,14 +537,6 @@ impl TwoLevelTrees {
     pub fn mesh_build_ms(&self) -> f64 {
         self.meshes.iter().map(|m| m.build_ms).sum()
     }
-}
-
-/// One light's SRDH preparation on two levels.
-pub struct LightSrdhTop {
-    /// `None`: too few occluded representative rays; the light traces the top level.
-    pub tree: Option<SrdhTop>,
-    pub rays: usize,
-    pub occluded_fraction: f64,
 }
 
 /// What the top levels are made of.

@@ -25,8 +25,8 @@ pub struct SrdhTop {
 }
 
 impl SrdhTop {
-    /// The tree over `boxes` (`boxes[i]` bounds instance `i` of `levels`' top level in render
-    /// space) for `set`, whose hit lists name instances ([`TwoLevel::occluding_instances`]).
+    /// The tree over `boxes` (`boxes[i]` bounds instance `i` of the top level in render space)
+    /// for `set`, whose hit lists name instances ([`TwoLevel::occluding_instances`]).
     /// Its SAH subtrees (where no representative ray reaches) weigh an instance as the top
     /// level's build does.
     pub fn build(
@@ -39,19 +39,12 @@ impl SrdhTop {
             tree: build_srdh_over_boxes(boxes, set, settings, &super::top_level::top_settings(sah)),
         }
     }
-
-    pub fn bytes(&self) -> usize {
-        self.tree.bytes()
-    }
-
-    pub fn nodes(&self) -> usize {
-        self.tree.bvh.nodes.len()
-    }
 }
 
 impl<Q: RayQuery + Sync> TwoLevel<'_, Q> {
     /// The ray's hit list over instances: the index (in the top level's instances) of every
-    /// instance whose mesh tree the ray hits in (t_min, t_max], ascending.
+    /// instance whose mesh tree the ray hits in (t_min, t_max], in the walk's order
+    /// ([`RaySet::from_lists`] sorts them).
     pub fn occluding_instances(&self, ray: &Ray, out: &mut Vec<u32>) {
         let base = self.top.instances.as_ptr() as usize;
         self.walk(ray, &mut NoStats, |instance, mesh, t_max, stats| {
@@ -61,7 +54,6 @@ impl<Q: RayQuery + Sync> TwoLevel<'_, Q> {
             }
             Some(t_max)
         });
-        out.sort_unstable();
     }
 
     /// The hit lists of `rays` over instances, in parallel: the ray set an [`SrdhTop`] is
