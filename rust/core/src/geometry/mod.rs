@@ -7,7 +7,7 @@ mod ray;
 mod triangle;
 
 pub use aabb::Aabb;
-pub use offset::offset_ray_origin;
+pub use offset::{offset_coordinate, offset_ray_origin};
 pub use ray::{Ray, RayBoxPrecomp};
 pub use triangle::{intersect_triangle, triangle_normal, TriangleHit, WatertightRay};
 

@@ -16,17 +16,30 @@ const INT_SCALE: f32 = 256.0;
 /// Offsets `p` along `n` (a unit normal pointing to the side the new ray leaves on).
 #[inline]
 pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    let one = |p: f32, n: f32| -> f32 {
-        if p.abs() < ORIGIN {
-            p + FLOAT_SCALE * n
-        } else {
-            let of_i = (INT_SCALE * n) as i32;
-            let bits = p.to_bits() as i32;
-            let moved = if p < 0.0 { bits - of_i } else { bits + of_i };
-            f32::from_bits(moved as u32)
-        }
+    Vec3::new(
+        offset_coordinate(p.x, n.x),
+        offset_coordinate(p.y, n.y),
+        offset_coordinate(p.z, n.z),
+    )
+}
+
+/// One coordinate of [`offset_ray_origin`]: written with selects, so a loop over many points
+/// vectorises (render/sample_lanes.rs).
+#[inline(always)]
+pub fn offset_coordinate(p: f32, n: f32) -> f32 {
+    let near = p + FLOAT_SCALE * n;
+    let of_i = (INT_SCALE * n) as i32;
+    let bits = p.to_bits() as i32;
+    let moved = if p < 0.0 {
+        bits.wrapping_sub(of_i)
+    } else {
+        bits.wrapping_add(of_i)
     };
-    Vec3::new(one(p.x, n.x), one(p.y, n.y), one(p.z, n.z))
+    if p.abs() < ORIGIN {
+        near
+    } else {
+        f32::from_bits(moved as u32)
+    }
 }
 
 #[cfg(test)]

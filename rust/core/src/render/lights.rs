@@ -129,14 +129,69 @@ impl LightSampler {
     #[inline]
     pub fn seen_from(&self, p: Vec3) -> LightFrom<'_> {
         let disk = match &self.kind {
-            // A sphere light seen from p is a disk facing p (as Blender samples it).
-            Prepared::Sphere { center, radius, .. } if *radius != 0.0 => {
-                (p - *center).normalize_or(Vec3::Z).any_orthonormal_pair()
-            }
+            Prepared::Sphere { center, radius, .. } if *radius != 0.0 => disk_axes(p, *center),
             _ => (Vec3::ZERO, Vec3::ZERO),
         };
         LightFrom { light: self, disk }
     }
+}
+
+/// What a light's samples are made of, for the tile's lanes ([`super::sample_lanes`]): the
+/// same arithmetic as [`LightFrom::sample`], read apart.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum LightLanes {
+    /// Every sample is this one (a sphere of radius 0, a sun of angle 0).
+    Fixed(LightSample),
+    /// A sphere: a disk facing each point ([`disk_axes`]), scaled by `radius`.
+    Sphere { center: Vec3, radius: f32 },
+    /// A sun: the disk of directions around `to_sun`, normalised.
+    Sun {
+        to_sun: Vec3,
+        tan_half_angle: f32,
+        t1: Vec3,
+        t2: Vec3,
+    },
+    /// An area light: sampled one at a time ([`LightFrom::sample`]).
+    Area,
+}
+
+impl LightSampler {
+    /// How this light's samples are made ([`LightLanes`]).
+    pub(super) fn lanes(&self) -> LightLanes {
+        match &self.kind {
+            Prepared::Sphere { center, radius, .. } if *radius == 0.0 => {
+                LightLanes::Fixed(LightSample::Point(*center))
+            }
+            Prepared::Sphere { center, radius, .. } => LightLanes::Sphere {
+                center: *center,
+                radius: *radius,
+            },
+            Prepared::Sun {
+                to_sun,
+                tan_half_angle,
+                ..
+            } if *tan_half_angle == 0.0 => LightLanes::Fixed(LightSample::Direction(*to_sun)),
+            Prepared::Sun {
+                to_sun,
+                tan_half_angle,
+                t1,
+                t2,
+            } => LightLanes::Sun {
+                to_sun: *to_sun,
+                tan_half_angle: *tan_half_angle,
+                t1: *t1,
+                t2: *t2,
+            },
+            Prepared::Area { .. } => LightLanes::Area,
+        }
+    }
+}
+
+/// The axes of a sphere light's disk seen from `p` (a sphere seen from a point is a disk facing
+/// it, as Blender samples it).
+#[inline(always)]
+pub(super) fn disk_axes(p: Vec3, center: Vec3) -> (Vec3, Vec3) {
+    (p - center).normalize_or(Vec3::Z).any_orthonormal_pair()
 }
 
 /// A light as seen from one shading point ([`LightSampler::seen_from`]).

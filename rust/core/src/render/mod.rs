@@ -18,6 +18,7 @@ mod policy;
 pub use policy::pass_rays;
 mod primary;
 mod renderer;
+mod sample_lanes;
 mod scene_trees;
 mod settings;
 mod shadow;

@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use super::lights::LightFrom;
 use super::primary::HeatWork;
+use super::sample_lanes::SampleLanes;
 use super::tiles::{band_pixels, band_tiles, tiles, Tile, TILE_SIDE};
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
 use crate::cancel::CancelToken;
@@ -163,9 +164,9 @@ impl ShadowPass {
     /// values (one monomorphised copy per pass, so the opaque pass is today's code); each
     /// traced pixel's work goes into its element of `work` (one per pixel) through `sink`.
     /// `totals` and `alpha_lookups` sum the traced pixels' work; `work` is left empty.
-    fn trace_tiles<'l, C: Counters, W: Send, F>(
+    fn trace_tiles<C: Counters, W: Send, F>(
         primary: &PrimaryPass,
-        light: &'l LightSampler,
+        light: &LightSampler,
         plan: SamplePlan,
         cancel: &CancelToken,
         work: &mut [W],
@@ -173,7 +174,7 @@ impl ShadowPass {
         step: F,
     ) -> Result<Self>
     where
-        F: Fn(&mut TileRays<'l, C>, &mut [f32]) -> ShadowRayOutcome + Sync,
+        F: Fn(&mut TileRays<C>, &mut [f32]) -> ShadowRayOutcome + Sync,
     {
         assert_eq!(
             work.len(),
@@ -209,7 +210,7 @@ impl ShadowPass {
                         outcome += step(buffers, mask);
                         if C::COUNTING {
                             buffers.pixel_work();
-                            for ((i, _), w) in buffers.points.iter().zip(&buffers.work) {
+                            for (i, w) in buffers.points.iter().zip(&buffers.work) {
                                 lookups += w.lookups();
                                 totals += (*w).into();
                                 sink(&mut work[*i as usize], *w);
@@ -255,9 +256,9 @@ fn add<C: Counters>(w: &mut HeatWork, c: C) {
 }
 
 /// The opaque passes' step: any hit per ray on `tracer`, then the tile's mask values.
-fn occluded_step<'l, C: Counters>(
+fn occluded_step<C: Counters>(
     tracer: &impl RayQuery,
-) -> impl Fn(&mut TileRays<'l, C>, &mut [f32]) -> ShadowRayOutcome + Sync + '_ {
+) -> impl Fn(&mut TileRays<C>, &mut [f32]) -> ShadowRayOutcome + Sync + '_ {
     move |buffers, mask| {
         tracer.occluded_batch(&buffers.rays, &mut buffers.occluded, &mut buffers.counters);
         buffers.write(mask)
@@ -266,11 +267,11 @@ fn occluded_step<'l, C: Counters>(
 
 /// The alpha passes' step: each ray's transmission through `alpha`, then the tile's mask
 /// values.
-fn transmitted_step<'a, 'l, C: Counters>(
+fn transmitted_step<'a, C: Counters>(
     tracer: &'a impl AlphaQuery,
     alpha: &'a (impl AlphaScenes + ?Sized),
     max_hits: u32,
-) -> impl Fn(&mut TileRays<'l, C>, &mut [f32]) -> ShadowRayOutcome + Sync + 'a {
+) -> impl Fn(&mut TileRays<C>, &mut [f32]) -> ShadowRayOutcome + Sync + 'a {
     move |buffers, mask| {
         let n = buffers.rays.len();
         buffers.transmitted.clear();
@@ -294,9 +295,9 @@ struct Band<'a> {
     width: u32,
 }
 
-/// One thread's buffers for a tile's shadow rays to light `'l`, reused from tile to tile.
+/// One thread's buffers for a tile's shadow rays, reused from tile to tile.
 #[derive(Default)]
-struct TileRays<'l, C> {
+struct TileRays<C> {
     rays: Vec<Ray>,
     occluded: Vec<bool>,
     /// Per ray, its transmission (the alpha pass's answers).
@@ -304,12 +305,10 @@ struct TileRays<'l, C> {
     counters: Vec<C>,
     /// Per ray, its pixel in `points`.
     owners: Vec<u32>,
-    /// The tile's pixels the light reaches: their index in the band and their rays' maker.
-    points: Vec<(u32, PointRays<'l>)>,
-    /// The samples of `points`, `plan.samples` per pixel.
-    samples: Vec<[f32; 2]>,
-    /// One sample of each of `points` on the light.
-    targets: Vec<LightSample>,
+    /// The tile's pixels the light reaches: their index in the band.
+    points: Vec<u32>,
+    /// The shading points of `points` and their samples, made lane by lane.
+    lanes: SampleLanes,
     /// Pixels whose value needs no ray: no surface (lit) or out of the light's reach (dark).
     settled: Vec<(u32, f32)>,
     /// Per pixel of `points`: its rays not occluded.
@@ -322,21 +321,21 @@ struct TileRays<'l, C> {
     spp: u32,
 }
 
-impl<'l, C: Counters> TileRays<'l, C> {
+impl<C: Counters> TileRays<C> {
     /// The tile's rays in `rays`, sample by sample and, within a sample, in the tile's pixel
-    /// order (so consecutive rays are neighbours, as packets want); the answer buffers sized.
-    /// Returns the samples that need no ray.
+    /// order (so consecutive rays are neighbours, as packets want), made lane by lane
+    /// ([`SampleLanes`]); the answer buffers sized. Returns the samples that need no ray.
     fn gather(
         &mut self,
         band: &Band,
         tile: Tile,
-        light: &'l LightSampler,
+        light: &LightSampler,
         plan: SamplePlan,
     ) -> ShadowRayOutcome {
         let mut outcome = ShadowRayOutcome::default();
         self.spp = plan.samples;
         self.points.clear();
-        self.samples.clear();
+        self.lanes.clear();
         self.settled.clear();
         for i in tile.band_indices(band.width) {
             let Some(s) = &band.surfaces[i] else {
@@ -348,31 +347,12 @@ impl<'l, C: Counters> TileRays<'l, C> {
                 self.settled.push((i as u32, 0.0));
                 continue;
             }
-            self.points.push((i as u32, PointRays::new(s, light)));
-            plan.extend_samples(band.first_pixel + i, &mut self.samples);
+            self.points.push(i as u32);
+            self.lanes.push(s, band.first_pixel + i);
         }
-        self.rays.clear();
-        self.owners.clear();
-        let spp = plan.samples as usize;
-        self.rays.reserve(spp * self.points.len());
-        self.owners.reserve(spp * self.points.len());
-        for sample in 0..spp {
-            // Light samples first, then rays: two short loops whose iterations are independent
-            // overlap in the core, where one long chain per ray would wait on each division.
-            self.targets.clear();
-            let pixels = self.points.iter().zip(self.samples.chunks_exact(spp));
-            self.targets
-                .extend(pixels.map(|((_, point), u)| point.light.sample(u[sample])));
-            for (k, ((_, point), target)) in self.points.iter().zip(&self.targets).enumerate() {
-                match point.ray_to(*target) {
-                    Some(r) => {
-                        self.rays.push(r);
-                        self.owners.push(k as u32);
-                    }
-                    None => outcome.back_facing += 1,
-                }
-            }
-        }
+        outcome.back_facing += self
+            .lanes
+            .make_rays(light, plan, &mut self.rays, &mut self.owners);
         let n = self.rays.len();
         self.occluded.clear();
         self.occluded.resize(n, false);
@@ -402,7 +382,7 @@ impl<'l, C: Counters> TileRays<'l, C> {
             occluded += u64::from(o);
         }
         let samples = self.spp as f32;
-        for ((i, _), &lit) in self.points.iter().zip(&self.lit) {
+        for (i, &lit) in self.points.iter().zip(&self.lit) {
             mask[*i as usize] = lit as f32 / samples;
         }
         for &(i, value) in &self.settled {
@@ -416,7 +396,7 @@ impl<'l, C: Counters> TileRays<'l, C> {
     }
 }
 
-impl<C: Counters> TileRays<'_, C> {
+impl<C: Counters> TileRays<C> {
     /// [`TileRays::write`] for transmissions: a pixel's value is the sum of its rays'
     /// transmissions in sample order over the samples; a ray counts as occluded when it lets
     /// less than all light through.
@@ -431,7 +411,7 @@ impl<C: Counters> TileRays<'_, C> {
             occluded += u64::from(t < 1.0);
         }
         let samples = self.spp as f32;
-        for ((i, _), &sum) in self.points.iter().zip(&sums) {
+        for (i, &sum) in self.points.iter().zip(&sums) {
             mask[*i as usize] = sum / samples;
         }
         for &(i, value) in &self.settled {
@@ -462,20 +442,14 @@ pub struct PointRays<'l> {
 impl<'l> PointRays<'l> {
     #[inline]
     pub fn new(surface: &SurfacePoint, light: &'l LightSampler) -> Self {
-        let (p, n) = (surface.position, surface.normal);
+        let (front, back) = ray_origins(surface.position, surface.normal, surface.facing);
         PointRays {
-            light: light.seen_from(p),
-            position: p,
-            normal: n,
+            light: light.seen_from(surface.position),
+            position: surface.position,
+            normal: surface.normal,
             facing: surface.facing,
-            front: offset_ray_origin(p, n),
-            // Only a shading normal lets a ray leave behind the plane: with the geometric one
-            // (facing == normal) the back origin is never taken.
-            back: if surface.facing == n {
-                p
-            } else {
-                offset_ray_origin(p, -n)
-            },
+            front,
+            back,
         }
     }
 
@@ -509,6 +483,21 @@ impl<'l> PointRays<'l> {
             LightSample::Direction(w) => Ray::new(origin, w, 0.0, f32::INFINITY),
         })
     }
+}
+
+/// A surface point's shadow ray origins, offset off its plane on the normal's side and on the
+/// other (`p`, its geometric normal `n`, its facing normal `facing`).
+#[inline(always)]
+pub(super) fn ray_origins(
+    p: glam::Vec3,
+    n: glam::Vec3,
+    facing: glam::Vec3,
+) -> (glam::Vec3, glam::Vec3) {
+    // Only a shading normal lets a ray leave behind the plane: with the geometric one
+    // (facing == normal) the back origin is never taken.
+    let behind = offset_ray_origin(p, -n);
+    let back = if facing == n { p } else { behind };
+    (offset_ray_origin(p, n), back)
 }
 
 /// How a pixel's shadow samples for one light are drawn: the same for every traversal, so
