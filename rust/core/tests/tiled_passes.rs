@@ -74,11 +74,14 @@ fn tiled_passes_equal_a_pixel_by_pixel_reference() {
             ShadowPass::trace::<TraversalStats>(&primary, &shadow_bvh, &sampler, plan, &never)
                 .unwrap();
         let mut scratch = Vec::new();
+        // Every ray one pixel after another, each pixel's in sample order.
+        let mut in_pixel_order = Vec::new();
         for (pixel, s) in primary.surfaces.iter().enumerate() {
             let (mut lit, mut work) = (0, TraversalStats::default());
             let reached = s.as_ref().is_none_or(|s| {
                 plan.for_each_ray(s, pixel, &sampler, &mut scratch, |r| {
                     if let Some(r) = r {
+                        in_pixel_order.push(format!("{r:?}"));
                         lit += u32::from(!brute_occluded(&shadow_set.vertices, &r));
                         shadow_bvh.occluded(&r, &mut work);
                     }
@@ -107,6 +110,9 @@ fn tiled_passes_equal_a_pixel_by_pixel_reference() {
             .iter()
             .map(|r| format!("{r:?}"))
             .collect();
+        // The scan for representative rays makes them a tile at a time, yet hands them over
+        // in pixel order, the rays of one point by one.
+        assert_eq!(all, in_pixel_order, "{}", light.name);
         batched.sort();
         all.sort();
         assert_eq!(batched, all, "{}", light.name);

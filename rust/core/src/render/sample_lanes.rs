@@ -153,6 +153,11 @@ impl SampleLanes {
         self.len
     }
 
+    /// True when no more points fit (a tile's pixels).
+    pub(super) fn is_full(&self) -> bool {
+        self.len == POINTS
+    }
+
     /// Lanes the loops work on: the points rounded up to whole packs.
     fn width(&self) -> usize {
         self.len.next_multiple_of(LANES)

@@ -15,6 +15,7 @@ use crate::image::ImagePlane;
 use crate::sampling::{extend_stratified_2d, hash_combine, hash_u32};
 use crate::trace::{AlphaQuery, AlphaScenes, Counters, NoStats, RayQuery, TraversalStats};
 use crate::Result;
+use glam::Vec3;
 
 /// What happened to the shadow samples of one light, counted over a frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -595,8 +596,9 @@ pub fn representative_rays(
 /// Pixels scanned per parallel task when collecting rays in pixel order.
 const SCAN_CHUNK: usize = 4096;
 
-/// The shadow rays of the pixels with a surface that `keep` accepts, in pixel order, the
-/// pixels scanned in parallel.
+/// The shadow rays of the pixels with a surface that `keep` accepts, in pixel order (a
+/// pixel's rays in sample order, as [`SamplePlan::for_each_ray`] gives them), the pixels
+/// scanned in parallel and their rays made a tile's worth at a time ([`SampleLanes`]).
 fn rays_of_pixels(
     primary: &PrimaryPass,
     light: &LightSampler,
@@ -607,16 +609,63 @@ fn rays_of_pixels(
         .surfaces
         .par_chunks(SCAN_CHUNK)
         .enumerate()
-        .map_init(Vec::new, |scratch, (c, surfaces)| {
+        .map_init(PixelRays::default, |buffers, (c, surfaces)| {
             let mut rays = Vec::new();
+            buffers.lanes.clear();
             for (j, s) in surfaces.iter().enumerate() {
                 let pixel = c * SCAN_CHUNK + j;
-                if let Some(s) = s.as_ref().filter(|_| keep(pixel)) {
-                    plan.for_each_ray(s, pixel, light, scratch, |r| rays.extend(r));
+                if let Some(s) = s
+                    .as_ref()
+                    .filter(|s| keep(pixel) && light.reaches(s.position))
+                {
+                    buffers.lanes.push(s, pixel);
+                    if buffers.lanes.is_full() {
+                        buffers.append(light, plan, &mut rays);
+                    }
                 }
             }
+            buffers.append(light, plan, &mut rays);
             rays
         })
         .collect();
     chunks.concat()
+}
+
+/// One thread's buffers for [`rays_of_pixels`].
+#[derive(Default)]
+struct PixelRays {
+    lanes: SampleLanes,
+    made: Vec<Ray>,
+    owners: Vec<u32>,
+}
+
+impl PixelRays {
+    /// The held points' rays appended to `rays` point by point (each point's in sample
+    /// order: a stable counting sort of the lanes' sample-major rays by point); the points
+    /// cleared.
+    fn append(&mut self, light: &LightSampler, plan: SamplePlan, rays: &mut Vec<Ray>) {
+        let points = self.lanes.len();
+        if points == 0 {
+            return;
+        }
+        self.lanes
+            .make_rays(light, plan, &mut self.made, &mut self.owners);
+        let mut next = vec![0usize; points + 1];
+        for &k in &self.owners {
+            next[k as usize + 1] += 1;
+        }
+        for k in 0..points {
+            next[k + 1] += next[k];
+        }
+        let start = rays.len();
+        rays.resize(
+            start + self.made.len(),
+            Ray::new(Vec3::ZERO, Vec3::ZERO, 0.0, 0.0),
+        );
+        for (ray, &k) in self.made.iter().zip(&self.owners) {
+            rays[start + next[k as usize]] = *ray;
+            next[k as usize] += 1;
+        }
+        self.lanes.clear();
+    }
 }
