@@ -331,28 +331,24 @@ impl TwoLevelTrees {
         )
     }
 
-    /// Nodes of the mesh trees' wide collapses, if every mesh tree has one: what a light's
-    /// sorting reads (`auto`'s estimate of its preparation).
+    /// Nodes of the mesh trees' wide collapses and of the shadow top level, if every mesh
+    /// tree has a collapse: what a light's sorting reads (`auto`'s estimate of its preparation).
     pub fn wide_nodes(&self) -> Option<u64> {
-        (self.meshes.iter())
+        let meshes: Option<u64> = (self.meshes.iter())
             .map(|m| m.wide.as_ref().map(|w| w.node_count() as u64))
-            .sum()
+            .sum();
+        Some(meshes? + self.shadow_top().bvh.nodes.len() as u64)
     }
 
-    /// Makes the sorting tables whose SATO `auto`'s SATO traces, in every mesh tree without a
-    /// fixed per-tree SATO; whether any were made now.
+    /// Makes the sorting tables whose SATO `auto`'s SATO traces, in every mesh tree and the
+    /// shadow top level without a fixed per-tree SATO; whether any were made now.
     pub fn prepare_sato(&self) -> bool {
-        let fixed = |per_tree: Option<ShadowOrder>| per_tree == Some(ShadowOrder::Sato);
         let meshes = (self.meshes.par_iter())
-            .filter(|m| !fixed(m.settings.per_tree))
+            .filter(|m| m.settings.per_tree != Some(ShadowOrder::Sato))
             .map(|m| m.sort_tables.get().is_none() && m.sortable().is_some())
             .reduce(|| false, |a, b| a | b);
         // The top level's SATO too, from its sorting tables.
-        let top = !self.shadow_orders.tables_ready()
-            && !fixed(self.meshes.first().and_then(|m| m.settings.per_tree));
-        if top {
-            self.shadow_orders.tables(self.shadow_top());
-        }
+        let top = self.shadow_orders.prepare_sato(self.shadow_top());
         meshes | top
     }
 

@@ -93,6 +93,17 @@ impl TopOrders {
             .get_or_init(|| SortTables::over_items(&top.bvh, top.len(), INSTANCE_COST as f64))
     }
 
+    /// Makes the sorting tables whose SATO `auto`'s SATO walks, unless a fixed SATO is
+    /// prepared; whether they were made now.
+    pub fn prepare_sato(&self, top: &TopLevel) -> bool {
+        let fixed = matches!(self.per_tree, Some((ShadowOrder::Sato, _)));
+        let make = !fixed && !self.tables_ready();
+        if make {
+            self.tables(top);
+        }
+        make
+    }
+
     /// Whether the sorting tables (and so `auto`'s SATO) are made.
     pub fn tables_ready(&self) -> bool {
         self.tables.get().is_some()
@@ -108,13 +119,5 @@ impl TopOrders {
         settings: &SortSettings,
     ) -> LightOrder {
         sort_from_stoppers(&top.bvh, self.tables(top), stoppers, settings)
-    }
-
-    /// Bytes held: the permutations and the tables.
-    pub fn bytes(&self) -> usize {
-        self.per_tree
-            .as_ref()
-            .map_or(0, |(_, p)| p.len() * std::mem::size_of::<Permutation>())
-            + self.tables.get().map_or(0, |t| t.bytes())
     }
 }

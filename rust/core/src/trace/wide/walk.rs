@@ -238,20 +238,39 @@ fn ordered_walk<const N: usize, K: ChildBoxTest<N>, O, C, L, const OCT: usize>(
             }
             let mask = K::test(&wray, node, t_min, reach, &mut t_near);
             if mask != 0 {
+                let r = |s: usize| ChildRef {
+                    child: node.child[s],
+                    count: node.count[s] as u32,
+                };
+                let a = mask.trailing_zeros() as usize;
+                let rest = mask & (mask - 1);
+                // One child hit (the commonest step): every order enters it, the order unread.
+                if rest == 0 {
+                    current = r(a);
+                    continue;
+                }
                 let children = WideChildren {
                     t_near: &t_near,
                     node,
                 };
+                // Two children: one comparison instead of the general ordering loop.
+                if rest & (rest - 1) == 0 {
+                    let b = rest.trailing_zeros() as usize;
+                    let (first, second) = if order.second_first(index, a, b, &oray, &children) {
+                        (b, a)
+                    } else {
+                        (a, b)
+                    };
+                    stack.push(r(second));
+                    current = r(first);
+                    continue;
+                }
                 let mut visit = [0u8; N];
                 let hits = order.ordered_hits(index, mask, &oray, &children, &mut visit);
-                let r = |s: u8| ChildRef {
-                    child: node.child[s as usize],
-                    count: node.count[s as usize] as u32,
-                };
                 for &s in visit[1..hits].iter().rev() {
-                    stack.push(r(s));
+                    stack.push(r(s as usize));
                 }
-                current = r(visit[0]);
+                current = r(visit[0] as usize);
                 continue;
             }
         }
