@@ -318,6 +318,76 @@ fn packets_through_instances_give_the_single_rays_frames_bit_for_bit() {
     }
 }
 
+/// `scene(count)` with each mesh a single triangle: a mesh tree is one leaf, so any work an
+/// order changes on two levels is the top level's.
+fn one_triangle_meshes(count: u32) -> Scene {
+    let mut s = scene(count);
+    let triangle = |i: usize| {
+        let corners = vec![
+            Vec3::new(-1.5, -1.0, 0.0),
+            Vec3::new(1.5, -1.0, 0.2),
+            Vec3::new(0.0, 1.5, -0.2),
+        ];
+        Arc::new(Mesh::new(format!("triangle{i}"), corners, vec![[0, 1, 2]]))
+    };
+    s.meshes = (0..s.meshes.len()).map(triangle).collect();
+    s
+}
+
+#[test]
+fn shadow_rays_walk_the_top_level_in_their_order() {
+    let scene = one_triangle_meshes(400);
+    let shadow = |r: &FrameResult| -> Vec<(f64, f64)> {
+        (r.stats.iter().filter(|row| row.pass == "shadow"))
+            .map(|row| (row.nb_per_ray, row.nl_per_ray))
+            .collect()
+    };
+    for rays in [RayMode::Single, RayMode::Packet] {
+        for width in [BvhWidth::Four, BvhWidth::Eight] {
+            let counted = |order: ShadowOrder| {
+                let mut s = settings(SceneStructure::TwoLevel, width, order);
+                s.rays = Pick::Fixed(rays);
+                s.stats = antumbra_core::render::StatsMode::Counts;
+                render(&scene, &s)
+            };
+            let fbto = counted(ShadowOrder::Fbto);
+            let shadowed: usize = (fbto.masks.iter())
+                .map(|m| m.data.iter().filter(|v| **v < 1.0).count())
+                .sum();
+            assert!(
+                shadowed > 500,
+                "the triangles must cast shadows: {shadowed}"
+            );
+            let sato = counted(ShadowOrder::Sato);
+            for order in [
+                ShadowOrder::Stored,
+                ShadowOrder::Sato,
+                ShadowOrder::Rtsah,
+                ShadowOrder::Random { seed: 9 },
+                ShadowOrder::from_str("sorted").unwrap(),
+                ShadowOrder::from_str("sorted:logging=fbto").unwrap(),
+            ] {
+                let r = counted(order);
+                let what = format!("{rays:?} {width} {order}");
+                assert_eq!(differing(&fbto, &r), (0, 0), "{what}");
+                // The mesh trees are single leaves: only the top level's walk can differ.
+                let (a, b) = (shadow(&fbto), shadow(&r));
+                assert!(
+                    a.iter().zip(&b).all(|(x, y)| x != y),
+                    "{what}: {b:?} against fbto's {a:?}"
+                );
+                // Sorted for the light from its stoppers, the top level stops rays in fewer
+                // leaves than its logging order (SATO) does.
+                if order == ShadowOrder::from_str("sorted").unwrap() {
+                    for (x, y) in b.iter().zip(shadow(&sato)) {
+                        assert!(x.1 < y.1, "{what}: leaves {} against SATO's {}", x.1, y.1);
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn mesh_trees_are_kept_while_their_mesh_is_and_rebuilt_when_it_changes() {
     let first = scene(120);

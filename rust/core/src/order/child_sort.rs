@@ -83,8 +83,14 @@ impl LightOrder {
 /// What the sorting needs of a tree, whatever the light: made once per tree.
 #[derive(Clone, Debug, Default)]
 pub struct SortTables {
-    /// For a leaf's first triangle slot, the leaf's position `node * N + slot`.
+    /// For each item (triangle slot, or a top level's instance) of a leaf, the leaf's position
+    /// `node * N + slot`.
     leaf_position: Vec<u32>,
+    /// A tree that keeps no parent and depth tables (the top level of two-level scenes) has
+    /// them made here; `None` reads the tree's own.
+    shape: Option<Shape>,
+    /// C_SORT of one item of a leaf, against a traversal step's 1.
+    item_cost: f64,
     /// SATO permutation per node (logging order and tie-break of equal ratios).
     pub sato: Vec<Permutation>,
     /// C_SORT of every subtree with no occlusion information, per [`ChildHitModel`]
@@ -92,26 +98,81 @@ pub struct SortTables {
     blind_cost: [Vec<f64>; 2],
 }
 
+/// Per node: its parent's index and slot, and its depth (as `WideBvh::parent` and `depth`).
+#[derive(Clone, Debug, Default)]
+struct Shape {
+    parent: Vec<(u32, u8)>,
+    depth: Vec<u16>,
+}
+
+impl Shape {
+    /// From the nodes alone: they are numbered breadth first, parents before children.
+    fn of<const N: usize>(bvh: &WideBvh<N>) -> Self {
+        let mut parent = vec![(u32::MAX, 0u8); bvh.nodes.len()];
+        let mut depth = vec![0u16; bvh.nodes.len()];
+        for (i, node) in bvh.nodes.iter().enumerate() {
+            for s in (0..N).filter(|&s| !node.is_empty_slot(s) && !node.is_leaf_slot(s)) {
+                let child = node.child[s] as usize;
+                parent[child] = (i as u32, s as u8);
+                depth[child] = depth[i] + 1;
+            }
+        }
+        debug_assert!(
+            depth.windows(2).all(|w| w[0] <= w[1]),
+            "nodes not breadth first"
+        );
+        Shape { parent, depth }
+    }
+}
+
 impl SortTables {
+    /// The tables of a tree over triangles (a leaf's items are its triangle slots, each a test).
     pub fn new<const N: usize>(bvh: &WideBvh<N>) -> Self {
-        let mut leaf_position = vec![u32::MAX; bvh.triangles.len()];
+        Self::with_items(bvh, bvh.triangles.len(), 1.0, None)
+    }
+
+    /// The tables of a tree whose leaves index `items` things of their own (the top level's
+    /// instances), each costing `item_cost` against a traversal step's 1, and which keeps no
+    /// parent or depth tables: those are made here.
+    pub fn over_items<const N: usize>(bvh: &WideBvh<N>, items: usize, item_cost: f64) -> Self {
+        Self::with_items(bvh, items, item_cost, Some(Shape::of(bvh)))
+    }
+
+    fn with_items<const N: usize>(
+        bvh: &WideBvh<N>,
+        items: usize,
+        item_cost: f64,
+        shape: Option<Shape>,
+    ) -> Self {
+        let mut leaf_position = vec![u32::MAX; items];
         for (i, node) in bvh.nodes.iter().enumerate() {
             for s in (0..N).filter(|&s| node.is_leaf_slot(s)) {
-                leaf_position[node.child[s] as usize] = (i * N + s) as u32;
+                let first = node.child[s] as usize;
+                leaf_position[first..first + node.count[s] as usize].fill((i * N + s) as u32);
             }
         }
         let blind = |model| {
             let mut cost = vec![0.0; bvh.nodes.len()];
             for i in (0..bvh.nodes.len()).rev() {
-                let (_, c) = child_costs(bvh, i, model, &cost);
+                let (_, c) = child_costs(bvh, i, model, &cost, item_cost);
                 cost[i] = c.iter().sum();
             }
             cost
         };
         SortTables {
             leaf_position,
+            shape,
+            item_cost,
             sato: super::static_orders::sato(bvh),
             blind_cost: [blind(ChildHitModel::One), blind(ChildHitModel::Area)],
+        }
+    }
+
+    /// The tree's parent and depth tables: these tables' own, else the tree's.
+    fn shape<'a, const N: usize>(&'a self, bvh: &'a WideBvh<N>) -> (&'a [(u32, u8)], &'a [u16]) {
+        match &self.shape {
+            Some(s) => (&s.parent, &s.depth),
+            None => (&bvh.parent, &bvh.depth),
         }
     }
 
@@ -129,15 +190,21 @@ impl SortTables {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.leaf_position.len() * 4
+        let shape = self
+            .shape
+            .as_ref()
+            .map_or(0, |s| s.parent.len() * 8 + s.depth.len() * 2);
+        shape
+            + self.leaf_position.len() * 4
             + self.sato.len() * std::mem::size_of::<Permutation>()
             + (self.blind_cost[0].len() + self.blind_cost[1].len()) * 8
     }
 }
 
-/// C_SORT of a leaf: one traversal step and one test per triangle (C_t = C_p = 1).
-fn leaf_cost(count: u8) -> f64 {
-    1.0 + count as f64
+/// C_SORT of a leaf: one traversal step and a test per item (C_t = 1, C_p = `item_cost`: 1 for
+/// a triangle).
+fn leaf_cost(count: u8, item_cost: f64) -> f64 {
+    1.0 + count as f64 * item_cost
 }
 
 /// The used slots of node `i` and their C_i = P_i · C_SORT(child), with `cost` holding
@@ -147,6 +214,7 @@ fn child_costs<const N: usize>(
     i: usize,
     model: ChildHitModel,
     cost: &[f64],
+    item_cost: f64,
 ) -> (Vec<usize>, Vec<f64>) {
     let node = &bvh.nodes[i];
     let slots: Vec<usize> = (0..N).filter(|&s| !node.is_empty_slot(s)).collect();
@@ -163,7 +231,7 @@ fn child_costs<const N: usize>(
                 ChildHitModel::Area => node.child_bounds(s).half_area() as f64 / node_area,
             };
             let sub = if node.is_leaf_slot(s) {
-                leaf_cost(node.count[s])
+                leaf_cost(node.count[s], item_cost)
             } else {
                 cost[node.child[s] as usize]
             };
@@ -200,7 +268,8 @@ pub fn sort_for_light<const N: usize>(
 }
 
 /// Sorts the children of `bvh` from the leaves that stopped a light's representative rays in
-/// the logging order (`stoppers`: each stopped ray's leaf, as its first triangle slot): the
+/// the logging order (`stoppers`: each stopped ray's leaf, as an item of it: its first triangle
+/// slot, or on a top level the instance whose mesh tree stopped the ray): the
 /// counting and sorting half of [`sort_for_light`], for a logging pass traced elsewhere (two
 /// levels log every mesh tree's stoppers in one pass). Its `representative_rays` and
 /// `logging_ms` are left 0 for the caller.
@@ -211,15 +280,16 @@ pub fn sort_from_stoppers<const N: usize>(
     settings: &SortSettings,
 ) -> LightOrder {
     // Nodes are numbered breadth first, so the nodes above the depth limit are a prefix.
+    let (parent, depth) = tables.shape(bvh);
     let limit = settings.depth.map_or(u32::MAX, |d| d);
-    let counted = bvh.depth.partition_point(|&d| (d as u32) < limit);
+    let counted = depth.partition_point(|&d| (d as u32) < limit);
     let mut counters = vec![0u32; counted * N];
     // With no node above the limit (settings that were not validated) nothing is sorted.
     for &first in stoppers.iter().filter(|_| counted > 0) {
         let mut pos = tables.leaf_position[first as usize] as usize;
         // Attribute rays stopped below the limit to the deepest counted ancestor's slot.
         while pos / N >= counted {
-            let (p, s) = bvh.parent[pos / N];
+            let (p, s) = parent[pos / N];
             pos = p as usize * N + s as usize;
         }
         counters[pos] += 1;
@@ -244,11 +314,11 @@ pub fn sort_from_stoppers<const N: usize>(
             continue;
         }
         if i > 0 {
-            let (p, s) = bvh.parent[i];
+            let (p, s) = parent[i];
             counters[p as usize * N + s as usize] += total;
         }
         let total = total as f64;
-        let (slots, c) = child_costs(bvh, i, model, &cost);
+        let (slots, c) = child_costs(bvh, i, model, &cost, tables.item_cost);
         let r: Vec<f64> = slots.iter().map(|&s| counters[i * N + s] as f64).collect();
         let q: Vec<f64> = r.iter().map(|ri| ri / total).collect();
         let sato = tables.sato[i].slots(slots.len());

@@ -52,6 +52,14 @@ pub fn random<const N: usize>(bvh: &WideBvh<N>, seed: u32) -> Vec<Permutation> {
         .collect()
 }
 
+/// What RTSAH estimates of a subtree, from geometry alone: the probability that a ray entering
+/// its box is stopped inside it, and the expected cost of tracing it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StopEstimate {
+    pub stop: f64,
+    pub cost: f64,
+}
+
 /// RTSAH-style order (Ize & Hansen 2011), generalised to N children: each subtree gets an
 /// estimated probability that a ray entering its box is stopped inside it, and an expected
 /// cost, bottom-up from geometry alone (no rays):
@@ -62,6 +70,32 @@ pub fn random<const N: usize>(bvh: &WideBvh<N>, seed: u32) -> Vec<Permutation> {
 ///   Q_i = P_i·α_i and costs C_i = P_i·C(child). Children are ordered by Q_i / C_i decreasing
 ///   (which minimises the expected cost, see `cost`), and the node's α and C follow from it.
 pub fn rtsah<const N: usize>(bvh: &WideBvh<N>) -> Vec<Permutation> {
+    rtsah_estimated(bvh).0
+}
+
+/// [`rtsah`] and the root's estimate (what an instance of the tree weighs in a top level's
+/// RTSAH, [`rtsah_over`]).
+pub fn rtsah_estimated<const N: usize>(bvh: &WideBvh<N>) -> (Vec<Permutation>, StopEstimate) {
+    rtsah_over(bvh, |first, count, leaf_box| {
+        let tri_area: f64 = bvh.triangles[first..first + count]
+            .iter()
+            .map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64)
+            .sum();
+        // half_area is half the surface: 2·A / S = A / half_area.
+        StopEstimate {
+            stop: (tri_area / area(leaf_box).max(f64::MIN_POSITIVE)).min(1.0),
+            cost: 1.0 + count as f64,
+        }
+    })
+}
+
+/// RTSAH over any leaves: `leaf(first, count, box)` estimates a leaf slot's contents (a mesh
+/// tree's triangles, or a top level's instances from their mesh trees' estimates). Returns the
+/// permutations and the root's estimate (stop 0, cost 0 for an empty tree).
+pub fn rtsah_over<const N: usize>(
+    bvh: &WideBvh<N>,
+    leaf: impl Fn(usize, usize, &Aabb) -> StopEstimate,
+) -> (Vec<Permutation>, StopEstimate) {
     let mut perms = vec![Permutation::NONE; bvh.nodes.len()];
     // (termination probability, expected cost) per node, children before parents.
     let mut est = vec![(0.0f64, 0.0f64); bvh.nodes.len()];
@@ -78,14 +112,8 @@ pub fn rtsah<const N: usize>(bvh: &WideBvh<N>) -> Vec<Permutation> {
             let b = node.child_bounds(s);
             let p = area(&b) / s_node;
             let (alpha, cost) = if node.is_leaf_slot(s) {
-                let first = node.child[s] as usize;
-                let tri_area: f64 = bvh.triangles[first..first + node.count[s] as usize]
-                    .iter()
-                    .map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64)
-                    .sum();
-                // half_area is half the surface: 2·A / S = A / half_area.
-                let a = (tri_area / area(&b).max(f64::MIN_POSITIVE)).min(1.0);
-                (a, 1.0 + node.count[s] as f64)
+                let e = leaf(node.child[s] as usize, node.count[s] as usize, &b);
+                (e.stop, e.cost)
             } else {
                 est[node.child[s] as usize]
             };
@@ -100,5 +128,12 @@ pub fn rtsah<const N: usize>(bvh: &WideBvh<N>) -> Vec<Permutation> {
         est[i] = (stop, 1.0 + expected_cost(&sq, &sc));
         perms[i] = Permutation::from_slots(&order.iter().map(|&k| slots[k]).collect::<Vec<_>>());
     }
-    perms
+    let root = est.first().map_or(
+        StopEstimate {
+            stop: 0.0,
+            cost: 0.0,
+        },
+        |&(stop, cost)| StopEstimate { stop, cost },
+    );
+    (perms, root)
 }

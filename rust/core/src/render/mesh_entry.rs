@@ -11,6 +11,7 @@ use super::wide_tree::WideTree;
 use super::RenderSettings;
 use crate::build::{BuildSettings, CollapseSettings};
 use crate::bvh::BvhWidth;
+use crate::order::static_orders::StopEstimate;
 use crate::order::{
     AnyHitOrder, LightOrder, LoggingOrder, OrderView, PreparedOrder, ShadowOrder, SortTables,
 };
@@ -60,6 +61,8 @@ pub(super) struct MeshEntry {
     pub(super) wide: Option<WideTree>,
     /// The per-tree order prepared on `wide`.
     pub(super) per_tree: Option<PreparedOrder>,
+    /// With RTSAH, its estimate of the whole tree, which the top level's RTSAH reads.
+    pub(super) rtsah_root: Option<StopEstimate>,
     /// What per-light sorting reads of `wide`, made by the first sorted light that needs it
     /// and kept with the tree.
     pub(super) sort_tables: OnceLock<SortTables>,
@@ -126,10 +129,14 @@ impl MeshEntry {
         settings: &TreeSettings,
         start: Instant,
     ) -> Self {
-        let per_tree = settings
-            .per_tree
-            .zip(wide.as_ref())
-            .map(|(order, wide)| wide.prepare(&order, None, &[]));
+        let (per_tree, rtsah_root) = match (settings.per_tree, wide.as_ref()) {
+            (Some(ShadowOrder::Rtsah), Some(w)) => {
+                let (order, root) = w.rtsah_estimated();
+                (Some(order), Some(root))
+            }
+            (Some(order), Some(w)) => (Some(w.prepare(&order, None, &[])), None),
+            _ => (None, None),
+        };
         MeshEntry {
             mesh: None,
             group_key: None,
@@ -137,6 +144,7 @@ impl MeshEntry {
             tree,
             wide,
             per_tree,
+            rtsah_root,
             sort_tables: OnceLock::new(),
             build_ms: start.elapsed().as_secs_f64() * 1e3,
         }
@@ -187,6 +195,9 @@ impl MeshEntry {
 
 /// One light's per-light sorting on two levels ([`TwoLevelTrees::sort_for_light`]).
 pub struct TwoLevelSorted {
+    /// The shadow top level's children sorted for the light, where its representative rays
+    /// were stopped at all, else `None` (the top level walked in the logging order).
+    pub(super) top: Option<LightOrder>,
     /// By mesh tree: its sorted order where the light's representative rays stopped in it,
     /// else `None` (the tree is traced in the logging order, as a flat tree's unreached nodes).
     pub(super) per_mesh: Vec<Option<LightOrder>>,

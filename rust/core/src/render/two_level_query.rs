@@ -4,11 +4,12 @@
 
 use super::wide_tree::OrderedWideTree;
 use crate::geometry::Ray;
+use crate::order::OrderView;
 use crate::trace::{
     closest_hit_each, forward_alpha_query, forward_ray_query, occluded_each, AlphaQuery, Counters,
     Hit, HitFilter, OrderedBinary, RayMode, RayQuery,
 };
-use crate::two_level::{SrdhTop, SrdhTwoLevel, TopLevel, TwoLevel};
+use crate::two_level::{SrdhTop, SrdhTwoLevel, TopLevel, TopOrdered, TwoLevel};
 
 /// One mesh tree as a pass traces it.
 #[derive(Clone, Copy)]
@@ -28,13 +29,16 @@ macro_rules! with_mesh_query {
 forward_ray_query!(MeshQuery<'_>, with_mesh_query);
 forward_alpha_query!(MeshQuery<'_>, with_mesh_query);
 
-/// A top level with the frame's mesh trees as one order traces them, and how batches are
-/// traced: what a two-level pass traces. In packet mode a batch goes through the top level in
+/// A top level in an order (any hits only; closest hits go near child first) with the frame's
+/// mesh trees as one order traces them, and how batches are traced: what a two-level pass
+/// traces. In packet mode a batch goes through the top level in
 /// runs of neighbouring rays and each instance's rays reach its wide mesh tree as packets (see
 /// [`TwoLevel`]'s batch methods); in single mode one ray at a time, as before.
 pub struct TwoLevelQuery<'a> {
     pub(super) top: &'a TopLevel,
     pub(super) meshes: Vec<MeshQuery<'a>>,
+    /// The order shadow rays walk `top` in.
+    pub(super) top_order: OrderView<'a>,
     pub(super) rays: RayMode,
     /// A light's SRDH tree over `top`'s instances: any hits follow it, one ray at a time.
     pub(super) srdh: Option<&'a SrdhTop>,
@@ -46,6 +50,15 @@ impl TwoLevelQuery<'_> {
         TwoLevel {
             top: self.top,
             meshes: &self.meshes,
+        }
+    }
+
+    /// The two levels with the top level in its order, as any hits walk it.
+    #[inline(always)]
+    fn ordered(&self) -> TopOrdered<'_, MeshQuery<'_>> {
+        TopOrdered {
+            levels: self.levels(),
+            order: self.top_order,
         }
     }
 
@@ -64,7 +77,7 @@ impl RayQuery for TwoLevelQuery<'_> {
     fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
         match self.srdh() {
             Some(s) => s.occluded(ray, stats),
-            None => self.levels().occluded(ray, stats),
+            None => self.ordered().occluded(ray, stats),
         }
     }
     #[inline]
@@ -76,7 +89,7 @@ impl RayQuery for TwoLevelQuery<'_> {
         if let Some(s) = self.srdh() {
             return occluded_each(&s, rays, out, counters);
         }
-        let q = self.levels();
+        let q = self.ordered();
         match self.rays {
             RayMode::Single => occluded_each(&q, rays, out, counters),
             RayMode::Packet => q.occluded_batch(rays, out, counters),
@@ -104,7 +117,7 @@ impl AlphaQuery for TwoLevelQuery<'_> {
     fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
         match self.srdh() {
             Some(s) => s.stopped(ray, filter, stats),
-            None => self.levels().stopped(ray, filter, stats),
+            None => self.ordered().stopped(ray, filter, stats),
         }
     }
     #[inline]

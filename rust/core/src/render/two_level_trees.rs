@@ -32,7 +32,8 @@ use crate::scene::{collect, scene_bounds, Object, RenderSpace, Scene, TriangleRe
 use crate::srdh::SrdhBvh;
 use crate::trace::RayMode;
 use crate::two_level::{
-    instance_box, render_from_mesh, Instance, MeshTree, SrdhTop, TopLevel, TwoLevel, GROUP,
+    instance_box, render_from_mesh, Instance, MeshTree, SrdhTop, TopLevel, TopOrdered, TopOrders,
+    TwoLevel, GROUP,
 };
 use crate::Result;
 
@@ -64,6 +65,8 @@ pub struct TwoLevelTrees {
     camera: Arc<TopLevel>,
     /// `None`: the camera's top level serves shadow rays too.
     shadow: Option<Arc<TopLevel>>,
+    /// The shadow top level's orders (its per-tree order, its sorting tables), kept with it.
+    shadow_orders: Arc<TopOrders>,
     key: GeometryKey,
     /// What the top levels were built with.
     top_settings: BuildSettings,
@@ -246,6 +249,13 @@ impl TwoLevelTrees {
         };
         let camera = Arc::new(placing.top_level(|o| o.visible_to_camera));
         let shadow = (!same).then(|| Arc::new(placing.top_level(|o| o.casts_shadow)));
+        let estimates: Vec<_> = meshes.iter().map(|m| m.rtsah_root).collect();
+        let shadow_top = shadow.as_deref().unwrap_or(&camera);
+        let shadow_orders = Arc::new(TopOrders::prepare(
+            shadow_top,
+            tree_settings.per_tree.as_ref(),
+            &estimates,
+        ));
         cancel.check()?;
         Ok(TwoLevelTrees {
             meshes,
@@ -254,6 +264,7 @@ impl TwoLevelTrees {
             space,
             camera,
             shadow,
+            shadow_orders,
             key,
             top_settings: settings.build_settings,
             reported: false,
@@ -297,12 +308,14 @@ impl TwoLevelTrees {
     fn query<'a>(
         &'a self,
         top: &'a TopLevel,
+        top_order: OrderView<'a>,
         order: &ShadowOrder,
         rays: RayMode,
     ) -> TwoLevelQuery<'a> {
         TwoLevelQuery {
             top,
             meshes: self.meshes.iter().map(|m| m.query(order, rays)).collect(),
+            top_order,
             rays,
             srdh: None,
         }
@@ -310,42 +323,55 @@ impl TwoLevelTrees {
 
     /// What camera rays trace (closest hits read no order), batches as `rays`.
     pub fn camera_query(&self, rays: RayMode) -> TwoLevelQuery<'_> {
-        self.query(&self.camera, &ShadowOrder::Fbto, rays)
+        self.query(
+            &self.camera,
+            OrderView::FrontToBack,
+            &ShadowOrder::Fbto,
+            rays,
+        )
     }
 
-    /// Nodes of the mesh trees' wide collapses, if every mesh tree has one: what a light's
-    /// sorting reads (`auto`'s estimate of its preparation).
+    /// Nodes of the mesh trees' wide collapses and of the shadow top level, if every mesh
+    /// tree has a collapse: what a light's sorting reads (`auto`'s estimate of its preparation).
     pub fn wide_nodes(&self) -> Option<u64> {
-        (self.meshes.iter())
+        let meshes: Option<u64> = (self.meshes.iter())
             .map(|m| m.wide.as_ref().map(|w| w.node_count() as u64))
-            .sum()
+            .sum();
+        Some(meshes? + self.shadow_top().bvh.nodes.len() as u64)
     }
 
-    /// Makes the sorting tables whose SATO `auto`'s SATO traces, in every mesh tree without a
-    /// fixed per-tree SATO; whether any were made now.
+    /// Makes the sorting tables whose SATO `auto`'s SATO traces, in every mesh tree and the
+    /// shadow top level without a fixed per-tree SATO; whether any were made now.
     pub fn prepare_sato(&self) -> bool {
-        (self.meshes.par_iter())
+        let meshes = (self.meshes.par_iter())
             .filter(|m| m.settings.per_tree != Some(ShadowOrder::Sato))
             .map(|m| m.sort_tables.get().is_none() && m.sortable().is_some())
-            .reduce(|| false, |a, b| a | b)
+            .reduce(|| false, |a, b| a | b);
+        // The top level's SATO too, from its sorting tables.
+        let top = self.shadow_orders.prepare_sato(self.shadow_top());
+        meshes | top
     }
 
-    /// Whether every mesh tree has its sorting tables (and so SATO) made.
+    /// Whether every mesh tree and the shadow top level have their sorting tables (and so
+    /// SATO) made.
     pub fn sort_tables_ready(&self) -> bool {
         self.meshes.iter().all(|m| m.sort_tables.get().is_some())
+            && self.shadow_orders.tables_ready()
     }
 
     /// What a light's shadow rays trace with `order` (fbto, stored, SATO or the per-tree
-    /// order), batches as `rays`.
+    /// order, on the top level as on the mesh trees), batches as `rays`.
     pub fn shadow_query(&self, order: &ShadowOrder, rays: RayMode) -> TwoLevelQuery<'_> {
-        self.query(self.shadow_top(), order, rays)
+        let top_order = self.shadow_orders.view(order);
+        self.query(self.shadow_top(), top_order, order, rays)
     }
 
-    /// Sorts every mesh tree's children for one light (Ogaki & Derouet-Jourdan per mesh): its
-    /// representative `rays` are traced through both levels once, each mesh tree in the
-    /// logging order, and each mesh's stoppers, from whichever of its instances, sort that
-    /// mesh's tree. The top level is walked near child first. `None` when the mesh trees have
-    /// no wide collapse to permute (the settings did not ask for sorting).
+    /// Sorts the children of every mesh tree and of the shadow top level for one light (Ogaki
+    /// & Derouet-Jourdan per tree): its representative `rays` are traced through both levels
+    /// once, the top level and each mesh tree in the logging order; each mesh's stoppers, from
+    /// whichever of its instances, sort that mesh's tree, and the instances that stopped the
+    /// rays sort the top level. `None` when the mesh trees have no wide collapse to permute
+    /// (the settings did not ask for sorting).
     pub fn sort_for_light(&self, rays: &[Ray], settings: &SortSettings) -> Option<TwoLevelSorted> {
         let sortable: Vec<(&WideTree, &SortTables)> = self
             .meshes
@@ -355,11 +381,18 @@ impl TwoLevelTrees {
         let logging: Vec<(&WideTree, OrderView)> = (sortable.iter())
             .map(|(w, t)| (*w, t.logging_view(settings.logging)))
             .collect();
-        let levels = TwoLevel {
-            top: self.shadow_top(),
-            meshes: &logging,
+        let top = self.shadow_top();
+        let levels = TopOrdered {
+            levels: TwoLevel {
+                top,
+                meshes: &logging,
+            },
+            order: self
+                .shadow_orders
+                .tables(top)
+                .logging_view(settings.logging),
         };
-        let stopped: Vec<(u32, u32)> = rays
+        let stopped: Vec<(u32, u32, u32)> = rays
             .par_iter()
             .with_min_len(256)
             .filter_map(|r| {
@@ -367,19 +400,32 @@ impl TwoLevelTrees {
             })
             .collect();
         let mut stoppers = vec![Vec::new(); self.meshes.len()];
-        for &(mesh, first) in &stopped {
+        for &(_, mesh, first) in &stopped {
             stoppers[mesh as usize].push(first);
         }
-        let per_mesh = (sortable.par_iter().zip(&stoppers))
-            .map(|((w, t), s)| (!s.is_empty()).then(|| w.sort_from_stoppers(t, s, settings)))
-            .collect();
+        let instances: Vec<u32> = stopped.iter().map(|&(instance, _, _)| instance).collect();
+        let (top_sorted, per_mesh) = rayon::join(
+            || {
+                (!instances.is_empty())
+                    .then(|| self.shadow_orders.sort_for_light(top, &instances, settings))
+            },
+            || {
+                (sortable.par_iter().zip(&stoppers))
+                    .map(|((w, t), s)| {
+                        (!s.is_empty()).then(|| w.sort_from_stoppers(t, s, settings))
+                    })
+                    .collect()
+            },
+        );
         Some(TwoLevelSorted {
+            top: top_sorted,
             per_mesh,
             logging: settings.logging,
         })
     }
 
-    /// What a light's shadow rays trace with the light's sorted mesh trees, batches as `rays`.
+    /// What a light's shadow rays trace with the light's sorted top level and mesh trees,
+    /// batches as `rays`.
     pub fn sorted_shadow_query<'a>(
         &'a self,
         sorted: &'a TwoLevelSorted,
@@ -398,9 +444,15 @@ impl TwoLevelTrees {
                 (None, _) => m.query(&ShadowOrder::Fbto, rays),
             })
             .collect();
+        let top = self.shadow_top();
+        let top_order = match &sorted.top {
+            Some(o) => o.view(),
+            None => (self.shadow_orders.tables(top)).logging_view(sorted.logging),
+        };
         TwoLevelQuery {
-            top: self.shadow_top(),
+            top,
             meshes,
+            top_order,
             rays,
             srdh: None,
         }

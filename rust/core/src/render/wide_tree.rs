@@ -5,6 +5,7 @@ use glam::Vec3;
 use crate::build::CollapseSettings;
 use crate::bvh::{Bvh, BvhWidth, WideBvh};
 use crate::geometry::Ray;
+use crate::order::static_orders::{self, StopEstimate};
 use crate::order::{
     sort_from_stoppers, LightOrder, OrderView, PreparedOrder, ShadowOrder, SortSettings, SortTables,
 };
@@ -65,6 +66,13 @@ impl WideTree {
 
     pub fn collapse_ms(&self) -> f64 {
         with_tree!(self, t => t.collapse_ms)
+    }
+
+    /// The RTSAH order and the root's estimate, which the top level's RTSAH reads of each
+    /// mesh tree.
+    pub fn rtsah_estimated(&self) -> (PreparedOrder, StopEstimate) {
+        let (perms, root) = with_tree!(self, t => static_orders::rtsah_estimated(t));
+        (PreparedOrder::Static(perms), root)
     }
 
     pub fn sort_tables(&self) -> SortTables {

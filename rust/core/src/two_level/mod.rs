@@ -13,7 +13,9 @@
 //! each instance reads its own scene ([`InstanceAlpha`]); a filter hears which instance it is
 //! in ([`crate::trace::HitFilter::enter_instance`]). A deforming mesh's tree is refit rather
 //! than rebuilt while it keeps its quality ([`REFIT_LIMIT`]). A light's SRDH tree over the
-//! instances ([`SrdhTop`]) takes the top level's place for its shadow rays.
+//! instances ([`SrdhTop`]) takes the top level's place for its shadow rays. Shadow rays walk the
+//! top level in its own order ([`TopOrdered`]; the per-tree and sorted orders of [`TopOrders`]),
+//! closest hits near child first.
 
 mod alpha;
 pub mod brute;
@@ -25,6 +27,8 @@ mod run_walk;
 mod runs;
 mod srdh_top;
 mod top_level;
+mod top_ordered;
+mod top_orders;
 
 pub use alpha::InstanceAlpha;
 pub use instance::{instance_box, render_from_mesh, Instance};
@@ -32,6 +36,8 @@ pub use mesh_tree::MeshTree;
 pub use refit::REFIT_LIMIT;
 pub use srdh_top::{SrdhTop, SrdhTwoLevel};
 pub use top_level::{TopLevel, TwoLevel};
+pub use top_ordered::TopOrdered;
+pub use top_orders::TopOrders;
 
 /// The object an instance of a group tree names ([`MeshTree::of_set`]): each of the group's
 /// triangles names its own ([`MeshTree::objects`]), and hits in it carry this.

@@ -1,11 +1,14 @@
 //! One run of up to [`LANES`] rays walking the wide top level together: a lane mask per child
 //! entered, each used slot of a node tested across the run's active lanes ([`RunBoxes`]), the
-//! children entered near to far by the lowest lane entering any (a lone ray's own order), the
-//! others stacked with their lanes' entries and culled per lane as the single-ray walk culls.
+//! children entered in the walk's order (near to far for closest hits; for any hits the top
+//! level's order, a permutation or near to far) for the lowest lane entering any (a lone ray's
+//! own order), the others stacked with their lanes' entries and culled per lane as the
+//! single-ray walk culls.
 
 use crate::bvh::{WideNode, EMPTY_CHILD};
 use crate::geometry::{Ray, RayBoxPrecomp};
-use crate::trace::wide::{lanes, near_to_far, PacketBoxTest, PACKET_LANES as LANES};
+use crate::order::ChildOrder;
+use crate::trace::wide::{in_order, lanes, PacketBoxTest, PACKET_LANES as LANES};
 use crate::trace::Counters;
 
 use super::run_boxes::RunBoxes;
@@ -115,12 +118,13 @@ fn count<C: Counters>(mask: u32, counters: &mut [C], f: impl Fn(&mut C)) {
     }
 }
 
-/// Walks the top level once for `run` with the box kernel `P`, handing each entered leaf's
-/// range (`first`, `count`) to `leaf` with the lanes in it. `counters[lane]` is the lane's
-/// ray's. Stops when every lane that entered the root is done.
+/// Walks the top level once for `run` with the box kernel `P`, each node's children in `order`,
+/// handing each entered leaf's range (`first`, `count`) to `leaf` with the lanes in it.
+/// `counters[lane]` is the lane's ray's. Stops when every lane that entered the root is done.
 #[inline(always)]
-pub(super) fn walk_run<P: PacketBoxTest, C: Counters>(
+pub(super) fn walk_run<P: PacketBoxTest, O: ChildOrder, C: Counters>(
     top: &TopLevel,
+    order: &O,
     run: &mut Run,
     counters: &mut [C],
     stack: &mut Vec<Stacked>,
@@ -156,17 +160,20 @@ pub(super) fn walk_run<P: PacketBoxTest, C: Counters>(
                     c.boxes(arity);
                 });
             }
-            at = enter_children::<P>(node, active, run, stack);
+            at = enter_children::<P, O>(order, child.index as usize, node, active, run, stack);
         }
     }
 }
 
-/// The children of `node` the lanes of `active` enter: the one to go on with and its lanes
-/// (`None`: none), the others stacked with their lanes' entries. The order is the single-ray
-/// walk's (near to far, equal entries by slot) for the lowest lane entering any child; the
-/// children that lane misses are stacked below, to come last.
+/// The children of node `index` the lanes of `active` enter: the one to go on with and its
+/// lanes (`None`: none), the others stacked with their lanes' entries. The order is the
+/// single-ray walk's (`order`: near to far with equal entries by slot, or a permutation) for
+/// the lowest lane entering any child; the children that lane misses are stacked below, to
+/// come last.
 #[inline(always)]
-fn enter_children<P: PacketBoxTest>(
+fn enter_children<P: PacketBoxTest, O: ChildOrder>(
+    order: &O,
+    index: usize,
     node: &WideNode<WIDTH>,
     active: u32,
     run: &Run,
@@ -205,13 +212,13 @@ fn enter_children<P: PacketBoxTest>(
             push(stack, slot);
         }
     }
-    let mut order = [0u8; WIDTH];
-    let n = near_to_far(node, keyed, &key_t, &mut order);
-    for &slot in order[1..n].iter().rev() {
+    let mut visit = [0u8; WIDTH];
+    let n = in_order(order, index, node, keyed, &key_t, &mut visit);
+    for &slot in visit[1..n].iter().rev() {
         push(stack, slot as usize);
     }
-    let near = order[0] as usize;
-    Some((Child::of(node, near), masks[near]))
+    let first = visit[0] as usize;
+    Some((Child::of(node, first), masks[first]))
 }
 
 /// The next stacked child some lane may still hold a closer (or equal) hit in, and those lanes.

@@ -20,6 +20,7 @@
 
 use crate::bvh::MAX_DEPTH;
 use crate::geometry::Ray;
+use crate::order::{FrontToBack, OrderView};
 use crate::trace::wide::{
     lanes, BoxKernel, ChildBoxTest, Kernels, PacketBoxTest, PacketDispatch, PacketTraversal,
     PACKET_LANES as LANES,
@@ -138,10 +139,12 @@ impl<C: Counters> Scratch<C> {
     }
 }
 
-/// `TwoLevel::occluded_batch`: any hit per ray, in runs of [`LANES`], with box kernel `P`.
+/// `TwoLevel::occluded_batch`: any hit per ray, in runs of [`LANES`], with box kernel `P`, the
+/// top level's children in `order`.
 #[inline(always)]
 fn occluded_with<P: PacketBoxTest, Q: RayQuery, C: Counters>(
     q: &TwoLevel<Q>,
+    order: &OrderView,
     rays: &[Ray],
     out: &mut [bool],
     counters: &mut [C],
@@ -168,7 +171,7 @@ fn occluded_with<P: PacketBoxTest, Q: RayQuery, C: Counters>(
                 }
             }
         };
-        walk_run::<P, C>(q.top, &mut run, counters, &mut scratch.stack, leaf);
+        walk_run::<P, _, C>(q.top, order, &mut run, counters, &mut scratch.stack, leaf);
         for lane in lanes(run.done) {
             out[lane] = true;
         }
@@ -202,7 +205,14 @@ fn closest_with<P: PacketBoxTest, Q: RayQuery, C: Counters>(
                 }
             }
         };
-        walk_run::<P, C>(q.top, &mut run, counters, &mut scratch.stack, leaf);
+        walk_run::<P, _, C>(
+            q.top,
+            &FrontToBack,
+            &mut run,
+            counters,
+            &mut scratch.stack,
+            leaf,
+        );
     }
 }
 
@@ -227,15 +237,17 @@ fn keep_closer(
 }
 
 /// `TwoLevel::occluded_batch`: any hit per ray, in runs of [`LANES`], through the packet box
-/// kernel the CPU has (the dispatch of the wide packets).
+/// kernel the CPU has (the dispatch of the wide packets), the top level's children in `order`.
 pub(super) fn occluded_runs<Q: RayQuery, C: Counters>(
     q: &TwoLevel<Q>,
+    order: OrderView,
     rays: &[Ray],
     out: &mut [bool],
     counters: &mut [C],
 ) {
     let call = Occluded {
         q,
+        order,
         rays,
         out,
         counters,
@@ -262,6 +274,7 @@ pub(super) fn closest_runs<Q: RayQuery, C: Counters>(
 /// A batch's runs as one packet traversal of the dispatch (which picks the kernel `P`).
 struct Occluded<'a, 'q, Q, C> {
     q: &'a TwoLevel<'q, Q>,
+    order: OrderView<'a>,
     rays: &'a [Ray],
     out: &'a mut [bool],
     counters: &'a mut [C],
@@ -277,7 +290,7 @@ impl<Q: RayQuery, C: Counters> PacketTraversal<WIDTH> for Occluded<'_, '_, Q, C>
     }
     #[inline(always)]
     fn run<K: ChildBoxTest<WIDTH>, P: PacketBoxTest, const OCT: usize>(self) {
-        occluded_with::<P, Q, C>(self.q, self.rays, self.out, self.counters)
+        occluded_with::<P, Q, C>(self.q, &self.order, self.rays, self.out, self.counters)
     }
 }
 

@@ -47,7 +47,7 @@ impl<Q: RayQuery + Sync> TwoLevel<'_, Q> {
     /// ([`RaySet::from_lists`] sorts them).
     pub fn occluding_instances(&self, ray: &Ray, out: &mut Vec<u32>) {
         let base = self.top.instances.as_ptr() as usize;
-        self.walk(ray, &mut NoStats, |instance, mesh, t_max, stats| {
+        self.walk_instances(ray, &mut NoStats, |instance, mesh, t_max, stats| {
             if mesh.occluded(&instance.ray_to_mesh(ray), stats) {
                 let index = (instance as *const _ as usize - base) / size_of_val(instance);
                 out.push(index as u32);

@@ -3,8 +3,9 @@ use crate::build::{
 };
 use crate::bvh::WideBvh;
 use crate::geometry::{Aabb, Ray};
+use crate::order::OrderView;
 use crate::trace::wide::{walk_near_first, BoxKernel};
-use crate::trace::{AlphaQuery, Counters, Hit, HitFilter, NoStats, RayQuery};
+use crate::trace::{AlphaQuery, Counters, Hit, HitFilter, RayQuery};
 
 use super::Instance;
 
@@ -16,7 +17,7 @@ pub(super) const TOP_WIDTH: usize = 8;
 /// the build makes mostly one-instance leaves: two-level trace about 10% faster on the
 /// instanced forest than at 1 (the mesh trees' cost, leaves of two instances on average), at
 /// 99.5 bytes an instance over a million instances (79.3 at 1, 103.2 at 4).
-const INSTANCE_COST: f32 = 2.0;
+pub(super) const INSTANCE_COST: f32 = 2.0;
 
 /// The top level's build settings from the mesh trees': an instance costs [`INSTANCE_COST`]
 /// triangle tests.
@@ -133,52 +134,34 @@ pub struct TwoLevel<'a, Q> {
 
 impl<Q> TwoLevel<'_, Q> {
     /// Walks the top level near child first with the SIMD child-box kernels
-    /// ([`walk_near_first`]), handing each instance of
-    /// an entered leaf to `visit` with its mesh query and the ray's current `t_max`; `visit`
-    /// returns the new `t_max` (lowered by a closest hit), or `None` to stop (an any-hit query
-    /// answered).
+    /// ([`walk_near_first`]), handing each entered leaf's range of instances (`first`,
+    /// `count`) to `leaf` with the ray's current `t_max`; `leaf` returns the new `t_max`
+    /// (lowered by a closest hit), or `None` to stop (an any-hit query answered).
     #[inline]
     pub(super) fn walk<C: Counters>(
         &self,
         ray: &Ray,
         stats: &mut C,
-        mut visit: impl FnMut(&Instance, &Q, f32, &mut C) -> Option<f32>,
+        leaf: impl FnMut(usize, usize, f32, &mut C) -> Option<f32>,
     ) {
-        walk_near_first(
-            &self.top.bvh,
-            ray,
-            BoxKernel::Auto,
-            stats,
-            |first, count, mut t_max, stats| {
-                for instance in &self.top.instances[first..first + count] {
-                    t_max = visit(instance, &self.meshes[instance.mesh as usize], t_max, stats)?;
-                }
-                Some(t_max)
-            },
-        );
+        walk_near_first(&self.top.bvh, ray, BoxKernel::Auto, stats, leaf);
     }
-}
 
-impl<Q> TwoLevel<'_, Q> {
-    /// The first instance, near child first, whose mesh-space ray `stops` answers, as its mesh
-    /// index and the answer: a logging pass through both levels, which per-light sorting of
-    /// the mesh trees counts per mesh (`stops` traces the mesh tree in the logging order).
-    pub fn first_stopper<T>(
+    /// [`Self::walk`] handing each instance of an entered leaf to `visit` with its mesh query
+    /// and the ray's current `t_max`.
+    #[inline]
+    pub(super) fn walk_instances<C: Counters>(
         &self,
         ray: &Ray,
-        mut stops: impl FnMut(&Q, &Ray) -> Option<T>,
-    ) -> Option<(u32, T)> {
-        let mut found = None;
-        self.walk(ray, &mut NoStats, |instance, mesh, t_max, _| {
-            match stops(mesh, &instance.ray_to_mesh(ray)) {
-                Some(answer) => {
-                    found = Some((instance.mesh, answer));
-                    None
-                }
-                None => Some(t_max),
+        stats: &mut C,
+        mut visit: impl FnMut(&Instance, &Q, f32, &mut C) -> Option<f32>,
+    ) {
+        self.walk(ray, stats, |first, count, mut t_max, stats| {
+            for instance in &self.top.instances[first..first + count] {
+                t_max = visit(instance, &self.meshes[instance.mesh as usize], t_max, stats)?;
             }
+            Some(t_max)
         });
-        found
     }
 }
 
@@ -196,7 +179,7 @@ impl<Q: RayQuery> RayQuery for TwoLevel<'_, Q> {
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, stats: &mut C) -> bool {
         let mut hit = false;
-        self.walk(ray, stats, |instance, mesh, t_max, stats| {
+        self.walk_instances(ray, stats, |instance, mesh, t_max, stats| {
             if mesh.occluded(&instance.ray_to_mesh(ray), stats) {
                 hit = true;
                 None
@@ -210,7 +193,7 @@ impl<Q: RayQuery> RayQuery for TwoLevel<'_, Q> {
     #[inline]
     fn closest_hit<C: Counters>(&self, ray: &Ray, stats: &mut C) -> Option<Hit> {
         let mut best: Option<Hit> = None;
-        self.walk(ray, stats, |instance, mesh, t_max, stats| {
+        self.walk_instances(ray, stats, |instance, mesh, t_max, stats| {
             let local = Ray {
                 t_max,
                 ..instance.ray_to_mesh(ray)
@@ -230,7 +213,7 @@ impl<Q: RayQuery> RayQuery for TwoLevel<'_, Q> {
     /// one batch of its mesh query (see `runs`): the answers of [`Self::occluded`].
     #[inline]
     fn occluded_batch<C: Counters>(&self, rays: &[Ray], out: &mut [bool], counters: &mut [C]) {
-        super::runs::occluded_runs(self, rays, out, counters);
+        super::runs::occluded_runs(self, OrderView::FrontToBack, rays, out, counters);
     }
 
     /// In runs, as [`Self::occluded_batch`]: the answers of [`Self::closest_hit`].
@@ -252,7 +235,7 @@ impl<Q: AlphaQuery> AlphaQuery for TwoLevel<'_, Q> {
     #[inline]
     fn stopped<C: Counters, F: HitFilter>(&self, ray: &Ray, filter: &mut F, stats: &mut C) -> bool {
         let mut stopped = false;
-        self.walk(ray, stats, |instance, mesh, t_max, stats| {
+        self.walk_instances(ray, stats, |instance, mesh, t_max, stats| {
             filter.enter_instance(instance.object);
             if mesh.stopped(&instance.ray_to_mesh(ray), filter, stats) {
                 stopped = true;
@@ -272,7 +255,7 @@ impl<Q: AlphaQuery> AlphaQuery for TwoLevel<'_, Q> {
         stats: &mut C,
     ) -> Option<Hit> {
         let mut best: Option<Hit> = None;
-        self.walk(ray, stats, |instance, mesh, t_max, stats| {
+        self.walk_instances(ray, stats, |instance, mesh, t_max, stats| {
             let local = Ray {
                 t_max,
                 ..instance.ray_to_mesh(ray)

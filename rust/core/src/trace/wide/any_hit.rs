@@ -305,6 +305,25 @@ pub(crate) fn leaf_stops<const N: usize, K: ChildBoxTest<N>, C: Counters, F: Hit
     }
 }
 
+/// Slots of `mask` of node `index` in `order`: a walk whose leaves are the caller's (the top
+/// level's runs) orders a node's children as the any-hit traversal does.
+#[inline(always)]
+pub(crate) fn in_order<const N: usize, O: ChildOrder>(
+    order: &O,
+    index: usize,
+    node: &WideNode<N>,
+    mask: u32,
+    t_near: &[f32; N],
+    out: &mut [u8; N],
+) -> usize {
+    let ray = OrderRay {
+        origin: Vec3::ZERO,
+        key: 0,
+    };
+    debug_assert!(!O::NEEDS_KEY, "a run orders its children without a ray key");
+    order.ordered_hits(index, mask, &ray, &WideChildren { t_near, node }, out)
+}
+
 /// Slots of `mask` ordered near to far (ties by slot), for the closest-hit traversal.
 #[inline(always)]
 pub(crate) fn near_to_far<const N: usize>(

@@ -13,7 +13,7 @@ mod packet_boxes;
 mod stack;
 mod walk;
 
-pub(crate) use any_hit::near_to_far;
+pub(crate) use any_hit::in_order;
 pub use boxes::{BoxKernel, ChildBoxTest, Scalar, WideRay, ANY_OCTANT};
 pub(crate) use dispatch::{Kernels, PacketDispatch, PacketTraversal};
 pub(crate) use packet::lanes;
@@ -23,7 +23,7 @@ pub use packet_boxes::LANES as PACKET_LANES;
 #[cfg(all(test, target_arch = "x86_64"))]
 pub(crate) use packet_boxes::{Avx2Packet, Avx512Packet};
 pub(crate) use packet_boxes::{PacketBoxTest, PacketRays};
-pub(crate) use walk::walk_near_first;
+pub(crate) use walk::{walk_in_order, walk_near_first};
 
 use super::{Counters, Hit, HitFilter, NoStats};
 use crate::bvh::WideBvh;
