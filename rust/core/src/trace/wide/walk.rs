@@ -78,21 +78,8 @@ fn walk<const N: usize, K: ChildBoxTest<N>, C: Counters, L, const OCT: usize>(
 ) where
     L: FnMut(usize, usize, f32, &mut C) -> Option<f32>,
 {
-    if tree.nodes.is_empty() {
+    if tree.nodes.is_empty() || misses_counted_root(tree, ray, stats) {
         return;
-    }
-    // The root box only when counting (see `any_hit`: the root node's test rejects the same
-    // rays).
-    if C::COUNTING {
-        stats.boxes(1);
-        let pre = RayBoxPrecomp::new(ray);
-        let r = &tree.root_bounds;
-        if pre
-            .hit(r.min, r.max, ray.t_min, ray.t_max + pre.t_margin)
-            .is_none()
-        {
-            return;
-        }
     }
     let wray = WideRay::<N>::for_octant::<OCT>(ray);
     let margin = wray.pre.t_margin;
@@ -202,20 +189,8 @@ fn ordered_walk<const N: usize, K: ChildBoxTest<N>, O, C, L, const OCT: usize>(
     C: Counters,
     L: FnMut(usize, usize, &mut C) -> bool,
 {
-    if tree.nodes.is_empty() {
+    if tree.nodes.is_empty() || misses_counted_root(tree, ray, stats) {
         return;
-    }
-    // The root box only when counting, as the near-first walk.
-    if C::COUNTING {
-        stats.boxes(1);
-        let pre = RayBoxPrecomp::new(ray);
-        let r = &tree.root_bounds;
-        if pre
-            .hit(r.min, r.max, ray.t_min, ray.t_max + pre.t_margin)
-            .is_none()
-        {
-            return;
-        }
     }
     let wray = WideRay::<N>::for_octant::<OCT>(ray);
     let oray = OrderRay::new::<O>(ray);
@@ -279,4 +254,22 @@ fn ordered_walk<const N: usize, K: ChildBoxTest<N>, O, C, L, const OCT: usize>(
             None => return,
         }
     }
+}
+
+/// Whether a counted walk's ray misses the root box, the test counted (see `any_hit`: only
+/// counted walks test the root box, whose node's own test rejects the same rays).
+#[inline(always)]
+fn misses_counted_root<const N: usize, C: Counters>(
+    tree: &WideBvh<N>,
+    ray: &Ray,
+    stats: &mut C,
+) -> bool {
+    if !C::COUNTING {
+        return false;
+    }
+    stats.boxes(1);
+    let pre = RayBoxPrecomp::new(ray);
+    let r = &tree.root_bounds;
+    pre.hit(r.min, r.max, ray.t_min, ray.t_max + pre.t_margin)
+        .is_none()
 }
