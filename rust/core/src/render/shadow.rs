@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::lights::LightFrom;
 use super::primary::HeatWork;
 use super::sample_lanes::SampleLanes;
-use super::tiles::{band_pixels, band_tiles, tiles, Tile, TILE_SIDE};
+use super::tiles::{band_pixels, band_tiles, tiles, Tile, TILE_PIXELS, TILE_SIDE};
 use super::{LightSample, LightSampler, PrimaryPass, SurfacePoint};
 use crate::cancel::CancelToken;
 use crate::geometry::{offset_ray_origin, Ray};
@@ -650,7 +650,8 @@ impl PixelRays {
         }
         self.lanes
             .make_rays(light, plan, &mut self.made, &mut self.owners);
-        let mut next = vec![0usize; points + 1];
+        // A tile's points at most: the counts live on the stack, not in an allocation per batch.
+        let mut next = [0usize; TILE_PIXELS + 1];
         for &k in &self.owners {
             next[k as usize + 1] += 1;
         }
